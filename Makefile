@@ -1,0 +1,57 @@
+# Nutty — one Makefile for a fresh Debian machine (Python 3.11, Node 20, root).
+#   make run   install everything, build the editor, serve the default robot and program
+#   make test  install everything and run every test (Python, front-end unit, browser end-to-end)
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(VENV)/bin/pip
+FRONTEND := frontend
+
+.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench figures clean
+
+run: deps frontend-build
+	$(VENV)/bin/nutty serve
+
+test: deps frontend-build
+	$(MAKE) test-python
+	$(MAKE) test-frontend
+
+deps: deps-system deps-python deps-frontend
+
+# Chromium drives the browser tests and screenshots (no browser download is possible here).
+deps-system:
+	@if [ ! -x /usr/bin/chromium ]; then \
+	  if [ "$$(id -u)" = "0" ]; then \
+	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium chromium-driver; \
+	  else echo "warning: /usr/bin/chromium missing and not root; browser tests will be skipped"; fi; \
+	fi
+
+$(VENV)/bin/activate:
+	$(PYTHON) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+
+deps-python: $(VENV)/bin/activate
+	$(PIP) install -q -e ".[test,bench]"
+
+deps-frontend:
+	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm ci --no-audit --no-fund --loglevel=error; fi
+
+frontend-build:
+	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm run build --silent; fi
+
+test-python:
+	$(PY) -m pytest -q
+
+test-frontend:
+	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm test --silent; fi
+
+bench: deps-python
+	$(PY) benchmarks/bench_engine.py
+	$(PY) benchmarks/bench_nmf.py
+
+figures: deps-python
+	$(VENV)/bin/nutty figures docs/figures
+
+clean:
+	rm -rf $(VENV) $(FRONTEND)/node_modules $(FRONTEND)/dist

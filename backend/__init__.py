@@ -1,0 +1,3 @@
+"""Nutty: a programmable robot animation engine."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,1 @@
+"""Sub-commands of `nutty`; each module defines `register(subparsers)`."""

@@ -1,0 +1,114 @@
+"""The Animation Processing Unit: runs a compiled program's blocks in topological order each tick.
+
+Levels (the paper's Nutty pipeline):
+- 0: one block feeds the output;
+- 1: a chain of blocks (sources and operators);
+- 2: several chains (layers) blended by a layer mixer;
+- 3: a second stage of post-processors (IK, motion filter, safety limits) before the output.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from backend.engine.blocks.base import Block, Role
+from backend.engine.frames import FrameEvent, PartialFrame
+
+MAX_LEVEL = 3
+
+
+class LevelError(ValueError):
+    """A program needs a higher APU level than the engine allows."""
+
+
+@dataclass(frozen=True)
+class Wire:
+    """Input `port` of a step reads output `src_port` of step `src`."""
+
+    port: str
+    src: int
+    src_port: str
+
+
+@dataclass
+class Step:
+    node_id: str
+    block: Block
+    wires: list[Wire] = field(default_factory=list)
+
+    @property
+    def type_name(self) -> str:
+        return self.block.type_name
+
+
+def required_level(roles: list[Role], frame_blocks: int) -> int:
+    """The APU level a set of blocks (those feeding the output) needs."""
+    if Role.stage2 in roles:
+        return 3
+    if Role.mixer in roles:
+        return 2
+    return 1 if frame_blocks > 1 else 0
+
+
+class APU:
+    """An immutable, ready-to-run program: ordered steps, the output step and the stage-1 tap.
+
+    `stage1_tap` = (step index, port) of the frame entering the stage-2 post-processors: the
+    pose before filtering/IK, which the Pre-Viz shows as the paper's *ghost*.
+    """
+
+    def __init__(self, steps: list[Step], output: int, level: int, stage1_tap: tuple[int, str] | None = None,
+                 source: Any = None):
+        self.steps = steps
+        self.output = output
+        self.level = level
+        self.stage1_tap = stage1_tap
+        self.source = source  # the program document this was compiled from (for round trips)
+        self.index = {s.node_id: i for i, s in enumerate(steps)}
+        self.results: list[dict[str, Any]] = [{} for _ in steps]
+        emb = steps[output].block.emb
+        self._stage1_held = emb.rest.copy()
+
+    def block(self, node_id: str) -> Block:
+        return self.steps[self.index[node_id]].block
+
+    def blocks_of(self, role: Role) -> list[Block]:
+        return [s.block for s in self.steps if s.block.role is role]
+
+    def tick(self, dt: float) -> tuple[np.ndarray, np.ndarray, list[FrameEvent]]:
+        """Run every step once. Returns (final positions (C,), stage-1 positions (C,), events)."""
+        results = self.results
+        for i, step in enumerate(self.steps):
+            inputs = {w.port: results[w.src].get(w.src_port) for w in step.wires}
+            results[i] = step.block.tick(dt, inputs) or {}
+        final: PartialFrame = results[self.output]["frame"]
+        if self.stage1_tap is None:
+            stage1 = final.values
+        else:
+            tapped: PartialFrame | None = results[self.stage1_tap[0]].get(self.stage1_tap[1])
+            if tapped is not None:
+                np.copyto(self._stage1_held, tapped.values, where=tapped.mask)
+            stage1 = self._stage1_held
+        return final.values, stage1, final.events
+
+    def adopt_state_from(self, old: "APU") -> list[str]:
+        """Blocks whose id and type survive keep their state. Returns the ids that kept it."""
+        kept = []
+        for step in self.steps:
+            j = old.index.get(step.node_id)
+            if j is None:
+                continue
+            prev = old.steps[j].block
+            if type(prev) is type(step.block):
+                step.block.adopt_state(prev)
+                kept.append(step.node_id)
+        self._stage1_held = old._stage1_held.copy() if old._stage1_held.shape == self._stage1_held.shape else self._stage1_held
+        return kept
+
+    def signal_value(self, node_id: str, port: str) -> Any:
+        """The latest value on an output port (for telemetry); None before the first tick."""
+        i = self.index.get(node_id)
+        return None if i is None else self.results[i].get(port)

@@ -1,0 +1,373 @@
+"""Core blocks every program uses: the output, exposed inputs, the rest pose, a constant pose, a
+sine source, gain/offset and DoF masks, and the stage-2 safety limiter."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+
+from backend.engine.blocks.base import (
+    Block,
+    BlockParams,
+    DofSelection,
+    Port,
+    PortType,
+    Role,
+    register_block,
+)
+from backend.engine.embodiment import DofType
+from backend.engine.frames import PartialFrame
+from backend.engine.selectors import SelectorError, channel_mask, select_dofs
+
+FRAME_IN = {"in": Port(PortType.frame, "frame to transform", required=True)}
+FRAME_OUT = {"out": Port(PortType.frame, "resulting frame")}
+
+
+# --------------------------------------------------------------------------------------------------
+# Output and exposed inputs
+# --------------------------------------------------------------------------------------------------
+
+
+class OutputParams(BlockParams):
+    pass
+
+
+@register_block
+class Output(Block):
+    """The program's output: the Animation Frame sent to the robot.
+
+    Channels the incoming frame does not set keep their last value (the rest pose at start), so a
+    partial frame never snaps a DoF back. Every program has exactly one output.
+    """
+
+    type_name = "output"
+    title = "Robot output"
+    category = "output"
+    role = Role.output
+    Params = OutputParams
+    inputs = {"in": Port(PortType.frame, "final frame", required=True)}
+    outputs = {}
+    state_attrs = ("held",)
+
+    def reset(self) -> None:
+        self.held = self.emb.rest.copy()
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        frame: PartialFrame | None = inputs.get("in")
+        events = []
+        if frame is not None:
+            np.copyto(self.held, frame.values, where=frame.mask)
+            events = frame.events
+        return {"frame": PartialFrame(self.held, np.ones_like(self.emb.continuous_mask), events)}
+
+
+SIGNAL_TYPES = Literal["float", "int", "bool", "string", "vec3", "colour", "event"]
+
+
+class InputParams(BlockParams):
+    name: str = Field(..., min_length=1, description="name of the program's exposed input to read")
+    type: SIGNAL_TYPES = Field("float", description="signal type of the exposed input")
+
+
+@register_block
+class ExposedInput(Block):
+    """Reads one of the program's exposed inputs (e.g. `arousal`, `gaze_target`) as a signal.
+
+    Exposed inputs are declared by the program with a type, default and range, and set at run time by
+    an AI or the editor; the value changes only at tick boundaries.
+    """
+
+    type_name = "input"
+    title = "Exposed input"
+    category = "signals"
+    role = Role.signal
+    Params = InputParams
+    outputs = {"value": Port(PortType.float, "current value")}
+
+    @classmethod
+    def ports(cls, params: InputParams | None = None):  # type: ignore[override]
+        kind = PortType(params.type) if params is not None else PortType.float
+        return {}, {"value": Port(kind, "current value of the exposed input")}
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        return {"value": self.ctx.inputs.get(self.params.name)}
+
+
+# --------------------------------------------------------------------------------------------------
+# Sources
+# --------------------------------------------------------------------------------------------------
+
+
+class RestPoseParams(BlockParams):
+    dofs: DofSelection = Field(default_factory=lambda: ["*"])
+
+
+@register_block
+class RestPose(Block):
+    """The robot's rest pose on the selected DoFs.
+
+    A neutral base layer: under an additive idle layer it gives a robot that breathes around its rest.
+    """
+
+    type_name = "rest_pose"
+    title = "Rest pose"
+    category = "sources"
+    role = Role.source
+    Params = RestPoseParams
+    outputs = FRAME_OUT
+
+    def configure(self) -> None:
+        self.mask = channel_mask(self.emb, self.params.dofs)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        return {"out": PartialFrame(self.emb.rest.copy(), self.mask.copy(), [])}
+
+
+PoseValue = float | list[float] | str
+
+
+def pose_vector(emb, values: dict[str, PoseValue]) -> tuple[np.ndarray, np.ndarray]:
+    """Channel values and mask for a pose given as DoF name -> value.
+
+    Continuous DoFs take a number, colour DoFs `[r, g, b]` in [0, 1], enum DoFs an option name or
+    index. Values are clipped to the DoF's limits. Raises ValueError naming the DoF on bad input.
+    """
+    vec = emb.rest.copy()
+    mask = np.zeros(emb.n_channels, dtype=bool)
+    for name, value in values.items():
+        if not emb.has_dof(name):
+            raise SelectorError(name, f"robot '{emb.name}' has no DoF '{name}'")
+        d = emb.dof(name)
+        sl = d.channels
+        if d.type is DofType.continuous:
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+                raise ValueError(f"DoF '{name}' takes a finite number, got {value!r}")
+            vec[sl] = min(max(float(value), d.min), d.max)
+        elif d.type is DofType.colour:
+            if not isinstance(value, (list, tuple)) or len(value) != 3:
+                raise ValueError(f"DoF '{name}' takes a colour [r, g, b], got {value!r}")
+            vec[sl] = np.clip(np.asarray(value, dtype=float), 0.0, 1.0)
+        elif d.type is DofType.enum:
+            options = d.options or ()
+            if isinstance(value, str):
+                if value not in options:
+                    raise ValueError(f"DoF '{name}' has no option '{value}' (one of {list(options)})")
+                vec[sl] = options.index(value)
+            elif isinstance(value, (int, float)) and 0 <= int(value) < len(options):
+                vec[sl] = int(value)
+            else:
+                raise ValueError(f"DoF '{name}' takes one of {list(options)}, got {value!r}")
+        else:
+            raise ValueError(f"DoF '{name}' is an event channel and has no pose value")
+        mask[sl] = True
+    return vec, mask
+
+
+class PoseParams(BlockParams):
+    values: dict[str, PoseValue] = Field(
+        default_factory=dict,
+        description="DoF name -> value (rad or m; [r,g,b] for colours; option name for expressions)",
+        json_schema_extra={"x-widget": "pose"},
+    )
+    posture: str | None = Field(None, description="named posture of the robot, applied under `values`",
+                                json_schema_extra={"x-widget": "posture"})
+
+
+@register_block
+class Pose(Block):
+    """A constant pose: fixed values for some DoFs (and/or a named posture of the robot)."""
+
+    type_name = "pose"
+    title = "Constant pose"
+    category = "sources"
+    role = Role.source
+    Params = PoseParams
+    outputs = FRAME_OUT
+
+    def configure(self) -> None:
+        values: dict[str, PoseValue] = {}
+        if self.params.posture:
+            if self.params.posture not in self.emb.postures:
+                raise ValueError(f"robot '{self.emb.name}' has no posture '{self.params.posture}'")
+            values.update(self.emb.postures[self.params.posture])
+        values.update(self.params.values)
+        self.vec, self.mask = pose_vector(self.emb, values)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        return {"out": PartialFrame(self.vec.copy(), self.mask.copy(), [])}
+
+
+class SineParams(BlockParams):
+    dofs: DofSelection = Field(default_factory=lambda: ["stationary:*"])
+    amplitude: float = Field(0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)")
+    frequency: float = Field(0.25, ge=0.0, le=20.0, description="cycles per second (Hz)")
+    phase: float = Field(0.0, ge=-2 * math.pi, le=2 * math.pi, description="phase at t=0 (rad)")
+    phase_spread: float = Field(0.0, ge=-math.pi, le=math.pi,
+                                description="extra phase per selected DoF (rad), for wave-like motion")
+    offset: float = Field(0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)")
+
+
+@register_block
+class Sine(Block):
+    """A sine wave around the rest pose on the selected continuous DoFs.
+
+    `rest + offset + amplitude * sin(2*pi*frequency*t + phase + i*phase_spread)`; the phase is
+    integrated, so changing the frequency live never jumps. Amplitude, frequency and offset can be
+    driven by signals.
+    """
+
+    type_name = "sine"
+    title = "Sine"
+    category = "sources"
+    role = Role.source
+    Params = SineParams
+    inputs = {
+        "amplitude": Port(PortType.float, "overrides the amplitude parameter"),
+        "frequency": Port(PortType.float, "overrides the frequency parameter"),
+        "offset": Port(PortType.float, "overrides the offset parameter"),
+    }
+    outputs = FRAME_OUT
+    state_attrs = ("phi",)
+
+    def configure(self) -> None:
+        self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
+        self.spread = np.zeros(self.emb.n_channels)
+        self.spread[self.mask] = np.arange(int(self.mask.sum())) * self.params.phase_spread
+
+    def reset(self) -> None:
+        self.phi = 0.0
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        p = self.params
+        amp = float(self.signal(inputs, "amplitude", p.amplitude))
+        freq = float(self.signal(inputs, "frequency", p.frequency))
+        off = float(self.signal(inputs, "offset", p.offset))
+        values = self.emb.rest + off + amp * np.sin(self.phi + p.phase + self.spread)
+        self.phi = (self.phi + 2 * math.pi * freq * dt) % (2 * math.pi)
+        return {"out": PartialFrame(values, self.mask.copy(), [])}
+
+
+# --------------------------------------------------------------------------------------------------
+# Operators
+# --------------------------------------------------------------------------------------------------
+
+
+class GainOffsetParams(BlockParams):
+    dofs: DofSelection = Field(default_factory=lambda: ["*"])
+    gain: float = Field(1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose")
+    offset: float = Field(0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)")
+
+
+@register_block
+class GainOffset(Block):
+    """Scales each selected DoF's deviation from the rest pose and adds an offset.
+
+    `rest + gain * (value - rest) + offset` on the selected continuous DoFs; other DoFs pass through.
+    Gain and offset can be driven by signals.
+    """
+
+    type_name = "gain_offset"
+    title = "Gain / offset"
+    category = "operators"
+    role = Role.operator
+    Params = GainOffsetParams
+    inputs = {**FRAME_IN, "gain": Port(PortType.float), "offset": Port(PortType.float)}
+    outputs = FRAME_OUT
+
+    def configure(self) -> None:
+        self.sel = channel_mask(self.emb, self.params.dofs, continuous_only=True)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        frame: PartialFrame | None = inputs.get("in")
+        if frame is None:
+            return {"out": self.empty()}
+        gain = float(self.signal(inputs, "gain", self.params.gain))
+        off = float(self.signal(inputs, "offset", self.params.offset))
+        rest = self.emb.rest
+        scaled = rest + gain * (frame.values - rest) + off
+        return {"out": PartialFrame(np.where(self.sel, scaled, frame.values), frame.mask.copy(), frame.events)}
+
+
+class MaskParams(BlockParams):
+    dofs: DofSelection = Field(default_factory=lambda: ["*"])
+    mode: Literal["keep", "remove"] = Field("keep", description="keep only the selected DoFs, or remove them")
+
+
+@register_block
+class Mask(Block):
+    """Keeps only the selected DoFs of a frame (or removes them); events follow their DoFs."""
+
+    type_name = "mask"
+    title = "Mask DoFs"
+    category = "operators"
+    role = Role.operator
+    Params = MaskParams
+    inputs = FRAME_IN
+    outputs = FRAME_OUT
+
+    def configure(self) -> None:
+        sel = channel_mask(self.emb, self.params.dofs)
+        keep = self.params.mode == "keep"
+        self.keep = sel if keep else ~sel
+        names = {d.name for d in self.emb.dofs}
+        chosen = {d.name for d in select_dofs(self.emb, self.params.dofs)}
+        self.event_dofs = chosen if keep else names - chosen
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        frame: PartialFrame | None = inputs.get("in")
+        if frame is None:
+            return {"out": self.empty()}
+        events = [e for e in frame.events if e.dof in self.event_dofs]
+        return {"out": PartialFrame(frame.values, frame.mask & self.keep, events)}
+
+
+# --------------------------------------------------------------------------------------------------
+# Stage 2
+# --------------------------------------------------------------------------------------------------
+
+
+class SafetyParams(BlockParams):
+    velocity_scale: float = Field(1.0, gt=0.0, le=1.0,
+                                  description="fraction of each DoF's velocity limit allowed (0..1]")
+    margin: float = Field(0.0, ge=0.0, le=0.5, description="fraction of each DoF's range kept free at both ends")
+
+
+@register_block
+class SafetyLimiter(Block):
+    """Keeps every DoF within its position limits and slews it at most at its velocity limit.
+
+    The last line of defence before the robot: whatever the program does, each continuous channel
+    stays inside [min + margin, max - margin] and moves at most `velocity_scale * velocity` per second.
+    Channels the incoming frame does not set hold their last value.
+    """
+
+    type_name = "safety_limiter"
+    title = "Safety limiter"
+    category = "stage2"
+    role = Role.stage2
+    Params = SafetyParams
+    inputs = FRAME_IN
+    outputs = FRAME_OUT
+    state_attrs = ("last",)
+
+    def configure(self) -> None:
+        e = self.emb
+        span = np.where(e.continuous_mask, e.max - e.min, 0.0)
+        self.lo = e.min + self.params.margin * span
+        self.hi = e.max - self.params.margin * span
+        self.vmax = np.where(e.continuous_mask, e.vel_limit * self.params.velocity_scale, np.inf)
+
+    def reset(self) -> None:
+        self.last = self.emb.rest.copy()
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        frame: PartialFrame | None = inputs.get("in")
+        target = self.last if frame is None else np.where(frame.mask, frame.values, self.last)
+        target = np.clip(target, self.lo, self.hi)
+        step = self.vmax * dt
+        self.last = self.last + np.clip(target - self.last, -step, step)
+        return {"out": PartialFrame(self.last.copy(), np.ones(self.emb.n_channels, dtype=bool),
+                                    frame.events if frame is not None else [])}

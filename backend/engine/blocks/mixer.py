@@ -1,0 +1,165 @@
+"""The layer mixer: the Level 2 APU, blending several chains (layers) into one frame."""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from backend.engine.blend import BlendMode, advance_fades, blend_layers
+from backend.engine.blocks.base import (
+    Block,
+    BlockCommandError,
+    BlockParams,
+    Port,
+    PortType,
+    Role,
+    register_block,
+)
+from backend.engine.frames import PartialFrame
+from backend.engine.selectors import channel_mask
+
+_LAYER_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+
+
+class LayerSpec(BaseModel):
+    """One layer of the mixer; its name is also the name of its input port."""
+
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field(..., description="layer (and input port) name")
+    mode: BlendMode = Field(BlendMode.override, description="override, additive or average")
+    weight: float = Field(1.0, ge=0.0, le=1.0, description="blend weight (0..1)")
+    fade: float = Field(0.5, ge=0.0, le=30.0, description="fade-in/out time on (de)activation (s)")
+    mask: list[str] = Field(default_factory=lambda: ["*"], description="DoF selectors this layer may set",
+                            json_schema_extra={"x-widget": "dofs"})
+    active: bool = Field(True, description="whether the layer starts active")
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        if not _LAYER_NAME.match(v):
+            raise ValueError("layer names start with a letter or _ and use letters, digits, _ or -")
+        return v
+
+
+class MixerParams(BlockParams):
+    layers: list[LayerSpec] = Field(
+        default_factory=lambda: [LayerSpec(name="base")], min_length=1,
+        description="layers from bottom to top (later layers override earlier ones)",
+        json_schema_extra={"x-widget": "layers"},
+    )
+
+    @field_validator("layers")
+    @classmethod
+    def _unique(cls, v: list[LayerSpec]) -> list[LayerSpec]:
+        names = [layer.name for layer in v]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"layer names must be unique; repeated: {sorted(dup)}")
+        return v
+
+
+@register_block
+class LayerMixer(Block):
+    """Blends layers into one frame: override by priority, additive offsets, weighted averages.
+
+    Each layer has a blend mode, a weight, a DoF mask and a fade time; activating or deactivating a
+    layer fades it in or out. Average layers blend over the rest pose; overrides then apply bottom to
+    top; additive layers add their offset from the rest pose (idle breathing over a gesture).
+    """
+
+    type_name = "layer_mixer"
+    title = "Layer mixer"
+    category = "layers"
+    role = Role.mixer
+    Params = MixerParams
+    outputs = {"out": Port(PortType.frame, "blended frame")}
+    state_attrs = ("fade_level", "fade_target")
+
+    @classmethod
+    def ports(cls, params: MixerParams | None = None):  # type: ignore[override]
+        layers = params.layers if params is not None else []
+        ins = {layer.name: Port(PortType.frame, f"layer '{layer.name}' ({layer.mode.value})") for layer in layers}
+        return ins, cls.outputs
+
+    def configure(self) -> None:
+        layers = self.params.layers
+        self.names = [layer.name for layer in layers]
+        self.modes = [layer.mode for layer in layers]
+        self.weights = np.array([layer.weight for layer in layers])
+        self.fade_time = np.array([layer.fade for layer in layers])
+        self.layer_masks = np.stack([channel_mask(self.emb, layer.mask) for layer in layers])
+        self._values = np.zeros((len(layers), self.emb.n_channels))
+        self._masks = np.zeros((len(layers), self.emb.n_channels), dtype=bool)
+
+    def reset(self) -> None:
+        active = np.array([1.0 if layer.active else 0.0 for layer in self.params.layers])
+        self.fade_level = active.copy()
+        self.fade_target = active
+
+    def adopt_state(self, old: Block) -> None:
+        # Layers are matched by name, so reordering or adding layers keeps each one's fade.
+        if not isinstance(old, LayerMixer):
+            return
+        for i, name in enumerate(self.names):
+            if name in old.names:
+                j = old.names.index(name)
+                self.fade_level[i] = old.fade_level[j]
+                self.fade_target[i] = old.fade_target[j]
+
+    def effective_weights(self) -> np.ndarray:
+        return self.weights * self.fade_level
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        self.fade_level = advance_fades(self.fade_level, self.fade_target, self.fade_time, dt)
+        w = self.effective_weights()
+        events = []
+        self._masks[:] = False
+        for i, name in enumerate(self.names):
+            frame: PartialFrame | None = inputs.get(name)
+            if frame is None:
+                continue
+            self._values[i] = frame.values
+            np.logical_and(frame.mask, self.layer_masks[i], out=self._masks[i])
+            if w[i] > 0.0 and frame.events:
+                events.extend(frame.events)
+        emb = self.emb
+        values, mask = blend_layers(self._values, self._masks, w, self.modes, emb.rest, emb.rest, emb.enum_mask)
+        return {"out": PartialFrame(values, mask, events)}
+
+    # --- commands -------------------------------------------------------------------------------
+    def layer_index(self, name: str) -> int:
+        if name not in self.names:
+            raise BlockCommandError(f"mixer '{self.node_id}' has no layer '{name}' (layers: {self.names})")
+        return self.names.index(name)
+
+    def set_layer_active(self, name: str, active: bool, fade: float | None = None) -> None:
+        i = self.layer_index(name)
+        if fade is not None:
+            if not 0.0 <= fade <= 30.0:
+                raise BlockCommandError(f"fade must be within [0, 30] s, got {fade}")
+            self.fade_time[i] = fade
+        self.fade_target[i] = 1.0 if active else 0.0
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command in ("activate", "deactivate"):
+            self.set_layer_active(str(args.get("layer", "")), command == "activate", args.get("fade"))
+            return {"layer": args.get("layer"), "active": command == "activate"}
+        if command == "set_weight":
+            i = self.layer_index(str(args.get("layer", "")))
+            weight = float(args.get("weight", 1.0))
+            if not 0.0 <= weight <= 1.0:
+                raise BlockCommandError(f"weight must be within [0, 1], got {weight}")
+            self.weights[i] = weight
+            return {"layer": args.get("layer"), "weight": weight}
+        return super().handle(command, args)
+
+    def layer_states(self) -> list[dict[str, Any]]:
+        w = self.effective_weights()
+        return [
+            {"name": n, "mode": m.value, "weight": float(self.weights[i]), "fade": float(self.fade_level[i]),
+             "effective": float(w[i]), "active": bool(self.fade_target[i] > 0.5)}
+            for i, (n, m) in enumerate(zip(self.names, self.modes))
+        ]

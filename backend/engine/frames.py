@@ -1,0 +1,107 @@
+"""Animation Frames (AF) and Partial Animation Frames (PAF).
+
+Both are structure-of-arrays over the embodiment's channels (see `Embodiment`): one float64 vector
+per quantity, never one object per DoF. Events (speech, sounds, one-shot display changes) ride
+along as a short list, since they are discrete and rare.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from backend.engine.embodiment import DofType, Embodiment
+
+
+@dataclass(slots=True)
+class FrameEvent:
+    """A discrete event on an event DoF (or a one-shot on a display DoF).
+
+    `kind` examples: "say" (payload {"text"}), "sound" (payload {"clip"}), "expression".
+    """
+
+    dof: str
+    kind: str
+    payload: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"dof": self.dof, "kind": self.kind, "payload": dict(self.payload)}
+
+
+@dataclass(slots=True)
+class PartialFrame:
+    """A PAF: values for the channels whose `mask` is True, plus events. An empty PAF has no effect."""
+
+    values: np.ndarray  # (C,) float64
+    mask: np.ndarray  # (C,) bool
+    events: list[FrameEvent] = field(default_factory=list)
+
+    @classmethod
+    def empty(cls, n_channels: int) -> "PartialFrame":
+        return cls(np.zeros(n_channels), np.zeros(n_channels, dtype=bool), [])
+
+    @classmethod
+    def full(cls, values: np.ndarray, events: list[FrameEvent] | None = None) -> "PartialFrame":
+        return cls(np.asarray(values, dtype=float), np.ones(len(values), dtype=bool), list(events or []))
+
+    @property
+    def is_empty(self) -> bool:
+        return not self.events and not bool(self.mask.any())
+
+    def copy(self) -> "PartialFrame":
+        return PartialFrame(self.values.copy(), self.mask.copy(), list(self.events))
+
+    def apply_to(self, base: np.ndarray) -> np.ndarray:
+        """The full vector obtained by writing this PAF over `base` (out-of-place)."""
+        return np.where(self.mask, self.values, base)
+
+
+@dataclass(slots=True)
+class AnimationFrame:
+    """A complete AF for every DoF of an embodiment.
+
+    Header: embodiment name, time `t` (s since the engine started), `dt` (s), sequence number `seq`.
+    `position` holds every channel (rad, m, colour component or enum index); `velocity`,
+    `acceleration` and `jerk` are finite differences of the emitted positions (per s, s², s³).
+    `stage1` is the pose before the stage-2 post-processors (the paper's *ghost*), if there are any.
+    """
+
+    embodiment: str
+    t: float
+    dt: float
+    seq: int
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+    events: list[FrameEvent] = field(default_factory=list)
+    stage1: np.ndarray | None = None
+
+    def to_dict(self, embodiment: Embodiment, derivatives: bool = True) -> dict[str, Any]:
+        """JSON-friendly form keyed by DoF name: continuous -> float, enum -> option, colour -> [r,g,b]."""
+        dofs: dict[str, Any] = {}
+        for d in embodiment.dofs:
+            sl = d.channels
+            if d.type is DofType.continuous:
+                entry: dict[str, Any] = {"position": float(self.position[sl.start])}
+                if derivatives:
+                    entry["velocity"] = float(self.velocity[sl.start])
+                    entry["acceleration"] = float(self.acceleration[sl.start])
+                    entry["jerk"] = float(self.jerk[sl.start])
+                dofs[d.name] = entry
+            elif d.type is DofType.enum:
+                index = int(round(float(self.position[sl.start])))
+                dofs[d.name] = {"index": index, "option": d.options[index] if d.options else None}
+            elif d.type is DofType.colour:
+                dofs[d.name] = {"rgb": [float(x) for x in self.position[sl]]}
+        out: dict[str, Any] = {
+            "embodiment": self.embodiment,
+            "t": self.t,
+            "dt": self.dt,
+            "seq": self.seq,
+            "dofs": dofs,
+            "events": [e.to_dict() for e in self.events],
+        }
+        return out

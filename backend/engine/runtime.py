@@ -1,0 +1,341 @@
+"""The fixed-rate runtime: a clock that ticks the APU and fans Animation Frames out to sinks.
+
+- One AF per tick at a steady rate (30-1000 Hz), whatever the timing of inputs.
+- Inputs (commands, exposed inputs, program swaps) are queued thread-safely and applied at tick
+  boundaries, in the clock thread, so blocks never see a half-applied change.
+- Sinks (drivers) each get frames through their own bounded queue and thread: a slow sink drops
+  frames (counted) and never stalls the clock.
+- Headless mode (`run_ticks`) steps as fast as possible with the same semantics, for `nutty run`.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections import deque
+from concurrent.futures import Future
+from dataclasses import dataclass
+from queue import Empty, SimpleQueue
+from typing import Any, Callable
+
+import numpy as np
+
+from backend.engine.apu import APU, MAX_LEVEL, LevelError
+from backend.engine.blocks.base import BlockContext
+from backend.engine.embodiment import Embodiment
+from backend.engine.frames import AnimationFrame
+
+MIN_RATE, MAX_RATE = 30.0, 1000.0
+
+
+class RingStats:
+    """The last `size` samples of a quantity (seconds), summarised as p50/p99/max in ms."""
+
+    def __init__(self, size: int = 4096):
+        self._buf = np.zeros(size)
+        self._n = 0
+
+    def add(self, x: float) -> None:
+        self._buf[self._n % len(self._buf)] = x
+        self._n += 1
+
+    def summary(self) -> dict[str, float]:
+        n = min(self._n, len(self._buf))
+        if n == 0:
+            return {"p50_ms": 0.0, "p99_ms": 0.0, "max_ms": 0.0, "samples": 0}
+        a = self._buf[:n] * 1e3
+        p50, p99 = np.percentile(a, [50, 99])
+        return {"p50_ms": float(p50), "p99_ms": float(p99), "max_ms": float(a.max()), "samples": int(n)}
+
+
+class Sink:
+    """A consumer of Animation Frames (a driver, a recorder, a WebSocket hub).
+
+    `offer` never blocks: frames go through a bounded queue to the sink's own thread; when the queue
+    is full the oldest frame is dropped and counted. Subclass and override `consume`, or pass a callable.
+    `decimate = k` forwards every k-th frame only.
+    """
+
+    def __init__(self, name: str, consume: Callable[[AnimationFrame], None] | None = None,
+                 max_queue: int = 8, decimate: int = 1):
+        self.name = name
+        self._consume = consume
+        self.decimate = max(1, int(decimate))
+        self._queue: deque[AnimationFrame] = deque(maxlen=max_queue)
+        self._ready = threading.Condition()
+        self._closed = False
+        self.offered = self.delivered = self.dropped = self.errors = 0
+        self.last_error: str | None = None
+        self._thread = threading.Thread(target=self._loop, name=f"sink-{name}", daemon=True)
+        self._thread.start()
+
+    def consume(self, frame: AnimationFrame) -> None:
+        if self._consume is not None:
+            self._consume(frame)
+
+    def offer(self, frame: AnimationFrame) -> None:
+        self.offered += 1
+        if (self.offered - 1) % self.decimate:
+            return
+        with self._ready:
+            if len(self._queue) == self._queue.maxlen:
+                self.dropped += 1  # deque(maxlen) drops the oldest for us
+            self._queue.append(frame)
+            self._ready.notify()
+
+    def _loop(self) -> None:
+        while True:
+            with self._ready:
+                while not self._queue and not self._closed:
+                    self._ready.wait()
+                if self._closed and not self._queue:
+                    return
+                frame = self._queue.popleft()
+            try:
+                self.consume(frame)
+                self.delivered += 1
+            except Exception as exc:  # a broken driver must not take the engine down
+                self.errors += 1
+                self.last_error = f"{type(exc).__name__}: {exc}"
+
+    def close(self, timeout: float = 2.0) -> None:
+        """Deliver what is queued, then stop the sink's thread."""
+        with self._ready:
+            self._closed = True
+            self._ready.notify()
+        self._thread.join(timeout)
+
+    def stats(self) -> dict[str, Any]:
+        return {"name": self.name, "offered": self.offered, "delivered": self.delivered,
+                "dropped": self.dropped, "errors": self.errors, "last_error": self.last_error,
+                "decimate": self.decimate}
+
+
+@dataclass
+class _Pending:
+    fn: Callable[[], Any]
+    future: Future
+
+
+class Engine:
+    """Runs an APU on an embodiment at a fixed rate and emits Animation Frames.
+
+    rate: ticks per second, 30..1000. max_level: the highest APU level accepted (0..3).
+    """
+
+    def __init__(self, embodiment: Embodiment, rate: float = 100.0, max_level: int = MAX_LEVEL,
+                 resources: Any = None, seed: int = 0):
+        if not (isinstance(rate, (int, float)) and MIN_RATE <= rate <= MAX_RATE):
+            raise ValueError(f"rate must be within [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate}")
+        if max_level not in (0, 1, 2, 3):
+            raise ValueError(f"max_level must be 0, 1, 2 or 3, got {max_level}")
+        self.embodiment = embodiment
+        self.rate = float(rate)
+        self.dt = 1.0 / self.rate
+        self.max_level = max_level
+        self.ctx = BlockContext(embodiment=embodiment, rate=self.rate, resources=resources, seed=seed)
+        self.apu: APU | None = None
+        self.seq = 0
+        self.t = 0.0
+        self._pending: SimpleQueue[_Pending] = SimpleQueue()
+        self._sinks: list[Sink] = []
+        self._sinks_lock = threading.Lock()
+        self._listeners: list[Callable[[dict[str, Any]], None]] = []
+        self._pos = embodiment.rest.copy()
+        self._vel = np.zeros(embodiment.n_channels)
+        self._acc = np.zeros(embodiment.n_channels)
+        self.last_frame: AnimationFrame | None = None
+        self.tick_cost = RingStats()
+        self.period = RingStats()
+        self.lateness = RingStats()
+        self.ticks = 0
+        self.overruns = 0
+        self.swaps = 0
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._tick_lock = threading.Lock()
+
+    # --- inputs (thread-safe; applied at the next tick boundary) ---------------------------------
+    def call_soon(self, fn: Callable[[], Any]) -> Future:
+        """Run `fn` in the clock thread at the next tick boundary; the Future gets its result or error."""
+        fut: Future = Future()
+        self._pending.put(_Pending(fn, fut))
+        return fut
+
+    def call(self, fn: Callable[[], Any], timeout: float = 2.0) -> Any:
+        """`call_soon` and wait. When the clock is not running, runs `fn` at once (under the tick lock)."""
+        if not self.running:
+            with self._tick_lock:
+                self._drain_pending()
+                return fn()
+        return self.call_soon(fn).result(timeout)
+
+    def load(self, apu: APU, *, wait: bool = True) -> Future | list[str]:
+        """Swap in a compiled program at a tick boundary; blocks keeping id and type keep their state.
+
+        Raises LevelError (changing nothing) if the program needs a level above `max_level`.
+        Returns the ids of the blocks that kept their state (or a Future of them).
+        """
+        if apu.level > self.max_level:
+            raise LevelError(f"program needs APU level {apu.level} but this engine allows at most {self.max_level}")
+        if apu.steps and apu.steps[apu.output].block.emb is not self.embodiment:
+            raise ValueError("program was compiled for another embodiment")
+
+        def swap() -> list[str]:
+            kept = apu.adopt_state_from(self.apu) if self.apu is not None else []
+            self.apu = apu
+            self.swaps += 1
+            return kept
+
+        return self.call(swap) if wait else self.call_soon(swap)
+
+    def set_input(self, name: str, value: Any) -> Future:
+        """Set an exposed input at the next tick boundary."""
+        return self.call_soon(lambda: self.ctx.inputs.__setitem__(name, value))
+
+    def add_listener(self, fn: Callable[[dict[str, Any]], None]) -> None:
+        """Receive block notifications (clip started/completed, …) from the clock thread; keep it quick."""
+        self._listeners.append(fn)
+
+    # --- sinks ----------------------------------------------------------------------------------
+    def add_sink(self, sink: Sink) -> Sink:
+        with self._sinks_lock:
+            self._sinks = [*self._sinks, sink]
+        return sink
+
+    def remove_sink(self, sink: Sink) -> None:
+        with self._sinks_lock:
+            self._sinks = [s for s in self._sinks if s is not sink]
+        sink.close(timeout=0.5)
+
+    @property
+    def sinks(self) -> list[Sink]:
+        return list(self._sinks)
+
+    # --- ticking --------------------------------------------------------------------------------
+    def _drain_pending(self) -> None:
+        while True:
+            try:
+                item = self._pending.get_nowait()
+            except Empty:
+                return
+            if not item.future.set_running_or_notify_cancel():
+                continue
+            try:
+                item.future.set_result(item.fn())
+            except BaseException as exc:  # reported to the caller, never to the clock
+                item.future.set_exception(exc)
+
+    def tick(self) -> AnimationFrame:
+        """Apply queued inputs, run the program once and emit one Animation Frame."""
+        with self._tick_lock:
+            t0 = time.perf_counter()
+            self._drain_pending()
+            dt = self.dt
+            if self.apu is not None:
+                try:
+                    final, stage1, events = self.apu.tick(dt)
+                except Exception as exc:  # a faulty block holds the last pose rather than killing the clock
+                    self._notify({"event": "error", "message": f"{type(exc).__name__}: {exc}"})
+                    final, stage1, events = self._pos, self._pos, []
+            else:
+                final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
+            pos = np.array(final, dtype=float)
+            vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
+            acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
+            jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
+            self._pos, self._vel, self._acc = pos, vel, acc
+            frame = AnimationFrame(
+                embodiment=self.embodiment.name, t=self.t, dt=dt, seq=self.seq, position=pos,
+                velocity=vel, acceleration=acc, jerk=jerk, events=list(events),
+                stage1=np.array(stage1, dtype=float),
+            )
+            self.last_frame = frame
+            self.seq += 1
+            self.t = self.seq * dt
+            self.ticks += 1
+            if self.ctx.events:
+                notes, self.ctx.events = self.ctx.events, []
+                for note in notes:
+                    self._notify(note)
+            for sink in self._sinks:
+                sink.offer(frame)
+            self.tick_cost.add(time.perf_counter() - t0)
+            return frame
+
+    def _notify(self, note: dict[str, Any]) -> None:
+        for fn in self._listeners:
+            try:
+                fn(note)
+            except Exception:
+                pass
+
+    def run_ticks(self, n: int) -> list[AnimationFrame]:
+        """Headless: run `n` ticks as fast as possible (no sleeping) and return the frames."""
+        return [self.tick() for _ in range(n)]
+
+    # --- the clock --------------------------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def start(self) -> None:
+        if self.running:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._clock, name="nutty-clock", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 2.0) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+        self._thread = None
+
+    def close(self) -> None:
+        """Stop the clock and close every sink (delivering what they have queued)."""
+        self.stop()
+        for sink in self.sinks:
+            sink.close()
+
+    def _clock(self) -> None:
+        period = self.dt
+        deadline = time.perf_counter()
+        last_start: float | None = None
+        spin = min(0.0003, period / 10)  # spin the last fraction of a ms: sleep() alone is too coarse
+        while not self._stop.is_set():
+            now = time.perf_counter()
+            wait = deadline - now
+            if wait > spin:
+                self._stop.wait(wait - spin)
+            while time.perf_counter() < deadline:
+                pass
+            start = time.perf_counter()
+            if last_start is not None:
+                self.period.add(start - last_start)
+            self.lateness.add(start - deadline)
+            last_start = start
+            self.tick()
+            deadline += period
+            behind = time.perf_counter() - deadline
+            if behind > period:
+                # More than a whole tick late: count it and re-anchor rather than bursting to catch up.
+                self.overruns += 1
+                deadline = time.perf_counter() + period - math.fmod(behind, period)
+
+    def stats(self) -> dict[str, Any]:
+        return {
+            "rate": self.rate,
+            "ticks": self.ticks,
+            "t": self.t,
+            "level": self.apu.level if self.apu else None,
+            "max_level": self.max_level,
+            "running": self.running,
+            "overruns": self.overruns,
+            "swaps": self.swaps,
+            "tick_cost": self.tick_cost.summary(),
+            "period": self.period.summary(),
+            "jitter": self.lateness.summary(),
+            "sinks": [s.stats() for s in self.sinks],
+        }

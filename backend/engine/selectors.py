@@ -1,0 +1,105 @@
+"""DoF selectors: how programs name the DoFs they act on, so one program can run on many robots.
+
+A selector is one of:
+- an exact DoF name (`head_yaw`) or a channel name (`eye_leds.r`);
+- a glob over DoF names (`head_*`, `*_pitch`, `ear_?`);
+- a dimension selector `stationary:*`, `spatial:*`, `display:*`, `audible:*`, optionally with a glob
+  after the colon (`stationary:neck_*`);
+- a type selector `type:continuous`, `type:colour`, `type:enum`, `type:event`;
+- `*` for every DoF.
+A leading `!` excludes what the rest of the selector matches (applied after all inclusions).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from functools import lru_cache
+
+import numpy as np
+
+from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
+
+_DIMENSIONS = {d.value for d in Dimension}
+_TYPES = {t.value for t in DofType}
+
+
+class SelectorError(ValueError):
+    """A selector is malformed or matches nothing; `selector` says which one."""
+
+    def __init__(self, selector: str, message: str):
+        super().__init__(message)
+        self.selector = selector
+
+
+def _matches(emb: Embodiment, selector: str) -> list[Dof]:
+    if selector == "*":
+        return list(emb.dofs)
+    if ":" in selector:
+        head, _, pattern = selector.partition(":")
+        pattern = pattern or "*"
+        if head == "type":
+            if pattern not in _TYPES:
+                raise SelectorError(selector, f"unknown DoF type '{pattern}' (one of {sorted(_TYPES)})")
+            return [d for d in emb.dofs if d.type.value == pattern]
+        if head not in _DIMENSIONS:
+            raise SelectorError(
+                selector, f"unknown dimension '{head}' in selector '{selector}' (one of {sorted(_DIMENSIONS)})"
+            )
+        return [d for d in emb.dofs if d.dimension.value == head and fnmatch.fnmatchcase(d.name, pattern)]
+    if any(ch in selector for ch in "*?["):
+        return [d for d in emb.dofs if fnmatch.fnmatchcase(d.name, selector)]
+    if emb.has_dof(selector):
+        return [emb.dof(selector)]
+    return []
+
+
+def select_dofs(emb: Embodiment, selectors: list[str] | str, *, allow_empty: bool = True) -> list[Dof]:
+    """DoFs matched by `selectors`, in embodiment order.
+
+    Raises SelectorError for a malformed selector, or an exact name the robot lacks. A glob that
+    matches nothing is not an error (a generic program may find no ears on a robot) unless
+    `allow_empty` is False and the whole selection is empty.
+    """
+    if isinstance(selectors, str):
+        selectors = [selectors]
+    included: set[str] = set()
+    excluded: set[str] = set()
+    for raw in selectors:
+        sel = raw.strip()
+        negate = sel.startswith("!")
+        if negate:
+            sel = sel[1:]
+        if not sel:
+            raise SelectorError(raw, "empty DoF selector")
+        found = _matches(emb, sel)
+        exact = not any(ch in sel for ch in "*?[:")
+        if exact and not found and sel not in emb.channel_index:
+            raise SelectorError(raw, f"robot '{emb.name}' has no DoF '{sel}'")
+        (excluded if negate else included).update(d.name for d in found)
+    if not any(not s.strip().startswith("!") for s in selectors):
+        included = {d.name for d in emb.dofs}
+    chosen = [d for d in emb.dofs if d.name in included and d.name not in excluded]
+    if not chosen and not allow_empty:
+        raise SelectorError(", ".join(selectors), f"selectors {selectors} match no DoF of robot '{emb.name}'")
+    return chosen
+
+
+def channel_mask(emb: Embodiment, selectors: list[str] | str, *, continuous_only: bool = False) -> np.ndarray:
+    """Boolean mask over the embodiment's channels for the selected DoFs (channel names allowed too)."""
+    return _channel_mask_cached(emb, tuple([selectors] if isinstance(selectors, str) else selectors), continuous_only)
+
+
+@lru_cache(maxsize=1024)
+def _channel_mask_cached(emb: Embodiment, selectors: tuple[str, ...], continuous_only: bool) -> np.ndarray:
+    mask = np.zeros(emb.n_channels, dtype=bool)
+    direct = [s for s in selectors if s in emb.channel_index and not emb.has_dof(s)]
+    rest = [s for s in selectors if s not in direct]
+    if rest:
+        for d in select_dofs(emb, rest):
+            mask[d.channels] = True
+    for s in direct:
+        mask[emb.channel_index[s]] = True
+    if continuous_only:
+        mask &= emb.continuous_mask
+    mask.setflags(write=False)
+    return mask

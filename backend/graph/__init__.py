@@ -1,0 +1,1 @@
+"""Animation Programs: the JSON graph format, its validator/compiler and live swapping."""

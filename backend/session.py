@@ -1,0 +1,245 @@
+"""EngineSession: one robot, one engine, the running program and everything that changes it.
+
+The CLI (`nutty run`) and the server share this facade, so a program is validated, swapped, tuned
+and fed inputs the same way everywhere. Every change is validated first and applied at a tick
+boundary; a rejected change leaves the engine exactly as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+from pydantic import ValidationError
+
+from backend.engine.apu import MAX_LEVEL, LevelError
+from backend.engine.blocks import BLOCKS
+from backend.engine.embodiment import Embodiment
+from backend.engine.frames import AnimationFrame
+from backend.engine.library import RobotLibrary
+from backend.engine.runtime import Engine
+from backend.graph.compiler import Issue, ValidationReport, compile_program
+from backend.graph.schema import Program
+
+
+class SessionError(ValueError):
+    """A rejected change. `report` carries every validation error when the cause is a program."""
+
+    def __init__(self, message: str, report: ValidationReport | None = None, code: str = "invalid"):
+        super().__init__(message)
+        self.report = report
+        self.code = code
+
+    def render(self) -> str:
+        if self.report is None:
+            return f"nutty: error: {self}"
+        lines = [f"nutty: program is invalid ({len(self.report.errors)} error(s)):"]
+        for e in self.report.errors:
+            where = ".".join(x for x in (e.node, e.port) if x)
+            lines.append(f"  [{e.code}] {where + ': ' if where else ''}{e.message}")
+        return "\n".join(lines)
+
+
+class EngineSession:
+    def __init__(self, engine: Engine, library: RobotLibrary | None = None):
+        self.engine = engine
+        self.embodiment: Embodiment = engine.embodiment
+        self.library = library or RobotLibrary(_robot_folder(engine.embodiment), engine.embodiment)
+        engine.ctx.resources = self.library
+        self.program: Program | None = None
+        self.report: ValidationReport | None = None
+        self.notes: list[dict[str, Any]] = []
+        self._lock = threading.RLock()  # serialises program changes from concurrent requests
+        self._note_listeners: list[Callable[[dict[str, Any]], None]] = []
+        engine.add_listener(self._on_note)
+
+    # --- construction ---------------------------------------------------------------------------
+    @classmethod
+    def create(cls, embodiment: Embodiment, *, rate: float | None = None, program_text: str | None = None,
+               program: Any = None, max_level: int = MAX_LEVEL) -> "EngineSession":
+        """A session with a compiled program loaded (not yet ticking). Raises SessionError."""
+        source = program_text if program_text is not None else program
+        preferred = None
+        if source is not None:
+            try:
+                doc = json.loads(source) if isinstance(source, str) else source
+                preferred = doc.get("rate") if isinstance(doc, dict) else getattr(doc, "rate", None)
+            except json.JSONDecodeError:
+                preferred = None
+        try:
+            engine = Engine(embodiment, rate=float(rate or preferred or 100.0), max_level=max_level)
+        except ValueError as exc:
+            raise SessionError(str(exc), code="invalid_rate") from exc
+        session = cls(engine)
+        if source is not None:
+            session.load_program(source)
+        return session
+
+    def _on_note(self, note: dict[str, Any]) -> None:
+        self.notes.append(note)
+        if len(self.notes) > 1000:
+            del self.notes[:500]
+        for fn in self._note_listeners:
+            fn(note)
+
+    def on_note(self, fn: Callable[[dict[str, Any]], None]) -> None:
+        """Receive block notifications (clip started/completed, errors) from the clock thread."""
+        self._note_listeners.append(fn)
+
+    # --- programs ---------------------------------------------------------------------------------
+    def validate(self, source: Any) -> ValidationReport:
+        return compile_program(source, self.embodiment, max_level=self.engine.max_level,
+                               ctx=self._scratch_ctx(), rate=self.engine.rate).report
+
+    def _scratch_ctx(self):
+        from backend.engine.blocks.base import BlockContext
+
+        return BlockContext(embodiment=self.embodiment, rate=self.engine.rate,
+                            inputs=dict(self.engine.ctx.inputs), resources=self.library)
+
+    def load_program(self, source: Any) -> tuple[ValidationReport, list[str]]:
+        """Validate and hot-swap a program at the next tick boundary (atomic: all or nothing).
+
+        Returns the report and the ids of blocks that kept their state. Raises SessionError.
+        """
+        with self._lock:
+            scratch = self._scratch_ctx()
+            result = compile_program(source, self.embodiment, max_level=self.engine.max_level, ctx=scratch,
+                                     rate=self.engine.rate)
+            if not result.ok:
+                raise SessionError(f"program is invalid ({len(result.report.errors)} error(s))", result.report)
+            apu = result.apu
+            assert apu is not None  # ok implies an APU; typing aid only
+            # Blocks were built against a scratch context; point them at the engine's live one.
+            for step in apu.steps:
+                step.block.ctx = self.engine.ctx
+            declared = {i.name: i for i in result.program.inputs}  # type: ignore[union-attr]
+
+            def install_inputs() -> None:
+                live = self.engine.ctx.inputs
+                for name, inp in declared.items():
+                    if name in live:
+                        try:
+                            live[name] = inp.coerce(live[name])
+                            continue
+                        except ValueError:
+                            pass
+                    live[name] = inp.coerce(inp.default)
+
+            try:
+                kept = self.engine.load(apu)
+                self.engine.call(install_inputs)
+            except LevelError as exc:
+                report = ValidationReport(valid=False, level=apu.level,
+                                          errors=[Issue(code="level_too_high", message=str(exc))])
+                raise SessionError(str(exc), report) from exc
+            self.program = result.program
+            self.report = result.report
+            return result.report, list(kept)  # type: ignore[arg-type]
+
+    def update_params(self, node_id: str, params: dict[str, Any]) -> dict[str, Any]:
+        """Change one node's parameters live, without rebuilding the program (slider drags).
+
+        `params` may be partial; they are merged over the node's current parameters, validated with
+        the block's model and applied at a tick boundary. Raises SessionError naming the field.
+        """
+        with self._lock:
+            if self.program is None or self.engine.apu is None:
+                raise SessionError("no program is running", code="no_program")
+            node = self.program.node(node_id)
+            if node is None:
+                raise SessionError(f"the running program has no node '{node_id}'", code="unknown_node")
+            cls = BLOCKS[node.type]
+            merged = {**node.params, **params}
+            try:
+                p = cls.Params.model_validate(merged)
+            except ValidationError as exc:
+                err = exc.errors()[0]
+                field = ".".join(str(x) for x in err["loc"])
+                code = "unknown_param" if err["type"] == "extra_forbidden" else "invalid_param"
+                raise SessionError(f"node '{node_id}' parameter '{field}': {err['msg']}",
+                                   ValidationReport(valid=False, errors=[
+                                       Issue(code=code, node=node_id, port=field, message=err["msg"])]),
+                                   code=code) from exc
+            if cls.ports(p) != cls.ports(cls.Params.model_validate(node.params)):
+                # Ports changed (e.g. a layer added): that is a structural edit, so swap the program.
+                doc = self.program.to_json_dict()
+                for n in doc["nodes"]:
+                    if n["id"] == node_id:
+                        n["params"] = p.model_dump(mode="json")
+                self.load_program(doc)
+                return p.model_dump(mode="json")
+            try:
+                cls(p, self._scratch_ctx(), node_id)  # dry run: configure() errors surface here
+            except ValueError as exc:
+                raise SessionError(f"node '{node_id}': {exc}", ValidationReport(valid=False, errors=[
+                    Issue(code="block_config", node=node_id, message=str(exc))]), code="block_config") from exc
+            block = self.engine.apu.block(node_id)
+            self.engine.call(lambda: block.update_params(p))
+            node.params = p.model_dump(mode="json", exclude_defaults=False)
+            return node.params
+
+    # --- inputs -------------------------------------------------------------------------------------
+    def set_input(self, name: str, value: Any) -> Any:
+        """Set an exposed input (checked against its declaration). Raises ValueError naming it."""
+        decl = self.program.input(name) if self.program is not None else None
+        if decl is None:
+            declared = [i.name for i in self.program.inputs] if self.program else []
+            raise ValueError(f"the running program has no exposed input '{name}' (declared: {declared})")
+        value = decl.coerce(value)
+        self.engine.call(lambda: self.engine.ctx.inputs.__setitem__(name, value))
+        return value
+
+    def inputs(self) -> dict[str, Any]:
+        return dict(self.engine.ctx.inputs)
+
+    # --- headless running -----------------------------------------------------------------------------
+    def read_command_file(self, path: str | Path) -> list[tuple[float, dict[str, Any]]]:
+        """Timed commands, one JSON object per line: {"t": seconds, ...command...}. Sorted by t."""
+        timeline = []
+        for lineno, line in enumerate(Path(path).read_text().splitlines(), 1):
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            try:
+                item = json.loads(line)
+            except json.JSONDecodeError as exc:
+                raise ValueError(f"{path}:{lineno}: malformed JSON: {exc.msg}") from exc
+            if not isinstance(item, dict) or not isinstance(item.get("t"), (int, float)):
+                raise ValueError(f"{path}:{lineno}: each line needs a numeric 't' (seconds)")
+            t = float(item.pop("t"))
+            self.check_command(item, where=f"{path}:{lineno}")
+            timeline.append((t, item))
+        timeline.sort(key=lambda x: x[0])
+        return timeline
+
+    def check_command(self, command: dict[str, Any], where: str = "command") -> None:
+        """Validate a command before it is scheduled (raises ValueError naming the field)."""
+        from backend import control
+
+        control.parse_command(command, where=where)
+
+    def execute(self, command: dict[str, Any]) -> Any:
+        """Carry out one command now (at the next tick boundary)."""
+        from backend import control
+
+        return control.execute(self, control.parse_command(command))
+
+    def run_headless(self, n_ticks: int, timeline: list[tuple[float, dict[str, Any]]] | None = None
+                     ) -> Iterator[AnimationFrame]:
+        """Tick `n_ticks` times without sleeping, applying timed commands when their time comes."""
+        pending = list(timeline or [])
+        k = 0
+        for _ in range(n_ticks):
+            while k < len(pending) and pending[k][0] <= self.engine.t + 1e-9:
+                self.execute(dict(pending[k][1]))
+                k += 1
+            yield self.engine.tick()
+
+
+def _robot_folder(emb: Embodiment) -> Path | None:
+    if emb.urdf_path is None:
+        return None
+    folder = emb.urdf_path.parent
+    return folder if (folder / "embodiment.yaml").exists() else None
