@@ -7,7 +7,9 @@ Modes (per layer):
 - `override`: applied after the averages, bottom to top (later layers have priority):
   `acc = acc + w * (v - acc)` on the layer's mask; a full-weight override on a full mask returns it.
 - `additive`: `acc = acc + w * (v - rest)`, an offset from the rest pose; `v == rest` is identity.
-Enum channels (face expressions) are rounded after blending, so a crossfade switches half-way.
+Enum channels (face expressions) are never interpolated (index 1.5 means nothing): an override
+switches to the layer's option once its weight reaches 0.5, average layers contribute the option of
+the heaviest layer, and additive layers leave them alone.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ def blend_layers(
     out_mask = np.zeros(base.shape[0], dtype=bool)
     if n_layers == 0:
         return out, out_mask
+    enum = np.zeros(base.shape[0], dtype=bool) if enum_channels is None else enum_channels
     w = np.clip(weights, 0.0, 1.0)
     active = masks & (w > 0.0)[:, None]
 
@@ -53,7 +56,11 @@ def blend_layers(
         touched = total > 0.0
         safe = np.where(touched, total, 1.0)
         avg = (wm * values[avg_rows]).sum(axis=0) / safe
-        out = np.where(touched, base + np.minimum(total, 1.0) * (avg - base), out)
+        blended = base + np.minimum(total, 1.0) * (avg - base)
+        if enum.any():
+            heaviest = values[avg_rows][np.argmax(wm, axis=0), np.arange(base.shape[0])]
+            blended = np.where(enum, np.where(total >= 0.5, heaviest, base), blended)
+        out = np.where(touched, blended, out)
         out_mask |= touched
 
     for i, mode in enumerate(modes):
@@ -63,13 +70,13 @@ def blend_layers(
         if not m.any():
             continue
         if mode is BlendMode.override:
-            out = np.where(m, out + w[i] * (values[i] - out), out)
+            mixed = out + w[i] * (values[i] - out)
+            if enum.any():
+                mixed = np.where(enum, values[i] if w[i] >= 0.5 else out, mixed)
+            out = np.where(m, mixed, out)
         else:
-            out = np.where(m, out + w[i] * (values[i] - rest), out)
+            out = np.where(m & ~enum, out + w[i] * (values[i] - rest), out)
         out_mask |= m
-
-    if enum_channels is not None and enum_channels.any():
-        out = np.where(enum_channels, np.rint(out), out)
     return out, out_mask
 
 

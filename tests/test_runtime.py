@@ -1,0 +1,210 @@
+"""The APU levels, hot swaps keeping state, the steady clock, and sinks that never stall it."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from backend.engine.apu import LevelError
+from backend.engine.runtime import Engine, Sink
+from backend.graph.builder import ProgramBuilder
+from backend.graph.compiler import compile_or_raise
+from backend.session import EngineSession
+
+
+def level0():
+    b = ProgramBuilder("l0")
+    b.chain(b.node("sine", "wave", dofs=["head_yaw"], amplitude=0.3, frequency=1.0), b.output())
+    return b
+
+
+def level1():
+    b = ProgramBuilder("l1")
+    s = b.node("sine", "wave", dofs=["head_*"], amplitude=0.3, frequency=1.0)
+    g = b.node("gain_offset", "gain", dofs=["head_yaw"], gain=2.0)
+    b.chain(s, g, b.output())
+    return b
+
+
+def level2(weight=1.0):
+    b = ProgramBuilder("l2")
+    rest = b.node("rest_pose", "rest")
+    s = b.node("sine", "wave", dofs=["head_yaw"], amplitude=0.3, frequency=1.0)
+    ears = b.node("sine", "ears", dofs=["ear_*"], amplitude=0.2, frequency=2.0)
+    mix = b.node("layer_mixer", "mix", layers=[
+        {"name": "base"}, {"name": "idle", "mode": "additive"},
+        {"name": "gesture", "mode": "override", "weight": weight, "mask": ["head_*"]}])
+    b.connect(rest, mix, "out", "base").connect(ears, mix, "out", "idle").connect(s, mix, "out", "gesture")
+    b.chain(mix, b.output())
+    return b
+
+
+def level3():
+    b = level2()
+    out = b.doc["edges"].pop()  # mix -> output
+    lim = b.node("safety_limiter", "safety", velocity_scale=0.5)
+    b.connect(out["from"]["node"], lim).connect(lim, "output")
+    return b
+
+
+@pytest.mark.parametrize("make, level", [(level0, 0), (level1, 1), (level2, 2), (level3, 3)])
+def test_level_detection(desk, make, level):
+    assert compile_or_raise(make().build(), desk).apu.level == level
+
+
+def test_engine_refuses_programs_above_its_level(desk):
+    eng = Engine(desk, rate=100, max_level=1)
+    apu = compile_or_raise(level2().build(), desk).apu
+    with pytest.raises(LevelError, match="level 2"):
+        eng.load(apu)
+    assert eng.apu is None
+
+
+def test_level2_mixes_layers(desk):
+    session = EngineSession.create(desk, rate=100, program=level2().build())
+    frames = list(session.run_headless(100))
+    yaw = desk.channel_index["head_yaw"]
+    ear = desk.channel_index["ear_left"]
+    pos = np.array([f.position for f in frames])
+    assert np.ptp(pos[:, yaw]) == pytest.approx(0.6, abs=0.02)  # gesture layer overrides head_yaw
+    assert np.ptp(pos[:, ear]) == pytest.approx(0.4, abs=0.02)  # additive idle on the ears
+    np.testing.assert_allclose(pos[:, desk.channel_index["eye_leds.b"]], 1.0)  # base layer: rest colour
+
+
+def test_layer_fade_out_and_in(desk):
+    session = EngineSession.create(desk, rate=100, program=level2().build())
+    list(session.run_headless(30))
+    session.execute({"type": "set_layer", "layer": "gesture", "active": False, "fade": 0.5})
+    mixer = session.engine.apu.block("mix")
+    list(session.run_headless(25))
+    assert mixer.fade_level[2] == pytest.approx(0.5, abs=0.03)
+    list(session.run_headless(30))
+    assert mixer.fade_level[2] == 0.0
+    yaw = desk.channel_index["head_yaw"]
+    assert session.engine.last_frame.position[yaw] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_hot_swap_keeps_state_of_surviving_blocks(desk):
+    session = EngineSession.create(desk, rate=100, program=level1().build())
+    list(session.run_headless(37))
+    phi_before = session.engine.apu.block("wave").phi
+    doc = level1().to_dict()
+    doc["nodes"][1]["params"]["gain"] = 1.5  # gain node changes, the sine keeps its id and type
+    _, kept = session.load_program(doc)
+    assert {"wave", "gain"} <= set(kept)
+    session.engine.tick()
+    assert session.engine.apu.block("wave").phi == pytest.approx(phi_before + 2 * np.pi * 0.01)
+
+
+def test_swap_of_new_block_type_starts_fresh(desk):
+    session = EngineSession.create(desk, rate=100, program=level1().build())
+    list(session.run_headless(20))
+    doc = level1().to_dict()
+    doc["nodes"][0]["id"] = "wave2"
+    doc["edges"][0]["from"]["node"] = "wave2"
+    _, kept = session.load_program(doc)
+    assert "wave2" not in kept
+    assert session.engine.apu.block("wave2").phi == 0.0
+
+
+def test_empty_program_outputs_rest_and_partial_frames_hold(desk):
+    eng = Engine(desk, rate=50)
+    frame = eng.tick()
+    np.testing.assert_allclose(frame.position, desk.rest)
+    b = ProgramBuilder("hold")
+    b.chain(b.node("pose", "p", values={"head_yaw": 0.4}), b.output())
+    eng.load(compile_or_raise(b.build(), desk).apu)
+    frame = eng.tick()
+    assert frame.position[desk.channel_index["head_yaw"]] == pytest.approx(0.4)
+    assert frame.position[desk.channel_index["eyelid_left"]] == pytest.approx(0.15)  # untouched: rest
+
+
+def test_frame_derivatives_are_finite_differences(desk):
+    session = EngineSession.create(desk, rate=100, program=level0().build())
+    frames = list(session.run_headless(50))
+    i = desk.channel_index["head_yaw"]
+    p = np.array([f.position[i] for f in frames])
+    v = np.array([f.velocity[i] for f in frames])
+    np.testing.assert_allclose(v[1:], np.diff(p) * 100)
+    assert frames[10].seq == 10 and frames[10].t == pytest.approx(0.1)
+
+
+def test_faulty_block_never_kills_the_clock(desk):
+    session = EngineSession.create(desk, rate=100, program=level0().build())
+    block = session.engine.apu.block("wave")
+    block.tick = lambda dt, inputs: 1 / 0  # a bug in a block
+    notes = []
+    session.on_note(notes.append)
+    frames = list(session.run_headless(5))
+    assert len(frames) == 5
+    assert notes and notes[0]["event"] == "error" and "ZeroDivisionError" in notes[0]["message"]
+
+
+def test_call_soon_applies_at_tick_boundary_from_other_threads(desk):
+    eng = Engine(desk, rate=100)
+    eng.start()
+    try:
+        results = []
+        threads = [threading.Thread(target=lambda k=k: results.append(eng.call(lambda: k * 2))) for k in range(20)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(5)
+        assert sorted(results) == [k * 2 for k in range(20)]
+        fut = eng.call_soon(lambda: 1 / 0)
+        with pytest.raises(ZeroDivisionError):
+            fut.result(2)
+        assert eng.running  # an error in a queued call never stops the clock
+    finally:
+        eng.close()
+
+
+def test_clock_is_steady(desk):
+    """Tolerant bounds: the clock emits at the configured rate on a busy 2-core machine."""
+    eng = Engine(desk, rate=200)
+    eng.load(compile_or_raise(level3().build(), desk).apu)
+    eng.start()
+    time.sleep(1.0)
+    eng.stop()
+    stats = eng.stats()
+    assert 140 <= stats["ticks"] <= 230
+    assert 3.0 <= stats["period"]["p50_ms"] <= 7.0  # 5 ms nominal
+
+
+def test_slow_sink_does_not_stall_the_clock(desk):
+    eng = Engine(desk, rate=200)
+    eng.load(compile_or_raise(level2().build(), desk).apu)
+    slow = eng.add_sink(Sink("slow", lambda f: time.sleep(0.05), max_queue=4))
+    fast_frames = []
+    eng.add_sink(Sink("fast", fast_frames.append, max_queue=64))
+    eng.start()
+    time.sleep(1.0)
+    eng.stop()
+    ticks = eng.ticks
+    eng.close()
+    assert ticks >= 140  # the clock kept its rate although one sink needs 50 ms per frame
+    assert slow.dropped > 50 and slow.delivered < 40
+    assert len(fast_frames) >= ticks - 70  # the fast sink got (nearly) everything
+    seqs = [f.seq for f in fast_frames]
+    assert seqs == sorted(seqs)
+
+
+def test_sink_decimation_and_errors(desk):
+    eng = Engine(desk, rate=100)
+    got = []
+    sink = eng.add_sink(Sink("every4", got.append, max_queue=100, decimate=4))
+    bad = eng.add_sink(Sink("bad", lambda f: 1 / 0, max_queue=100))
+    eng.run_ticks(40)
+    eng.close()
+    assert [f.seq for f in got] == list(range(0, 40, 4))
+    assert bad.errors == 40 and "ZeroDivisionError" in bad.last_error
+
+
+def test_rate_is_validated(desk):
+    with pytest.raises(ValueError, match="rate must be within"):
+        Engine(desk, rate=5)
+    with pytest.raises(ValueError, match="rate must be within"):
+        Engine(desk, rate=5000)
