@@ -32,7 +32,7 @@ $(VENV)/bin/activate:
 	$(PIP) install -q --upgrade pip
 
 deps-python: $(VENV)/bin/activate
-	$(PIP) install -q -e ".[test,bench]"
+	$(PIP) install -q -e ".[test,bench,robots]"
 
 deps-frontend:
 	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm ci --no-audit --no-fund --loglevel=error; fi

@@ -157,16 +157,29 @@ def test_cli_embodiment_bad_robot_exit_code(capsys):
     assert "no robot at" in capsys.readouterr().err
 
 
-def test_third_party_urdf_from_example_robot_data():
-    """Optional: real third-party robots, when the `example-robot-data` package is installed."""
+def _example_robot_data():
     import glob
     import site
 
     roots = [p for s in site.getsitepackages() for p in glob.glob(f"{s}/cmeel.prefix/share/example-robot-data/robots")]
     if not roots:
-        pytest.skip("example-robot-data is not installed (optional, ~440 MB)")
-    urdfs = sorted(glob.glob(f"{roots[0]}/ur_description/urdf/ur5_robot.urdf")) or sorted(
-        glob.glob(f"{roots[0]}/*/urdf/*.urdf"))
-    emb = load_embodiment(urdfs[0])
-    assert emb.dimension_counts()["stationary"] >= 1
+        pytest.skip("example-robot-data is not installed (optional extra `robots`, ~440 MB)")
+    return roots[0]
+
+
+def test_third_party_panda_urdf_loads_with_mimic_finger():
+    """Real third-party robots from the `example-robot-data` package (optional extra)."""
+    emb = load_embodiment(f"{_example_robot_data()}/panda_description/urdf/panda.urdf")
+    assert len(emb.dofs) == 8  # 7 arm joints + one finger; panda_finger_joint2 mimics joint1
+    assert "panda_finger_joint2" not in emb.dof_names
+    assert emb.dof("panda_joint4").max < 0  # a joint whose range excludes 0: rest clamps into range
+    assert emb.dof("panda_joint4").rest == emb.dof("panda_joint4").max
     assert np.all(emb.min < emb.max)
+
+
+@pytest.mark.parametrize("rel", ["ur_description/urdf/ur5_robot.urdf", "talos_data/robots/talos_reduced.urdf"])
+def test_third_party_urdfs_load(rel):
+    emb = load_embodiment(f"{_example_robot_data()}/{rel}")
+    assert emb.dimension_counts()["stationary"] >= 6
+    assert np.all(np.isfinite(emb.vel_limit)) and np.all(emb.vel_limit > 0)
+    np.testing.assert_allclose(emb.joint_positions(emb.rest)[: len(emb.dofs)], emb.rest[: len(emb.joints)][: len(emb.dofs)])
