@@ -1,0 +1,132 @@
+"""`nutty filter IN.csv OUT.csv [...]`: run the Nutty Motion Filter over set-points in a CSV file.
+
+IN has a header `t,<name>,…` and set-points at any (sorted) times. OUT has
+`t,<name>,<name>.vel,<name>.acc,<name>.jerk` per name, sampled at `t0 + k/rate` from the first input
+time to the last (inclusive), each sample using the latest input at or before it.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from backend.commands._common import fail
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "filter", help="filter set-points from a CSV with the Nutty Motion Filter",
+        description="Filter stepped set-points (CSV: t,<name>,...) into motor-safe motion with the NMF. "
+                    "Without --preset the filter is preset W (regular, H bypassed); explicit values "
+                    "override the preset's.")
+    p.add_argument("input", help="input CSV: header t,<name>,...; rows sorted by t (s)")
+    p.add_argument("output", help="output CSV")
+    p.add_argument("--preset", default=None, help="W (regular), A, B, C, D or E (see the paper's table)")
+    p.add_argument("--order", type=int, default=3, choices=(1, 2, 3), help="continuity order (default 3)")
+    p.add_argument("--limiter", default="tanh", choices=("tanh", "hard"), help="limiter (default tanh)")
+    p.add_argument("--rate", type=float, default=60.0, help="output rate in Hz (default 60)")
+    p.add_argument("--sigma", type=float, help="smoothness σ in [0, 1]")
+    p.add_argument("--rho", type=float, help="responsiveness ρ in [0, 1]")
+    p.add_argument("--vel", type=float, help="velocity limit V (units/s)")
+    p.add_argument("--acc", type=float, help="acceleration limit A (units/s²)")
+    p.add_argument("--jerk", type=float, help="jerk limit J (units/s³)")
+    p.add_argument("--pmin", type=float, help="lower position limit")
+    p.add_argument("--pmax", type=float, help="upper position limit")
+    p.add_argument("--beta", type=float, default=5.0, help="position-saturation exponent β >= 1 (default 5)")
+    p.add_argument("--bypass", action="store_true", help="bypass H (the regular filter W)")
+    p.set_defaults(func=run)
+
+
+def read_setpoints(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(names, times (K,), values (K, n)) from a set-point CSV; ValueError names row and column."""
+    with path.open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        raise ValueError(f"{path}: empty file")
+    header = [h.strip() for h in rows[0]]
+    if len(header) < 2 or header[0] != "t":
+        raise ValueError(f"{path}: header must be 't,<name>,...', got {','.join(header)!r}")
+    names = header[1:]
+    if len(set(names)) != len(names):
+        raise ValueError(f"{path}: repeated column names in header")
+    data = []
+    for r, row in enumerate(rows[1:], start=2):
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) != len(header):
+            raise ValueError(f"{path}: row {r} has {len(row)} cells, the header has {len(header)}")
+        vals = []
+        for c, cell in enumerate(row):
+            try:
+                v = float(cell)
+            except ValueError:
+                raise ValueError(f"{path}: row {r}, column '{header[c]}': not a number: {cell!r}") from None
+            if not math.isfinite(v):
+                raise ValueError(f"{path}: row {r}, column '{header[c]}': value must be finite, got {cell!r}")
+            vals.append(v)
+        data.append(vals)
+    if not data:
+        raise ValueError(f"{path}: no set-points after the header")
+    arr = np.array(data)
+    t = arr[:, 0]
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size:
+        raise ValueError(f"{path}: rows must be sorted by t; row {int(back[0]) + 3} goes back in time")
+    return names, t, arr[:, 1:]
+
+
+def resample_latest(t: np.ndarray, values: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Samples at t0 + k/rate up to the last input time (inclusive), each the latest input at or before it."""
+    span = (t[-1] - t[0]) * rate
+    count = int(math.floor(span + 1e-6)) + 1  # tolerate times written with rounding
+    ts = t[0] + np.arange(count) / rate
+    idx = np.searchsorted(t, ts + 1e-12, side="right") - 1
+    return ts, values[np.clip(idx, 0, len(t) - 1)]
+
+
+def run(args) -> int:
+    from backend.engine.nmf import MotionFilter, preset
+
+    if not (math.isfinite(args.rate) and args.rate > 0):
+        return fail(f"--rate must be a positive number of Hz, got {args.rate}")
+    try:
+        names, t, values = read_setpoints(Path(args.input))
+    except OSError as exc:
+        return fail(f"cannot read '{args.input}': {exc.strerror}")
+    except ValueError as exc:
+        return fail(str(exc))
+    ts, sps = resample_latest(t, values, args.rate)
+    kw = {}
+    try:
+        base = preset(args.preset or "W")
+    except ValueError as exc:
+        return fail(str(exc))
+    kw = dict(sigma=base.sigma, rho=base.rho, vel_limit=base.vel_limit, acc_limit=base.acc_limit,
+              jerk_limit=base.jerk_limit, bypass=base.bypass or args.bypass)
+    for opt, key in (("sigma", "sigma"), ("rho", "rho"), ("vel", "vel_limit"), ("acc", "acc_limit"),
+                     ("jerk", "jerk_limit")):
+        if getattr(args, opt) is not None:
+            kw[key] = getattr(args, opt)
+    try:
+        f = MotionFilter(len(names), args.rate, order=args.order, limiter=args.limiter, pmin=args.pmin,
+                         pmax=args.pmax, beta=args.beta, **kw)
+    except ValueError as exc:
+        return fail(str(exc))
+    res = f.run(sps)
+    header = ["t"]
+    for nm in names:
+        header += [nm, f"{nm}.vel", f"{nm}.acc", f"{nm}.jerk"]
+    out = np.empty((len(ts), 1 + 4 * len(names)))
+    out[:, 0] = ts
+    out[:, 1::4], out[:, 2::4], out[:, 3::4], out[:, 4::4] = res.position, res.velocity, res.acceleration, res.jerk
+    try:
+        with open(args.output, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(header)
+            w.writerows([[f"{v:.9g}" for v in row] for row in out])
+    except OSError as exc:
+        return fail(f"cannot write '{args.output}': {exc.strerror}")
+    return 0

@@ -1,0 +1,206 @@
+"""The Nutty Motion Filter: single steps against hand-computed values, presets as the paper reports,
+compiled kernel == numpy reference, run == step, parameter validation, coupled groups."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from backend.engine import nmf_examples as ex
+from backend.engine.nmf import PRESETS, MotionFilter, h_gain, lam, omega, stabilise
+from backend.engine.trajectory import overshoot, settle_time
+
+DT = 1 / 60
+
+
+def test_limiters():
+    assert lam(1000.0, 20.0) == pytest.approx(10.0)  # tanh: headroom k/2
+    assert lam(1.0, 20.0) == pytest.approx(10 * math.tanh(0.1))
+    assert lam(1000.0, 20.0, hard=True) == 20.0
+    assert lam(-5.0, 20.0, hard=True) == -5.0
+
+
+def test_omega_fades_toward_limits_only():
+    # Pmin=-10, Pmax=20: centre 5, alpha 15; at x=12.5 (half-way to the top), beta=1: factor 1-0.5^2
+    assert omega(2.0, 12.5, -10, 20, 1) == pytest.approx(2.0 * 0.75)
+    assert omega(-2.0, 12.5, -10, 20, 1) == -2.0  # moving away from the limit: untouched
+    assert omega(2.0, 20.0, -10, 20, 5) == 0.0
+    assert omega(-3.0, -2.5, -10, 20, 2) == pytest.approx(-3.0 * (1 - 0.5 ** 4))
+
+
+def test_h_at_known_points():
+    # sigma=1: (|v|/(1-rho))^0 = 1 for every v (0^0 = 1): H(v) = v (tanh(1-pi)+1)/2
+    g = 0.5 * (math.tanh(1 - math.pi) + 1)
+    assert stabilise(7.0, 1.0, 0.3) == pytest.approx(7.0 * g)
+    assert stabilise(0.0, 1.0, 1.0) == 0.0
+    assert stabilise(0.0, 0.0, 0.0) == 0.0
+    # sigma=0, rho=0: gain (tanh(|v| - pi) + 1)/2
+    assert stabilise(3.0, 0.0, 0.0) == pytest.approx(3.0 * 0.5 * (math.tanh(3.0 - math.pi) + 1))
+    # rho = 1 is clamped to 0.999
+    assert stabilise(1.0, 0.5, 1.0) == pytest.approx(0.5 * (math.tanh((1 / 0.001) ** 0.5 - math.pi) + 1))
+    for s in (0.0, 0.5, 1.0):
+        for r in (0.0, 0.5, 1.0):
+            assert np.isfinite(h_gain(np.array([0.0, 1e-300, 1e300]), s, r)).all()
+
+
+def _one(order, limiter="tanh", **kw):
+    base = dict(sigma=0.5, rho=0.5, vel_limit=20.0, acc_limit=100.0, jerk_limit=10000.0)
+    base.update(kw)
+    return MotionFilter(1, 60, order=order, limiter=limiter, x0=0.0, **base)
+
+
+@pytest.mark.parametrize("use_numba", [True, False])
+def test_first_steps_by_hand(use_numba):
+    s, sig, rho = 1.0, 0.5, 0.5
+    v = (s - 0.0) / DT
+    u = v * 0.5 * (math.tanh((abs(v) / (1 - rho)) ** (1 - sig) - math.pi) + 1)
+    # order 1
+    f = _one(1, use_numba=use_numba)
+    f.step(np.array([s]))
+    vel = 10 * math.tanh(u / 10)
+    assert f.velocity[0] == pytest.approx(vel)
+    assert f.position[0] == pytest.approx(vel * DT)
+    # order 2
+    f = _one(2, use_numba=use_numba)
+    f.step(np.array([s]))
+    acc = 50 * math.tanh((u / DT) / 50)
+    vel = 10 * math.tanh(acc * DT / 10)
+    assert f.velocity[0] == pytest.approx(vel)
+    assert f.acceleration[0] == pytest.approx(vel / DT)  # reported as (vel' - vel)/dt
+    # order 3, two steps
+    f = _one(3, use_numba=use_numba)
+    f.step(np.array([s]))
+    jerk = 5000 * math.tanh(((u / DT) / DT) / 5000)
+    acc = 50 * math.tanh(jerk * DT / 50)
+    vel = 10 * math.tanh(acc * DT / 10)
+    x = vel * DT
+    assert (f.position[0], f.velocity[0], f.acceleration[0]) == pytest.approx((x, vel, acc))
+    f.step(np.array([s]))
+    v2 = (s - x) / DT
+    u2 = v2 * 0.5 * (math.tanh((abs(v2) / (1 - rho)) ** (1 - sig) - math.pi) + 1)
+    jerk2 = 5000 * math.tanh((((u2 - vel) / DT) - acc) / DT / 5000)
+    acc2 = 50 * math.tanh((acc + jerk2 * DT) / 50)
+    vel2 = 10 * math.tanh((vel + acc2 * DT) / 10)
+    assert f.position[0] == pytest.approx(x + vel2 * DT)
+    assert f.jerk[0] == pytest.approx((acc2 - acc) / DT)
+
+
+def test_hard_limiter_and_bypass_by_hand():
+    f = _one(1, limiter="hard", bypass=True)
+    f.step(np.array([1.0]))  # v = 60 > V = 20: clipped to 20
+    assert f.velocity[0] == 20.0
+    assert f.position[0] == pytest.approx(20.0 * DT)
+
+
+def test_position_clip_zeroes_velocity_and_acceleration():
+    f = MotionFilter(1, 60, order=1, bypass=True, limiter="hard", vel_limit=1000, pmin=-1, pmax=1, x0=0.9,
+                     beta=1e9)  # beta huge: Ω is ~identity until the very edge
+    f.step(np.array([5.0]))
+    assert f.position[0] == 1.0
+    assert f.velocity[0] == 0.0 and f.acceleration[0] == 0.0
+
+
+def test_nan_setpoint_holds_latest():
+    f = MotionFilter.from_preset("D", 2, 60)
+    f.step(np.array([1.0, 2.0]))
+    f.step(np.array([np.nan, 3.0]))
+    np.testing.assert_array_equal(f.setpoint, [1.0, 3.0])
+    g = MotionFilter.from_preset("D", 1, 60)
+    g.step(np.array([np.nan]))  # not yet initialised: stays at 0, no NaN
+    assert g.position[0] == 0.0 and np.isfinite(g.velocity).all()
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+@pytest.mark.parametrize("limiter", ["tanh", "hard"])
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_compiled_kernel_equals_reference_and_run_equals_step(order, limiter, name):
+    x = np.stack([ex.phi_l(), ex.phi_r(), ex.phi_c()], axis=1)
+    fast = MotionFilter.from_preset(name, 3, 60, order=order, limiter=limiter, pmin=-8, pmax=8)
+    ref = MotionFilter.from_preset(name, 3, 60, order=order, limiter=limiter, pmin=-8, pmax=8, use_numba=False)
+    batch = fast.run(x)
+    stepped = np.array([ref.step(row).copy() for row in x])
+    np.testing.assert_allclose(batch.position, stepped, rtol=1e-12, atol=1e-12)
+
+
+def _phi_l(name, limiter="tanh", order=3):
+    return MotionFilter.from_preset(name, 1, 60, order=order, limiter=limiter).run(ex.phi_l()[:, None]).position[:, 0]
+
+
+def test_presets_behave_as_the_paper_reports():
+    first = slice(150, 450)  # the -5 plateau of Φ_L: the response to the 5 -> -5 step
+    a, d = _phi_l("A")[first], _phi_l("D")[first]
+    # A is slower than D: D settles near -5 well before A does
+    assert settle_time(d, -5.0, 60, 0.1) < settle_time(a, -5.0, 60, 0.1)
+    assert a[-1] > -4.9  # A is slow to settle: not there after 5 s
+    # hard-limited W overshoots more than tanh W
+    assert overshoot(_phi_l("W", "hard")[first], 5, -5) > 2 * overshoot(_phi_l("W", "tanh")[first], 5, -5)
+    # C (fast & vivid) overshoots more than B (slow & vivid), and B has a small bump
+    ob, oc = overshoot(_phi_l("B")[first], 5, -5), overshoot(_phi_l("C")[first], 5, -5)
+    assert 0.05 < ob < oc
+    # D: nearly none
+    assert overshoot(d, 5, -5) < 0.02
+
+
+def test_a_sustains_low_speed_far_below_its_limit():
+    f = MotionFilter.from_preset("A", 1, 60)
+    res = f.run(ex.phi_l()[:, None])
+    peak = np.abs(res.velocity).max()
+    assert 3.0 < peak < 8.0  # the paper: sustained speed about 5 for a limit of 20
+
+
+def test_lower_order_higher_sustained_velocity():
+    peaks = [np.abs(MotionFilter.from_preset("W", 1, 60, order=o).run(ex.phi_l()[:, None]).velocity).max()
+             for o in (1, 2, 3)]
+    assert peaks[0] > peaks[1] >= peaks[2] - 1e-9
+
+
+def test_coupled_group_limits_vector_norm():
+    f = MotionFilter(3, 100, order=1, bypass=True, vel_limit=1.0, groups=[[0, 1]], x0=0.0)
+    for _ in range(50):
+        f.step(np.array([10.0, 10.0, 10.0]))
+        v = f.velocity
+        assert math.hypot(v[0], v[1]) <= 0.5 + 1e-12  # tanh headroom V/2 on the norm
+        assert v[0] == pytest.approx(v[1])  # direction kept
+    assert v[2] == pytest.approx(0.5, abs=1e-6)  # the ungrouped DoF gets the full V/2 alone
+
+
+def test_set_params_live_keeps_state():
+    f = MotionFilter.from_preset("D", 1, 60)
+    for _ in range(30):
+        f.step(np.array([1.0]))
+    before = (f.position.copy(), f.velocity.copy())
+    f.set_params(sigma=0.2, rho=0.1)
+    np.testing.assert_array_equal(f.position, before[0])
+    np.testing.assert_array_equal(f.velocity, before[1])
+    assert f.params()["sigma"][0] == 0.2
+
+
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(jerk_limit=[1, 1, -1]), "jerk_limit of DoF 2 must be > 0"),
+        (dict(vel_limit=float("inf")), "vel_limit of DoF 0 must be > 0 and finite"),
+        (dict(sigma=[0.5, 1.5, 0.5]), "sigma of DoF 1 must be within [0, 1]"),
+        (dict(rho=-0.1), "rho of DoF 0 must be within [0, 1]"),
+        (dict(pmin=1.0, pmax=[2, 0.5, 2]), "pmin of DoF 1 must be below pmax"),
+        (dict(pmin=1.0), "pmin and pmax must be given together"),
+        (dict(beta=0.5), "beta of DoF 0 must be >= 1"),
+        (dict(order=4), "order must be 1, 2 or 3"),
+        (dict(limiter="soft"), "limiter must be 'tanh' or 'hard'"),
+        (dict(acc_limit=[1, 2]), "acc_limit must be a scalar or have one value per DoF (3)"),
+        (dict(groups=[[0, 5]]), "groups[0] names DoF 5"),
+        (dict(groups=[[0, 1]], vel_limit=[1, 2, 3]), "equal within a coupled group"),
+    ],
+)
+def test_bad_parameters_name_parameter_and_dof(kw, message):
+    with pytest.raises(ValueError) as err:
+        MotionFilter(3, 60, **kw)
+    assert message in str(err.value)
+
+
+def test_unknown_preset():
+    with pytest.raises(ValueError, match="unknown preset 'Z'"):
+        MotionFilter.from_preset("Z", 1, 60)
+    assert MotionFilter.from_preset("regular", 1, 60).params()["bypass"][0]
