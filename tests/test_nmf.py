@@ -115,10 +115,16 @@ def test_nan_setpoint_holds_latest():
 @pytest.mark.parametrize("order", [1, 2, 3])
 @pytest.mark.parametrize("limiter", ["tanh", "hard"])
 @pytest.mark.parametrize("name", list(PRESETS))
-def test_compiled_kernel_equals_reference_and_run_equals_step(order, limiter, name):
-    x = np.stack([ex.phi_l(), ex.phi_r(), ex.phi_c()], axis=1)
-    fast = MotionFilter.from_preset(name, 3, 60, order=order, limiter=limiter, pmin=-8, pmax=8)
-    ref = MotionFilter.from_preset(name, 3, 60, order=order, limiter=limiter, pmin=-8, pmax=8, use_numba=False)
+@pytest.mark.parametrize("copies", [1, 2])  # 3 DoFs take the one-pass kernel, 6 the multi-pass one
+def test_compiled_kernel_equals_reference_and_run_equals_step(order, limiter, name, copies):
+    x = np.concatenate([np.stack([ex.phi_l(), ex.phi_r(), ex.phi_c()], axis=1)] * copies, axis=1)
+    n = x.shape[1]
+    fast = MotionFilter.from_preset(name, n, 60, order=order, limiter=limiter, pmin=-8, pmax=8)
+    ref = MotionFilter.from_preset(name, n, 60, order=order, limiter=limiter, pmin=-8, pmax=8, use_numba=False)
+    stepper = MotionFilter.from_preset(name, n, 60, order=order, limiter=limiter, pmin=-8, pmax=8)
+    np.testing.assert_allclose(np.array([stepper.step(row).copy() for row in x]), fast.run(x.copy()).position,
+                               rtol=1e-12, atol=1e-12)
+    fast.reset()
     batch = fast.run(x)
     stepped = np.array([ref.step(row).copy() for row in x])
     np.testing.assert_allclose(batch.position, stepped, rtol=1e-12, atol=1e-12)
