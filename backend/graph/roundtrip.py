@@ -1,0 +1,57 @@
+"""Graph -> compiled program -> graph: rebuild the document a running APU was compiled from.
+
+The APU keeps its source Program. `apu_to_program` returns that document with every node's
+parameters as the block holds them *now* (after live `update_params` changes), and its edges as the
+APU actually wires them, so saving what is running never loses a tweak, an editor position or an
+exposed input. Untouched parameters keep the spelling of the original document (defaults stay
+omitted), so an unchanged program comes back equal to what was loaded.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from backend.engine.apu import APU
+from backend.engine.blocks import BLOCKS
+from backend.graph.schema import Edge, Endpoint, Node, Program
+
+
+class RoundTripError(ValueError):
+    """The APU carries no source document (it was not built by `compile_program`)."""
+
+
+def _live_params(node: Node, block: Any) -> dict[str, Any]:
+    cls = BLOCKS.get(node.type)
+    if cls is None or block is None:
+        return dict(node.params)
+    try:
+        loaded = cls.Params.model_validate(node.params)
+    except ValueError:
+        loaded = None
+    if loaded == block.params:
+        return dict(node.params)  # untouched: keep the author's spelling
+    return block.params.model_dump(mode="json", exclude_unset=True)
+
+
+def apu_to_program(apu: APU) -> Program:
+    """The program document of a compiled (possibly running and live-tuned) APU."""
+    source = apu.source
+    if not isinstance(source, Program):
+        raise RoundTripError("this APU has no source program to rebuild")
+    nodes = []
+    for node in source.nodes:
+        block = apu.block(node.id) if node.id in apu.index else None
+        nodes.append(node.model_copy(update={"params": _live_params(node, block), "ui": dict(node.ui)}, deep=True))
+    # Edges: as wired in the APU, in the order of the source document.
+    wired = {(apu.steps[w.src].node_id, w.src_port, step.node_id, w.port) for step in apu.steps for w in step.wires}
+    edges = [e.model_copy(deep=True) for e in source.edges if e.key() in wired]
+    known = {e.key() for e in edges}
+    for key in sorted(wired - known):
+        edges.append(Edge(**{"from": Endpoint(node=key[0], port=key[1]), "to": Endpoint(node=key[2], port=key[3])}))
+    return source.model_copy(update={"nodes": nodes, "edges": edges,
+                                     "inputs": [i.model_copy(deep=True) for i in source.inputs]}, deep=True)
+
+
+def apu_to_json(apu: APU, indent: int | None = 2) -> str:
+    """`apu_to_program` as JSON text (what `Save` in the editor writes)."""
+    return apu_to_program(apu).model_dump_json(by_alias=True, exclude_none=True, indent=indent)
