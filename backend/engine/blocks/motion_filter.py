@@ -1,0 +1,175 @@
+"""The Nutty Motion Filter as blocks: an operator for one chain, and a stage-2 post-processor.
+
+Limits default to the embodiment's per-DoF limits. With the tanh limiter the filter's velocity
+never reaches V/2, so the robot's velocity limit Vr is passed as V = 2 Vr (the output then stays
+below Vr); acceleration and jerk limits are passed as they are (the spec bounds the output by A and
+J). With the hard limiter V = Vr. `limit_scale` uses a fraction of the robot's limits.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+
+from backend.engine.blocks.base import Block, BlockParams, DofSelection, Port, PortType, Role, register_block
+from backend.engine.embodiment import ChannelKind
+from backend.engine.frames import PartialFrame
+from backend.engine.nmf import MotionFilter, preset
+from backend.engine.selectors import channel_mask
+
+PresetName = Literal["W", "A", "B", "C", "D", "E", "custom"]
+
+
+class FilterParams(BlockParams):
+    preset: PresetName = Field("D", description="the paper's character presets (W regular, A slow & smooth, "
+                                                "B slow & vivid, C fast & vivid, D fast & smooth, E fast & very "
+                                                "smooth) or custom σ/ρ")
+    sigma: float | None = Field(None, ge=0.0, le=1.0, description="smoothness σ (0..1); overrides the preset")
+    rho: float | None = Field(None, ge=0.0, le=1.0, description="responsiveness ρ (0..1); overrides the preset")
+    bypass: bool = Field(False, description="bypass H: the regular filter W (limits only, no character)")
+    order: Literal[1, 2, 3] = Field(3, description="continuity order: 1 velocity, 2 acceleration, 3 jerk limited")
+    limiter: Literal["tanh", "hard"] = Field("tanh", description="tanh (smooth, keeps headroom) or hard clip")
+    limit_scale: float = Field(1.0, gt=0.0, le=1.0, description="fraction of the robot's velocity, "
+                                                               "acceleration and jerk limits to use (0..1]")
+    beta: float = Field(5.0, ge=1.0, le=200.0, description="position-saturation exponent β (>= 1)")
+
+
+class MotionFilterParams(FilterParams):
+    dofs: DofSelection = Field(default_factory=lambda: ["stationary:*", "spatial:*"])
+
+
+class _FilterBlock(Block):
+    inputs = {"in": Port(PortType.frame, "set-points (a stepped, CGI-style frame)", required=True),
+              "sigma": Port(PortType.float, "overrides σ"), "rho": Port(PortType.float, "overrides ρ")}
+    outputs = {"out": Port(PortType.frame, "filtered, motor-safe frame")}
+    state_attrs = ("filter",)
+
+    def selection(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _character(self, sigma: float | None = None, rho: float | None = None) -> tuple[float, float, bool]:
+        p = self.params
+        if p.preset == "custom":
+            s, r, bypass = 0.5, 0.5, p.bypass
+        else:
+            pr = preset(p.preset)
+            s, r, bypass = pr.sigma, pr.rho, pr.bypass or p.bypass
+        s = p.sigma if p.sigma is not None else s
+        r = p.rho if p.rho is not None else r
+        if sigma is not None:
+            s = min(max(float(sigma), 0.0), 1.0)
+        if rho is not None:
+            r = min(max(float(rho), 0.0), 1.0)
+        return s, r, bypass
+
+    def configure(self) -> None:
+        emb, p = self.emb, self.params
+        self.sel = self.selection()
+        idx = np.flatnonzero(self.sel)
+        self.idx = idx
+        scale = p.limit_scale
+        vel = emb.vel_limit[idx] * scale * (2.0 if p.limiter == "tanh" else 1.0)
+        acc = emb.acc_limit[idx] * scale
+        jerk = emb.jerk_limit[idx] * scale
+        groups = []
+        for members in emb.groups.values():
+            local = [int(np.searchsorted(idx, m)) for m in members if self.sel[m]]
+            if len(local) > 1:
+                groups.append(local)
+                for arr in (vel, acc, jerk):  # a coupled group shares its most conservative limit
+                    arr[local] = arr[local].min()
+        self._limits = dict(vel_limit=vel, acc_limit=acc, jerk_limit=jerk)
+        self._groups = groups
+        self._pos = dict(pmin=emb.min[idx], pmax=emb.max[idx])
+        sigma, rho, bypass = self._character()
+        old = getattr(self, "filter", None)
+        if old is not None and old.n == max(1, idx.size) and old.groups == groups:
+            old.set_params(order=p.order, limiter=p.limiter, sigma=sigma, rho=rho, bypass=bypass, beta=p.beta,
+                           **self._limits, **self._pos)
+        else:
+            self._new_filter()
+        self._sigma_rho = (sigma, rho)
+
+    def _new_filter(self) -> None:
+        p = self.params
+        sigma, rho, bypass = self._character()
+        if self.idx.size == 0:
+            self.filter = None
+            return
+        self.filter = MotionFilter(int(self.idx.size), self.ctx.rate, order=p.order, sigma=sigma, rho=rho,
+                                   limiter=p.limiter, bypass=bypass, beta=p.beta, groups=self._groups,
+                                   x0=self.emb.rest[self.idx], **self._limits, **self._pos)
+        self._sp = np.full(self.idx.size, np.nan)
+
+    def reset(self) -> None:
+        self._new_filter()
+
+    def adopt_state(self, old: Block) -> None:
+        if isinstance(old, _FilterBlock) and old.filter is not None and self.filter is not None \
+                and np.array_equal(old.idx, self.idx):
+            self.filter.set_state(old.filter.position, old.filter.velocity, old.filter.acceleration)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        frame: PartialFrame | None = inputs.get("in")
+        if self.filter is None:
+            return {"out": frame if frame is not None else self.empty()}
+        sigma_in, rho_in = inputs.get("sigma"), inputs.get("rho")
+        if sigma_in is not None or rho_in is not None:
+            s, r, _ = self._character(sigma_in, rho_in)
+            if (s, r) != self._sigma_rho:
+                self.filter.set_params(sigma=s, rho=r)
+                self._sigma_rho = (s, r)
+        sp = self._sp
+        if frame is not None:
+            np.copyto(sp, frame.values[self.idx])
+            sp[~frame.mask[self.idx]] = np.nan  # channels the frame does not set: hold the latest
+        else:
+            sp.fill(np.nan)
+        pos = self.filter.step(sp)
+        if frame is None:
+            values, mask, events = self.emb.rest.copy(), np.zeros(self.emb.n_channels, bool), []
+        else:
+            values, mask, events = frame.values.copy(), frame.mask.copy(), frame.events
+        values[self.idx] = pos
+        mask[self.idx] = True
+        return {"out": PartialFrame(values, mask, events)}
+
+
+@register_block
+class MotionFilterBlock(_FilterBlock):
+    """The Nutty Motion Filter on the selected DoFs: stepped motion in, smooth motor-safe motion out.
+
+    Limits velocity, acceleration and jerk to the robot's limits while the character parameters
+    shape the motion: σ (smoothness) and ρ (responsiveness), or one of the paper's presets. Put it in
+    a chain (e.g. after a stepped clip) to filter one layer; use the stage-2 filter for the whole robot.
+    """
+
+    type_name = "motion_filter"
+    title = "Motion filter (NMF)"
+    category = "operators"
+    role = Role.operator
+    Params = MotionFilterParams
+
+    def selection(self) -> np.ndarray:
+        return channel_mask(self.emb, self.params.dofs, continuous_only=True)
+
+
+@register_block
+class MotionFilterStage2(_FilterBlock):
+    """The Nutty Motion Filter on every continuous DoF and colour, as the last stage before the robot.
+
+    The paper's Level 3 post-processor: whatever the layers produce, every DoF reaches the robot within
+    its velocity, acceleration and jerk limits (the embodiment's, scaled by `limit_scale`), shaped by σ
+    and ρ. Its input is the *ghost* the Pre-Viz shows beside the filtered robot.
+    """
+
+    type_name = "nmf_stage2"
+    title = "Motion filter (stage 2)"
+    category = "stage2"
+    role = Role.stage2
+    Params = FilterParams
+
+    def selection(self) -> np.ndarray:
+        return self.emb.channel_kind != ChannelKind.enum
