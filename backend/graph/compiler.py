@@ -79,7 +79,9 @@ class Issue(BaseModel):
     def render(self) -> str:
         """`[code] node.port: message` (with line and column for JSON errors)."""
         where = ".".join(x for x in (self.node, self.port) if x)
-        at = f" (line {self.line}, column {self.column})" if self.line is not None else ""
+        at = ""
+        if self.line is not None and f"line {self.line}" not in self.message:
+            at = f" (line {self.line}, column {self.column})"
         return f"[{self.code}] {where + ': ' if where else ''}{self.message}{at}"
 
 

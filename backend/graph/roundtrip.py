@@ -9,6 +9,7 @@ omitted), so an unchanged program comes back equal to what was loaded.
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from backend.engine.apu import APU
@@ -52,6 +53,22 @@ def apu_to_program(apu: APU) -> Program:
                                      "inputs": [i.model_copy(deep=True) for i in source.inputs]}, deep=True)
 
 
-def apu_to_json(apu: APU, indent: int | None = 2) -> str:
-    """`apu_to_program` as JSON text (what `Save` in the editor writes)."""
-    return apu_to_program(apu).model_dump_json(by_alias=True, exclude_none=True, indent=indent)
+def apu_to_json(apu: APU) -> str:
+    """`apu_to_program` as JSON text laid out for people (what saving a running program writes)."""
+    return format_json(apu_to_program(apu).to_json_dict())
+
+
+def format_json(data: Any, width: int = 120) -> str:
+    """JSON for people: indented, but small objects and lists (ui, params, endpoints) on one line."""
+
+    def fmt(value: Any, indent: int) -> str:
+        flat = json.dumps(value, ensure_ascii=False)
+        if not isinstance(value, (dict, list)) or not value or len(flat) + indent <= width:
+            return flat
+        pad, inner = " " * indent, " " * (indent + 2)
+        if isinstance(value, dict):
+            items = [f"{inner}{json.dumps(k, ensure_ascii=False)}: {fmt(v, indent + 2)}" for k, v in value.items()]
+            return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+        return "[\n" + ",\n".join(inner + fmt(v, indent + 2) for v in value) + "\n" + pad + "]"
+
+    return fmt(data, 0) + "\n"
