@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from backend.engine.blocks import BLOCKS
+from backend.engine.blocks.base import Role
 from backend.engine.blocks.mixer import LayerSpec
 from backend.engine.embodiment import load_embodiment
 from backend.graph.compiler import ERROR_CODES, WARNING_CODES, compile_program
@@ -90,6 +91,25 @@ ui = st.fixed_dictionaries({"x": st.floats(-2000, 2000).map(lambda v: round(v, 1
 # --- random valid graphs ---------------------------------------------------------------------------
 
 
+def _usable(kind: str) -> bool:
+    """Blocks whose parameters this file can draw (no required ones) and whose only required input is
+    the frame `in`: new blocks join the random graphs as they are registered."""
+    cls = BLOCKS[kind]
+    if any(f.is_required() for f in cls.Params.model_fields.values()):
+        return False
+    try:
+        ins = cls.ports(cls.Params())[0]
+    except Exception:
+        return False
+    return all(not p.required or name == "in" for name, p in ins.items())
+
+
+SOURCES = sorted(k for k, c in BLOCKS.items() if c.role is Role.source and _usable(k)
+                 and not any(p.required for p in c.ports(c.Params())[0].values()))
+OPERATORS = sorted(k for k, c in BLOCKS.items() if c.role is Role.operator and _usable(k))
+STAGE2 = sorted(k for k, c in BLOCKS.items() if c.role is Role.stage2 and _usable(k))
+
+
 @st.composite
 def valid_programs(draw):
     """A random valid program and the APU level its shape needs.
@@ -111,10 +131,10 @@ def valid_programs(draw):
         edges.append({"from": {"node": a, "port": src_port}, "to": {"node": b, "port": port}})
 
     def chain() -> tuple[str, int]:
-        head = add(draw(st.sampled_from(["sine", "rest_pose", "pose"])))
+        head = add(draw(st.sampled_from(SOURCES)))
         n = 1
         for _ in range(draw(st.integers(0, 3))):
-            op = add(draw(st.sampled_from(["gain_offset", "mask"])))
+            op = add(draw(st.sampled_from(OPERATORS)))
             link(head, op)
             head, n = op, n + 1
         return head, n
@@ -149,7 +169,7 @@ def valid_programs(draw):
         maybe_drive(head)
         level = 0 if n == 1 else 1
     if draw(st.booleans()):
-        lim = add("safety_limiter")
+        lim = add(draw(st.sampled_from(STAGE2)))
         link(head, lim)
         head, level = lim, 3
     link(head, add("output", {}))
@@ -161,6 +181,11 @@ def valid_programs(draw):
     if draw(st.booleans()):
         doc["rate"] = draw(st.sampled_from([50, 100, 200]))
     return doc, level
+
+
+def test_the_random_graphs_cover_the_core_blocks():
+    assert {"sine", "rest_pose", "pose"} <= set(SOURCES)
+    assert {"gain_offset", "mask"} <= set(OPERATORS) and "safety_limiter" in STAGE2
 
 
 @SETTINGS
