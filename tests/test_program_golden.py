@@ -253,3 +253,9 @@ def test_json_schema_export_describes_the_format():
     assert set(edge) == {"from", "to"}
     signal = schema["$defs"]["ExposedInput"]["properties"]["type"]
     assert set(signal["enum"]) == {"float", "int", "bool", "string", "vec3", "colour", "event"}
+
+
+def test_the_format_reference_documents_every_code():
+    doc = (Path(__file__).parents[1] / "docs" / "program-format.md").read_text()
+    for code in [*ERROR_CODES, *WARNING_CODES]:
+        assert f"| `{code}` |" in doc, f"docs/program-format.md does not document '{code}'"

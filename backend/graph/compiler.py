@@ -490,7 +490,7 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
             inp.coerce(inp.default)
         except ValueError as exc:
             errors.append(Issue(code="invalid_input", port=inp.name, path=f"inputs[{i}].default",
-                                message=f"default of {exc}"))
+                                message=f"the default of exposed {exc}"))
         declared[inp.name] = inp
     # Inputs whose declaration is malformed were reported as schema errors; nodes reading them
     # should not add unknown_exposed_input on top.
