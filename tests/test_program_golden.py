@@ -259,3 +259,19 @@ def test_the_format_reference_documents_every_code():
     doc = (Path(__file__).parents[1] / "docs" / "program-format.md").read_text()
     for code in [*ERROR_CODES, *WARNING_CODES]:
         assert f"| `{code}` |" in doc, f"docs/program-format.md does not document '{code}'"
+
+
+def test_paths_count_items_left_out_for_schema_errors(desk):
+    # nodes[0] and edges[0] are malformed and left out; later errors still point at their own index.
+    doc = json.loads((GOLDEN / "valid" / "level1_chain.json").read_text())
+    doc["nodes"].insert(0, {"id": "junk", "type": "sine", "params": [], "ui": {}})
+    doc["edges"].insert(0, {"from": {"node": "sway"}, "to": {"node": "scale", "port": "in"}})
+    doc["inputs"].insert(0, {"name": "9lives"})
+    doc["nodes"][3]["params"]["gain"] = 11
+    doc["edges"].append({"from": {"node": "sway", "port": "out"}, "to": {"node": "output", "port": "in"}})
+    doc["inputs"].append({"name": "arousal"})
+    errors = compile_program(doc, desk).report.errors
+    assert sorted((e.code, e.path) for e in errors) == sorted([
+        ("schema", "nodes[0].params"), ("schema", "edges[0].from.port"), ("schema", "inputs[0].name"),
+        ("invalid_param", "nodes[3].params.gain"), ("multiple_edges", "edges[5]"),
+        ("duplicate_input", "inputs[2].name")]), [e.render() for e in errors]

@@ -149,7 +149,7 @@ def _parse_document(source: Any, errors: list[Issue]) -> dict[str, Any] | None:
 
 
 def _schema_message(path: str, err: dict[str, Any]) -> str:
-    kind, ctx = err.get("type", ""), err.get("ctx") or {}
+    kind = err.get("type", "")
     if kind == "missing":
         return f"{path} is required but missing"
     if kind == "extra_forbidden":
@@ -182,23 +182,26 @@ def _short(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
-def _parse_program(doc: dict[str, Any], errors: list[Issue]) -> tuple[Program | None, set[str]]:
+def _parse_program(doc: dict[str, Any], errors: list[Issue]
+                   ) -> tuple[Program | None, dict[str, int], dict[str, list[int]]]:
     """Parse leniently: a broken node, edge or input is reported and left out, the rest goes on.
 
-    Returns the program and the ids of nodes left out because their entry is malformed.
+    Returns the program, the ids (and indices) of nodes left out because their entry is malformed,
+    and for each of nodes/edges/inputs the document index of every item kept (for error paths).
     """
-    broken: set[str] = set()
+    broken: dict[str, int] = {}
+    where: dict[str, list[int]] = {"nodes": [], "edges": [], "inputs": []}
     if "format" not in doc:
         errors.append(Issue(code="wrong_format", path="format",
                             message=f"the document has no 'format' field; add \"format\": \"{FORMAT}\""))
-        return None, broken
+        return None, broken, where
     fmt = doc.get("format")
     if fmt != FORMAT:
         newer = isinstance(fmt, str) and fmt.startswith("nutty-program/")
         hint = " (written for another version of Nutty)" if newer else ""
         errors.append(Issue(code="wrong_format", path="format",
                             message=f"format is {_short(fmt)}{hint}; this engine reads '{FORMAT}'"))
-        return None, broken
+        return None, broken, where
     parts: dict[str, list[Any]] = {"nodes": [], "edges": [], "inputs": []}
     models = {"nodes": Node, "edges": Edge, "inputs": ExposedInput}
     for key, model in models.items():
@@ -210,11 +213,12 @@ def _parse_program(doc: dict[str, Any], errors: list[Issue]) -> tuple[Program | 
         for i, item in enumerate(raw):
             try:
                 parts[key].append(model.model_validate(item))
+                where[key].append(i)
             except ValidationError as exc:
                 node_id = item.get("id") if key == "nodes" and isinstance(item, dict) else None
                 node_id = node_id if isinstance(node_id, str) else None
                 if node_id:
-                    broken.add(node_id)
+                    broken.setdefault(node_id, i)
                 name = item.get("name") if key == "inputs" and isinstance(item, dict) else None
                 for err in exc.errors():
                     path = _loc((key, i, *err["loc"]))
@@ -224,14 +228,15 @@ def _parse_program(doc: dict[str, Any], errors: list[Issue]) -> tuple[Program | 
     rest = {k: v for k, v in doc.items() if k not in models}
     for _ in range(2):  # report bad top-level fields, drop them, and go on with the graph
         try:
-            return Program.model_validate({**rest, **{k: [] for k in models}}).model_copy(update=parts), broken
+            program = Program.model_validate({**rest, **{k: [] for k in models}}).model_copy(update=parts)
+            return program, broken, where
         except ValidationError as exc:
             for err in exc.errors():
                 path = _loc(tuple(err["loc"]))
                 errors.append(Issue(code="schema", path=path, message=_schema_message(path, err)))
                 if err["loc"]:
                     rest.pop(err["loc"][0], None)
-    return None, broken
+    return None, broken, where
 
 
 # --- parameters -----------------------------------------------------------------------------------
@@ -319,7 +324,8 @@ def _widget(info: Any) -> str | None:
     return extra.get("x-widget") if isinstance(extra, dict) else None
 
 
-def _dof_params(model: BaseModel, prefix: tuple[Any, ...] = ()) -> Iterator[tuple[tuple[Any, ...], str, Any, BaseModel]]:
+def _dof_params(model: BaseModel, prefix: tuple[Any, ...] = ()
+                ) -> Iterator[tuple[tuple[Any, ...], str, Any, BaseModel]]:
     """Every DoF-naming parameter of a parameter model, nested models included.
 
     Yields (location, widget, value, owning model) for fields marked `x-widget: dofs` (selector lists)
@@ -474,14 +480,15 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
     errors: list[Issue] = []
     warnings: list[Issue] = []
     doc = _parse_document(source, errors)
-    program, broken = _parse_program(doc, errors) if doc is not None else (None, set())
+    program, broken, doc_index = _parse_program(doc, errors) if doc is not None else (None, {}, {})
     if program is None:
         return CompileResult(ValidationReport(valid=False, errors=errors))
     ctx = ctx or BlockContext(embodiment=embodiment, rate=rate)
 
     # --- exposed inputs ---------------------------------------------------------------------------
     declared: dict[str, ExposedInput] = {}
-    for i, inp in enumerate(program.inputs):
+    for k, inp in enumerate(program.inputs):
+        i = doc_index["inputs"][k]
         if inp.name in declared:
             errors.append(Issue(code="duplicate_input", port=inp.name, path=f"inputs[{i}].name",
                                 message=f"exposed input '{inp.name}' is declared twice; names must be unique"))
@@ -504,10 +511,12 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
     ports: dict[str, tuple[dict[str, Port], dict[str, Port]] | None] = {}  # None: exists, ports unknown
     node_by_id: dict[str, Node] = {}
     node_index: dict[str, int] = {}
-    for i, node in enumerate(program.nodes):
+    for k, node in enumerate(program.nodes):
+        i = doc_index["nodes"][k]
         if node.id in node_by_id or node.id in broken:
+            first = node_index.get(node.id, broken.get(node.id))
             errors.append(Issue(code="duplicate_node", node=node.id, path=f"nodes[{i}].id",
-                                message=f"node id '{node.id}' is used twice (nodes[{node_index.get(node.id, '?')}] "
+                                message=f"node id '{node.id}' is used twice (nodes[{first}] "
                                         f"and nodes[{i}]); ids must be unique"))
             continue
         node_by_id[node.id] = node
@@ -573,7 +582,8 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
     graph: dict[str, set[str]] = defaultdict(set)  # node -> downstream nodes
     edge_at: dict[tuple[str, str], tuple[int, str]] = {}  # (src, dst) -> (edge index, dst port)
     good_edges: list[Edge] = []
-    for i, edge in enumerate(program.edges):
+    for k, edge in enumerate(program.edges):
+        i = doc_index["edges"][k]
         src, dst = edge.from_, edge.to
         ok = True
         for end, role in ((src, "from"), (dst, "to")):
@@ -632,7 +642,8 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
             continue
         for pname, port in known[0].items():
             if port.required and (node_id, pname) not in incoming:
-                errors.append(Issue(code="missing_input", node=node_id, port=pname, path=f"nodes[{node_index[node_id]}]",
+                errors.append(Issue(code="missing_input", node=node_id, port=pname,
+                                    path=f"nodes[{node_index[node_id]}]",
                                     message=f"node '{node_id}' ({node_by_id[node_id].type}) needs an edge into "
                                             f"its '{pname}' input ({port.type.value})"))
 
@@ -705,7 +716,8 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
                     warnings.append(Issue(code="empty_layer", node=node_id, port=layer.name, path=base,
                                           message=f"layer '{layer.name}' of '{node_id}' has nothing connected"))
     used = {getattr(p, "name", None) for nid, p in params.items() if node_by_id[nid].type == "input"}
-    for i, inp in enumerate(program.inputs):
+    for k, inp in enumerate(program.inputs):
+        i = doc_index["inputs"][k]
         if inp.name not in used:
             warnings.append(Issue(code="unused_input", port=inp.name, path=f"inputs[{i}]",
                                   message=f"exposed input '{inp.name}' is not read by any 'input' node"))
