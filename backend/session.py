@@ -14,7 +14,7 @@ from typing import Any, Callable, Iterator
 
 from pydantic import ValidationError
 
-from backend.engine.apu import MAX_LEVEL, LevelError
+from backend.engine.apu import MAX_LEVEL
 from backend.engine.blocks import BLOCKS
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
@@ -128,16 +128,67 @@ class EngineSession:
                             pass
                     live[name] = inp.coerce(inp.default)
 
-            try:
-                kept = self.engine.load(apu)
-                self.engine.call(install_inputs)
-            except LevelError as exc:
-                report = ValidationReport(valid=False, level=apu.level,
-                                          errors=[Issue(code="level_too_high", message=str(exc))])
-                raise SessionError(str(exc), report) from exc
+            if self._same_structure(result.program):
+                # Parameter-only change: keep the running APU and every block, update parameters live.
+                changed = self._changed_params(result.program, result.params)
+
+                def apply_params() -> list[str]:
+                    for node_id, params in changed.items():
+                        self.engine.apu.block(node_id).update_params(params)
+                    install_inputs()
+                    return [st.node_id for st in self.engine.apu.steps]
+
+                kept = self.engine.call(apply_params)
+                self.program = result.program
+                self.report = result.report
+                return result.report, list(kept)
+
+            def swap_and_install() -> list[str]:
+                kept_ids = apu.adopt_state_from(self.engine.apu) if self.engine.apu is not None else []
+                self.engine.apu = apu
+                self.engine.swaps += 1
+                install_inputs()
+                return kept_ids
+
+            if apu.level > self.engine.max_level:
+                msg = f"program needs APU level {apu.level} but this engine allows at most {self.engine.max_level}"
+                raise SessionError(msg, ValidationReport(valid=False, level=apu.level,
+                                                         errors=[Issue(code="level_too_high", message=msg)]))
+            # One tick boundary for the swap and the inputs, so no tick runs the new program without them.
+            kept = self.engine.call(swap_and_install)
             self.program = result.program
             self.report = result.report
             return result.report, list(kept)  # type: ignore[arg-type]
+
+    def _same_structure(self, program: Program | None) -> bool:
+        """Whether `program` differs from the running one in parameters (and editor data) only."""
+        cur = self.program
+        if cur is None or program is None or self.engine.apu is None:
+            return False
+        if [(n.id, n.type) for n in cur.nodes] != [(n.id, n.type) for n in program.nodes]:
+            return False
+        if sorted(e.key() for e in cur.edges) != sorted(e.key() for e in program.edges):
+            return False
+        if [i.model_dump() for i in cur.inputs] != [i.model_dump() for i in program.inputs]:
+            return False
+        if program.max_level != cur.max_level:
+            return False
+        for node in program.nodes:  # a parameter that changes ports (a new layer) is structural
+            cls = BLOCKS[node.type]
+            old = cur.node(node.id)
+            if old is not None and old.params != node.params:
+                try:
+                    if cls.ports(cls.Params.model_validate(old.params)) != cls.ports(cls.Params.model_validate(node.params)):
+                        return False
+                except ValidationError:
+                    return False
+        return True
+
+    def _changed_params(self, program: Program, params: dict[str, Any]) -> dict[str, Any]:
+        cur = self.program
+        assert cur is not None  # guarded by _same_structure; typing aid only
+        return {n.id: params[n.id] for n in program.nodes
+                if (old := cur.node(n.id)) is not None and old.params != n.params}
 
     def update_params(self, node_id: str, params: dict[str, Any]) -> dict[str, Any]:
         """Change one node's parameters live, without rebuilding the program (slider drags).
@@ -178,7 +229,7 @@ class EngineSession:
                     Issue(code="block_config", node=node_id, message=str(exc))]), code="block_config") from exc
             block = self.engine.apu.block(node_id)
             self.engine.call(lambda: block.update_params(p))
-            node.params = p.model_dump(mode="json", exclude_defaults=False)
+            node.params = merged  # as the author wrote them: defaults stay implicit
             return node.params
 
     # --- inputs -------------------------------------------------------------------------------------

@@ -208,3 +208,30 @@ def test_rate_is_validated(desk):
         Engine(desk, rate=5)
     with pytest.raises(ValueError, match="rate must be within"):
         Engine(desk, rate=5000)
+
+
+def test_parameter_only_program_load_rebuilds_nothing(desk):
+    session = EngineSession.create(desk, rate=100, program=level2().build())
+    list(session.run_headless(10))
+    apu = session.engine.apu
+    blocks = [s.block for s in apu.steps]
+    doc = level2(weight=0.5).to_dict()
+    doc["nodes"][0]["ui"] = {"x": 999, "y": 1}  # editor data may change too
+    _, kept = session.load_program(doc)
+    assert session.engine.apu is apu
+    assert [s.block for s in apu.steps] == blocks
+    assert session.engine.apu.block("mix").weights[2] == 0.5
+    assert set(kept) == {s.node_id for s in apu.steps}
+    assert session.program.nodes[0].ui == {"x": 999, "y": 1}
+    # a structural change (a new node) does swap in a new APU
+    b = level2()
+    b.node("sine", "extra", dofs=["ear_left"])
+    session.load_program(b.build())
+    assert session.engine.apu is not apu
+
+
+def test_empty_selector_list_selects_nothing(desk):
+    from backend.engine.selectors import channel_mask
+
+    assert not channel_mask(desk, []).any()
+    assert channel_mask(desk, ["!head_*"]).sum() == desk.n_channels - 3

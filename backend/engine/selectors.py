@@ -76,8 +76,8 @@ def select_dofs(emb: Embodiment, selectors: list[str] | str, *, allow_empty: boo
         if exact and not found and sel not in emb.channel_index:
             raise SelectorError(raw, f"robot '{emb.name}' has no DoF '{sel}'")
         (excluded if negate else included).update(d.name for d in found)
-    if not any(not s.strip().startswith("!") for s in selectors):
-        included = {d.name for d in emb.dofs}
+    if selectors and all(s.strip().startswith("!") for s in selectors):
+        included = {d.name for d in emb.dofs}  # only exclusions: "everything but ..."
     chosen = [d for d in emb.dofs if d.name in included and d.name not in excluded]
     if not chosen and not allow_empty:
         raise SelectorError(", ".join(selectors), f"selectors {selectors} match no DoF of robot '{emb.name}'")
