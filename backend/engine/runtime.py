@@ -152,6 +152,9 @@ class Engine:
         self.ticks = 0
         self.overruns = 0
         self.swaps = 0
+        self._injected: list = []  # events added by commands for the next frame
+        self._override_mask = np.zeros(embodiment.n_channels, dtype=bool)  # display values set by commands
+        self._override_values = np.zeros(embodiment.n_channels)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._tick_lock = threading.Lock()
@@ -193,6 +196,19 @@ class Engine:
     def set_input(self, name: str, value: Any) -> Future:
         """Set an exposed input at the next tick boundary."""
         return self.call_soon(lambda: self.ctx.inputs.__setitem__(name, value))
+
+    def inject_event(self, event) -> Future:
+        """Emit a FrameEvent (speech, sound) on the next frame, without a block."""
+        return self.call_soon(lambda: self._injected.append(event))
+
+    def set_override(self, mask: np.ndarray, values: np.ndarray) -> None:
+        """Hold some channels (display DoFs set by a command) at fixed values on top of the program.
+        Call in the clock thread (via `call`)."""
+        self._override_mask = self._override_mask | mask
+        self._override_values = np.where(mask, values, self._override_values)
+
+    def clear_overrides(self) -> None:
+        self._override_mask = np.zeros_like(self._override_mask)
 
     def add_listener(self, fn: Callable[[dict[str, Any]], None]) -> None:
         """Receive block notifications (clip started/completed, …) from the clock thread; keep it quick."""
@@ -242,6 +258,10 @@ class Engine:
             else:
                 final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
             pos = np.array(final, dtype=float)
+            if self._override_mask.any():
+                np.copyto(pos, self._override_values, where=self._override_mask)
+            if self._injected:
+                events, self._injected = [*events, *self._injected], []
             vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
             acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
             jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)

@@ -1,0 +1,124 @@
+"""`nutty serve`: the engine clock, the HTTP/WebSocket API, the editor and the 3D Pre-Viz."""
+
+from __future__ import annotations
+
+import ipaddress
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+from backend.commands._common import fail
+from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embodiment, resolve_robot_path
+
+LOCAL_HOSTS = {"127.0.0.1", "localhost", "::1"}
+
+
+def register(sub) -> None:
+    p = sub.add_parser("serve", help="serve the engine, the API, the editor and the Pre-Viz",
+                       description="Run a robot's program live: engine clock, REST/WebSocket API, browser editor "
+                                   "and 3D Pre-Viz. With no arguments: the bundled robot and its interactive program.")
+    p.add_argument("--robot", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name")
+    p.add_argument("--program", default=None, help="program JSON (default: the robot's programs/interactive.json)")
+    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1; others need --token)")
+    p.add_argument("--port", type=int, default=8000, help="HTTP port (default 8000)")
+    p.add_argument("--previz-port", type=int, default=8080, help="Pre-Viz (viser) port (default 8080)")
+    p.add_argument("--no-previz", action="store_true", help="run without the 3D Pre-Viz")
+    p.add_argument("--rate", type=float, default=100.0, help="tick rate in Hz, 30..1000 (default 100)")
+    p.add_argument("--token", default=None, help="require 'Authorization: Bearer TOKEN' on mutating routes and WebSockets")
+    p.set_defaults(func=run)
+
+
+def default_program_path(robot_folder: Path | None) -> Path | None:
+    if robot_folder is None or not (robot_folder / "programs").is_dir():
+        return None
+    preferred = robot_folder / "programs" / "interactive.json"
+    if preferred.exists():
+        return preferred
+    found = sorted((robot_folder / "programs").glob("*.json"))
+    return found[0] if found else None
+
+
+def builtin_idle(robot_name: str) -> dict:
+    """A small idle program any robot can run: breathing and ear sway over the rest pose, filtered."""
+    from backend.graph.builder import ProgramBuilder
+
+    b = ProgramBuilder("built-in idle", "Breathing over the rest pose, motion filter and safety limits.",
+                       robot=robot_name)
+    arousal = b.expose("arousal", default=0.0, min=-1.0, max=1.0, description="calm (-1) to excited (+1)")
+    rest = b.node("rest_pose", "rest", ui={"x": 0, "y": 0})
+    breathe = b.node("sine", "breathe", ui={"x": 0, "y": 160}, dofs=["stationary:*"], amplitude=0.04,
+                     frequency=0.25, phase_spread=0.6)
+    gain = b.node("gain_offset", "arousal_gain", ui={"x": 260, "y": 160}, gain=1.0)
+    mix = b.node("layer_mixer", "mix", ui={"x": 520, "y": 60},
+                 layers=[{"name": "base"}, {"name": "idle", "mode": "additive"}])
+    nmf = b.node("nmf_stage2", "nmf", ui={"x": 780, "y": 60}, preset="D")
+    safety = b.node("safety_limiter", "safety", ui={"x": 1040, "y": 60})
+    b.connect(rest, mix, "out", "base").chain(breathe, gain)
+    b.connect(gain, mix, "out", "idle").chain(mix, nmf, safety, b.output())
+    b.doc["nodes"][-1]["ui"] = {"x": 1300, "y": 60}
+    b.connect(arousal, gain, "value", "offset")
+    return b.to_dict()
+
+
+def run(args) -> int:
+    import uvicorn
+
+    from backend.api import create_app
+    from backend.session import EngineSession, SessionError
+
+    if args.host not in LOCAL_HOSTS and not args.token:
+        return fail(f"binding to {args.host} exposes the robot to the network: pass --token TOKEN")
+    try:
+        emb = load_embodiment(args.robot)
+    except EmbodimentError as exc:
+        return fail(str(exc))
+    folder = resolve_robot_path(args.robot)
+    folder = folder if folder.is_dir() else None
+    try:
+        session = EngineSession.create(emb, rate=args.rate)
+        if args.program:
+            source, label = Path(args.program).read_text(), args.program
+        else:
+            path = default_program_path(folder)
+            source, label = (path.read_text(), str(path)) if path else (builtin_idle(emb.name), "built-in idle")
+        session.load_program(source)
+    except OSError as exc:
+        return fail(f"cannot read program: {exc}")
+    except SessionError as exc:
+        print(exc.render(), file=sys.stderr)
+        return 1
+    session.engine.start()
+    previz = None
+    if not args.no_previz:
+        from backend.previz import PreViz
+
+        previz = PreViz(session, host=args.host, port=args.previz_port).start()
+    shown = "localhost" if args.host in LOCAL_HOSTS else args.host
+    origins = [f"http://{shown}:{args.port}", f"http://127.0.0.1:{args.port}"]
+    app = create_app(session, token=args.token, previz=previz, origins=origins)
+    print(f"Nutty: robot '{emb.name}', program '{session.program.name}' ({label}), level {session.engine.apu.level}, "
+          f"{session.engine.rate:g} Hz", flush=True)
+    print(f"  editor   http://{shown}:{args.port}/", flush=True)
+    print(f"  API      http://{shown}:{args.port}/docs", flush=True)
+    if previz:
+        print(f"  Pre-Viz  http://{shown}:{args.previz_port}/", flush=True)
+    server = uvicorn.Server(uvicorn.Config(app, host=args.host, port=args.port, log_level="warning"))
+    try:
+        server.run()
+    finally:
+        rest_and_stop(session, previz)
+    return 0
+
+
+def rest_and_stop(session, previz, seconds: float = 1.5) -> None:
+    """Graceful shutdown: bring the robot to rest through the program (and its filter), then close."""
+    try:
+        session.execute({"type": "reset", "fade": min(1.0, seconds)})
+        time.sleep(seconds)
+    except Exception:
+        pass
+    session.engine.close()
+    if previz is not None:
+        previz.stop()
