@@ -26,6 +26,10 @@ def register(sub) -> None:
     p.add_argument("--previz-port", type=int, default=8080, help="Pre-Viz (viser) port (default 8080)")
     p.add_argument("--no-previz", action="store_true", help="run without the 3D Pre-Viz")
     p.add_argument("--rate", type=float, default=100.0, help="tick rate in Hz, 30..1000 (default 100)")
+    p.add_argument("--osc", default=None, metavar="HOST:PORT", help="also send every frame as OSC to HOST:PORT")
+    p.add_argument("--record", default=None, metavar="FILE.jsonl", help="record every frame to a JSONL file")
+    p.add_argument("--sim-servo", type=float, default=8.0, metavar="HZ",
+                   help="bandwidth of the simulated servos whose tracking error /api/status reports (0 = off)")
     p.add_argument("--token", default=None, help="require 'Authorization: Bearer TOKEN' on mutating routes and WebSockets")
     p.set_defaults(func=run)
 
@@ -89,6 +93,10 @@ def run(args) -> int:
     except SessionError as exc:
         print(exc.render(), file=sys.stderr)
         return 1
+    try:
+        attach_drivers(session, args)
+    except ValueError as exc:
+        return fail(str(exc))
     session.engine.start()
     previz = None
     if not args.no_previz:
@@ -110,6 +118,22 @@ def run(args) -> int:
     finally:
         rest_and_stop(session, previz)
     return 0
+
+
+def attach_drivers(session, args) -> None:
+    """Drivers from the command line: OSC, a recorder, simulated servos (see backend/drivers)."""
+    from backend.drivers import FrameRecorder, OscDriver, SimulatedServos
+
+    emb = session.embodiment
+    if args.osc:
+        host, _, port = args.osc.rpartition(":")
+        if not host or not port.isdigit():
+            raise ValueError(f"--osc expects HOST:PORT, got '{args.osc}'")
+        session.engine.add_sink(OscDriver(emb, host, int(port)))
+    if args.record:
+        session.engine.add_sink(FrameRecorder(emb, args.record))
+    if args.sim_servo and args.sim_servo > 0:
+        session.engine.add_sink(SimulatedServos(emb, bandwidth_hz=args.sim_servo))
 
 
 def rest_and_stop(session, previz, seconds: float = 1.5) -> None:

@@ -40,7 +40,8 @@ class Output(Block):
     """The program's output: the Animation Frame sent to the robot.
 
     Channels the incoming frame does not set keep their last value (the rest pose at start), so a
-    partial frame never snaps a DoF back. Every program has exactly one output.
+    partial frame never snaps a DoF back. Every value is clamped to its DoF's position limits: whatever
+    a program computes, the robot is never asked to leave its range. Every program has exactly one output.
     """
 
     type_name = "output"
@@ -60,6 +61,7 @@ class Output(Block):
         events = []
         if frame is not None:
             np.copyto(self.held, frame.values, where=frame.mask)
+            np.clip(self.held, self.emb.min, self.emb.max, out=self.held)
             events = frame.events
         return {"frame": PartialFrame(self.held, np.ones_like(self.emb.continuous_mask), events)}
 

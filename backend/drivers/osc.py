@@ -1,0 +1,42 @@
+"""UDP/OSC output (python-osc) for robots and show-control tools that speak OSC.
+
+Messages per frame: `<prefix>/<dof> <value>` for continuous and enum DoFs, `<prefix>/<dof> r g b` for
+colours, `<prefix>/<dof>/<kind> <payload>` for events (speech text, sound name), bundled per frame.
+"""
+
+from __future__ import annotations
+
+from backend.engine.embodiment import DofType, Embodiment
+from backend.engine.frames import AnimationFrame
+from backend.engine.runtime import Sink
+
+
+class OscDriver(Sink):
+    def __init__(self, embodiment: Embodiment, host: str = "127.0.0.1", port: int = 9000, prefix: str = "/nutty",
+                 decimate: int = 1):
+        from pythonosc.udp_client import SimpleUDPClient
+
+        if not 0 < port < 65536:
+            raise ValueError(f"OSC port must be within 1..65535, got {port}")
+        self.emb = embodiment
+        self.prefix = prefix.rstrip("/")
+        self.client = SimpleUDPClient(host, port)
+        super().__init__(f"osc:{host}:{port}", max_queue=4, decimate=decimate)
+
+    def consume(self, frame: AnimationFrame) -> None:
+        from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
+        from pythonosc.osc_message_builder import OscMessageBuilder
+
+        bundle = OscBundleBuilder(IMMEDIATELY)
+        for d in self.emb.dofs:
+            if d.type is DofType.event:
+                continue
+            msg = OscMessageBuilder(address=f"{self.prefix}/{d.name}")
+            for v in frame.position[d.channels]:
+                msg.add_arg(int(round(v)) if d.type is DofType.enum else float(v))
+            bundle.add_content(msg.build())
+        for ev in frame.events:
+            msg = OscMessageBuilder(address=f"{self.prefix}/{ev.dof}/{ev.kind}")
+            msg.add_arg(str(ev.payload.get("text") or ev.payload.get("clip") or ev.payload.get("sound") or ""))
+            bundle.add_content(msg.build())
+        self.client.send(bundle.build())

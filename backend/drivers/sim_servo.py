@@ -1,0 +1,82 @@
+"""A simulated servo per continuous DoF: a position loop with a bandwidth and speed/acceleration
+saturation, so the effect of the motion filter is measurable without hardware.
+
+Model (per DoF, stepped at the frame rate): desired velocity `v* = v_target + 2π·bandwidth·(target - q)`
+(velocity feed-forward from the frame plus a proportional loop),
+saturated to the DoF's velocity limit; the velocity changes at most by the acceleration limit per
+second. It reports the tracking error (|target - q|, max and RMS) and the jerk of the servo's motion
+(max and RMS: a bang-bang servo hits its maximum jerk on any target, the RMS tells how often).
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+
+from backend.engine.embodiment import Embodiment
+from backend.engine.frames import AnimationFrame
+from backend.engine.runtime import Sink
+
+
+class SimulatedServos(Sink):
+    def __init__(self, embodiment: Embodiment, bandwidth_hz: float = 8.0, decimate: int = 1):
+        if not bandwidth_hz > 0:
+            raise ValueError(f"bandwidth_hz must be > 0, got {bandwidth_hz}")
+        self.emb = embodiment
+        self.idx = np.flatnonzero(embodiment.continuous_mask)
+        self.gain = 2 * np.pi * bandwidth_hz
+        self.vmax = embodiment.vel_limit[self.idx]
+        self.amax = embodiment.acc_limit[self.idx]
+        self.q = embodiment.rest[self.idx].copy()
+        self.v = np.zeros(self.idx.size)
+        self.a = np.zeros(self.idx.size)
+        self._lock = threading.Lock()
+        self.samples = 0
+        self.max_error = np.zeros(self.idx.size)
+        self._sq_error = np.zeros(self.idx.size)
+        self.max_jerk = np.zeros(self.idx.size)
+        self._sq_jerk = np.zeros(self.idx.size)
+        self._last_t: float | None = None
+        # A simulation wants every frame: a deep queue (live it keeps up easily; headless it catches up).
+        super().__init__("sim-servo", max_queue=4096, decimate=decimate)
+
+    def consume(self, frame: AnimationFrame) -> None:
+        # Integrate over the real time since the last frame this servo saw (frames may be dropped).
+        dt = frame.dt if self._last_t is None else frame.t - self._last_t
+        self._last_t = frame.t
+        if dt <= 0:
+            return
+        target = frame.position[self.idx]
+        with self._lock:
+            want = np.clip(frame.velocity[self.idx] + self.gain * (target - self.q), -self.vmax, self.vmax)
+            dv = np.clip(want - self.v, -self.amax * dt, self.amax * dt)
+            a_new = dv / dt
+            if self.samples:
+                jerk = np.abs(a_new - self.a) / dt
+                self.max_jerk = np.maximum(self.max_jerk, jerk)
+                self._sq_jerk += jerk ** 2
+            self.a = a_new
+            self.v = self.v + dv
+            self.q = self.q + self.v * dt
+            err = np.abs(target - self.q)
+            self.max_error = np.maximum(self.max_error, err)
+            self._sq_error += err ** 2
+            self.samples += 1
+
+    def report(self) -> dict[str, dict[str, float]]:
+        """Per DoF: max and RMS tracking error (DoF units) and max jerk of the servo (units/s³)."""
+        with self._lock:
+            n = max(self.samples, 1)
+            rms = np.sqrt(self._sq_error / n)
+            rms_jerk = np.sqrt(self._sq_jerk / n)
+            return {self.emb.channel_names[c]: {"max_error": float(self.max_error[k]), "rms_error": float(rms[k]),
+                                                "max_jerk": float(self.max_jerk[k]), "rms_jerk": float(rms_jerk[k])}
+                    for k, c in enumerate(self.idx)}
+
+    def stats(self) -> dict:
+        base = super().stats()
+        rep = self.report()
+        base["worst_rms_error"] = max((r["rms_error"] for r in rep.values()), default=0.0)
+        base["worst_jerk"] = max((r["max_jerk"] for r in rep.values()), default=0.0)
+        return base

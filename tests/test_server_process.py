@@ -1,0 +1,125 @@
+"""A real `nutty serve` process on free ports: a driver client receives frames at the configured rate
+while 20 telemetry clients come and go and a deliberately slow client lags; the Python client works."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+import websockets
+
+from backend.client import NuttyClient, NuttyError
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    port = free_port()
+    record = tmp_path_factory.mktemp("rec") / "frames.jsonl"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "backend.cli", "serve", "--port", str(port), "--no-previz", "--rate", "100",
+         "--record", str(record)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.time() + 60
+    client = NuttyClient(url, timeout=2.0)
+    while True:
+        try:
+            client.status()
+            break
+        except Exception:
+            if proc.poll() is not None or time.time() > deadline:
+                out = proc.stdout.read() if proc.stdout else ""
+                proc.kill()
+                pytest.fail(f"nutty serve did not start: {out}")
+            time.sleep(0.3)
+    yield {"url": url, "port": port, "client": client, "record": record, "proc": proc}
+    client.close()
+    proc.terminate()
+    try:
+        proc.wait(15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+def test_driver_client_gets_frames_at_rate_while_others_churn(server):
+    port = server["port"]
+
+    async def driver() -> list[int]:
+        seqs = []
+        async with websockets.connect(f"ws://127.0.0.1:{port}/ws/frames?format=json") as ws:
+            t_end = time.monotonic() + 3.0
+            while time.monotonic() < t_end:
+                seqs.append(json.loads(await ws.recv())["seq"])
+        return seqs
+
+    async def churn(k: int) -> int:
+        got = 0
+        for _ in range(3):
+            async with websockets.connect(f"ws://127.0.0.1:{port}/ws/telemetry") as ws:
+                await ws.send(json.dumps({"type": "subscribe", "signals": [{"node": "breathe", "port": "out"}],
+                                          "rate": 30}))
+                for _ in range(5):
+                    json.loads(await ws.recv())
+                    got += 1
+        return got
+
+    async def slow() -> int:
+        async with websockets.connect(f"ws://127.0.0.1:{port}/ws/frames", max_queue=1) as ws:
+            n = 0
+            t_end = time.monotonic() + 3.0
+            while time.monotonic() < t_end:
+                await ws.recv()
+                n += 1
+                await asyncio.sleep(0.25)  # reads 4 frames a second
+            return n
+
+    async def main():
+        return await asyncio.gather(driver(), slow(), *(churn(k) for k in range(20)))
+
+    seqs, slow_n, *churned = asyncio.run(main())
+    rate = len(seqs) / 3.0
+    assert 60 <= rate <= 130, rate  # 100 Hz configured; tolerant bounds on a busy 2-core machine
+    assert seqs == sorted(seqs)
+    gaps = [b - a for a, b in zip(seqs, seqs[1:])]
+    assert sum(gaps) - len(gaps) <= 0.2 * len(seqs)  # few frames lost to the driver
+    assert all(n == 15 for n in churned)
+    assert slow_n <= 14  # the slow client really was slow, and nobody waited for it
+    status = server["client"].status()
+    assert status["overruns"] <= 5 and status["period"]["p50_ms"] < 12
+
+
+def test_python_client_round_trip(server):
+    c = server["client"]
+    assert c.robot()["name"] == "nutty_desk"
+    assert c.set(arousal=0.4)["result"]["arousal"] == 0.4
+    assert c.led(0.1, 0.2, 0.3)["status"] == "completed"
+    assert c.tune("breathe", frequency=0.3)["params"]["frequency"] == 0.3
+    with pytest.raises(NuttyError) as err:
+        c.set(arousal=7)
+    assert err.value.status == 422 and "outside" in str(err.value)
+    with pytest.raises(NuttyError) as err:
+        c.play("wave", layer="gesture")
+    assert err.value.code == "no_target"
+    status = c.status()
+    names = [s["name"] for s in status["sinks"]]
+    assert any(n.startswith("recorder:") for n in names) and "sim-servo" in names
+    servo = next(s for s in status["sinks"] if s["name"] == "sim-servo")
+    assert servo["worst_rms_error"] < 0.05  # the filtered idle is easy to track
+
+
+def test_token_required_off_localhost():
+    out = subprocess.run([sys.executable, "-m", "backend.cli", "serve", "--host", "0.0.0.0", "--no-previz"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "--token" in out.stderr
