@@ -104,7 +104,7 @@ class ExposedInput(Block):
 
 
 class RestPoseParams(BlockParams):
-    dofs: DofSelection = Field(default_factory=lambda: ["*"])
+    dofs: DofSelection = Field(default=["*"])
 
 
 @register_block
@@ -203,7 +203,7 @@ class Pose(Block):
 
 
 class SineParams(BlockParams):
-    dofs: DofSelection = Field(default_factory=lambda: ["stationary:*"])
+    dofs: DofSelection = Field(default=["stationary:*"])
     amplitude: float = Field(0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)")
     frequency: float = Field(0.25, ge=0.0, le=20.0, description="cycles per second (Hz)")
     phase: float = Field(0.0, ge=-2 * math.pi, le=2 * math.pi, description="phase at t=0 (rad)")
@@ -258,7 +258,7 @@ class Sine(Block):
 
 
 class GainOffsetParams(BlockParams):
-    dofs: DofSelection = Field(default_factory=lambda: ["*"])
+    dofs: DofSelection = Field(default=["*"])
     gain: float = Field(1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose")
     offset: float = Field(0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)")
 
@@ -294,7 +294,7 @@ class GainOffset(Block):
 
 
 class MaskParams(BlockParams):
-    dofs: DofSelection = Field(default_factory=lambda: ["*"])
+    dofs: DofSelection = Field(default=["*"])
     mode: Literal["keep", "remove"] = Field("keep", description="keep only the selected DoFs, or remove them")
 
 

@@ -32,7 +32,7 @@ class LayerSpec(BaseModel):
     mode: BlendMode = Field(BlendMode.override, description="override, additive or average")
     weight: float = Field(1.0, ge=0.0, le=1.0, description="blend weight (0..1)")
     fade: float = Field(0.5, ge=0.0, le=30.0, description="fade-in/out time on (de)activation (s)")
-    mask: list[str] = Field(default_factory=lambda: ["*"], description="DoF selectors this layer may set",
+    mask: list[str] = Field(default=["*"], description="DoF selectors this layer may set",
                             json_schema_extra={"x-widget": "dofs"})
     active: bool = Field(True, description="whether the layer starts active")
 
@@ -46,7 +46,7 @@ class LayerSpec(BaseModel):
 
 class MixerParams(BlockParams):
     layers: list[LayerSpec] = Field(
-        default_factory=lambda: [LayerSpec(name="base")], min_length=1,
+        default=[LayerSpec(name="base")], min_length=1,
         description="layers from bottom to top (later layers override earlier ones)",
         json_schema_extra={"x-widget": "layers"},
     )

@@ -37,7 +37,7 @@ class FilterParams(BlockParams):
 
 
 class MotionFilterParams(FilterParams):
-    dofs: DofSelection = Field(default_factory=lambda: ["stationary:*", "spatial:*"])
+    dofs: DofSelection = Field(default=["stationary:*", "spatial:*"])
 
 
 class _FilterBlock(Block):

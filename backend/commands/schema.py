@@ -1,0 +1,35 @@
+"""`nutty schema OUT_DIR`: export the JSON Schemas the editor's TypeScript types are generated from."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from backend.commands._common import fail
+
+
+def register(sub) -> None:
+    p = sub.add_parser("schema", help="export JSON Schemas (program, commands, block catalog)",
+                       description="Write program.schema.json, commands.schema.json and blocks.json to OUT_DIR.")
+    p.add_argument("out_dir", help="output folder")
+    p.set_defaults(func=run)
+
+
+def schemas() -> dict[str, object]:
+    from backend.control import command_json_schema
+    from backend.engine.blocks import block_catalog
+    from backend.graph.schema import program_json_schema
+
+    return {"program.schema.json": program_json_schema(), "commands.schema.json": command_json_schema(),
+            "blocks.json": block_catalog()}
+
+
+def run(args) -> int:
+    out = Path(args.out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for name, doc in schemas().items():
+            (out / name).write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n")
+    except OSError as exc:
+        return fail(f"cannot write to '{out}': {exc.strerror}")
+    return 0

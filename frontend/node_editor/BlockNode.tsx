@@ -1,0 +1,114 @@
+// One block on the graph: a header coloured by category, typed ports (frame ports wide and white,
+// one colour per signal type), the live value of each output, and error badges from the server.
+import { Handle, Position, type NodeProps } from "@xyflow/react";
+import { memo, useContext } from "react";
+import type { NodeData } from "./graph";
+import { LiveContext, CatalogContext } from "./context";
+
+export const PORT_COLOURS: Record<string, string> = {
+  frame: "#f2f2f2",
+  float: "#4fc3f7",
+  int: "#26a69a",
+  bool: "#ef5350",
+  string: "#ffca28",
+  vec3: "#ab47bc",
+  colour: "#ec407a",
+  event: "#ff7043",
+};
+
+export const CATEGORY_COLOURS: Record<string, string> = {
+  sources: "#2e7d5b",
+  operators: "#3559a8",
+  layers: "#7a4fb0",
+  stage2: "#b0642a",
+  signals: "#56606e",
+  output: "#a23a4d",
+};
+
+function Sparkline({ values }: { values: number[] }) {
+  if (values.length < 2) return null;
+  const lo = Math.min(...values), hi = Math.max(...values);
+  const span = hi - lo || 1;
+  const pts = values.map((v, i) => `${(i / (values.length - 1)) * 60},${14 - ((v - lo) / span) * 12}`).join(" ");
+  return (
+    <svg className="spark" width="60" height="16" aria-hidden>
+      <polyline points={pts} fill="none" stroke="#8fd3ff" strokeWidth="1.2" />
+    </svg>
+  );
+}
+
+function formatValue(v: unknown): string {
+  if (v === null || v === undefined) return "–";
+  if (typeof v === "number") return Math.abs(v) >= 100 ? v.toFixed(0) : v.toFixed(3);
+  if (typeof v === "boolean") return v ? "true" : "false";
+  if (Array.isArray(v)) return "[" + v.map((x) => (typeof x === "number" ? x.toFixed(2) : String(x))).join(", ") + "]";
+  if (typeof v === "object" && v && "mask" in (v as any)) {
+    const f = v as { mask: number; values: Record<string, number> };
+    const first = Object.entries(f.values)[0];
+    return first ? `${f.mask} DoFs · ${first[0]} ${first[1].toFixed(3)}` : "empty frame";
+  }
+  return String(v);
+}
+
+export const BlockNode = memo(function BlockNode({ id, data, selected }: NodeProps & { data: NodeData }) {
+  const catalog = useContext(CatalogContext);
+  const live = useContext(LiveContext);
+  const entry = catalog[data.type];
+  const colour = CATEGORY_COLOURS[entry?.category ?? "signals"] ?? "#555";
+  const ins = Object.entries(data.inputs);
+  const outs = Object.entries(data.outputs);
+  const rows = Math.max(ins.length, outs.length, 1);
+  const liveTop = rows * 22 + 6;
+  const layers = live.layers[id];
+  return (
+    <div className={`block ${selected ? "selected" : ""} ${data.errors.length ? "has-error" : ""}`} data-testid={`node-${id}`}
+         aria-label={`${entry?.title ?? data.type} ${id}`} title={entry?.doc}>
+      <div className="block-header" style={{ background: colour }}>
+        <span className="block-title">{entry?.title ?? data.type}</span>
+        <span className="block-id">{id}</span>
+        {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
+      </div>
+      <div className="block-body" style={{ minHeight: liveTop + outs.length * 18 + 4 }}>
+        {ins.map(([name, p], i) => (
+          <div key={`in-${name}`} className="port-row in" style={{ top: 6 + i * 22 }}>
+            <Handle type="target" position={Position.Left} id={name} className={`handle ${p.type}`}
+                    style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${name}: ${p.type}${p.doc ? " — " + p.doc : ""}`} />
+            <span className="port-label">{name}</span>
+          </div>
+        ))}
+        {outs.map(([name, p], i) => {
+          const key = `${id}.${name}`;
+          return (
+            <div key={`out-${name}`} className="port-row out" style={{ top: 6 + i * 22 }}>
+              <span className="port-label">{name}</span>
+              <Handle type="source" position={Position.Right} id={name} className={`handle ${p.type}`}
+                      style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${name}: ${p.type}`} />
+            </div>
+          );
+        })}
+        {outs.map(([name], i) => {
+          const key = `${id}.${name}`;
+          return (
+            <div key={`live-${name}`} className="live-row" style={{ top: liveTop + i * 18 }}>
+              <span className="live-port">{name}</span>
+              <span className="live" data-testid={`live-${key}`}>{formatValue(live.values[key])}</span>
+              <Sparkline values={live.history[key] ?? []} />
+            </div>
+          );
+        })}
+        {layers && (
+          <div className="layers" style={{ marginTop: liveTop + outs.length * 18 }}>
+            {layers.map((l) => (
+              <div key={l.name} className="layer-row" title={`${l.mode}, weight ${l.weight}`}>
+                <span className="layer-name">{l.name}</span>
+                <span className="layer-mode">{l.mode}</span>
+                <span className="layer-bar"><span style={{ width: `${Math.round(l.effective * 100)}%` }} /></span>
+              </div>
+            ))}
+          </div>
+        )}
+      </div>
+      {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
+    </div>
+  );
+});

@@ -1,0 +1,91 @@
+// The curve panel (uPlot): a DoF over the last seconds, stage 1 (the ghost) vs the final output,
+// with the trajectory-helper's colouring of the final curve: green ok, orange velocity, pink
+// acceleration, red jerk violation of the robot's limits.
+import { useEffect, useRef } from "react";
+import uPlot from "uplot";
+import "uplot/dist/uPlot.min.css";
+import type { DofInfo } from "./api";
+import { classify, CLASS_COLOURS, CLASS_NAMES } from "./trajectory";
+
+export interface Samples {
+  t: number[];
+  final: Record<string, number[]>;
+  stage1: Record<string, number[]>;
+}
+
+export function CurvePanel({ samples, dof, info, rate, onDof, dofs }: {
+  samples: Samples; dof: string; info: DofInfo | undefined; rate: number; onDof: (d: string) => void; dofs: string[];
+}) {
+  const box = useRef<HTMLDivElement>(null);
+  const plot = useRef<uPlot | null>(null);
+  const classes = useRef<number[]>([]);
+
+  useEffect(() => {
+    if (!box.current) return;
+    const opts: uPlot.Options = {
+      width: box.current.clientWidth || 600,
+      height: 150,
+      legend: { show: false },
+      scales: { x: { time: false } },
+      axes: [
+        { stroke: "#9aa4b2", grid: { stroke: "#2a2f38" }, ticks: { stroke: "#2a2f38" } },
+        { stroke: "#9aa4b2", grid: { stroke: "#2a2f38" }, ticks: { stroke: "#2a2f38" }, size: 50 },
+      ],
+      series: [
+        {},
+        { label: "stage 1", stroke: "#6f8fb8", width: 1, dash: [4, 3], points: { show: false } },
+        { label: "final", stroke: "#e8e8e8", width: 1.5, points: { show: false } },
+      ],
+      hooks: {
+        draw: [
+          (u) => {
+            const ctx = u.ctx;
+            const xs = u.data[0] as number[];
+            const ys = u.data[2] as (number | null)[];
+            const cls = classes.current;
+            ctx.save();
+            for (let i = 1; i < xs.length; i++) {
+              const c = cls[i] ?? 0;
+              if (ys[i] == null || ys[i - 1] == null) continue;
+              ctx.strokeStyle = CLASS_COLOURS[c];
+              ctx.lineWidth = c ? 3 : 2;
+              ctx.beginPath();
+              ctx.moveTo(u.valToPos(xs[i - 1], "x", true), u.valToPos(ys[i - 1] as number, "y", true));
+              ctx.lineTo(u.valToPos(xs[i], "x", true), u.valToPos(ys[i] as number, "y", true));
+              ctx.stroke();
+            }
+            ctx.restore();
+          },
+        ],
+      },
+    };
+    plot.current = new uPlot(opts, [[], [], []], box.current);
+    const ro = new ResizeObserver(() => plot.current?.setSize({ width: box.current!.clientWidth, height: 150 }));
+    ro.observe(box.current);
+    return () => { ro.disconnect(); plot.current?.destroy(); };
+  }, []);
+
+  useEffect(() => {
+    const final = samples.final[dof] ?? [];
+    const stage1 = samples.stage1[dof] ?? [];
+    if (info) classes.current = classify(final, rate, info.velocity ?? Infinity, info.acceleration ?? Infinity, info.jerk ?? Infinity);
+    plot.current?.setData([samples.t, stage1, final]);
+  }, [samples, dof, info, rate]);
+
+  const counts = [0, 0, 0, 0];
+  for (const c of classes.current) counts[c]++;
+  return (
+    <div className="curves" data-testid="curve-panel">
+      <div className="curve-head">
+        <select value={dof} onChange={(e) => onDof(e.target.value)} aria-label="DoF to plot">
+          {dofs.map((d) => <option key={d} value={d}>{d}</option>)}
+        </select>
+        <span className="legend"><i className="dash" /> stage 1 (ghost) <i className="solid" /> final</span>
+        {CLASS_NAMES.map((n, i) => (
+          <span key={n} className="cls" style={{ color: CLASS_COLOURS[i] }}>● {n} {counts[i]}</span>
+        ))}
+      </div>
+      <div ref={box} className="plot" />
+    </div>
+  );
+}

@@ -1,0 +1,124 @@
+// The parameter panel, generated from the selected block's JSON Schema.
+import { useContext, useMemo, useState } from "react";
+import type { BlockEntry, Robot } from "./api";
+import { CatalogContext } from "./context";
+import type { FlowNode } from "./graph";
+import { fieldsFromSchema, hexToRgb, rgbToHex, type Field } from "./schemaForm";
+
+interface Props {
+  node: FlowNode | null;
+  robot: Robot | null;
+  clips: string[];
+  errors: string[];
+  onChange: (id: string, params: Record<string, unknown>, live: boolean) => void;
+}
+
+function DofPicker({ value, robot, onChange }: { value: string[]; robot: Robot | null; onChange: (v: string[]) => void }) {
+  const [text, setText] = useState("");
+  const names = robot?.dofs.map((d) => d.name) ?? [];
+  const add = (s: string) => s && !value.includes(s) && onChange([...value, s]);
+  return (
+    <div className="dofs">
+      <div className="chips">
+        {value.map((s) => (
+          <span key={s} className="chip">{s}<button aria-label={`remove ${s}`} onClick={() => onChange(value.filter((x) => x !== s))}>×</button></span>
+        ))}
+      </div>
+      <div className="row">
+        <input list="dof-names" value={text} placeholder="DoF, glob or stationary:*" onChange={(e) => setText(e.target.value)}
+               onKeyDown={(e) => { if (e.key === "Enter") { add(text.trim()); setText(""); } }} />
+        <button onClick={() => { add(text.trim()); setText(""); }}>add</button>
+      </div>
+      <datalist id="dof-names">
+        {["*", "stationary:*", "spatial:*", "display:*", ...names].map((n) => <option key={n} value={n} />)}
+      </datalist>
+    </div>
+  );
+}
+
+function FieldEditor({ f, value, robot, clips, onChange }: { f: Field; value: unknown; robot: Robot | null; clips: string[]; onChange: (v: unknown, live: boolean) => void }) {
+  const v = value === undefined ? f.default : value;
+  switch (f.kind) {
+    case "slider": {
+      const num = typeof v === "number" ? v : Number(f.min ?? 0);
+      return (
+        <div className="row">
+          <input type="range" aria-label={f.name} data-testid={`param-${f.name}`} min={f.min} max={f.max} step={f.step} value={num}
+                 onChange={(e) => onChange(Number(e.target.value), true)} />
+          <input type="number" className="num" min={f.min} max={f.max} step={f.step} value={num}
+                 onChange={(e) => e.target.value !== "" && onChange(Number(e.target.value), true)} />
+          {f.nullable && v !== null && <button title="use the default" onClick={() => onChange(null, false)}>↺</button>}
+        </div>
+      );
+    }
+    case "number":
+    case "integer":
+      return <input type="number" aria-label={f.name} step={f.kind === "integer" ? 1 : "any"} value={v === null || v === undefined ? "" : Number(v)}
+                    onChange={(e) => onChange(e.target.value === "" ? (f.nullable ? null : 0) : Number(e.target.value), true)} />;
+    case "enum":
+      return (
+        <select aria-label={f.name} value={String(v ?? "")} onChange={(e) => {
+          const opt = f.options!.find((o) => String(o) === e.target.value);
+          onChange(opt, false);
+        }}>
+          {f.options!.map((o) => <option key={String(o)} value={String(o)}>{String(o)}</option>)}
+        </select>
+      );
+    case "bool":
+      return <input type="checkbox" aria-label={f.name} checked={Boolean(v)} onChange={(e) => onChange(e.target.checked, false)} />;
+    case "dofs":
+      return <DofPicker value={(v as string[]) ?? []} robot={robot} onChange={(x) => onChange(x, false)} />;
+    case "posture":
+      return (
+        <select aria-label={f.name} value={String(v ?? "")} onChange={(e) => onChange(e.target.value || null, false)}>
+          <option value="">(none)</option>
+          {(robot?.postures ?? []).map((p) => <option key={p} value={p}>{p}</option>)}
+        </select>
+      );
+    case "clip":
+      return (
+        <select aria-label={f.name} value={String(v ?? "")} onChange={(e) => onChange(e.target.value, false)}>
+          {[...(v && !clips.includes(String(v)) ? [String(v)] : []), ...clips].map((c) => <option key={c} value={c}>{c}</option>)}
+        </select>
+      );
+    case "colour":
+      return <input type="color" aria-label={f.name} value={rgbToHex((v as number[]) ?? [1, 1, 1])} onChange={(e) => onChange(hexToRgb(e.target.value), true)} />;
+    case "text":
+      return <input type="text" aria-label={f.name} value={String(v ?? "")} onChange={(e) => onChange(e.target.value, false)} />;
+    default:
+      return <JsonField value={v} onChange={(x) => onChange(x, false)} />;
+  }
+}
+
+function JsonField({ value, onChange }: { value: unknown; onChange: (v: unknown) => void }) {
+  const [text, setText] = useState(JSON.stringify(value ?? null, null, 1));
+  const [bad, setBad] = useState(false);
+  return (
+    <textarea className={bad ? "bad" : ""} rows={Math.min(10, text.split("\n").length + 1)} value={text}
+              onChange={(e) => setText(e.target.value)}
+              onBlur={() => { try { onChange(JSON.parse(text)); setBad(false); } catch { setBad(true); } }} />
+  );
+}
+
+export function ParamPanel({ node, robot, clips, errors, onChange }: Props) {
+  const catalog = useContext(CatalogContext);
+  const entry: BlockEntry | undefined = node ? catalog[node.data.type] : undefined;
+  const fields = useMemo(() => (entry ? fieldsFromSchema(entry.params_schema) : []), [entry]);
+  if (!node || !entry) return <div className="panel empty">Select a block to edit its parameters.</div>;
+  const params = node.data.params;
+  return (
+    <div className="panel params" data-testid="param-panel">
+      <h3>{entry.title} <span className="muted">{node.id}</span></h3>
+      <p className="doc">{entry.doc}</p>
+      {errors.map((e, i) => <div key={i} className="error-line">{e}</div>)}
+      {fields.map((f) => (
+        <label key={f.name} className={`field ${errors.some((e) => e.includes(`'${f.name}'`)) ? "bad" : ""}`} title={f.description}>
+          <span className="field-name">{f.label}</span>
+          <FieldEditor f={f} value={params[f.name]} robot={robot} clips={clips}
+                       onChange={(val, live) => onChange(node.id, { ...params, [f.name]: val }, live)} />
+          {f.description && <span className="hint">{f.description}</span>}
+        </label>
+      ))}
+    </div>
+  );
+}

@@ -1,0 +1,205 @@
+// Program document <-> React Flow graph, ports of a node, connection rules and auto-layout.
+// Pure functions (tested with vitest); the server stays the judge of validity.
+import type { BlockEntry, PortSpec, PortType, Program } from "./api";
+
+export interface NodeData {
+  type: string;
+  params: Record<string, unknown>;
+  ui: Record<string, unknown>;
+  inputs: Record<string, PortSpec>;
+  outputs: Record<string, PortSpec>;
+  errors: string[];
+  [key: string]: unknown;
+}
+
+export interface FlowNode {
+  id: string;
+  type: "block";
+  position: { x: number; y: number };
+  data: NodeData;
+  selected?: boolean;
+}
+
+export interface FlowEdge {
+  id: string;
+  source: string;
+  sourceHandle: string;
+  target: string;
+  targetHandle: string;
+  data?: { type: PortType };
+}
+
+export type Meta = Omit<Program, "nodes" | "edges">;
+
+export const CATEGORY_ORDER = ["sources", "operators", "layers", "stage2", "signals", "output"];
+
+/** Ports of a block for given parameters: the catalog's, or derived for dynamic-port blocks. */
+export function portsOf(entry: BlockEntry | undefined, params: Record<string, unknown>) {
+  if (!entry) return { inputs: {}, outputs: {} } as { inputs: Record<string, PortSpec>; outputs: Record<string, PortSpec> };
+  if (entry.type === "layer_mixer") {
+    const layers = (params.layers as { name: string; mode?: string }[] | undefined) ?? defaultParams(entry).layers as any[] ?? [];
+    const inputs: Record<string, PortSpec> = {};
+    for (const l of layers) inputs[l.name] = { type: "frame", doc: `layer '${l.name}' (${l.mode ?? "override"})`, required: false };
+    return { inputs, outputs: entry.outputs };
+  }
+  if (entry.type === "input") {
+    const t = ((params.type as PortType) ?? "float") as PortType;
+    return { inputs: {}, outputs: { value: { type: t, doc: "current value of the exposed input", required: false } } };
+  }
+  return { inputs: entry.inputs, outputs: entry.outputs };
+}
+
+/** Default parameter values from a block's JSON Schema. */
+export function defaultParams(entry: BlockEntry): Record<string, unknown> {
+  const out: Record<string, unknown> = {};
+  for (const [k, s] of Object.entries(entry.params_schema.properties ?? {})) {
+    if (s.default !== undefined) out[k] = structuredClone(s.default);
+  }
+  return out;
+}
+
+/** Which output types an input accepts (the backend's COMPATIBLE_SIGNALS). */
+const ACCEPTS: Record<PortType, PortType[]> = {
+  float: ["float", "int", "bool"],
+  int: ["int", "bool"],
+  bool: ["bool"],
+  string: ["string"],
+  vec3: ["vec3"],
+  colour: ["colour"],
+  event: ["event", "string"],
+  frame: ["frame"],
+};
+
+export function accepts(target: PortType, source: PortType): boolean {
+  return ACCEPTS[target]?.includes(source) ?? false;
+}
+
+/** Why a connection is refused, or null when it is allowed. */
+export function connectionProblem(
+  nodes: FlowNode[], edges: FlowEdge[], source: string, sourceHandle: string, target: string, targetHandle: string,
+): string | null {
+  if (source === target) return "a block cannot feed itself";
+  const s = nodes.find((n) => n.id === source);
+  const t = nodes.find((n) => n.id === target);
+  if (!s || !t) return "unknown node";
+  const out = s.data.outputs[sourceHandle];
+  const inp = t.data.inputs[targetHandle];
+  if (!out || !inp) return "unknown port";
+  if (!accepts(inp.type, out.type)) return `cannot connect ${out.type} output '${source}.${sourceHandle}' to ${inp.type} input '${target}.${targetHandle}'`;
+  if (edges.some((e) => e.target === target && e.targetHandle === targetHandle))
+    return `input '${target}.${targetHandle}' already has an edge; one edge per input`;
+  if (reaches(edges, target, source)) return "that connection would make a cycle";
+  return null;
+}
+
+function reaches(edges: FlowEdge[], from: string, to: string): boolean {
+  const seen = new Set<string>();
+  const stack = [from];
+  while (stack.length) {
+    const n = stack.pop()!;
+    if (n === to) return true;
+    if (seen.has(n)) continue;
+    seen.add(n);
+    for (const e of edges) if (e.source === n) stack.push(e.target);
+  }
+  return false;
+}
+
+export function edgeId(e: { source: string; sourceHandle: string; target: string; targetHandle: string }) {
+  return `${e.source}.${e.sourceHandle}->${e.target}.${e.targetHandle}`;
+}
+
+/** Program document -> graph. Nodes without ui positions are laid out left to right by depth. */
+export function programToFlow(program: Program, catalog: Record<string, BlockEntry>): { nodes: FlowNode[]; edges: FlowEdge[]; meta: Meta } {
+  const { nodes: pnodes = [], edges: pedges = [], ...meta } = program;
+  const positions = needsLayout(program) ? autoLayout(program) : null;
+  const nodes: FlowNode[] = pnodes.map((n) => {
+    const ui = (n.ui ?? {}) as Record<string, unknown>;
+    const params = (n.params ?? {}) as Record<string, unknown>;
+    const { inputs, outputs } = portsOf(catalog[n.type], params);
+    const pos = positions?.[n.id] ?? { x: Number(ui.x ?? 0), y: Number(ui.y ?? 0) };
+    return { id: n.id, type: "block", position: pos, data: { type: n.type, params, ui, inputs, outputs, errors: [] } };
+  });
+  const edges: FlowEdge[] = (pedges ?? []).map((e: any) => {
+    const src = nodes.find((n) => n.id === e.from.node);
+    const t = src?.data.outputs[e.from.port]?.type ?? "frame";
+    const fe = { source: e.from.node, sourceHandle: e.from.port, target: e.to.node, targetHandle: e.to.port };
+    return { id: edgeId(fe), ...fe, data: { type: t } };
+  });
+  return { nodes, edges, meta: meta as Meta };
+}
+
+/** Graph -> program document (editor positions go to `ui`, semantics stay apart). */
+export function flowToProgram(nodes: FlowNode[], edges: FlowEdge[], meta: Meta): Program {
+  return {
+    ...meta,
+    nodes: nodes.map((n) => ({
+      id: n.id,
+      type: n.data.type,
+      params: n.data.params,
+      ui: { ...n.data.ui, x: Math.round(n.position.x), y: Math.round(n.position.y) },
+    })),
+    edges: edges.map((e) => ({ from: { node: e.source, port: e.sourceHandle }, to: { node: e.target, port: e.targetHandle } })),
+  } as Program;
+}
+
+function needsLayout(p: Program): boolean {
+  return (p.nodes ?? []).some((n) => typeof (n.ui as any)?.x !== "number" || typeof (n.ui as any)?.y !== "number");
+}
+
+/** Layered layout: column = longest path from a source, rows in document order. */
+export function autoLayout(p: Program, dx = 270, dy = 150): Record<string, { x: number; y: number }> {
+  const nodes = p.nodes ?? [];
+  const edges = (p.edges ?? []) as any[];
+  const depth: Record<string, number> = {};
+  for (const n of nodes) depth[n.id] = 0;
+  for (let pass = 0; pass < nodes.length; pass++) {
+    let changed = false;
+    for (const e of edges) {
+      const d = (depth[e.from.node] ?? 0) + 1;
+      if (e.to.node in depth && d > depth[e.to.node]) {
+        depth[e.to.node] = d;
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  const rows: Record<number, number> = {};
+  const out: Record<string, { x: number; y: number }> = {};
+  for (const n of nodes) {
+    const c = depth[n.id];
+    const r = rows[c] ?? 0;
+    rows[c] = r + 1;
+    out[n.id] = { x: c * dx, y: r * dy };
+  }
+  return out;
+}
+
+/** A fresh node id for a block type, unique in the graph. */
+export function freshId(nodes: FlowNode[], type: string): string {
+  const ids = new Set(nodes.map((n) => n.id));
+  if (!ids.has(type)) return type;
+  for (let k = 2; ; k++) if (!ids.has(`${type}_${k}`)) return `${type}_${k}`;
+}
+
+/** Copy: the selected nodes and the edges between them; paste gives fresh ids and an offset. */
+export function pasteClipboard(
+  existing: FlowNode[], clip: { nodes: FlowNode[]; edges: FlowEdge[] }, offset = 40,
+): { nodes: FlowNode[]; edges: FlowEdge[] } {
+  const rename: Record<string, string> = {};
+  const all = [...existing];
+  const nodes = clip.nodes.map((n) => {
+    const id = freshId(all, n.id.replace(/_\d+$/, ""));
+    rename[n.id] = id;
+    const copy: FlowNode = { ...structuredClone(n), id, selected: true, position: { x: n.position.x + offset, y: n.position.y + offset } };
+    all.push(copy);
+    return copy;
+  });
+  const edges = clip.edges
+    .filter((e) => rename[e.source] && rename[e.target])
+    .map((e) => {
+      const fe = { source: rename[e.source], sourceHandle: e.sourceHandle, target: rename[e.target], targetHandle: e.targetHandle };
+      return { ...e, ...fe, id: edgeId(fe) };
+    });
+  return { nodes, edges };
+}

@@ -1,0 +1,104 @@
+// Parameter-panel fields derived from a block's JSON Schema (pydantic's output), one widget each.
+import type { JsonSchema } from "./api";
+
+export type FieldKind = "slider" | "number" | "integer" | "enum" | "bool" | "text" | "dofs" | "colour" | "json" | "posture" | "clip";
+
+export interface Field {
+  name: string;
+  label: string;
+  kind: FieldKind;
+  description: string;
+  min?: number;
+  max?: number;
+  step?: number;
+  options?: (string | number)[];
+  nullable: boolean;
+  default?: unknown;
+}
+
+function resolve(s: JsonSchema, root: JsonSchema): JsonSchema {
+  if (s.$ref) {
+    const name = s.$ref.split("/").pop()!;
+    return { ...(root.$defs?.[name] ?? {}), ...s, $ref: undefined };
+  }
+  return s;
+}
+
+/** The non-null branch of `X | None` and whether null is allowed. */
+function unwrapNullable(s: JsonSchema, root: JsonSchema): { schema: JsonSchema; nullable: boolean } {
+  if (s.anyOf) {
+    const branches = s.anyOf.map((b) => resolve(b, root));
+    const nonNull = branches.filter((b) => b.type !== "null");
+    if (nonNull.length === 1) return { schema: { ...nonNull[0], description: s.description, default: s.default, title: s.title }, nullable: nonNull.length < branches.length };
+  }
+  return { schema: resolve(s, root), nullable: false };
+}
+
+const label = (name: string) => name.replace(/_/g, " ");
+
+export function fieldsFromSchema(schema: JsonSchema): Field[] {
+  const out: Field[] = [];
+  for (const [name, raw] of Object.entries(schema.properties ?? {})) {
+    const { schema: s, nullable } = unwrapNullable(raw, schema);
+    const widget = (raw["x-widget"] ?? s["x-widget"]) as string | undefined;
+    const base = { name, label: label(name), description: String(raw.description ?? s.description ?? ""), nullable, default: raw.default ?? s.default };
+    if (widget === "dofs") {
+      out.push({ ...base, kind: "dofs" });
+      continue;
+    }
+    if (widget === "posture") {
+      out.push({ ...base, kind: "posture" });
+      continue;
+    }
+    if (name === "clip") {
+      out.push({ ...base, kind: "clip" });
+      continue;
+    }
+    const enumValues = s.enum ?? (s.const !== undefined ? [s.const] : undefined);
+    if (enumValues) {
+      out.push({ ...base, kind: "enum", options: enumValues as (string | number)[] });
+      continue;
+    }
+    const t = Array.isArray(s.type) ? s.type.find((x) => x !== "null") : s.type;
+    if (t === "number" || t === "integer") {
+      const min = s.minimum ?? s.exclusiveMinimum;
+      const max = s.maximum ?? s.exclusiveMaximum;
+      const bounded = typeof min === "number" && typeof max === "number";
+      const step = t === "integer" ? 1 : bounded ? niceStep((max as number) - (min as number)) : undefined;
+      out.push({ ...base, kind: bounded ? "slider" : t === "integer" ? "integer" : "number", min, max, step });
+      continue;
+    }
+    if (t === "boolean") {
+      out.push({ ...base, kind: "bool" });
+      continue;
+    }
+    if (t === "string") {
+      out.push({ ...base, kind: "text" });
+      continue;
+    }
+    if (t === "array" && s.items && (s.items as JsonSchema).type === "number" && (s as any).maxItems === 3 && /colou?r/.test(name)) {
+      out.push({ ...base, kind: "colour" });
+      continue;
+    }
+    out.push({ ...base, kind: "json" });
+  }
+  return out;
+}
+
+function niceStep(span: number): number {
+  if (span <= 1.01) return 0.01;
+  if (span <= 10.01) return 0.05;
+  if (span <= 100.01) return 0.5;
+  return Math.pow(10, Math.floor(Math.log10(span)) - 2);
+}
+
+/** Hex colour of an [r, g, b] in 0..1 and back (for colour pickers). */
+export function rgbToHex(rgb: number[]): string {
+  return "#" + rgb.map((c) => Math.round(Math.min(1, Math.max(0, c)) * 255).toString(16).padStart(2, "0")).join("");
+}
+
+export function hexToRgb(hex: string): number[] {
+  const m = /^#?([0-9a-f]{2})([0-9a-f]{2})([0-9a-f]{2})$/i.exec(hex);
+  if (!m) return [0, 0, 0];
+  return [1, 2, 3].map((i) => Math.round((parseInt(m[i], 16) / 255) * 1000) / 1000);
+}

@@ -1,0 +1,183 @@
+"""End-to-end: the editor in headless Chromium against a real `nutty serve`.
+
+Covers: the running program shown live; σ slider of the motion filter changing the running program
+without a rebuild; adding a sine from the palette and wiring it to the output; an invalid connection
+refused with a reason and an invalid parameter shown on its node; undo/redo; save and reopen.
+Screenshots go to test-artifacts/.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from backend.client import NuttyClient
+
+ROOT = Path(__file__).resolve().parents[1]
+DIST = ROOT / "frontend" / "dist" / "index.html"
+CHROMIUM = "/usr/bin/chromium"
+ARTIFACTS = ROOT / "test-artifacts"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync", "--enable-unsafe-swiftshader"]
+
+VALID = re.compile(r"^valid ·")
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
+]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    robot = tmp_path_factory.mktemp("robot") / "nutty_desk"
+    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)  # saves go to a scratch copy of the robot
+    for p in (robot / "programs").glob("*.json"):
+        p.unlink()
+    port = free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "serve", "--robot", str(robot), "--port", str(port),
+                             "--no-previz"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    client = NuttyClient(f"http://127.0.0.1:{port}")
+    deadline = time.time() + 60
+    while True:
+        try:
+            client.status()
+            break
+        except Exception:
+            if proc.poll() is not None or time.time() > deadline:
+                proc.kill()
+                pytest.fail(f"server did not start: {proc.stdout.read() if proc.stdout else ''}")
+            time.sleep(0.3)
+    yield {"url": f"http://127.0.0.1:{port}", "client": client}
+    client.close()
+    proc.terminate()
+    try:
+        proc.wait(15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+@pytest.fixture(scope="module")
+def page(server):
+    from playwright.sync_api import sync_playwright
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
+        pg.set_default_timeout(15000)
+        pg.goto(server["url"] + "/")
+        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+        yield pg
+        browser.close()
+
+
+def wait_until(fn, timeout=10.0, what="condition"):
+    end = time.time() + timeout
+    while time.time() < end:
+        if fn():
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def drag(page, src, dst):
+    a, b = src.bounding_box(), dst.bounding_box()
+    page.mouse.move(a["x"] + a["width"] / 2, a["y"] + a["height"] / 2)
+    page.mouse.down()
+    page.mouse.move(a["x"] + 20, a["y"] + 5)  # React Flow drops the first move of a drag
+    page.mouse.move(b["x"] + b["width"] / 2, b["y"] + b["height"] / 2, steps=8)
+    page.mouse.up()
+
+
+def test_running_program_is_shown_live(page):
+    page.get_by_test_id("node-mix").wait_for()
+    live = page.get_by_test_id("live-breathe.out")
+    first = live.inner_text()
+    wait_until(lambda: live.inner_text() != first, what="live values to move")
+    page.screenshot(path=str(ARTIFACTS / "editor-live.png"))
+
+
+def test_sigma_slider_changes_the_running_program(page, server):
+    page.get_by_test_id("node-nmf").click()
+    slider = page.get_by_test_id("param-sigma")
+    slider.wait_for()
+    apu_swaps = server["client"].status()["swaps"]
+    slider.fill("0.3")
+    def sigma():
+        prog = server["client"].program()["program"]
+        return next(n for n in prog["nodes"] if n["id"] == "nmf")["params"].get("sigma")
+    wait_until(lambda: sigma() == 0.3, what="the running program's σ to change")
+    assert server["client"].status()["swaps"] == apu_swaps  # a parameter drag rebuilds nothing
+
+
+def test_add_sine_connect_errors_undo_redo_and_save(page, server):
+    page.on("dialog", lambda d: d.accept("e2e_program") if d.type == "prompt" else d.accept())
+    page.get_by_role("button", name="New").click()
+    page.get_by_test_id("node-rest").wait_for()
+    wait_until(lambda: page.get_by_test_id("node-breathe").count() == 0, what="the new program")
+    # remove the rest pose: the output now misses its input -> an error on the output node
+    page.get_by_test_id("node-rest").click()
+    page.keyboard.press("Delete")
+    page.get_by_test_id("error-output").wait_for()
+    page.get_by_test_id("status").filter(has_text="error").wait_for()
+    # drag a sine from the palette onto the graph, left of the output, and wire it to the output
+    out_box = page.get_by_test_id("node-output").bounding_box()
+    pane = page.locator(".react-flow__pane")
+    pane_box = pane.bounding_box()
+    page.get_by_test_id("palette-sine").drag_to(pane, target_position={
+        "x": max(20, out_box["x"] - pane_box["x"] - 380), "y": out_box["y"] - pane_box["y"] + 10})
+    page.get_by_test_id("node-sine").wait_for()
+    drag(page, page.locator("[data-testid=node-sine] .react-flow__handle.source").first,
+         page.locator("[data-testid=node-output] .react-flow__handle.target").first)
+    page.screenshot(path=str(ARTIFACTS / "editor-after-drag.png"))
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    live = page.get_by_test_id("live-sine.out")
+    first = live.inner_text()
+    page.screenshot(path=str(ARTIFACTS / "editor-wired.png"))
+    wait_until(lambda: live.inner_text() != first, what="the new sine's live value to move")
+    # an invalid connection is refused with a visible reason
+    page.get_by_test_id("palette-sine").dblclick()
+    page.get_by_test_id("node-sine_2").wait_for()
+    drag(page, page.locator("[data-testid=node-sine_2] .react-flow__handle.source").first,
+         page.locator("[data-testid=node-sine] .react-flow__handle.target").first)
+    page.get_by_test_id("toast").filter(has_text="cannot connect frame output").wait_for()
+    # an invalid parameter: a DoF the robot does not have -> red badge on that node
+    page.get_by_test_id("node-sine").click()
+    box = page.get_by_placeholder("DoF, glob or stationary:*")
+    box.fill("tail_wag")
+    box.press("Enter")
+    page.get_by_test_id("error-sine").wait_for()
+    assert "tail_wag" in page.get_by_test_id("node-sine").inner_text()
+    page.screenshot(path=str(ARTIFACTS / "editor-error.png"))
+    # undo removes the bad DoF, redo brings it back
+    page.get_by_test_id("undo").click()
+    wait_until(lambda: page.get_by_test_id("error-sine").count() == 0, what="undo to clear the error")
+    page.get_by_test_id("redo").click()
+    page.get_by_test_id("error-sine").wait_for()
+    page.get_by_test_id("undo").click()
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    # save to the library and reopen
+    page.get_by_test_id("save").click()
+    wait_until(lambda: "e2e_program" in server["client"]._call("GET", "/api/programs"), what="the saved program")
+    page.get_by_role("button", name="New").click()
+    wait_until(lambda: page.get_by_test_id("node-sine").count() == 0, what="a blank program")
+    page.get_by_label("open program").select_option("e2e_program")
+    page.get_by_test_id("node-sine").wait_for()
+    assert page.get_by_test_id("node-sine_2").count() == 1
