@@ -206,6 +206,18 @@ def _signal_json(emb, value: Any) -> Any:
     return value if _jsonable(value) else str(value)
 
 
+def _limit_classes(emb, frame: AnimationFrame) -> dict[str, int]:
+    """The trajectory-helper's class of this frame per continuous channel that breaks a limit
+    (1 velocity, 2 acceleration, 3 jerk), from the frame's exact finite differences; ok omitted."""
+    slack = 1.0 + 1e-9
+    codes = np.zeros(emb.n_channels, dtype=np.int8)
+    codes[np.abs(frame.velocity) > emb.vel_limit * slack] = 1
+    codes[np.abs(frame.acceleration) > emb.acc_limit * slack] = 2
+    codes[np.abs(frame.jerk) > emb.jerk_limit * slack] = 3
+    codes[~emb.continuous_mask] = 0
+    return {emb.channel_names[i]: int(codes[i]) for i in np.flatnonzero(codes)}
+
+
 def _frame_channels(emb, values: np.ndarray) -> dict[str, float]:
     return {name: round(float(values[i]), 5) for i, name in enumerate(emb.channel_names)}
 
@@ -526,7 +538,8 @@ def create_app(session: EngineSession, *, token: str | None = None, previz: Any 
                                       for s in sub["signals"]}
                 if sub["frames"]:
                     msg["frame"] = {"position": _frame_channels(emb, frame.position),
-                                    "stage1": _frame_channels(emb, frame.stage1 if frame.stage1 is not None else frame.position)}
+                                    "stage1": _frame_channels(emb, frame.stage1 if frame.stage1 is not None else frame.position),
+                                    "classes": _limit_classes(emb, frame)}
                 if apu is not None:
                     msg["layers"] = {s.node_id: s.block.layer_states() for s in apu.steps
                                      if hasattr(s.block, "layer_states")}

@@ -191,6 +191,7 @@ def test_ws_telemetry_signals_frames_and_layers(client):
         assert msg["signals"]["in_arousal.value"] == 0.0
         assert msg["signals"]["breathe.out"]["mask"] >= 9
         assert "head_yaw" in msg["frame"]["position"] and "head_yaw" in msg["frame"]["stage1"]
+        assert all(c in (1, 2, 3) for c in msg["frame"]["classes"].values())  # only violations are listed
         assert [layer["name"] for layer in msg["layers"]["mix"]] == ["base", "idle"]
         ws.send_json({"type": "subscribe", "rate": 1000})
         err = ws.receive_json()

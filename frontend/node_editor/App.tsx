@@ -40,7 +40,7 @@ function Editor() {
   const [clips, setClips] = useState<string[]>([]);
   const [dirty, setDirty] = useState(false);
   const [live, setLive] = useState<Live>({ values: {}, history: {}, layers: {} });
-  const [samples, setSamples] = useState<Samples>({ t: [], final: {}, stage1: {} });
+  const [samples, setSamples] = useState<Samples>({ t: [], final: {}, stage1: {}, classes: [] });
   const [curveDof, setCurveDof] = useState("head_yaw");
   const [consoleLines, setConsoleLines] = useState<string[]>([]);
   const [inputs, setInputs] = useState<{ decls: any[]; values: Record<string, any> }>({ decls: [], values: {} });
@@ -140,7 +140,7 @@ function Editor() {
             const final = { ...prev.final }, stage1 = { ...prev.stage1 };
             for (const [k, v] of Object.entries(msg.frame.position as Record<string, number>)) final[k] = [...(final[k] ?? []).slice(-keep + 1), v];
             for (const [k, v] of Object.entries(msg.frame.stage1 as Record<string, number>)) stage1[k] = [...(stage1[k] ?? []).slice(-keep + 1), v];
-            return { t: [...prev.t.slice(-keep + 1), msg.t], final, stage1 };
+            return { t: [...prev.t.slice(-keep + 1), msg.t], final, stage1, classes: [...prev.classes.slice(-keep + 1), msg.frame.classes ?? {}] };
           });
         }
       };

@@ -11,6 +11,8 @@ export interface Samples {
   t: number[];
   final: Record<string, number[]>;
   stage1: Record<string, number[]>;
+  /** The server's classification of each sampled frame (exact, from the full-rate frames). */
+  classes: Record<string, number>[];
 }
 
 export function CurvePanel({ samples, dof, info, rate, onDof, dofs }: {
@@ -68,7 +70,10 @@ export function CurvePanel({ samples, dof, info, rate, onDof, dofs }: {
   useEffect(() => {
     const final = samples.final[dof] ?? [];
     const stage1 = samples.stage1[dof] ?? [];
-    if (info) classes.current = classify(final, rate, info.velocity ?? Infinity, info.acceleration ?? Infinity, info.jerk ?? Infinity);
+    // Prefer the server's per-frame classes (exact at the engine's rate); fall back to finite
+    // differences of the decimated samples when talking to a server that does not send them.
+    if (samples.classes.length === final.length && samples.classes.length) classes.current = samples.classes.map((c) => c[dof] ?? 0);
+    else if (info) classes.current = classify(final, rate, info.velocity ?? Infinity, info.acceleration ?? Infinity, info.jerk ?? Infinity);
     plot.current?.setData([samples.t, stage1, final]);
   }, [samples, dof, info, rate]);
 

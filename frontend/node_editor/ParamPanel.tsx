@@ -40,12 +40,14 @@ function FieldEditor({ f, value, robot, clips, onChange }: { f: Field; value: un
   const v = value === undefined ? f.default : value;
   switch (f.kind) {
     case "slider": {
-      const num = typeof v === "number" ? v : Number(f.min ?? 0);
+      const unset = typeof v !== "number";  // a nullable override left to its default (e.g. the preset's σ)
+      const num = unset ? ((Number(f.min ?? 0) + Number(f.max ?? 1)) / 2) : (v as number);
       return (
-        <div className="row">
+        <div className={`row ${unset ? "unset" : ""}`}>
           <input type="range" aria-label={f.name} data-testid={`param-${f.name}`} min={f.min} max={f.max} step={f.step} value={num}
                  onChange={(e) => onChange(Number(e.target.value), true)} />
-          <input type="number" className="num" min={f.min} max={f.max} step={f.step} value={num}
+          <input type="number" className="num" min={f.min} max={f.max} step={f.step} value={unset ? "" : num}
+                 placeholder={unset ? "default" : undefined}
                  onChange={(e) => e.target.value !== "" && onChange(Number(e.target.value), true)} />
           {f.nullable && v !== null && <button title="use the default" onClick={() => onChange(null, false)}>↺</button>}
         </div>
