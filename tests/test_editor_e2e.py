@@ -114,6 +114,29 @@ def test_running_program_is_shown_live(page):
     page.screenshot(path=str(ARTIFACTS / "editor-live.png"))
 
 
+def test_layer_toggle_fades_the_layer(page, server):
+    toggle = page.get_by_test_id("layer-mix-idle")
+    toggle.wait_for()
+    toggle.click()  # controlled by telemetry: the box follows the engine, not the click
+    wait_until(lambda: not _layer(server, "idle")["active"], what="the idle layer to turn off")
+    wait_until(lambda: _layer(server, "idle")["fade"] == 0.0, what="the idle layer to fade out")
+    toggle.click()
+    wait_until(lambda: _layer(server, "idle")["active"], what="the idle layer to turn on")
+
+
+def _layer(server, name):
+    import json as _json
+    import websockets.sync.client as wsc
+
+    url = server["url"].replace("http", "ws") + "/ws/telemetry"
+    with wsc.connect(url) as ws:
+        ws.send(_json.dumps({"type": "subscribe", "signals": [], "frames": False, "rate": 30}))
+        while True:
+            msg = _json.loads(ws.recv())
+            if msg.get("type") == "telemetry" and "layers" in msg:
+                return next(l for l in msg["layers"]["mix"] if l["name"] == name)
+
+
 def test_sigma_slider_changes_the_running_program(page, server):
     page.get_by_test_id("node-nmf").click()
     slider = page.get_by_test_id("param-sigma")
@@ -153,7 +176,10 @@ def test_add_sine_connect_errors_undo_redo_and_save(page, server):
     page.screenshot(path=str(ARTIFACTS / "editor-wired.png"))
     wait_until(lambda: live.inner_text() != first, what="the new sine's live value to move")
     # an invalid connection is refused with a visible reason
-    page.get_by_test_id("palette-sine").dblclick()
+    sine_box = page.get_by_test_id("node-sine").bounding_box()
+    page.get_by_test_id("palette-sine").drag_to(pane, target_position={
+        "x": max(20, sine_box["x"] - pane_box["x"]),
+        "y": min(pane_box["height"] - 150, sine_box["y"] - pane_box["y"] + sine_box["height"] + 60)})
     page.get_by_test_id("node-sine_2").wait_for()
     drag(page, page.locator("[data-testid=node-sine_2] .react-flow__handle.source").first,
          page.locator("[data-testid=node-sine] .react-flow__handle.target").first)

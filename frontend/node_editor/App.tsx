@@ -338,6 +338,9 @@ function Editor() {
     return () => window.removeEventListener("keydown", onKey);
   }, [undo, redo, copy, paste, save, flow]);
 
+  const liveWithActions = useMemo(() => ({
+    ...live, setLayer: (mixer: string, layer: string, active: boolean) => sendCommand({ type: "set_layer", mixer, layer, active }),
+  }), [live, sendCommand]);
   const selected = graph.nodes.find((n) => n.selected) ?? null;
   const continuous = robot?.dofs.filter((d) => d.type === "continuous").map((d) => d.name) ?? [];
   const status = !report ? "…" : report.valid
@@ -346,7 +349,7 @@ function Editor() {
 
   return (
     <CatalogContext.Provider value={catalog}>
-    <LiveContext.Provider value={live}>
+    <LiveContext.Provider value={liveWithActions}>
     <div className="app">
       <header className="topbar">
         <span className="logo">Nutty</span>

@@ -100,6 +100,9 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
           <div className="layers" style={{ marginTop: liveTop + outs.length * 18 }}>
             {layers.map((l) => (
               <div key={l.name} className="layer-row" title={`${l.mode}, weight ${l.weight}`}>
+                <input type="checkbox" className="nodrag" checked={l.active} aria-label={`layer ${l.name} on`}
+                       data-testid={`layer-${id}-${l.name}`}
+                       onChange={(e) => live.setLayer?.(id, l.name, e.target.checked)} />
                 <span className="layer-name">{l.name}</span>
                 <span className="layer-mode">{l.mode}</span>
                 <span className="layer-bar"><span style={{ width: `${Math.round(l.effective * 100)}%` }} /></span>

@@ -14,6 +14,8 @@ export interface Live {
   values: Record<string, unknown>;
   history: Record<string, number[]>;
   layers: Record<string, LayerState[]>;
+  /** Fade a mixer's layer in or out (a set_layer command). */
+  setLayer?: (mixer: string, layer: string, active: boolean) => void;
 }
 
 export const CatalogContext = createContext<Record<string, BlockEntry>>({});
