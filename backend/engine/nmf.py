@@ -13,9 +13,19 @@ Implements the exact discrete-time reading in `shared/specs/nmf.md`:
 with `lam(u, k) = k/2 tanh(u / (k/2))` (tanh limiter, never reaches k/2) or `clip(u, -k, k)` (hard).
 DoFs declared as a group (e.g. a base's x and y) are limited by their vector norm.
 
-Every parameter is a scalar or a per-DoF array, so one filter serves a whole robot. The hot path is a
-numba-compiled kernel over structure-of-arrays state (a pure-numpy reference implementation gives
-the same numbers and is the fallback when numba is unavailable).
+Every parameter is a scalar or a per-DoF array, so one filter serves a whole robot.
+
+Implementation
+- State and parameters are structure-of-arrays rows of one float64 buffer. The hot path is a
+  numba-compiled kernel: a one-pass loop for a few DoFs, and for more DoFs simple passes over the
+  DoFs that the compiler turns into SIMD code. `tanh` is our own branch-free implementation
+  (`_tanh`, within 4 ulp of libm's, see tests) because libm's cannot be vectorised; `pow` stays libm.
+- `_reference_step` is a pure-numpy implementation of the same arithmetic, vectorised over DoFs. The
+  tests check the compiled kernels against it bit for bit; it is the fallback when numba is missing.
+- Overflow guards that change no output: the induced velocity is clamped to +-1e290 (every limiter
+  has saturated long before), H's base to 1e12 (tanh has saturated), group norms are computed
+  scaled. With limits <= 1e100 and rates in [1e-3, 1e6] Hz no intermediate value can overflow, so
+  the filter never produces NaN or inf for finite set-points.
 
 Known limits of the spec's guarantees (found by property testing; the filter is left exactly as
 specified): the spec bounds the *output's* finite differences (|v| <= V/2, |a| <= A, |j| <= J with
@@ -33,6 +43,7 @@ per s³; `rate` in Hz (samples per second).
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -45,17 +56,29 @@ try:  # numba is a hard dependency in pyproject; the fallback keeps the filter u
 except ImportError:  # pragma: no cover - exercised only where numba is missing
     HAVE_NUMBA = False
 
-RHO_MAX = 0.999
+    def njit(*_args: Any, **_kw: Any):  # type: ignore[no-redef]
+        return lambda fn: fn
+
+
+RHO_MAX = 0.999  # the spec clamps rho to at most 0.999 (H divides by 1 - rho)
+H_BASE_MAX = 1e12  # (|v|/(1-rho)) is capped here before the power: tanh(1e12**e - pi) has saturated
+V_CLAMP = 1e290  # |induced velocity| cap: keeps (v/dt)/dt finite; every limiter saturated long before
+LIMIT_MAX = 1e100  # largest accepted V, A, J (keeps reported derivatives finite at any accepted rate)
+RATE_MIN, RATE_MAX = 1e-3, 1e6  # accepted output rates (Hz)
 ONE_PASS_MAX_DOFS = 4  # the one-pass kernel wins only for a few DoFs (measured)
 ORDERS = (1, 2, 3)
 LIMITERS = ("tanh", "hard")
 
-# Rows of the packed parameter matrix (P, n): one row per per-DoF parameter.
-_V, _A, _J, _SIGMA, _RHO, _PMIN, _PMAX, _BETA, _BYPASS, _HASPOS = range(10)
-N_PARAMS = 10
-# Rows of the packed state matrix (S, n).
-_X, _VEL, _ACC, _JERK, _SP, _INIT = range(6)
-N_STATE = 6
+# Rows of the buffer: state, then parameters (some derived once in set_params), then scratch.
+(_X, _VEL, _ACC, _JERK, _SP, _INIT,
+ _KV, _KA, _KJ, _SIGMA, _RHO, _BETA, _EXPO, _OMR, _BYPASS, _HASPOS, _LO, _HI, _CENTER, _ALPHA, _TWOB,
+ _MEMBER, _GID, _HMIX,
+ _WV, _WU, _WT, _WN, _WG1, _WG2) = range(30)
+N_ROWS = 30
+_STATE = slice(_X, _INIT + 1)
+_PARAMS = slice(_KV, _HMIX + 1)
+# cfg vector: dt, order, hard, n_groups, grouped, any_pos, all_bypass
+_CFG_LEN = 7
 
 
 @dataclass(frozen=True)
@@ -77,6 +100,7 @@ class Preset:
                 "bypass": self.bypass}
 
 
+# W bypasses H, so its sigma/rho are unused; they are the constructor's defaults.
 PRESETS: dict[str, Preset] = {
     "W": Preset("W", "regular (H bypassed)", 0.5, 0.5, 20.0, 100.0, 10000.0, bypass=True),
     "A": Preset("A", "slow & smooth", 1.0, 1.0, 20.0, 100.0, 10000.0),
@@ -89,6 +113,7 @@ _PRESET_ALIASES = {"REGULAR": "W"}
 
 
 def preset(name: str) -> Preset:
+    """The preset called `name` (W, A-E, case-insensitive; "regular" is W)."""
     key = str(name).strip().upper()
     key = _PRESET_ALIASES.get(key, key)
     if key not in PRESETS:
@@ -97,7 +122,68 @@ def preset(name: str) -> Preset:
 
 
 # ------------------------------------------------------------------------------------------------
-# Building blocks (numpy, exact formulas of the spec; used by the reference step and the figures)
+# tanh, twice: a scalar version for the compiled kernels and a numpy twin (identical operations)
+# ------------------------------------------------------------------------------------------------
+# tanh(a) = expm1(2a) / (expm1(2a) + 2), with expm1 by Cody-Waite reduction 2a = k ln2 + r,
+# |r| <= ln2/2, and a degree-13 Taylor polynomial for expm1(r) (truncation < 1e-17 relative).
+# For |a| >= 20 the result rounds to exactly 1, so the argument is capped there (k <= 58).
+_LN2_HI = 6.93147180369123816490e-01  # ln 2 with trailing zero bits: k * _LN2_HI is exact
+_LN2_LO = 1.90821492927058770002e-10
+_INV_LN2 = 1.44269504088896338700e+00
+_TANH_CAP = 20.0
+_ROUND = 6755399441055744.0  # 1.5 * 2**52: adding and subtracting it rounds to an integer
+_C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13 = (1.0 / math.factorial(k) for k in range(2, 14))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _tanh(x):
+    a = min(abs(x), _TANH_CAP)
+    y = a + a
+    k = (y * _INV_LN2 + _ROUND) - _ROUND  # round to nearest without a call: vectorisable
+    r = (y - k * _LN2_HI) - k * _LN2_LO
+    p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
+        _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+    # 2**k (0 <= k <= 58) as a product of powers of two picked by k's bits: exact and branch-free
+    s = 1.0
+    kk = k
+    big = kk >= 32.0
+    s = s * (4294967296.0 if big else 1.0)
+    kk = kk - (32.0 if big else 0.0)
+    big = kk >= 16.0
+    s = s * (65536.0 if big else 1.0)
+    kk = kk - (16.0 if big else 0.0)
+    big = kk >= 8.0
+    s = s * (256.0 if big else 1.0)
+    kk = kk - (8.0 if big else 0.0)
+    big = kk >= 4.0
+    s = s * (16.0 if big else 1.0)
+    kk = kk - (4.0 if big else 0.0)
+    big = kk >= 2.0
+    s = s * (4.0 if big else 1.0)
+    kk = kk - (2.0 if big else 0.0)
+    s = s * (2.0 if kk >= 1.0 else 1.0)
+    em1 = s * p + (s - 1.0)
+    t = em1 / (em1 + 2.0)
+    return t if x >= 0.0 else -t
+
+
+def tanh_np(x: np.ndarray) -> np.ndarray:
+    """numpy twin of `_tanh` (the same operations in the same order, so the same bits)."""
+    x = np.asarray(x, dtype=float)
+    a = np.minimum(np.abs(x), _TANH_CAP)
+    y = a + a
+    k = (y * _INV_LN2 + _ROUND) - _ROUND
+    r = (y - k * _LN2_HI) - k * _LN2_LO
+    p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
+        _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+    s = np.ldexp(1.0, k.astype(np.int64))
+    em1 = s * p + (s - 1.0)
+    t = em1 / (em1 + 2.0)
+    return np.where(x >= 0.0, t, -t)
+
+
+# ------------------------------------------------------------------------------------------------
+# Building blocks (numpy, the spec's formulas; used by the figures and the hand-computed tests)
 # ------------------------------------------------------------------------------------------------
 
 
@@ -111,7 +197,10 @@ def lam(u: np.ndarray | float, k: np.ndarray | float, hard: bool = False) -> np.
 
 
 def omega(v: np.ndarray | float, x: np.ndarray | float, pmin: float, pmax: float, beta: float) -> np.ndarray:
-    """Position saturation Ω: the induced velocity fades to 0 when moving toward a position limit."""
+    """Position saturation Ω: the induced velocity fades to 0 when moving toward a position limit.
+
+    The power is taken of |x - centre|/alpha (an even power in the paper; beta need not be an integer).
+    """
     v = np.asarray(v, dtype=float)
     x = np.asarray(x, dtype=float)
     alpha = (pmax - pmin) / 2.0
@@ -122,7 +211,7 @@ def omega(v: np.ndarray | float, x: np.ndarray | float, pmin: float, pmax: float
 
 
 def h_gain(speed: np.ndarray | float, sigma: np.ndarray | float, rho: np.ndarray | float) -> np.ndarray:
-    """H's gain g(|v|) so that H(v) = v g(|v|): `(tanh((|v|/(1-rho))^(1-sigma) - pi) + 1) / 2`.
+    """H's gain g(|v|) so that H(v) = v g(|v|): `(tanh((|v|/(1-rho))^(1-sigma) - pi) + 1) / 2`, in [0, 1].
 
     Finite for every sigma, rho in [0, 1] and finite |v| (0^0 = 1 at sigma = 1; rho clamped to 0.999).
     """
@@ -130,7 +219,7 @@ def h_gain(speed: np.ndarray | float, sigma: np.ndarray | float, rho: np.ndarray
     rho = np.minimum(np.asarray(rho, dtype=float), RHO_MAX)
     base = speed / (1.0 - rho)
     # tanh saturates long before the power overflows: cap the argument to keep it finite.
-    powered = np.power(np.minimum(base, 1e12), 1.0 - np.asarray(sigma, dtype=float))
+    powered = np.power(np.minimum(base, H_BASE_MAX), 1.0 - np.asarray(sigma, dtype=float))
     return 0.5 * (np.tanh(powered - math.pi) + 1.0)
 
 
@@ -141,158 +230,120 @@ def stabilise(v: np.ndarray | float, sigma: float, rho: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------------
-# The step kernel. One source, two back ends: compiled with numba, or run by the Python interpreter
-# on numpy scalars for the reference. Loops are over DoFs *inside compiled code*.
+# Compiled kernels (numba). Scalar helpers are inlined; loops run over DoFs inside compiled code.
+# error_model="numpy": a division by zero gives inf instead of raising, which lets loops vectorise
+# (no division here can be by zero: dt > 0, k/2 > 0, 1 - rho >= 0.001, alpha > 0, m > 0 checked).
 # ------------------------------------------------------------------------------------------------
 
 
-def _group_norms(vec, gid, n_groups, grouped, out, acc):
-    """|vec| per DoF, or the Euclidean norm of the DoF's group when DoFs are coupled."""
-    n = vec.shape[0]
-    if not grouped:
-        for i in range(n):
-            out[i] = abs(vec[i])
-        return
-    for g in range(n_groups):
-        acc[g] = 0.0
-    for i in range(n):
-        acc[gid[i]] += vec[i] * vec[i]
-    for i in range(n):
-        out[i] = math.sqrt(acc[gid[i]])
+@njit(cache=True, inline="always", error_model="numpy")
+def _lim(u, k, hard):
+    """lam for one value: the tanh limiter (headroom k/2) or the hard clip at k."""
+    if hard:
+        return min(max(u, -k), k)
+    h = 0.5 * k
+    return h * _tanh(u / h)
 
 
-def _limit_vec(vec, k, hard, gid, n_groups, grouped, norms, acc):
-    """lam applied per DoF, or to each group's norm with the vector scaled proportionally (in place)."""
-    _group_norms(vec, gid, n_groups, grouped, norms, acc)
-    n = vec.shape[0]
-    for i in range(n):
-        m = norms[i]
-        if m == 0.0:
-            continue
-        if hard:
-            lim = m if m <= k[i] else k[i]
-        else:
-            half = 0.5 * k[i]
-            lim = half * math.tanh(m / half)
-        vec[i] = vec[i] * (lim / m)
+@njit(cache=True, inline="always", error_model="numpy")
+def _induced(s, x, dt):
+    """(s - x)/dt, capped at +-V_CLAMP (only ever reached when s - x overflows the float range)."""
+    return min(max((s - x) / dt, -V_CLAMP), V_CLAMP)
 
 
-def _step_kernel(sp_in, buf, cfg, gid):
-    """Advance the filter by one sample (state updated in place).
+@njit(cache=True, inline="always", error_model="numpy")
+def _omega1(v, x, center, alpha, twob):
+    if (x > center and v > 0.0) or (x < center and v < 0.0):
+        r = min(abs(x - center) / alpha, 1.0)
+        return v * (1.0 - r ** twob)
+    return v
 
-    sp_in (n,) set-points (NaN = hold); buf (S + P + 6, n) = state rows, parameter rows, scratch rows;
-    cfg = [dt, order, hard, n_groups, grouped]; gid (n,) group index of each DoF. Few arguments on
-    purpose: each one costs the compiled call's dispatcher time, which dominates at 1 DoF.
-    """
-    st = buf[:N_STATE]
-    prm = buf[N_STATE:N_STATE + N_PARAMS]
-    work = buf[N_STATE + N_PARAMS:]
-    dt = cfg[0]
-    order = int(cfg[1])
-    hard = cfg[2] != 0.0
-    n_groups = int(cfg[3])
-    grouped = cfg[4] != 0.0
-    n = sp_in.shape[0]
-    v = work[0]
-    tmp = work[1]
-    norms = work[2]
-    acc_g = work[3]
-    vel_new = work[4]
-    acc_new = work[5]
-    for i in range(n):
-        s = sp_in[i]
-        if s == s:  # not NaN
-            st[_SP, i] = s
-            if st[_INIT, i] == 0.0:
-                st[_X, i] = s
-                st[_INIT, i] = 1.0
-    # induced velocity with position saturation
-    for i in range(n):
-        x = st[_X, i]
-        vi = (st[_SP, i] - x) / dt if st[_INIT, i] != 0.0 else 0.0
-        if prm[_HASPOS, i] != 0.0:
-            alpha = 0.5 * (prm[_PMAX, i] - prm[_PMIN, i])
-            center = prm[_PMIN, i] + alpha
-            if (x > center and vi > 0.0) or (x < center and vi < 0.0):
-                r = abs((x - center) / alpha)
-                if r > 1.0:
-                    r = 1.0
-                vi = vi * (1.0 - r ** (2.0 * prm[_BETA, i]))
-        v[i] = vi
-    # H: gain from |v| (the group's norm for coupled DoFs)
-    _group_norms(v, gid, n_groups, grouped, norms, acc_g)
-    for i in range(n):
-        if prm[_BYPASS, i] == 0.0:
-            rho = prm[_RHO, i]
-            if rho > RHO_MAX:
-                rho = RHO_MAX
-            base = norms[i] / (1.0 - rho)
-            if base > 1e12:
-                base = 1e12
-            g = 0.5 * (math.tanh(base ** (1.0 - prm[_SIGMA, i]) - math.pi) + 1.0)
-            v[i] = v[i] * g  # v now holds u = H(v)
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _h_arg(speed, omr, expo):
+    """(min(|v|/(1-rho), cap))^(1-sigma) - pi: the argument of H's tanh (exponents 0 and 1 exact)."""
+    b = min(speed / omr, H_BASE_MAX)
+    if expo == 0.0:
+        p = 1.0
+    elif expo == 1.0:
+        p = b
+    else:
+        p = b ** expo
+    return p - math.pi
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _advance(u, x, vel, acc, kv, ka, kj, lo, hi, dt, order, hard):
+    """Limiters and integration for one DoF: (x', vel', acc', reported jerk)."""
+    if order == 1:
+        w = _lim(u, kv, hard)
+        a = (w - vel) / dt
+    elif order == 2:
+        a = _lim((u - vel) / dt, ka, hard)
+        w = _lim(vel + a * dt, kv, hard)
+        a = (w - vel) / dt
+    else:
+        j = _lim(((u - vel) / dt - acc) / dt, kj, hard)
+        a = _lim(acc + j * dt, ka, hard)
+        w = _lim(vel + a * dt, kv, hard)
+    xn = x + w * dt
+    # Leaving [lo, hi] clips x' and zeroes vel', acc'; lo/hi are -inf/+inf without position limits.
+    # Written as min/max and selects (no branch) so that the loops over DoFs vectorise.
+    inside = lo <= xn and xn <= hi
+    xn = min(max(xn, lo), hi)
+    w = w if inside else 0.0
+    a = a if inside else 0.0
+    return xn, w, a, (a - acc) / dt
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _advance_all(buf, n, dt, order, hard):
+    """The limiters and integration of `_advance` over all uncoupled DoFs, as passes that each write
+    one array (the compiler vectorises a loop only when few arrays may alias). Called with literal
+    order/hard so each instance is specialised. Same operations as `_advance`."""
+    u = buf[_WV]
+    x = buf[_X]
+    vel = buf[_VEL]
+    acc = buf[_ACC]
+    jerk = buf[_JERK]
+    w = buf[_WU]
+    a = buf[_WT]
+    kv = buf[_KV]
+    ka = buf[_KA]
+    kj = buf[_KJ]
+    lo = buf[_LO]
+    hi = buf[_HI]
     if order == 1:
         for i in range(n):
-            vel_new[i] = v[i]
-        _limit_vec(vel_new, prm[_V], hard, gid, n_groups, grouped, norms, acc_g)
+            w[i] = _lim(u[i], kv[i], hard)
         for i in range(n):
-            acc_new[i] = (vel_new[i] - st[_VEL, i]) / dt
+            a[i] = (w[i] - vel[i]) / dt
     elif order == 2:
         for i in range(n):
-            acc_new[i] = (v[i] - st[_VEL, i]) / dt
-        _limit_vec(acc_new, prm[_A], hard, gid, n_groups, grouped, norms, acc_g)
+            a[i] = _lim((u[i] - vel[i]) / dt, ka[i], hard)
         for i in range(n):
-            vel_new[i] = st[_VEL, i] + acc_new[i] * dt
-        _limit_vec(vel_new, prm[_V], hard, gid, n_groups, grouped, norms, acc_g)
+            w[i] = _lim(vel[i] + a[i] * dt, kv[i], hard)
         for i in range(n):
-            acc_new[i] = (vel_new[i] - st[_VEL, i]) / dt
+            a[i] = (w[i] - vel[i]) / dt
     else:
         for i in range(n):
-            tmp[i] = ((v[i] - st[_VEL, i]) / dt - st[_ACC, i]) / dt
-        _limit_vec(tmp, prm[_J], hard, gid, n_groups, grouped, norms, acc_g)
+            a[i] = _lim(acc[i] + _lim(((u[i] - vel[i]) / dt - acc[i]) / dt, kj[i], hard) * dt, ka[i], hard)
         for i in range(n):
-            acc_new[i] = st[_ACC, i] + tmp[i] * dt
-        _limit_vec(acc_new, prm[_A], hard, gid, n_groups, grouped, norms, acc_g)
-        for i in range(n):
-            vel_new[i] = st[_VEL, i] + acc_new[i] * dt
-        _limit_vec(vel_new, prm[_V], hard, gid, n_groups, grouped, norms, acc_g)
+            w[i] = _lim(vel[i] + a[i] * dt, kv[i], hard)
+    # Leaving [lo, hi] clips x' and zeroes vel', acc' (see _advance).
     for i in range(n):
-        x_new = st[_X, i] + vel_new[i] * dt
-        a = acc_new[i]
-        vn = vel_new[i]
-        if prm[_HASPOS, i] != 0.0 and (x_new < prm[_PMIN, i] or x_new > prm[_PMAX, i]):
-            x_new = min(max(x_new, prm[_PMIN, i]), prm[_PMAX, i])
-            vn = 0.0
-            a = 0.0
-        st[_JERK, i] = (a - st[_ACC, i]) / dt
-        st[_X, i] = x_new
-        st[_VEL, i] = vn
-        st[_ACC, i] = a
+        jerk[i] = ((a[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0) - acc[i]) / dt
+    for i in range(n):
+        acc[i] = a[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0
+    for i in range(n):
+        vel[i] = w[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0
+    for i in range(n):
+        x[i] = min(max(x[i] + w[i] * dt, lo[i]), hi[i])
 
 
-def _tanh_limit(u, k, hard):
-    """lam for one uncoupled value, with the same operation order as `_limit_vec` (bit-identical)."""
-    m = abs(u)
-    if m == 0.0:
-        return u
-    if hard:
-        lim = m if m <= k else k
-    else:
-        half = 0.5 * k
-        lim = half * math.tanh(m / half)
-    return u * (lim / m)
-
-
-def _step_fused(sp_in, buf, cfg, gid):
-    """The step for a few uncoupled DoFs in one pass (same arithmetic as `_step_kernel`).
-
-    Measured: faster than the multi-pass kernel up to ~4 DoFs (0.6 vs 0.8 µs at 1 DoF), slower
-    beyond (the multi-pass loops pipeline better), so it serves small filters only.
-    """
-    dt = cfg[0]
-    order = int(cfg[1])
-    hard = cfg[2] != 0.0
-    n = sp_in.shape[0]
+@njit(cache=True, inline="always", error_model="numpy")
+def _ingest(sp_in, buf, n):
+    """Store new set-points (NaN = hold); a DoF's first set-point initialises its position."""
     for i in range(n):
         s = sp_in[i]
         if s == s:
@@ -300,94 +351,300 @@ def _step_fused(sp_in, buf, cfg, gid):
             if buf[_INIT, i] == 0.0:
                 buf[_X, i] = s
                 buf[_INIT, i] = 1.0
+
+
+@njit(cache=True, error_model="numpy")
+def _step_one_pass(sp_in, buf, cfg):
+    """The step for a few uncoupled DoFs, one DoF at a time (the least overhead at 1 DoF)."""
+    dt = cfg[0]
+    order = int(cfg[1])
+    hard = cfg[2] != 0.0
+    n = sp_in.shape[0]
+    _ingest(sp_in, buf, n)
+    for i in range(n):
         x = buf[_X, i]
-        vel = buf[_VEL, i]
-        acc = buf[_ACC, i]
-        p0 = N_STATE
-        vi = (buf[_SP, i] - x) / dt if buf[_INIT, i] != 0.0 else 0.0
-        if buf[p0 + _HASPOS, i] != 0.0:
-            alpha = 0.5 * (buf[p0 + _PMAX, i] - buf[p0 + _PMIN, i])
-            center = buf[p0 + _PMIN, i] + alpha
-            if (x > center and vi > 0.0) or (x < center and vi < 0.0):
-                r = abs((x - center) / alpha)
-                if r > 1.0:
-                    r = 1.0
-                vi = vi * (1.0 - r ** (2.0 * buf[p0 + _BETA, i]))
-        if buf[p0 + _BYPASS, i] == 0.0:
-            rho = buf[p0 + _RHO, i]
-            if rho > RHO_MAX:
-                rho = RHO_MAX
-            base = abs(vi) / (1.0 - rho)
-            if base > 1e12:
-                base = 1e12
-            g = 0.5 * (math.tanh(base ** (1.0 - buf[p0 + _SIGMA, i]) - math.pi) + 1.0)
-            vi = vi * g
-        if order == 1:
-            vel_new = _tanh_limit(vi, buf[p0 + _V, i], hard)
-            acc_new = (vel_new - vel) / dt
-        elif order == 2:
-            acc_new = _tanh_limit((vi - vel) / dt, buf[p0 + _A, i], hard)
-            vel_new = _tanh_limit(vel + acc_new * dt, buf[p0 + _V, i], hard)
-            acc_new = (vel_new - vel) / dt
+        v = _induced(buf[_SP, i], x, dt)
+        if buf[_HASPOS, i] != 0.0:
+            v = _omega1(v, x, buf[_CENTER, i], buf[_ALPHA, i], buf[_TWOB, i])
+        if buf[_BYPASS, i] == 0.0:
+            t = _h_arg(abs(v), buf[_OMR, i], buf[_EXPO, i])
+            v = v * (0.5 * (_tanh(t) + 1.0))
+        xn, w, a, j = _advance(v, x, buf[_VEL, i], buf[_ACC, i], buf[_KV, i], buf[_KA, i], buf[_KJ, i],
+                               buf[_LO, i], buf[_HI, i], dt, order, hard)
+        buf[_X, i] = xn
+        buf[_VEL, i] = w
+        buf[_ACC, i] = a
+        buf[_JERK, i] = j
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _norms(vec, buf, n, n_groups):
+    """|vec_i|, or for members of a coupled group the group's Euclidean norm (scaled: no overflow),
+    into the scratch row _WN."""
+    nrm = buf[_WN]
+    gmax = buf[_WG1]
+    gsum = buf[_WG2]
+    gid = buf[_GID]
+    member = buf[_MEMBER]
+    for g in range(n_groups):
+        gmax[g] = 0.0
+        gsum[g] = 0.0
+    for i in range(n):
+        if member[i] != 0.0:
+            g = int(gid[i])
+            gmax[g] = max(gmax[g], abs(vec[i]))
+    for i in range(n):
+        if member[i] != 0.0:
+            g = int(gid[i])
+            if gmax[g] > 0.0:
+                q = vec[i] / gmax[g]
+                gsum[g] += q * q
+    for i in range(n):
+        if member[i] != 0.0:
+            g = int(gid[i])
+            nrm[i] = gmax[g] * math.sqrt(gsum[g])
         else:
-            jerk = _tanh_limit(((vi - vel) / dt - acc) / dt, buf[p0 + _J, i], hard)
-            acc_new = _tanh_limit(acc + jerk * dt, buf[p0 + _A, i], hard)
-            vel_new = _tanh_limit(vel + acc_new * dt, buf[p0 + _V, i], hard)
-        x_new = x + vel_new * dt
-        if buf[p0 + _HASPOS, i] != 0.0 and (x_new < buf[p0 + _PMIN, i] or x_new > buf[p0 + _PMAX, i]):
-            x_new = min(max(x_new, buf[p0 + _PMIN, i]), buf[p0 + _PMAX, i])
-            vel_new = 0.0
-            acc_new = 0.0
-        buf[_JERK, i] = (acc_new - acc) / dt
-        buf[_X, i] = x_new
-        buf[_VEL, i] = vel_new
-        buf[_ACC, i] = acc_new
+            nrm[i] = abs(vec[i])
 
 
-def _run_kernel(sps, buf, cfg, gid, out):
+@njit(cache=True, inline="always", error_model="numpy")
+def _limit_groups(vec, krow, hard, buf, n, n_groups):
+    """lam in place: per DoF, or on each coupled group's norm with the vector scaled proportionally."""
+    _norms(vec, buf, n, n_groups)
+    nrm = buf[_WN]
+    member = buf[_MEMBER]
+    for i in range(n):
+        if member[i] != 0.0:
+            m = nrm[i]
+            if m > 0.0:
+                vec[i] = vec[i] * (_lim(m, krow[i], hard) / m)
+        else:
+            vec[i] = _lim(vec[i], krow[i], hard)
+
+
+@njit(cache=True, error_model="numpy")
+def _step_passes(sp_in, buf, cfg):
+    """The step in passes over all DoFs (vectorised by the compiler); handles coupled groups."""
+    dt = cfg[0]
+    order = int(cfg[1])
+    hard = cfg[2] != 0.0
+    n_groups = int(cfg[3])
+    grouped = cfg[4] != 0.0
+    any_pos = cfg[5] != 0.0
+    all_bypass = cfg[6] != 0.0
+    n = sp_in.shape[0]
+    x = buf[_X]
+    vel = buf[_VEL]
+    acc = buf[_ACC]
+    jerk = buf[_JERK]
+    sp = buf[_SP]
+    v = buf[_WV]
+    t = buf[_WT]
+    _ingest(sp_in, buf, n)
+    for i in range(n):
+        v[i] = _induced(sp[i], x[i], dt)
+    if any_pos:
+        haspos = buf[_HASPOS]
+        center = buf[_CENTER]
+        alpha = buf[_ALPHA]
+        twob = buf[_TWOB]
+        for i in range(n):
+            if haspos[i] != 0.0:
+                v[i] = _omega1(v[i], x[i], center[i], alpha[i], twob[i])
+    if not all_bypass:
+        omr = buf[_OMR]
+        expo = buf[_EXPO]
+        bypass = buf[_BYPASS]  # 1.0 or 0.0
+        if grouped:
+            _norms(v, buf, n, n_groups)
+            nrm = buf[_WN]
+            for i in range(n):
+                t[i] = _h_arg(nrm[i], omr[i], expo[i])
+        else:
+            for i in range(n):
+                t[i] = _h_arg(abs(v[i]), omr[i], expo[i])
+        hmix = buf[_HMIX]
+        for i in range(n):  # branch-free, so vectorised: u = v g, or v where bypassed (exact)
+            g = 0.5 * (_tanh(t[i]) + 1.0)
+            v[i] = v[i] * (g * hmix[i] + bypass[i])
+    if not grouped:
+        if hard:
+            if order == 1:
+                _advance_all(buf, n, dt, 1, True)
+            elif order == 2:
+                _advance_all(buf, n, dt, 2, True)
+            else:
+                _advance_all(buf, n, dt, 3, True)
+        else:
+            if order == 1:
+                _advance_all(buf, n, dt, 1, False)
+            elif order == 2:
+                _advance_all(buf, n, dt, 2, False)
+            else:
+                _advance_all(buf, n, dt, 3, False)
+        return
+    kv = buf[_KV]
+    ka = buf[_KA]
+    kj = buf[_KJ]
+    lo = buf[_LO]
+    hi = buf[_HI]
+    # Coupled groups: every lam acts on group norms, so each stage is a pass over all DoFs.
+    w = buf[_WU]
+    a = t
+    if order == 1:
+        for i in range(n):
+            w[i] = v[i]
+        _limit_groups(w, kv, hard, buf, n, n_groups)
+        for i in range(n):
+            a[i] = (w[i] - vel[i]) / dt
+    elif order == 2:
+        for i in range(n):
+            a[i] = (v[i] - vel[i]) / dt
+        _limit_groups(a, ka, hard, buf, n, n_groups)
+        for i in range(n):
+            w[i] = vel[i] + a[i] * dt
+        _limit_groups(w, kv, hard, buf, n, n_groups)
+        for i in range(n):
+            a[i] = (w[i] - vel[i]) / dt
+    else:
+        for i in range(n):
+            a[i] = ((v[i] - vel[i]) / dt - acc[i]) / dt
+        _limit_groups(a, kj, hard, buf, n, n_groups)
+        for i in range(n):
+            a[i] = acc[i] + a[i] * dt
+        _limit_groups(a, ka, hard, buf, n, n_groups)
+        for i in range(n):
+            w[i] = vel[i] + a[i] * dt
+        _limit_groups(w, kv, hard, buf, n, n_groups)
+    for i in range(n):
+        xn = x[i] + w[i] * dt
+        inside = lo[i] <= xn and xn <= hi[i]
+        xn = min(max(xn, lo[i]), hi[i])
+        wi = w[i] if inside else 0.0
+        ai = a[i] if inside else 0.0
+        jerk[i] = (ai - acc[i]) / dt
+        x[i] = xn
+        vel[i] = wi
+        acc[i] = ai
+
+
+@njit(cache=True, error_model="numpy")
+def _run_compiled(sps, buf, cfg, one_pass, out):
     """Filter a whole trajectory: sps (T, n); out (4, T, n) position, velocity, acceleration, jerk."""
-    for t in range(sps.shape[0]):
-        _step_kernel(sps[t], buf, cfg, gid)
-        for i in range(sps.shape[1]):
-            out[0, t, i] = buf[_X, i]
-            out[1, t, i] = buf[_VEL, i]
-            out[2, t, i] = buf[_ACC, i]
-            out[3, t, i] = buf[_JERK, i]
+    n = sps.shape[1]
+    for k in range(sps.shape[0]):
+        if one_pass:
+            _step_one_pass(sps[k], buf, cfg)
+        else:
+            _step_passes(sps[k], buf, cfg)
+        for i in range(n):
+            out[0, k, i] = buf[_X, i]
+            out[1, k, i] = buf[_VEL, i]
+            out[2, k, i] = buf[_ACC, i]
+            out[3, k, i] = buf[_JERK, i]
 
 
-if HAVE_NUMBA:
-
-    def _compile():
-        """Compile the kernels with their helpers bound to compiled versions (numba needs jitted callees)."""
-        import types
-
-        g = dict(globals())
-        for name in ("_group_norms", "_limit_vec", "_tanh_limit", "_step_kernel", "_run_kernel"):
-            fn = globals()[name]
-            g[name] = njit(cache=False)(types.FunctionType(fn.__code__, g, name))
-        fused = njit(cache=False)(types.FunctionType(_step_fused.__code__, g, "_step_fused"))
-        return g["_step_kernel"], g["_run_kernel"], fused
-
-    _step_compiled, _run_compiled, _fused_compiled = _compile()
-
-    def _direct_step():
-        """The compiled step for C-contiguous float64/int64 arrays, called without the dispatcher's
-        type resolution (it is most of the cost at 1 DoF)."""
-        from numba import types as nt
-
-        f64_1d, f64_2d, i64_1d = nt.float64[::1], nt.float64[:, ::1], nt.int64[::1]
-        sig = (f64_1d, f64_2d, f64_1d, i64_1d)
-        out = []
-        for disp in (_step_compiled, _fused_compiled):
-            disp.compile(sig)
-            out.append(disp.overloads[sig].entry_point)
-        return tuple(out)
-else:  # pragma: no cover
-    _step_compiled = _run_compiled = None
-    _direct_step = None
+# ------------------------------------------------------------------------------------------------
+# The numpy reference: the same arithmetic, vectorised over DoFs (tests; fallback without numba)
+# ------------------------------------------------------------------------------------------------
 
 
-_DIRECT_STEP = None
+def _lim_np(u: np.ndarray, k: np.ndarray, hard: bool) -> np.ndarray:
+    if hard:
+        return np.minimum(np.maximum(u, -k), k)
+    h = 0.5 * k
+    return h * tanh_np(u / h)
+
+
+def _norms_np(vec: np.ndarray, buf: np.ndarray, n_groups: int) -> np.ndarray:
+    member = buf[_MEMBER] != 0.0
+    gid = buf[_GID].astype(np.int64)
+    out = np.abs(vec)
+    if member.any():
+        gmax = np.zeros(n_groups)
+        np.maximum.at(gmax, gid[member], np.abs(vec[member]))
+        scale = gmax[gid]
+        q = np.divide(vec, scale, out=np.zeros_like(vec), where=member & (scale > 0.0))
+        # bincount adds in index order, like the compiled loop
+        gsum = np.bincount(gid[member], weights=(q * q)[member], minlength=n_groups)
+        out = np.where(member, gmax[gid] * np.sqrt(gsum[gid]), out)
+    return out
+
+
+def _limit_groups_np(vec: np.ndarray, k: np.ndarray, hard: bool, buf: np.ndarray, n_groups: int) -> np.ndarray:
+    member = buf[_MEMBER] != 0.0
+    if not member.any():
+        return _lim_np(vec, k, hard)
+    m = _norms_np(vec, buf, n_groups)
+    safe = np.where(m > 0.0, m, 1.0)
+    scaled = np.where(m > 0.0, vec * (_lim_np(m, k, hard) / safe), vec)
+    return np.where(member, scaled, _lim_np(vec, k, hard))
+
+
+def _reference_step(sp_in: np.ndarray, buf: np.ndarray, cfg: np.ndarray) -> None:
+    """One step of the filter in numpy (state rows of `buf` updated in place)."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # inf/inf never reaches an output
+        _reference_step_body(sp_in, buf, cfg)
+
+
+def _reference_step_body(sp_in: np.ndarray, buf: np.ndarray, cfg: np.ndarray) -> None:
+    dt, order, hard = cfg[0], int(cfg[1]), bool(cfg[2])
+    n_groups, any_pos, all_bypass = int(cfg[3]), bool(cfg[5]), bool(cfg[6])
+    new = ~np.isnan(sp_in)
+    buf[_SP, new] = sp_in[new]
+    first = new & (buf[_INIT] == 0.0)
+    buf[_X, first] = sp_in[first]
+    buf[_INIT, first] = 1.0
+    x, vel, acc = buf[_X], buf[_VEL], buf[_ACC]
+    v = np.minimum(np.maximum((buf[_SP] - x) / dt, -V_CLAMP), V_CLAMP)
+    if any_pos:
+        c = buf[_CENTER]
+        toward = (buf[_HASPOS] != 0.0) & (((x > c) & (v > 0.0)) | ((x < c) & (v < 0.0)))
+        r = np.minimum(np.abs(x - c) / buf[_ALPHA], 1.0)
+        v = np.where(toward, v * (1.0 - r ** buf[_TWOB]), v)
+    if not all_bypass:
+        b = np.minimum(_norms_np(v, buf, n_groups) / buf[_OMR], H_BASE_MAX)
+        e = buf[_EXPO]
+        p = np.where(e == 0.0, 1.0, np.where(e == 1.0, b, b ** e))
+        g = 0.5 * (tanh_np(p - math.pi) + 1.0)
+        v = np.where(buf[_BYPASS] != 0.0, v, v * g)
+    kv, ka, kj = buf[_KV], buf[_KA], buf[_KJ]
+    if order == 1:
+        w = _limit_groups_np(v, kv, hard, buf, n_groups)
+        a = (w - vel) / dt
+    elif order == 2:
+        a = _limit_groups_np((v - vel) / dt, ka, hard, buf, n_groups)
+        w = _limit_groups_np(vel + a * dt, kv, hard, buf, n_groups)
+        a = (w - vel) / dt
+    else:
+        j = _limit_groups_np(((v - vel) / dt - acc) / dt, kj, hard, buf, n_groups)
+        a = _limit_groups_np(acc + j * dt, ka, hard, buf, n_groups)
+        w = _limit_groups_np(vel + a * dt, kv, hard, buf, n_groups)
+    xn = x + w * dt
+    out = (xn < buf[_LO]) | (xn > buf[_HI])
+    xn = np.where(out, np.minimum(np.maximum(xn, buf[_LO]), buf[_HI]), xn)
+    w = np.where(out, 0.0, w)
+    a = np.where(out, 0.0, a)
+    buf[_JERK] = (a - acc) / dt
+    buf[_X] = xn
+    buf[_VEL] = w
+    buf[_ACC] = a
+
+
+def _entry_points() -> tuple[Any, Any]:
+    """The compiled steps for C-contiguous float64 arrays, callable without the dispatcher's type
+    resolution (which is most of the cost of a 1-DoF step)."""
+    from numba import types as nt
+
+    sig = (nt.float64[::1], nt.float64[:, ::1], nt.float64[::1])
+    out = []
+    for disp in (_step_passes, _step_one_pass):
+        disp.compile(sig)
+        out.append(disp.overloads[sig].entry_point)
+    return out[0], out[1]
+
+
+_ENTRY_POINTS: tuple[Any, Any] | None = None
 
 
 # ------------------------------------------------------------------------------------------------
@@ -405,12 +662,11 @@ class FilterResult:
     jerk: np.ndarray
 
 
-def _per_dof(name: str, value: Any, n: int, *, allow_none: bool = False) -> np.ndarray | None:
-    if value is None:
-        if allow_none:
-            return None
-        raise ValueError(f"{name} is required")
-    arr = np.asarray(value, dtype=float)
+def _per_dof(name: str, value: Any, n: int) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number or one number per DoF, got {value!r}") from None
     if arr.ndim == 0:
         return np.full(n, float(arr))
     if arr.shape != (n,):
@@ -422,17 +678,24 @@ def _check(name: str, arr: np.ndarray, ok: np.ndarray, rule: str) -> None:
     bad = np.flatnonzero(~ok)
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"{name} of DoF {i} must be {rule}, got {arr[i]!r}")
+        raise ValueError(f"{name} of DoF {i} must be {rule}, got {float(arr[i])!r}")
 
 
 class MotionFilter:
     """The NMF over `n_dofs` DoFs at `rate` Hz (see the module doc for the equations).
 
     Parameters (each a scalar or a per-DoF array):
-      order 1|2|3; sigma, rho in [0, 1]; vel_limit, acc_limit, jerk_limit > 0 (per s, s², s³);
-      limiter "tanh" | "hard"; bypass (H replaced by identity); pmin < pmax (optional, both or
-      neither); beta >= 1; x0 (initial positions; default: each DoF's first set-point);
-      groups: lists of DoF indices limited together by vector norm.
+      order 1|2|3 (continuity: velocity, acceleration or jerk limited);
+      sigma, rho in [0, 1] (smoothness, responsiveness);
+      vel_limit, acc_limit, jerk_limit in (0, 1e100] (units per s, s², s³; defaults: preset W's
+        20, 100, 10000). With the tanh limiter the output's velocity stays below vel_limit/2;
+      limiter "tanh" | "hard"; bypass (H replaced by identity: the paper's regular filter W);
+      pmin < pmax: position limits (both or neither; a DoF with an infinite bound gets no Ω and is
+        clipped only at its finite bound); beta >= 1: Ω's exponent (default 5);
+      x0: initial positions (default: each DoF's first set-point; until a DoF receives one it outputs
+        0, or its x0, at rest); groups: lists of DoF indices limited together by vector norm (their
+        limits, sigma, rho and bypass must be equal).
+    `rate` is the output rate in Hz, in [1e-3, 1e6]. `use_numba=False` selects the numpy reference.
     """
 
     def __init__(self, n_dofs: int, rate: float, order: int = 3, sigma: Any = 0.5, rho: Any = 0.5,
@@ -440,43 +703,37 @@ class MotionFilter:
                  limiter: str = "tanh", bypass: Any = False, pmin: Any = None, pmax: Any = None,
                  beta: Any = 5.0, x0: Any = None, groups: Sequence[Sequence[int]] | None = None,
                  use_numba: bool = True):
-        if not isinstance(n_dofs, (int, np.integer)) or n_dofs < 1:
+        if isinstance(n_dofs, bool) or not isinstance(n_dofs, numbers.Integral) or n_dofs < 1:
             raise ValueError(f"n_dofs must be a positive integer, got {n_dofs!r}")
-        if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
-            raise ValueError(f"rate must be a positive number of Hz, got {rate!r}")
+        if isinstance(rate, bool) or not isinstance(rate, numbers.Real) or not RATE_MIN <= float(rate) <= RATE_MAX:
+            raise ValueError(f"rate must be a number of Hz in [{RATE_MIN:g}, {RATE_MAX:g}], got {rate!r}")
         self.n = int(n_dofs)
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
         self._use_numba = bool(use_numba and HAVE_NUMBA)
-        self._buf = np.zeros((N_STATE + N_PARAMS + 6, self.n))  # state, parameters, scratch
-        self._st = self._buf[:N_STATE]
-        self._prm = self._buf[N_STATE:N_STATE + N_PARAMS]
-        self._cfg = np.zeros(5)
+        self._buf = np.zeros((N_ROWS, self.n))
+        self._buf[_LO] = -np.inf
+        self._buf[_HI] = np.inf
+        self._buf[_ALPHA] = 1.0
+        self._cfg = np.zeros(_CFG_LEN)
         self._x = self._buf[_X]
         self._shape = (self.n,)
-        self._kernel = _step_kernel
-        if self._use_numba:
-            global _DIRECT_STEP
-            if _DIRECT_STEP is None:
-                _DIRECT_STEP = _direct_step()
         self._set_groups(groups)
-        if self._use_numba:
-            multi_pass, one_pass = _DIRECT_STEP
-            self._kernel = one_pass if (not self._grouped and self.n <= ONE_PASS_MAX_DOFS) else multi_pass
-        self._bind_step()
         self.order = 3
         self.limiter = "tanh"
         self.set_params(order=order, sigma=sigma, rho=rho, vel_limit=vel_limit, acc_limit=acc_limit,
                         jerk_limit=jerk_limit, limiter=limiter, bypass=bypass, pmin=pmin, pmax=pmax, beta=beta)
-        self._x0 = _per_dof("x0", x0, self.n, allow_none=True)
-        if self._x0 is not None:
-            _check("x0", self._x0, np.isfinite(self._x0), "finite")
+        self._x0: np.ndarray | None = None
+        if x0 is not None:
+            self._x0 = self._finite("x0", x0)
+        self._one_pass = not self._grouped and self.n <= ONE_PASS_MAX_DOFS
+        self._bind_step()
         self.reset()
 
     @classmethod
     def from_preset(cls, name: str, n_dofs: int, rate: float, order: int = 3, limiter: str = "tanh",
                     **overrides: Any) -> "MotionFilter":
-        """A filter with one of the paper's presets W, A, B, C, D, E (overrides win)."""
+        """A filter with one of the paper's presets W (or "regular"), A, B, C, D, E; overrides win."""
         p = preset(name)
         kw = dict(sigma=p.sigma, rho=p.rho, vel_limit=p.vel_limit, acc_limit=p.acc_limit,
                   jerk_limit=p.jerk_limit, bypass=p.bypass)
@@ -484,154 +741,218 @@ class MotionFilter:
         return cls(n_dofs, rate, order=order, limiter=limiter, **kw)
 
     # --- configuration ------------------------------------------------------------------------------
+    def _finite(self, name: str, value: Any) -> np.ndarray:
+        arr = _per_dof(name, value, self.n)
+        _check(name, arr, np.isfinite(arr), "finite")
+        return arr
+
     def _set_groups(self, groups: Sequence[Sequence[int]] | None) -> None:
         gid = np.arange(self.n, dtype=np.int64)
+        member = np.zeros(self.n)
         seen: set[int] = set()
         next_id = self.n
+        clean: list[list[int]] = []
         for g, members in enumerate(groups or []):
-            idx = [int(i) for i in members]
+            try:
+                idx = [int(i) for i in members]
+            except (TypeError, ValueError):
+                raise ValueError(f"groups[{g}] must be a list of DoF indices, got {members!r}") from None
             for i in idx:
                 if not 0 <= i < self.n:
                     raise ValueError(f"groups[{g}] names DoF {i}, outside 0..{self.n - 1}")
                 if i in seen:
                     raise ValueError(f"DoF {i} is in more than one group")
                 seen.add(i)
-            gid[idx] = next_id
-            next_id += 1
-        # Compact group ids to 0..G-1
-        _, self._gid = np.unique(gid, return_inverse=True)
-        self._gid = self._gid.astype(np.int64)
-        self._n_groups = int(self._gid.max()) + 1
-        self._grouped = self._n_groups < self.n
-        self.groups = [list(map(int, m)) for m in (groups or [])]
+            clean.append(idx)
+            if len(idx) > 1:
+                gid[idx] = next_id
+                member[idx] = 1.0
+                next_id += 1
+        _, compact = np.unique(gid, return_inverse=True)  # group ids 0..G-1
+        self._buf[_GID] = compact
+        self._buf[_MEMBER] = member
+        self._n_groups = int(compact.max()) + 1
+        self._grouped = bool(member.any())
+        self.groups = clean
 
     def set_params(self, *, order: int | None = None, sigma: Any = None, rho: Any = None, vel_limit: Any = None,
                    acc_limit: Any = None, jerk_limit: Any = None, limiter: str | None = None, bypass: Any = None,
                    pmin: Any = None, pmax: Any = None, beta: Any = None, clear_position_limits: bool = False) -> None:
-        """Change parameters live, keeping the filter's state (no jump). Validates everything first."""
-        prm = self._prm.copy()
+        """Change parameters live, keeping the filter's state (no jump). Everything is validated
+        before anything changes; None leaves a parameter as it is."""
         n = self.n
-        if order is not None and order not in ORDERS:
+        prm = self._buf[_PARAMS].copy()  # staged: committed only if every check passes
+        off = _KV
+
+        def row(r: int) -> np.ndarray:
+            return prm[r - off]
+
+        if order is not None and (isinstance(order, bool) or order not in ORDERS):
             raise ValueError(f"order must be 1, 2 or 3, got {order!r}")
         if limiter is not None and limiter not in LIMITERS:
             raise ValueError(f"limiter must be 'tanh' or 'hard', got {limiter!r}")
-        for name, value, row in (("vel_limit", vel_limit, _V), ("acc_limit", acc_limit, _A),
-                                 ("jerk_limit", jerk_limit, _J)):
+        for name, value, r in (("vel_limit", vel_limit, _KV), ("acc_limit", acc_limit, _KA),
+                               ("jerk_limit", jerk_limit, _KJ)):
             if value is not None:
                 arr = _per_dof(name, value, n)
                 _check(name, arr, np.isfinite(arr) & (arr > 0), "> 0 and finite")
-                prm[row] = arr
-        for name, value, row in (("sigma", sigma, _SIGMA), ("rho", rho, _RHO)):
+                _check(name, arr, arr <= LIMIT_MAX, f"<= {LIMIT_MAX:g}")
+                row(r)[:] = arr
+        for name, value, r in (("sigma", sigma, _SIGMA), ("rho", rho, _RHO)):
             if value is not None:
                 arr = _per_dof(name, value, n)
                 _check(name, arr, np.isfinite(arr) & (arr >= 0) & (arr <= 1), "within [0, 1]")
-                prm[row] = arr
+                row(r)[:] = arr
         if beta is not None:
             arr = _per_dof("beta", beta, n)
             _check("beta", arr, np.isfinite(arr) & (arr >= 1), ">= 1")
-            prm[_BETA] = arr
+            row(_BETA)[:] = arr
         if bypass is not None:
-            prm[_BYPASS] = _per_dof("bypass", np.asarray(bypass, dtype=bool).astype(float), n)
+            row(_BYPASS)[:] = _per_dof("bypass", np.asarray(bypass, dtype=bool).astype(float), n)
         if clear_position_limits:
-            prm[_HASPOS] = 0.0
+            row(_HASPOS)[:] = 0.0
+            row(_LO)[:] = -np.inf
+            row(_HI)[:] = np.inf
         if (pmin is None) != (pmax is None):
             raise ValueError("pmin and pmax must be given together")
         if pmin is not None:
             lo = _per_dof("pmin", pmin, n)
             hi = _per_dof("pmax", pmax, n)
-            _check("pmin", lo, np.isfinite(lo), "finite")
-            _check("pmax", hi, np.isfinite(hi), "finite")
-            _check("pmin", lo, lo < hi, f"below pmax")
-            prm[_PMIN], prm[_PMAX], prm[_HASPOS] = lo, hi, 1.0
+            _check("pmin", lo, ~np.isnan(lo) & (lo != np.inf), "a number below +inf")
+            _check("pmax", hi, ~np.isnan(hi) & (hi != -np.inf), "a number above -inf")
+            _check("pmin", lo, lo < hi, "below pmax")
+            row(_LO)[:], row(_HI)[:] = lo, hi
+        # derived rows (the kernels never recompute them)
+        row(_EXPO)[:] = 1.0 - row(_SIGMA)
+        row(_OMR)[:] = 1.0 - np.minimum(row(_RHO), RHO_MAX)
+        row(_TWOB)[:] = 2.0 * row(_BETA)
+        row(_HMIX)[:] = 1.0 - row(_BYPASS)
+        lo, hi = row(_LO), row(_HI)
+        finite = np.isfinite(lo) & np.isfinite(hi)
+        row(_HASPOS)[:] = finite
+        with np.errstate(over="ignore", invalid="ignore"):
+            span = hi - lo
+            alpha = np.where(np.isfinite(span), span / 2.0, hi / 2.0 - lo / 2.0)  # no overflow near ±1e308
+            center = lo + alpha
+        row(_ALPHA)[:] = np.where(finite & (alpha > 0), alpha, 1.0)
+        row(_CENTER)[:] = np.where(finite, center, 0.0)
         if self._grouped:
-            for g in range(self._n_groups):
-                members = np.flatnonzero(self._gid == g)
-                if members.size > 1:
-                    for row, name in ((_V, "vel_limit"), (_A, "acc_limit"), (_J, "jerk_limit")):
-                        vals = prm[row, members]
-                        if not np.all(vals == vals[0]):
-                            raise ValueError(f"{name} must be equal within a coupled group (DoFs {members.tolist()})")
-        self._prm[:] = prm
+            self._check_groups(prm, off)
+        self._buf[_PARAMS] = prm
         if order is not None:
             self.order = int(order)
         if limiter is not None:
             self.limiter = limiter
         self._hard = self.limiter == "hard"
-        self._cfg[:] = (self.dt, self.order, float(self._hard), self._n_groups, float(self._grouped))
+        self._cfg[:] = (self.dt, self.order, float(self._hard), self._n_groups, float(self._grouped),
+                        float(self._buf[_HASPOS].any()), float(np.all(self._buf[_BYPASS] != 0.0)))
+
+    def _check_groups(self, prm: np.ndarray, off: int) -> None:
+        for members in self.groups:
+            if len(members) < 2:
+                continue
+            for r, name in ((_KV, "vel_limit"), (_KA, "acc_limit"), (_KJ, "jerk_limit"), (_SIGMA, "sigma"),
+                            (_RHO, "rho"), (_BYPASS, "bypass")):
+                vals = prm[r - off, members]
+                if not np.all(vals == vals[0]):
+                    raise ValueError(f"{name} must be equal within a coupled group (DoFs {members})")
 
     # --- state ----------------------------------------------------------------------------------------
     def reset(self, x0: Any = None) -> None:
-        """Back to rest: x = x0 (or the first set-point to come), velocity = acceleration = 0."""
+        """Back to rest: x = x0 (or each DoF's first set-point to come), velocity = acceleration = 0."""
         if x0 is not None:
-            self._x0 = _per_dof("x0", x0, self.n)
-        self._st[:] = 0.0
+            self._x0 = self._finite("x0", x0)
+        self._buf[_STATE] = 0.0
         if self._x0 is not None:
-            self._st[_X] = self._x0
-            self._st[_SP] = self._x0
-            self._st[_INIT] = 1.0
+            self._buf[_X] = self._x0
+            self._buf[_SP] = self._x0
+            self._buf[_INIT] = 1.0
 
     def set_state(self, position: Any, velocity: Any = None, acceleration: Any = None) -> None:
-        """Set the filter's state (e.g. to the robot's measured pose) without a jump in the output."""
-        pos = _per_dof("position", position, self.n)
-        _check("position", pos, np.isfinite(pos), "finite")
-        self._st[_X] = pos
-        self._st[_SP] = np.where(self._st[_INIT] != 0, self._st[_SP], pos)
-        self._st[_INIT] = 1.0
-        self._st[_VEL] = 0.0 if velocity is None else _per_dof("velocity", velocity, self.n)
-        self._st[_ACC] = 0.0 if acceleration is None else _per_dof("acceleration", acceleration, self.n)
-        self._st[_JERK] = 0.0
+        """Set the filter's state (e.g. to the robot's measured pose) without a jump in the output.
+        DoFs without a set-point yet hold `position`."""
+        pos = self._finite("position", position)
+        vel = np.zeros(self.n) if velocity is None else self._finite("velocity", velocity)
+        acc = np.zeros(self.n) if acceleration is None else self._finite("acceleration", acceleration)
+        b = self._buf
+        b[_X] = pos
+        b[_SP] = np.where(b[_INIT] != 0, b[_SP], pos)
+        b[_INIT] = 1.0
+        b[_VEL] = vel
+        b[_ACC] = acc
+        b[_JERK] = 0.0
 
     @property
     def position(self) -> np.ndarray:
-        return self._st[_X].copy()
+        """Position after the latest step (n,), in the DoF's unit."""
+        return self._buf[_X].copy()
 
     @property
     def velocity(self) -> np.ndarray:
-        return self._st[_VEL].copy()
+        """Velocity after the latest step (n,): vel', exactly the finite difference of positions
+        (0 after a position clip)."""
+        return self._buf[_VEL].copy()
 
     @property
     def acceleration(self) -> np.ndarray:
-        return self._st[_ACC].copy()
+        """Acceleration (n,): acc' for order 3; (vel' - vel)/dt for orders 1 and 2 (0 after a clip)."""
+        return self._buf[_ACC].copy()
 
     @property
     def jerk(self) -> np.ndarray:
-        return self._st[_JERK].copy()
+        """Jerk (n,): the finite difference of the reported acceleration, (acc' - acc)/dt, every order."""
+        return self._buf[_JERK].copy()
 
     @property
     def setpoint(self) -> np.ndarray:
-        return self._st[_SP].copy()
+        """The latest set-point held per DoF (0 before the first one, unless x0 was given)."""
+        return self._buf[_SP].copy()
 
     def params(self) -> dict[str, np.ndarray]:
-        return {"vel_limit": self._prm[_V].copy(), "acc_limit": self._prm[_A].copy(),
-                "jerk_limit": self._prm[_J].copy(), "sigma": self._prm[_SIGMA].copy(),
-                "rho": self._prm[_RHO].copy(), "beta": self._prm[_BETA].copy(),
-                "bypass": self._prm[_BYPASS] != 0}
+        """Current per-DoF parameters (copies)."""
+        b = self._buf
+        return {"vel_limit": b[_KV].copy(), "acc_limit": b[_KA].copy(), "jerk_limit": b[_KJ].copy(),
+                "sigma": b[_SIGMA].copy(), "rho": b[_RHO].copy(), "beta": b[_BETA].copy(),
+                "bypass": b[_BYPASS] != 0, "pmin": b[_LO].copy(), "pmax": b[_HI].copy()}
 
     # --- stepping -------------------------------------------------------------------------------------
     def step(self, setpoints: Any) -> np.ndarray:
         """One output sample. `setpoints` (n,): new set-points, NaN for "no new set-point" (hold).
 
-        Returns the new positions (a view of internal state: copy it to keep it past the next step).
-        The fast path (a C-contiguous float64 array of shape (n,)) is bound per instance in
-        `_bind_step`, so a 1-DoF step costs about one compiled call.
+        Returns the new positions (n,) as a view of the internal state: copy it to keep it past the
+        next step. Replaced per instance by `_bind_step` with a version that skips the conversion for
+        a C-contiguous float64 array of shape (n,).
         """
         return self._step(setpoints)
 
     def _bind_step(self) -> None:
-        kernel, buf, cfg, gid, x, shape, n = self._kernel, self._buf, self._cfg, self._gid, self._x, self._shape, self.n
+        buf, cfg, x, shape, n = self._buf, self._cfg, self._x, self._shape, self.n
+        if self._use_numba:
+            global _ENTRY_POINTS
+            if _ENTRY_POINTS is None:
+                _ENTRY_POINTS = _entry_points()
+            kernel = _ENTRY_POINTS[1] if self._one_pass else _ENTRY_POINTS[0]
+        else:
+            kernel = _reference_step
         f64 = np.dtype(np.float64)
         ndarray = np.ndarray
 
         def fast(sp: Any) -> np.ndarray:
+            # The common case costs two attribute checks and the compiled call.
             if type(sp) is ndarray and sp.dtype is f64 and sp.shape == shape and sp.flags.c_contiguous:
-                kernel(sp, buf, cfg, gid)
+                kernel(sp, buf, cfg)
                 return x
-            arr = np.ascontiguousarray(sp, dtype=float)
+            try:
+                arr = np.ascontiguousarray(sp, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"setpoints must be numbers (NaN = hold), got {sp!r}") from None
             if arr.ndim == 0:
                 arr = np.full(n, float(arr))
             if arr.shape != shape:
                 raise ValueError(f"setpoints must have shape ({n},), got {arr.shape}")
-            kernel(arr, buf, cfg, gid)
+            if np.isinf(arr).any():
+                raise ValueError(f"setpoint of DoF {int(np.flatnonzero(np.isinf(arr))[0])} is infinite")
+            kernel(arr, buf, cfg)
             return x
 
         self._step = fast
@@ -640,7 +961,8 @@ class MotionFilter:
     def run(self, setpoint_matrix: Any) -> FilterResult:
         """Filter a whole trajectory (T, n) of set-points (NaN = hold) from the current state.
 
-        Exactly the same arithmetic as calling `step` T times (the state advances too).
+        Exactly the same arithmetic as calling `step` T times (the state advances too); one compiled
+        loop over time.
         """
         sps = np.ascontiguousarray(setpoint_matrix, dtype=float)
         if sps.ndim == 1 and self.n == 1:
@@ -648,14 +970,20 @@ class MotionFilter:
         if sps.ndim != 2 or sps.shape[1] != self.n:
             raise ValueError(f"setpoint_matrix must have shape (T, {self.n}), got {sps.shape}")
         if np.isinf(sps).any():
-            raise ValueError("setpoint_matrix contains infinite values")
+            k, i = np.argwhere(np.isinf(sps))[0]
+            raise ValueError(f"setpoint_matrix[{k}, {i}] (DoF {i}) is infinite")
         out = np.empty((4, sps.shape[0], self.n))
-        (_run_compiled if self._use_numba else _run_kernel)(sps, self._buf, self._cfg, self._gid, out)
+        if self._use_numba:
+            _run_compiled(sps, self._buf, self._cfg, self._one_pass, out)
+        else:
+            for k in range(sps.shape[0]):
+                _reference_step(sps[k], self._buf, self._cfg)
+                out[:, k] = self._buf[_X:_JERK + 1]
         return FilterResult(out[0], out[1], out[2], out[3])
 
 
 def filter_trajectory(setpoints: np.ndarray, rate: float, **kw: Any) -> FilterResult:
-    """Convenience: filter a (T,) or (T, n) set-point trajectory with a fresh filter."""
+    """Convenience: filter a (T,) or (T, n) set-point trajectory with a fresh filter (`preset=` optional)."""
     sps = np.asarray(setpoints, dtype=float)
     one = sps.ndim == 1
     sps2 = sps[:, None] if one else sps
