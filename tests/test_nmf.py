@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from backend.engine import nmf_examples as ex
-from backend.engine.nmf import PRESETS, MotionFilter, h_gain, lam, omega, stabilise
+from backend.engine.nmf import PRESETS, MotionFilter, h_gain, lam, omega, stabilise, tanh_np
 from backend.engine.trajectory import overshoot, settle_time
 
 DT = 1 / 60
@@ -115,19 +115,51 @@ def test_nan_setpoint_holds_latest():
 @pytest.mark.parametrize("order", [1, 2, 3])
 @pytest.mark.parametrize("limiter", ["tanh", "hard"])
 @pytest.mark.parametrize("name", list(PRESETS))
-@pytest.mark.parametrize("copies", [1, 2])  # 3 DoFs take the one-pass kernel, 6 the multi-pass one
-def test_compiled_kernel_equals_reference_and_run_equals_step(order, limiter, name, copies):
-    x = np.concatenate([np.stack([ex.phi_l(), ex.phi_r(), ex.phi_c()], axis=1)] * copies, axis=1)
+@pytest.mark.parametrize("layout", ["few", "many", "grouped"])  # one-pass kernel, passes, coupled passes
+def test_compiled_kernel_equals_numpy_reference_and_run_equals_step(order, limiter, name, layout):
+    x = np.concatenate([np.stack([ex.phi_l(), ex.phi_r(), ex.phi_c()], axis=1)] * (1 if layout == "few" else 3),
+                       axis=1)
+    x[::7, 1] = np.nan  # "no new set-point" every 7th sample on one DoF
     n = x.shape[1]
-    fast = MotionFilter.from_preset(name, n, 60, order=order, limiter=limiter, pmin=-8, pmax=8)
-    ref = MotionFilter.from_preset(name, n, 60, order=order, limiter=limiter, pmin=-8, pmax=8, use_numba=False)
-    stepper = MotionFilter.from_preset(name, n, 60, order=order, limiter=limiter, pmin=-8, pmax=8)
-    np.testing.assert_allclose(np.array([stepper.step(row).copy() for row in x]), fast.run(x.copy()).position,
-                               rtol=1e-12, atol=1e-12)
-    fast.reset()
-    batch = fast.run(x)
-    stepped = np.array([ref.step(row).copy() for row in x])
-    np.testing.assert_allclose(batch.position, stepped, rtol=1e-12, atol=1e-12)
+    kw = dict(order=order, limiter=limiter, pmin=-8, pmax=8)
+    if layout == "grouped":
+        kw["groups"] = [[0, 1], [3, 4, 5]]
+    fast = MotionFilter.from_preset(name, n, 60, **kw)
+    ref = MotionFilter.from_preset(name, n, 60, use_numba=False, **kw)
+    stepper = MotionFilter.from_preset(name, n, 60, **kw)
+    batch, oracle = fast.run(x), ref.run(x)
+    # the same operations in the same order: the same bits, in every reported quantity
+    for q in ("position", "velocity", "acceleration", "jerk"):
+        np.testing.assert_array_equal(getattr(batch, q), getattr(oracle, q), err_msg=q)
+    np.testing.assert_array_equal(np.array([stepper.step(row).copy() for row in x]), batch.position)
+    np.testing.assert_array_equal(stepper.jerk, batch.jerk[-1])
+
+
+def test_own_tanh_is_within_4_ulp_of_libm():
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.uniform(-25, 25, 200_000), rng.normal(0, 1e-3, 10_000), np.logspace(-300, 2, 3000),
+                        [0.0, 19.0, 20.0, 21.0, 1e300, -1e300]])
+    got = tanh_np(x)
+    want = np.tanh(x)
+    ulp = np.abs(got - want) / np.spacing(np.maximum(np.abs(want), np.finfo(float).tiny))
+    assert ulp.max() <= 4
+    assert (np.abs(got) <= 1.0).all() and got[-2] == 1.0 and got[-1] == -1.0
+
+
+def test_omega_and_h_inside_one_step_by_hand():
+    # order 1, hard limiter with a huge V: the step is x' = x + H(Ω(v)) dt exactly as in the spec
+    x0, s, rate = 6.0, 9.0, 50.0
+    f = MotionFilter(1, rate, order=1, limiter="hard", vel_limit=1e9, sigma=1.0, rho=0.0, pmin=-10, pmax=10,
+                     beta=2, x0=x0)
+    f.step(np.array([s]))
+    v = (s - x0) * rate * (1 - (x0 / 10) ** 4)  # centre 0, alpha 10, 2 beta = 4
+    u = v * 0.5 * (math.tanh(1.0 - math.pi) + 1)  # sigma = 1: the power is 1 for every v
+    assert f.velocity[0] == pytest.approx(u, rel=1e-14)
+    assert f.position[0] == pytest.approx(x0 + u / rate, rel=1e-14)
+    # moving away from the nearer limit: Ω leaves v alone
+    g = MotionFilter(1, rate, order=1, limiter="hard", vel_limit=1e9, bypass=True, pmin=-10, pmax=10, x0=x0)
+    g.step(np.array([0.0]))
+    assert g.velocity[0] == pytest.approx(-x0 * rate, rel=1e-14)
 
 
 def _phi_l(name, limiter="tanh", order=3):
@@ -204,6 +236,70 @@ def test_bad_parameters_name_parameter_and_dof(kw, message):
     with pytest.raises(ValueError) as err:
         MotionFilter(3, 60, **kw)
     assert message in str(err.value)
+
+
+def test_more_validation_messages():
+    with pytest.raises(ValueError, match=r"rate must be a number of Hz in \[0.001, 1e\+06\]"):
+        MotionFilter(1, 0)
+    with pytest.raises(ValueError, match="n_dofs must be a positive integer"):
+        MotionFilter(0, 60)
+    with pytest.raises(ValueError, match="vel_limit of DoF 1 must be <= 1e\\+100"):
+        MotionFilter(2, 60, vel_limit=[1.0, 1e200])
+    with pytest.raises(ValueError, match="sigma must be equal within a coupled group"):
+        MotionFilter(3, 60, sigma=[0.1, 0.2, 0.3], groups=[[0, 1]])
+    with pytest.raises(ValueError, match="x0 of DoF 1 must be finite"):
+        MotionFilter(2, 60, x0=[0.0, np.nan])
+    f = MotionFilter(2, 60)
+    with pytest.raises(ValueError, match="velocity of DoF 0 must be finite"):
+        f.set_state([0.0, 0.0], velocity=[np.inf, 0.0])
+    with pytest.raises(ValueError, match=r"setpoints must have shape \(2,\)"):
+        f.step([1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="setpoint of DoF 1 is infinite"):
+        f.step([1.0, np.inf])
+    before = f.params()
+    with pytest.raises(ValueError, match="rho of DoF 0"):
+        f.set_params(sigma=0.9, rho=2.0)  # nothing changes when a check fails
+    assert f.params()["sigma"][0] == before["sigma"][0]
+
+
+def test_per_dof_parameters_and_bypass():
+    # DoF 0 bypassed (W), DoF 1 preset A's character: same limits, different motion
+    f = MotionFilter(2, 60, sigma=[0.5, 1.0], rho=[0.5, 1.0], bypass=[True, False], x0=0.0)
+    res = f.run(np.tile([5.0, 5.0], (120, 1)))
+    w = MotionFilter.from_preset("W", 1, 60, x0=0.0).run(np.full((120, 1), 5.0)).position[:, 0]
+    a = MotionFilter.from_preset("A", 1, 60, x0=0.0).run(np.full((120, 1), 5.0)).position[:, 0]
+    np.testing.assert_array_equal(res.position[:, 0], w)
+    np.testing.assert_array_equal(res.position[:, 1], a)
+
+
+def test_infinite_position_bound_clips_only_the_finite_side():
+    f = MotionFilter(1, 60, order=1, bypass=True, limiter="hard", vel_limit=1000, pmin=-np.inf, pmax=1.0, x0=0.0)
+    f.step(np.array([5.0]))
+    assert f.position[0] == 1.0 and f.velocity[0] == 0.0
+    f.step(np.array([-50.0]))
+    assert f.position[0] == pytest.approx(1.0 - 1000 / 60)
+
+
+def test_uninitialised_dof_waits_at_x0_or_zero():
+    f = MotionFilter(2, 60, x0=None)
+    f.step(np.array([np.nan, 3.0]))
+    np.testing.assert_array_equal(f.position, [0.0, 3.0])  # DoF 1 starts at its first set-point
+    f.step(np.array([2.0, np.nan]))
+    assert f.position[0] == 2.0  # and DoF 0 at its own first one, without a jump from 0
+    g = MotionFilter(1, 60, x0=1.5)
+    g.step(np.array([np.nan]))
+    assert g.position[0] == 1.5 and g.velocity[0] == 0.0
+
+
+def test_reset_and_set_state():
+    f = MotionFilter.from_preset("D", 1, 60)
+    first = f.run(np.full((30, 1), 2.0)).position.copy()
+    f.reset()
+    np.testing.assert_array_equal(f.run(np.full((30, 1), 2.0)).position, first)
+    f.set_state([1.0], velocity=[3.0], acceleration=[-2.0])
+    assert (f.position[0], f.velocity[0], f.acceleration[0]) == (1.0, 3.0, -2.0)
+    f.step(np.array([np.nan]))  # holds the latest set-point (2.0) and continues from the new state
+    assert f.position[0] > 1.0
 
 
 def test_unknown_preset():
