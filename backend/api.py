@@ -168,8 +168,9 @@ class Hub:
             raise _error(404, "unknown_command", f"no command with id '{cid}'")
         if entry["status"] in ("completed", "cancelled", "failed"):
             return {"id": cid, "status": entry["status"]}
-        if entry["type"] == "play_clip":
-            for block in control._blocks(self.session, ("clip_player",)):
+        kinds = {"play_clip": ("clip_player",), "go_posture": ("posture",), "say": ("say",)}.get(entry["type"], ())
+        if kinds:
+            for block in control._blocks(self.session, kinds):
                 try:
                     self.session.engine.call(lambda b=block: b.handle("stop", {"command_id": cid}))
                 except Exception:  # a block that cannot stop is reported through its status

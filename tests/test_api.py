@@ -192,7 +192,7 @@ def test_ws_telemetry_signals_frames_and_layers(client):
         assert msg["signals"]["breathe.out"]["mask"] >= 9
         assert "head_yaw" in msg["frame"]["position"] and "head_yaw" in msg["frame"]["stage1"]
         assert all(c in (1, 2, 3) for c in msg["frame"]["classes"].values())  # only violations are listed
-        assert [layer["name"] for layer in msg["layers"]["mix"]] == ["base", "idle"]
+        assert [layer["name"] for layer in msg["layers"]["mix"]] == ["base", "posture", "idle"]
         ws.send_json({"type": "subscribe", "rate": 1000})
         err = ws.receive_json()
         while err["type"] != "error":
@@ -209,3 +209,23 @@ def test_ws_frames_json_and_msgpack(client):
     with client.websocket_connect("/ws/frames?format=msgpack&decimate=2") as ws:
         a, b = msgpack.unpackb(ws.receive_bytes()), msgpack.unpackb(ws.receive_bytes())
         assert b["seq"] - a["seq"] == 2
+
+
+def test_long_action_reports_started_then_completed(client):
+    import time
+
+    with client.websocket_connect("/ws/control") as ws:
+        r = client.post("/api/commands", json={"type": "go_posture", "posture": "curious", "duration": 0.3})
+        assert r.status_code == 200 and r.json()["status"] == "started"
+        cid = r.json()["id"]
+        events = []
+        deadline = time.time() + 5
+        while time.time() < deadline and "completed" not in events:
+            msg = ws.receive_json()
+            if msg.get("command_id") == cid or msg.get("id") == cid:
+                events.append(msg["event"])
+        assert events[-1] == "completed"
+    assert client.get(f"/api/commands/{cid}").json()["status"] == "completed"
+    r = client.post("/api/commands", json={"type": "go_posture", "posture": "sad", "duration": 5})
+    cid = r.json()["id"]
+    assert client.delete(f"/api/commands/{cid}").json()["status"] == "cancelled"

@@ -45,21 +45,22 @@ def default_program_path(robot_folder: Path | None) -> Path | None:
 
 
 def builtin_idle(robot_name: str) -> dict:
-    """A small idle program any robot can run: breathing and ear sway over the rest pose, filtered."""
+    """A small idle program any robot can run: breathing over the rest pose or a posture, filtered."""
     from backend.graph.builder import ProgramBuilder
 
-    b = ProgramBuilder("built-in idle", "Breathing over the rest pose, motion filter and safety limits.",
+    b = ProgramBuilder("built-in idle", "Breathing over the rest pose or a posture, motion filter and safety limits.",
                        robot=robot_name)
     arousal = b.expose("arousal", default=0.0, min=-1.0, max=1.0, description="calm (-1) to excited (+1)")
     rest = b.node("rest_pose", "rest", ui={"x": 0, "y": 0})
     breathe = b.node("sine", "breathe", ui={"x": 0, "y": 160}, dofs=["stationary:*"], amplitude=0.04,
                      frequency=0.25, phase_spread=0.6)
     gain = b.node("gain_offset", "arousal_gain", ui={"x": 260, "y": 160}, gain=1.0)
+    posture = b.node("posture", "posture", ui={"x": 260, "y": -140}, duration=1.2)
     mix = b.node("layer_mixer", "mix", ui={"x": 520, "y": 60},
-                 layers=[{"name": "base"}, {"name": "idle", "mode": "additive"}])
+                 layers=[{"name": "base"}, {"name": "posture", "mode": "override"}, {"name": "idle", "mode": "additive"}])
     nmf = b.node("nmf_stage2", "nmf", ui={"x": 780, "y": 60}, preset="D")
     safety = b.node("safety_limiter", "safety", ui={"x": 1040, "y": 60})
-    b.connect(rest, mix, "out", "base").chain(breathe, gain)
+    b.connect(rest, mix, "out", "base").connect(posture, mix, "out", "posture").chain(breathe, gain)
     b.connect(gain, mix, "out", "idle").chain(mix, nmf, safety, b.output())
     b.doc["nodes"][-1]["ui"] = {"x": 1300, "y": 60}
     b.connect(arousal, gain, "value", "offset")

@@ -1,0 +1,135 @@
+"""The posture block: go to a named pose of the robot's pose library with a duration and an easing."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+
+from backend.engine.blocks.base import Block, BlockCommandError, BlockParams, Port, PortType, Role, register_block
+from backend.engine.blocks.core import pose_vector
+from backend.engine.frames import PartialFrame
+
+Easing = Literal["linear", "sine_in_out", "quad_in_out", "cubic_in_out", "quint_in_out", "back_out", "elastic_out"]
+
+
+def ease(name: str, u: float) -> float:
+    """Easing curves on u in [0, 1] (0 -> 0, 1 -> 1). back/elastic overshoot on purpose (anticipation and
+    follow-through, the paper's principles); the output block clamps to limits, the NMF smooths."""
+    u = min(max(u, 0.0), 1.0)
+    if name == "linear":
+        return u
+    if name == "sine_in_out":
+        return 0.5 - 0.5 * math.cos(math.pi * u)
+    if name in ("quad_in_out", "cubic_in_out", "quint_in_out"):
+        p = {"quad_in_out": 2, "cubic_in_out": 3, "quint_in_out": 5}[name]
+        return 0.5 * (2 * u) ** p if u < 0.5 else 1 - 0.5 * (2 - 2 * u) ** p
+    if name == "back_out":
+        c1 = 1.70158
+        return 1 + (c1 + 1) * (u - 1) ** 3 + c1 * (u - 1) ** 2
+    if name == "elastic_out":
+        if u in (0.0, 1.0):
+            return u
+        return 2 ** (-10 * u) * math.sin((u * 10 - 0.75) * (2 * math.pi / 3)) + 1
+    raise ValueError(f"unknown easing '{name}'")
+
+
+class PostureParams(BlockParams):
+    posture: str | None = Field(None, description="posture to hold at start (from the robot's pose library)",
+                                json_schema_extra={"x-widget": "posture"})
+    duration: float = Field(1.0, ge=0.05, le=10.0, description="time to reach a new posture (s)")
+    easing: Easing = Field("sine_in_out", description="slow in/out by default; back/elastic overshoot")
+
+
+@register_block
+class Posture(Block):
+    """Goes to a named posture of the robot (happy, sad, curious, …) with a duration and an easing.
+
+    Run-time command `go {posture, duration?, easing?}` (the API's go_posture) starts a move from where
+    the block's output is now, reporting started/completed (or cancelled when another move replaces
+    it). Enum channels such as the mouth expression switch half-way. Only the posture's DoFs are set.
+    """
+
+    type_name = "posture"
+    title = "Posture"
+    category = "sources"
+    role = Role.source
+    Params = PostureParams
+    outputs = {"out": Port(PortType.frame, "the pose"), "moving": Port(PortType.bool, "true while moving")}
+    state_attrs = ("current", "mask", "start", "target", "elapsed", "move", "command_id")
+
+    def reset(self) -> None:
+        self.current = self.emb.rest.copy()
+        self.mask = np.zeros(self.emb.n_channels, dtype=bool)
+        self.start = self.current.copy()
+        self.target = self.current.copy()
+        self.elapsed = 0.0
+        self.move: dict[str, Any] | None = None
+        self.command_id = None
+        if self.params.posture:
+            vec, mask = self._pose(self.params.posture)
+            self.current = np.where(mask, vec, self.current)
+            self.target, self.mask = self.current.copy(), mask
+
+    def _pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        values = None
+        lib = self.ctx.resources
+        if lib is not None:
+            try:
+                doc = lib.get("postures", name)
+                values = doc.get("values", doc)
+            except Exception:
+                values = None
+        if values is None:
+            values = self.emb.postures.get(name)
+        if values is None:
+            raise BlockCommandError(f"robot '{self.emb.name}' has no posture '{name}' "
+                                    f"(postures: {sorted(self.emb.postures)})")
+        try:
+            return pose_vector(self.emb, {k: v for k, v in values.items() if k not in ("name", "builtin")})
+        except ValueError as exc:
+            raise BlockCommandError(f"posture '{name}': {exc}") from exc
+
+    def configure(self) -> None:
+        if self.params.posture:
+            self._pose(self.params.posture)  # an unknown posture is a configuration error, reported by name
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command == "go":
+            name = str(args.get("posture", ""))
+            vec, mask = self._pose(name)
+            duration = float(args.get("duration") or self.params.duration)
+            easing = str(args.get("easing") or self.params.easing)
+            ease(easing, 0.5)  # validates the name
+            if self.move is not None:
+                self.ctx.notify(self.node_id, "cancelled", command_id=self.command_id, posture=self.move["posture"])
+            self.start = self.current.copy()
+            self.target = np.where(mask, vec, self.current)
+            self.mask = self.mask | mask
+            self.elapsed = 0.0
+            self.move = {"posture": name, "duration": duration, "easing": easing}
+            self.command_id = args.get("command_id")
+            self.ctx.notify(self.node_id, "started", command_id=self.command_id, posture=name)
+            return {"posture": name, "duration": duration}
+        if command in ("stop", "cancel"):
+            if self.move is not None:
+                self.ctx.notify(self.node_id, "cancelled", command_id=self.command_id, posture=self.move["posture"])
+            self.move = None
+            self.target = self.current.copy()
+            return {"stopped": True}
+        return super().handle(command, args)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        if self.move is not None:
+            self.elapsed += dt
+            u = self.elapsed / self.move["duration"]
+            k = ease(self.move["easing"], u)
+            cont = self.start + k * (self.target - self.start)
+            self.current = np.where(self.emb.enum_mask, np.where(u >= 0.5, self.target, self.start), cont)
+            if u >= 1.0:
+                self.current = self.target.copy()
+                self.ctx.notify(self.node_id, "completed", command_id=self.command_id, posture=self.move["posture"])
+                self.move = None
+        return {"out": PartialFrame(self.current.copy(), self.mask.copy(), []), "moving": self.move is not None}
