@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from backend.engine import nmf_examples as ex
-from backend.engine.nmf import PRESETS, MotionFilter, h_gain, lam, omega, stabilise, tanh_np
+from backend.engine.nmf import PRESETS, MotionFilter, h_gain, lam, omega, pow_np, stabilise, tanh_np
 from backend.engine.trajectory import overshoot, settle_time
 
 DT = 1 / 60
@@ -144,6 +144,20 @@ def test_own_tanh_is_within_4_ulp_of_libm():
     ulp = np.abs(got - want) / np.spacing(np.maximum(np.abs(want), np.finfo(float).tiny))
     assert ulp.max() <= 4
     assert (np.abs(got) <= 1.0).all() and got[-2] == 1.0 and got[-1] == -1.0
+
+
+def test_own_power_is_within_2e_13_of_libm():
+    rng = np.random.default_rng(4)
+    b = np.concatenate([10.0 ** rng.uniform(-300, 12, 100_000), [5e-324, 1e-310, 2.0 ** -500, 1.0, 1e12,
+                                                                  math.sqrt(2), math.sqrt(2) - 1e-16]])
+    e = rng.uniform(0.0, 1.0, b.size)
+    e[:500] = 1e-12
+    want = b ** e
+    got = pow_np(b, e)
+    ok = want > 1e-290  # below, e ln b < -700 is clamped: the result is < 1e-304 either way
+    assert (np.abs(got - want)[ok] <= 2e-13 * want[ok]).all()
+    assert (got[~ok] < 1e-290).all()
+    assert pow_np(np.array([0.0]), np.array([0.5]))[0] == 0.0
 
 
 def test_omega_and_h_inside_one_step_by_hand():

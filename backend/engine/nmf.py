@@ -18,10 +18,14 @@ Every parameter is a scalar or a per-DoF array, so one filter serves a whole rob
 Implementation
 - State and parameters are structure-of-arrays rows of one float64 buffer. The hot path is a
   numba-compiled kernel: a one-pass loop for a few DoFs, and for more DoFs simple passes over the
-  DoFs that the compiler turns into SIMD code. `tanh` is our own branch-free implementation
-  (`_tanh`, within 4 ulp of libm's, see tests) because libm's cannot be vectorised; `pow` stays libm.
+  DoFs that the compiler turns into SIMD code. `tanh` and H's power are our own branch-free
+  implementations (`_tanh` within 4 ulp of libm's; `_pow` within 2e-13 relative; see tests) because
+  libm's cannot be vectorised. Ω's power (only near position limits) stays libm's.
 - `_reference_step` is a pure-numpy implementation of the same arithmetic, vectorised over DoFs. The
   tests check the compiled kernels against it bit for bit; it is the fallback when numba is missing.
+- Divisions by constants are multiplications by their inverses computed once in `set_params`
+  (1/dt = rate, 2/k, 1/(1-rho), 1/alpha): a rounding difference of at most an ulp from the printed
+  formulas, for several times fewer divisions in the hot loop.
 - Overflow guards that change no output: the induced velocity is clamped to +-1e290 (every limiter
   has saturated long before), H's base to 1e12 (tanh has saturated), group norms are computed
   scaled. With limits <= 1e100 and rates in [1e-3, 1e6] Hz no intermediate value can overflow, so
@@ -52,7 +56,27 @@ import numpy as np
 try:  # numba is a hard dependency in pyproject; the fallback keeps the filter usable without it
     from numba import njit
 
+    from numba import types as _nt
+    from numba.core.extending import intrinsic
+
     HAVE_NUMBA = True
+
+    # Bit casts between float64 and int64 (free in machine code, and vectorisable): they build 2**k
+    # from k's bits inside _tanh.
+    @intrinsic
+    def _f2i(typingctx, x):
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(_nt.int64))
+
+        return _nt.int64(_nt.float64), codegen
+
+    @intrinsic
+    def _i2f(typingctx, x):
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(_nt.float64))
+
+        return _nt.float64(_nt.int64), codegen
+
 except ImportError:  # pragma: no cover - exercised only where numba is missing
     HAVE_NUMBA = False
 
@@ -71,14 +95,17 @@ LIMITERS = ("tanh", "hard")
 
 # Rows of the buffer: state, then parameters (some derived once in set_params), then scratch.
 (_X, _VEL, _ACC, _JERK, _SP, _INIT,
- _KV, _KA, _KJ, _SIGMA, _RHO, _BETA, _EXPO, _OMR, _BYPASS, _HASPOS, _LO, _HI, _CENTER, _ALPHA, _TWOB,
- _MEMBER, _GID, _HMIX,
- _WV, _WU, _WT, _WN, _WG1, _WG2) = range(30)
-N_ROWS = 30
+ _KV, _KA, _KJ, _SIGMA, _RHO, _BETA, _BYPASS,
+ _IHV, _IHA, _IHJ, _EXPO, _IOMR, _HASPOS, _LO, _HI, _CENTER, _IALPHA, _TWOB, _MEMBER, _GID, _HMIX,
+ _WV, _WU, _WT, _WN, _WG1, _WG2) = range(33)
+N_ROWS = 33
 _STATE = slice(_X, _INIT + 1)
 _PARAMS = slice(_KV, _HMIX + 1)
-# cfg vector: dt, order, hard, n_groups, grouped, any_pos, all_bypass
-_CFG_LEN = 7
+# Derived rows: _IHV/_IHA/_IHJ = 2/k (the limiters multiply by the inverse headroom), _EXPO = 1 - sigma,
+# _IOMR = 1/(1 - min(rho, RHO_MAX)), _IALPHA = 1/alpha, _TWOB = 2 beta, _HMIX = 1 - bypass; divisions
+# by constants become multiplications (a division costs several multiplications' time).
+# cfg vector: dt, order, hard, n_groups, grouped, any_pos, all_bypass, rate
+_CFG_LEN = 8
 
 
 @dataclass(frozen=True)
@@ -131,7 +158,8 @@ _LN2_HI = 6.93147180369123816490e-01  # ln 2 with trailing zero bits: k * _LN2_H
 _LN2_LO = 1.90821492927058770002e-10
 _INV_LN2 = 1.44269504088896338700e+00
 _TANH_CAP = 20.0
-_ROUND = 6755399441055744.0  # 1.5 * 2**52: adding and subtracting it rounds to an integer
+_ROUND = 6755399441055744.0  # 1.5 * 2**52: adding it rounds to an integer held in the low bits
+_ROUND_BITS = int(np.float64(_ROUND).view(np.int64))
 _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13 = (1.0 / math.factorial(k) for k in range(2, 14))
 
 
@@ -139,29 +167,12 @@ _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13 = (1.0 / math.fac
 def _tanh(x):
     a = min(abs(x), _TANH_CAP)
     y = a + a
-    k = (y * _INV_LN2 + _ROUND) - _ROUND  # round to nearest without a call: vectorisable
+    kr = y * _INV_LN2 + _ROUND  # round to nearest without a call: vectorisable
+    k = kr - _ROUND
     r = (y - k * _LN2_HI) - k * _LN2_LO
     p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
         _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
-    # 2**k (0 <= k <= 58) as a product of powers of two picked by k's bits: exact and branch-free
-    s = 1.0
-    kk = k
-    big = kk >= 32.0
-    s = s * (4294967296.0 if big else 1.0)
-    kk = kk - (32.0 if big else 0.0)
-    big = kk >= 16.0
-    s = s * (65536.0 if big else 1.0)
-    kk = kk - (16.0 if big else 0.0)
-    big = kk >= 8.0
-    s = s * (256.0 if big else 1.0)
-    kk = kk - (8.0 if big else 0.0)
-    big = kk >= 4.0
-    s = s * (16.0 if big else 1.0)
-    kk = kk - (4.0 if big else 0.0)
-    big = kk >= 2.0
-    s = s * (4.0 if big else 1.0)
-    kk = kk - (2.0 if big else 0.0)
-    s = s * (2.0 if kk >= 1.0 else 1.0)
+    s = _i2f(((_f2i(kr) - _ROUND_BITS) + 1023) << 52)  # 2**k (0 <= k <= 58) from k's bits, exact
     em1 = s * p + (s - 1.0)
     t = em1 / (em1 + 2.0)
     return t if x >= 0.0 else -t
@@ -180,6 +191,70 @@ def tanh_np(x: np.ndarray) -> np.ndarray:
     em1 = s * p + (s - 1.0)
     t = em1 / (em1 + 2.0)
     return np.where(x >= 0.0, t, -t)
+
+
+# b**e for 0 <= b <= H_BASE_MAX and 0 < e < 1 (H's power), vectorisable: exp(e ln b) with ln b from
+# b = m 2**E, m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh((m-1)/(m+1)) (series to f**23), and exp by the
+# same reduction as in tanh. Relative error below 2e-13 (tested against libm's pow); H only uses the
+# result inside tanh(p - pi), where that is far below the gain's own rounding.
+_SQRT2 = 1.4142135623730951
+_TWO600 = 2.0 ** 600
+_TINY = 2.0 ** -500  # smaller b are scaled up by 2**600 first (exact) to read their exponent
+_L3, _L5, _L7, _L9, _L11, _L13, _L15, _L17, _L19, _L21, _L23 = (1.0 / k for k in range(3, 24, 2))
+_EXP_LO, _EXP_HI = -700.0, 28.0  # e ln b lies in [-inf, ln 1e12 = 27.6]; below -700, b**e < 1e-304
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _pow(b, e):
+    small = b < _TINY
+    bs = b * _TWO600 if small else b
+    bits = _f2i(bs)
+    ebits = (bits & 0x7FF0000000000000) >> 52  # masked first: a non-negative shift, which SIMD has
+    m = _i2f((bits & 0x000FFFFFFFFFFFFF) | 0x3FF0000000000000)  # mantissa in [1, 2)
+    ex = (_i2f(ebits | _ROUND_BITS) - _ROUND) - 1023.0  # the exponent, as a float
+    big = m > _SQRT2
+    m = m * 0.5 if big else m
+    ex = ex + (1.0 if big else 0.0) - (600.0 if small else 0.0)
+    f = (m - 1.0) / (m + 1.0)
+    f2 = f * f
+    q = f2 * (_L3 + f2 * (_L5 + f2 * (_L7 + f2 * (_L9 + f2 * (_L11 + f2 * (_L13 + f2 * (
+        _L15 + f2 * (_L17 + f2 * (_L19 + f2 * (_L21 + f2 * _L23))))))))))
+    lnb = ex * _LN2_HI + (ex * _LN2_LO + (f + f) * (1.0 + q))
+    y = min(max(e * lnb, _EXP_LO), _EXP_HI)
+    kr = y * _INV_LN2 + _ROUND
+    k = kr - _ROUND
+    r = (y - k * _LN2_HI) - k * _LN2_LO
+    p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
+        _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+    s = _i2f(((_f2i(kr) - _ROUND_BITS) + 1023) << 52)
+    out = s * p + s
+    return out if b > 0.0 else 0.0
+
+
+def pow_np(b: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """numpy twin of `_pow` (same operations, same bits)."""
+    b = np.asarray(b, dtype=float)
+    e = np.asarray(e, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m, ex = np.frexp(b)  # b = m 2**ex, m in [0.5, 1): the same (m, E) as the bit reading above
+        m = m * 2.0
+        ex = ex.astype(float) - 1.0
+        big = m > _SQRT2
+        m = np.where(big, m * 0.5, m)
+        ex = ex + np.where(big, 1.0, 0.0)
+        f = (m - 1.0) / (m + 1.0)
+        f2 = f * f
+        q = f2 * (_L3 + f2 * (_L5 + f2 * (_L7 + f2 * (_L9 + f2 * (_L11 + f2 * (_L13 + f2 * (
+            _L15 + f2 * (_L17 + f2 * (_L19 + f2 * (_L21 + f2 * _L23))))))))))
+        lnb = ex * _LN2_HI + (ex * _LN2_LO + (f + f) * (1.0 + q))
+        y = np.minimum(np.maximum(e * lnb, _EXP_LO), _EXP_HI)
+        k = (y * _INV_LN2 + _ROUND) - _ROUND
+        r = (y - k * _LN2_HI) - k * _LN2_LO
+        p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
+            _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+        s = np.ldexp(1.0, k.astype(np.int64))
+        out = s * p + s
+    return np.where(b > 0.0, out, 0.0)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -237,70 +312,66 @@ def stabilise(v: np.ndarray | float, sigma: float, rho: float) -> np.ndarray:
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _lim(u, k, hard):
-    """lam for one value: the tanh limiter (headroom k/2) or the hard clip at k."""
+def _lim(u, k, inv_h, hard):
+    """lam for one value: the tanh limiter (headroom k/2; inv_h = 2/k) or the hard clip at k."""
     if hard:
         return min(max(u, -k), k)
-    h = 0.5 * k
-    return h * _tanh(u / h)
+    return (0.5 * k) * _tanh(u * inv_h)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _induced(s, x, dt):
+def _induced(s, x, rate):
     """(s - x)/dt, capped at +-V_CLAMP (only ever reached when s - x overflows the float range)."""
-    return min(max((s - x) / dt, -V_CLAMP), V_CLAMP)
+    return min(max((s - x) * rate, -V_CLAMP), V_CLAMP)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _omega1(v, x, center, alpha, twob):
+def _omega1(v, x, center, inv_alpha, twob):
     if (x > center and v > 0.0) or (x < center and v < 0.0):
-        r = min(abs(x - center) / alpha, 1.0)
+        r = min(abs(x - center) * inv_alpha, 1.0)
         return v * (1.0 - r ** twob)
     return v
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _h_arg(speed, omr, expo):
+def _h_arg(speed, inv_omr, expo):
     """(min(|v|/(1-rho), cap))^(1-sigma) - pi: the argument of H's tanh (exponents 0 and 1 exact)."""
-    b = min(speed / omr, H_BASE_MAX)
-    if expo == 0.0:
-        p = 1.0
-    elif expo == 1.0:
-        p = b
-    else:
-        p = b ** expo
+    b = min(speed * inv_omr, H_BASE_MAX)
+    pw = _pow(b, expo)  # computed always and selected: branch-free, so the loop vectorises
+    p = 1.0 if expo == 0.0 else (b if expo == 1.0 else pw)
     return p - math.pi
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _advance(u, x, vel, acc, kv, ka, kj, lo, hi, dt, order, hard):
-    """Limiters and integration for one DoF: (x', vel', acc', reported jerk)."""
+def _advance(u, x, vel, acc, i, buf, dt, rate, order, hard):
+    """Limiters and integration for DoF i with target velocity u: (x', vel', acc', reported jerk)."""
     if order == 1:
-        w = _lim(u, kv, hard)
-        a = (w - vel) / dt
+        w = _lim(u, buf[_KV, i], buf[_IHV, i], hard)
+        a = (w - vel) * rate
     elif order == 2:
-        a = _lim((u - vel) / dt, ka, hard)
-        w = _lim(vel + a * dt, kv, hard)
-        a = (w - vel) / dt
+        a = _lim((u - vel) * rate, buf[_KA, i], buf[_IHA, i], hard)
+        w = _lim(vel + a * dt, buf[_KV, i], buf[_IHV, i], hard)
+        a = (w - vel) * rate
     else:
-        j = _lim(((u - vel) / dt - acc) / dt, kj, hard)
-        a = _lim(acc + j * dt, ka, hard)
-        w = _lim(vel + a * dt, kv, hard)
+        j = _lim(((u - vel) * rate - acc) * rate, buf[_KJ, i], buf[_IHJ, i], hard)
+        a = _lim(acc + j * dt, buf[_KA, i], buf[_IHA, i], hard)
+        w = _lim(vel + a * dt, buf[_KV, i], buf[_IHV, i], hard)
+    lo = buf[_LO, i]
+    hi = buf[_HI, i]
     xn = x + w * dt
     # Leaving [lo, hi] clips x' and zeroes vel', acc'; lo/hi are -inf/+inf without position limits.
-    # Written as min/max and selects (no branch) so that the loops over DoFs vectorise.
     inside = lo <= xn and xn <= hi
     xn = min(max(xn, lo), hi)
     w = w if inside else 0.0
     a = a if inside else 0.0
-    return xn, w, a, (a - acc) / dt
+    return xn, w, a, (a - acc) * rate
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _advance_all(buf, n, dt, order, hard):
-    """The limiters and integration of `_advance` over all uncoupled DoFs, as passes that each write
-    one array (the compiler vectorises a loop only when few arrays may alias). Called with literal
-    order/hard so each instance is specialised. Same operations as `_advance`."""
+def _advance_all(buf, n, dt, rate, order, hard):
+    """`_advance` over all uncoupled DoFs, as passes that each write one array (the compiler
+    vectorises a loop only when few arrays may alias), with branch-free selects. Called with literal
+    order/hard so each instance is specialised. The same operations as `_advance`."""
     u = buf[_WV]
     x = buf[_X]
     vel = buf[_VEL]
@@ -311,28 +382,31 @@ def _advance_all(buf, n, dt, order, hard):
     kv = buf[_KV]
     ka = buf[_KA]
     kj = buf[_KJ]
+    ihv = buf[_IHV]
+    iha = buf[_IHA]
+    ihj = buf[_IHJ]
     lo = buf[_LO]
     hi = buf[_HI]
     if order == 1:
         for i in range(n):
-            w[i] = _lim(u[i], kv[i], hard)
+            w[i] = _lim(u[i], kv[i], ihv[i], hard)
         for i in range(n):
-            a[i] = (w[i] - vel[i]) / dt
+            a[i] = (w[i] - vel[i]) * rate
     elif order == 2:
         for i in range(n):
-            a[i] = _lim((u[i] - vel[i]) / dt, ka[i], hard)
+            a[i] = _lim((u[i] - vel[i]) * rate, ka[i], iha[i], hard)
         for i in range(n):
-            w[i] = _lim(vel[i] + a[i] * dt, kv[i], hard)
+            w[i] = _lim(vel[i] + a[i] * dt, kv[i], ihv[i], hard)
         for i in range(n):
-            a[i] = (w[i] - vel[i]) / dt
+            a[i] = (w[i] - vel[i]) * rate
     else:
         for i in range(n):
-            a[i] = _lim(acc[i] + _lim(((u[i] - vel[i]) / dt - acc[i]) / dt, kj[i], hard) * dt, ka[i], hard)
+            j = _lim(((u[i] - vel[i]) * rate - acc[i]) * rate, kj[i], ihj[i], hard)
+            a[i] = _lim(acc[i] + j * dt, ka[i], iha[i], hard)
         for i in range(n):
-            w[i] = _lim(vel[i] + a[i] * dt, kv[i], hard)
-    # Leaving [lo, hi] clips x' and zeroes vel', acc' (see _advance).
+            w[i] = _lim(vel[i] + a[i] * dt, kv[i], ihv[i], hard)
     for i in range(n):
-        jerk[i] = ((a[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0) - acc[i]) / dt
+        jerk[i] = ((a[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0) - acc[i]) * rate
     for i in range(n):
         acc[i] = a[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0
     for i in range(n):
@@ -359,18 +433,18 @@ def _step_one_pass(sp_in, buf, cfg):
     dt = cfg[0]
     order = int(cfg[1])
     hard = cfg[2] != 0.0
+    rate = cfg[7]
     n = sp_in.shape[0]
     _ingest(sp_in, buf, n)
     for i in range(n):
         x = buf[_X, i]
-        v = _induced(buf[_SP, i], x, dt)
+        v = _induced(buf[_SP, i], x, rate)
         if buf[_HASPOS, i] != 0.0:
-            v = _omega1(v, x, buf[_CENTER, i], buf[_ALPHA, i], buf[_TWOB, i])
-        if buf[_BYPASS, i] == 0.0:
-            t = _h_arg(abs(v), buf[_OMR, i], buf[_EXPO, i])
-            v = v * (0.5 * (_tanh(t) + 1.0))
-        xn, w, a, j = _advance(v, x, buf[_VEL, i], buf[_ACC, i], buf[_KV, i], buf[_KA, i], buf[_KJ, i],
-                               buf[_LO, i], buf[_HI, i], dt, order, hard)
+            v = _omega1(v, x, buf[_CENTER, i], buf[_IALPHA, i], buf[_TWOB, i])
+        if buf[_BYPASS, i] == 0.0:  # (v * (g * 1 + 0) here; bypassed: v * (g * 0 + 1) = v, as in the passes)
+            t = _h_arg(abs(v), buf[_IOMR, i], buf[_EXPO, i])
+            v = v * ((0.5 * (_tanh(t) + 1.0)) * buf[_HMIX, i] + buf[_BYPASS, i])
+        xn, w, a, j = _advance(v, x, buf[_VEL, i], buf[_ACC, i], i, buf, dt, rate, order, hard)
         buf[_X, i] = xn
         buf[_VEL, i] = w
         buf[_ACC, i] = a
@@ -408,7 +482,7 @@ def _norms(vec, buf, n, n_groups):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _limit_groups(vec, krow, hard, buf, n, n_groups):
+def _limit_groups(vec, krow, ihrow, hard, buf, n, n_groups):
     """lam in place: per DoF, or on each coupled group's norm with the vector scaled proportionally."""
     _norms(vec, buf, n, n_groups)
     nrm = buf[_WN]
@@ -417,9 +491,9 @@ def _limit_groups(vec, krow, hard, buf, n, n_groups):
         if member[i] != 0.0:
             m = nrm[i]
             if m > 0.0:
-                vec[i] = vec[i] * (_lim(m, krow[i], hard) / m)
+                vec[i] = vec[i] * (_lim(m, krow[i], ihrow[i], hard) / m)
         else:
-            vec[i] = _lim(vec[i], krow[i], hard)
+            vec[i] = _lim(vec[i], krow[i], ihrow[i], hard)
 
 
 @njit(cache=True, error_model="numpy")
@@ -432,6 +506,7 @@ def _step_passes(sp_in, buf, cfg):
     grouped = cfg[4] != 0.0
     any_pos = cfg[5] != 0.0
     all_bypass = cfg[6] != 0.0
+    rate = cfg[7]
     n = sp_in.shape[0]
     x = buf[_X]
     vel = buf[_VEL]
@@ -442,87 +517,89 @@ def _step_passes(sp_in, buf, cfg):
     t = buf[_WT]
     _ingest(sp_in, buf, n)
     for i in range(n):
-        v[i] = _induced(sp[i], x[i], dt)
+        v[i] = _induced(sp[i], x[i], rate)
     if any_pos:
         haspos = buf[_HASPOS]
         center = buf[_CENTER]
-        alpha = buf[_ALPHA]
+        ialpha = buf[_IALPHA]
         twob = buf[_TWOB]
         for i in range(n):
             if haspos[i] != 0.0:
-                v[i] = _omega1(v[i], x[i], center[i], alpha[i], twob[i])
+                v[i] = _omega1(v[i], x[i], center[i], ialpha[i], twob[i])
     if not all_bypass:
-        omr = buf[_OMR]
+        iomr = buf[_IOMR]
         expo = buf[_EXPO]
         bypass = buf[_BYPASS]  # 1.0 or 0.0
+        hmix = buf[_HMIX]  # 1 - bypass
         if grouped:
             _norms(v, buf, n, n_groups)
             nrm = buf[_WN]
             for i in range(n):
-                t[i] = _h_arg(nrm[i], omr[i], expo[i])
+                t[i] = _h_arg(nrm[i], iomr[i], expo[i])
         else:
             for i in range(n):
-                t[i] = _h_arg(abs(v[i]), omr[i], expo[i])
-        hmix = buf[_HMIX]
-        for i in range(n):  # branch-free, so vectorised: u = v g, or v where bypassed (exact)
-            g = 0.5 * (_tanh(t[i]) + 1.0)
-            v[i] = v[i] * (g * hmix[i] + bypass[i])
+                t[i] = _h_arg(abs(v[i]), iomr[i], expo[i])
+        for i in range(n):  # branch-free: u = v g, or v where bypassed (v (g 0 + 1) = v exactly)
+            v[i] = v[i] * ((0.5 * (_tanh(t[i]) + 1.0)) * hmix[i] + bypass[i])
     if not grouped:
         if hard:
             if order == 1:
-                _advance_all(buf, n, dt, 1, True)
+                _advance_all(buf, n, dt, rate, 1, True)
             elif order == 2:
-                _advance_all(buf, n, dt, 2, True)
+                _advance_all(buf, n, dt, rate, 2, True)
             else:
-                _advance_all(buf, n, dt, 3, True)
+                _advance_all(buf, n, dt, rate, 3, True)
         else:
             if order == 1:
-                _advance_all(buf, n, dt, 1, False)
+                _advance_all(buf, n, dt, rate, 1, False)
             elif order == 2:
-                _advance_all(buf, n, dt, 2, False)
+                _advance_all(buf, n, dt, rate, 2, False)
             else:
-                _advance_all(buf, n, dt, 3, False)
+                _advance_all(buf, n, dt, rate, 3, False)
         return
+    # Coupled groups: every lam acts on group norms, so each stage is a pass over all DoFs.
     kv = buf[_KV]
     ka = buf[_KA]
     kj = buf[_KJ]
+    ihv = buf[_IHV]
+    iha = buf[_IHA]
+    ihj = buf[_IHJ]
     lo = buf[_LO]
     hi = buf[_HI]
-    # Coupled groups: every lam acts on group norms, so each stage is a pass over all DoFs.
     w = buf[_WU]
     a = t
     if order == 1:
         for i in range(n):
             w[i] = v[i]
-        _limit_groups(w, kv, hard, buf, n, n_groups)
+        _limit_groups(w, kv, ihv, hard, buf, n, n_groups)
         for i in range(n):
-            a[i] = (w[i] - vel[i]) / dt
+            a[i] = (w[i] - vel[i]) * rate
     elif order == 2:
         for i in range(n):
-            a[i] = (v[i] - vel[i]) / dt
-        _limit_groups(a, ka, hard, buf, n, n_groups)
+            a[i] = (v[i] - vel[i]) * rate
+        _limit_groups(a, ka, iha, hard, buf, n, n_groups)
         for i in range(n):
             w[i] = vel[i] + a[i] * dt
-        _limit_groups(w, kv, hard, buf, n, n_groups)
+        _limit_groups(w, kv, ihv, hard, buf, n, n_groups)
         for i in range(n):
-            a[i] = (w[i] - vel[i]) / dt
+            a[i] = (w[i] - vel[i]) * rate
     else:
         for i in range(n):
-            a[i] = ((v[i] - vel[i]) / dt - acc[i]) / dt
-        _limit_groups(a, kj, hard, buf, n, n_groups)
+            a[i] = ((v[i] - vel[i]) * rate - acc[i]) * rate
+        _limit_groups(a, kj, ihj, hard, buf, n, n_groups)
         for i in range(n):
             a[i] = acc[i] + a[i] * dt
-        _limit_groups(a, ka, hard, buf, n, n_groups)
+        _limit_groups(a, ka, iha, hard, buf, n, n_groups)
         for i in range(n):
             w[i] = vel[i] + a[i] * dt
-        _limit_groups(w, kv, hard, buf, n, n_groups)
+        _limit_groups(w, kv, ihv, hard, buf, n, n_groups)
     for i in range(n):
         xn = x[i] + w[i] * dt
         inside = lo[i] <= xn and xn <= hi[i]
         xn = min(max(xn, lo[i]), hi[i])
         wi = w[i] if inside else 0.0
         ai = a[i] if inside else 0.0
-        jerk[i] = (ai - acc[i]) / dt
+        jerk[i] = (ai - acc[i]) * rate
         x[i] = xn
         vel[i] = wi
         acc[i] = ai
@@ -549,11 +626,10 @@ def _run_compiled(sps, buf, cfg, one_pass, out):
 # ------------------------------------------------------------------------------------------------
 
 
-def _lim_np(u: np.ndarray, k: np.ndarray, hard: bool) -> np.ndarray:
+def _lim_np(u: np.ndarray, k: np.ndarray, inv_h: np.ndarray, hard: bool) -> np.ndarray:
     if hard:
         return np.minimum(np.maximum(u, -k), k)
-    h = 0.5 * k
-    return h * tanh_np(u / h)
+    return (0.5 * k) * tanh_np(u * inv_h)
 
 
 def _norms_np(vec: np.ndarray, buf: np.ndarray, n_groups: int) -> np.ndarray:
@@ -571,14 +647,15 @@ def _norms_np(vec: np.ndarray, buf: np.ndarray, n_groups: int) -> np.ndarray:
     return out
 
 
-def _limit_groups_np(vec: np.ndarray, k: np.ndarray, hard: bool, buf: np.ndarray, n_groups: int) -> np.ndarray:
+def _limit_groups_np(vec: np.ndarray, k: np.ndarray, inv_h: np.ndarray, hard: bool, buf: np.ndarray,
+                     n_groups: int) -> np.ndarray:
     member = buf[_MEMBER] != 0.0
     if not member.any():
-        return _lim_np(vec, k, hard)
+        return _lim_np(vec, k, inv_h, hard)
     m = _norms_np(vec, buf, n_groups)
     safe = np.where(m > 0.0, m, 1.0)
-    scaled = np.where(m > 0.0, vec * (_lim_np(m, k, hard) / safe), vec)
-    return np.where(member, scaled, _lim_np(vec, k, hard))
+    scaled = np.where(m > 0.0, vec * (_lim_np(m, k, inv_h, hard) / safe), vec)
+    return np.where(member, scaled, _lim_np(vec, k, inv_h, hard))
 
 
 def _reference_step(sp_in: np.ndarray, buf: np.ndarray, cfg: np.ndarray) -> None:
@@ -588,7 +665,7 @@ def _reference_step(sp_in: np.ndarray, buf: np.ndarray, cfg: np.ndarray) -> None
 
 
 def _reference_step_body(sp_in: np.ndarray, buf: np.ndarray, cfg: np.ndarray) -> None:
-    dt, order, hard = cfg[0], int(cfg[1]), bool(cfg[2])
+    dt, order, hard, rate = cfg[0], int(cfg[1]), bool(cfg[2]), cfg[7]
     n_groups, any_pos, all_bypass = int(cfg[3]), bool(cfg[5]), bool(cfg[6])
     new = ~np.isnan(sp_in)
     buf[_SP, new] = sp_in[new]
@@ -596,36 +673,35 @@ def _reference_step_body(sp_in: np.ndarray, buf: np.ndarray, cfg: np.ndarray) ->
     buf[_X, first] = sp_in[first]
     buf[_INIT, first] = 1.0
     x, vel, acc = buf[_X], buf[_VEL], buf[_ACC]
-    v = np.minimum(np.maximum((buf[_SP] - x) / dt, -V_CLAMP), V_CLAMP)
+    v = np.minimum(np.maximum((buf[_SP] - x) * rate, -V_CLAMP), V_CLAMP)
     if any_pos:
         c = buf[_CENTER]
         toward = (buf[_HASPOS] != 0.0) & (((x > c) & (v > 0.0)) | ((x < c) & (v < 0.0)))
-        r = np.minimum(np.abs(x - c) / buf[_ALPHA], 1.0)
+        r = np.minimum(np.abs(x - c) * buf[_IALPHA], 1.0)
         v = np.where(toward, v * (1.0 - r ** buf[_TWOB]), v)
     if not all_bypass:
-        b = np.minimum(_norms_np(v, buf, n_groups) / buf[_OMR], H_BASE_MAX)
+        b = np.minimum(_norms_np(v, buf, n_groups) * buf[_IOMR], H_BASE_MAX)
         e = buf[_EXPO]
-        p = np.where(e == 0.0, 1.0, np.where(e == 1.0, b, b ** e))
-        g = 0.5 * (tanh_np(p - math.pi) + 1.0)
-        v = np.where(buf[_BYPASS] != 0.0, v, v * g)
-    kv, ka, kj = buf[_KV], buf[_KA], buf[_KJ]
+        p = np.where(e == 0.0, 1.0, np.where(e == 1.0, b, pow_np(b, e)))
+        v = v * ((0.5 * (tanh_np(p - math.pi) + 1.0)) * buf[_HMIX] + buf[_BYPASS])
+    kv, ka, kj, ihv, iha, ihj = buf[_KV], buf[_KA], buf[_KJ], buf[_IHV], buf[_IHA], buf[_IHJ]
     if order == 1:
-        w = _limit_groups_np(v, kv, hard, buf, n_groups)
-        a = (w - vel) / dt
+        w = _limit_groups_np(v, kv, ihv, hard, buf, n_groups)
+        a = (w - vel) * rate
     elif order == 2:
-        a = _limit_groups_np((v - vel) / dt, ka, hard, buf, n_groups)
-        w = _limit_groups_np(vel + a * dt, kv, hard, buf, n_groups)
-        a = (w - vel) / dt
+        a = _limit_groups_np((v - vel) * rate, ka, iha, hard, buf, n_groups)
+        w = _limit_groups_np(vel + a * dt, kv, ihv, hard, buf, n_groups)
+        a = (w - vel) * rate
     else:
-        j = _limit_groups_np(((v - vel) / dt - acc) / dt, kj, hard, buf, n_groups)
-        a = _limit_groups_np(acc + j * dt, ka, hard, buf, n_groups)
-        w = _limit_groups_np(vel + a * dt, kv, hard, buf, n_groups)
+        j = _limit_groups_np(((v - vel) * rate - acc) * rate, kj, ihj, hard, buf, n_groups)
+        a = _limit_groups_np(acc + j * dt, ka, iha, hard, buf, n_groups)
+        w = _limit_groups_np(vel + a * dt, kv, ihv, hard, buf, n_groups)
     xn = x + w * dt
-    out = (xn < buf[_LO]) | (xn > buf[_HI])
-    xn = np.where(out, np.minimum(np.maximum(xn, buf[_LO]), buf[_HI]), xn)
-    w = np.where(out, 0.0, w)
-    a = np.where(out, 0.0, a)
-    buf[_JERK] = (a - acc) / dt
+    inside = (buf[_LO] <= xn) & (xn <= buf[_HI])
+    xn = np.minimum(np.maximum(xn, buf[_LO]), buf[_HI])
+    w = np.where(inside, w, 0.0)
+    a = np.where(inside, a, 0.0)
+    buf[_JERK] = (a - acc) * rate
     buf[_X] = xn
     buf[_VEL] = w
     buf[_ACC] = a
@@ -714,7 +790,7 @@ class MotionFilter:
         self._buf = np.zeros((N_ROWS, self.n))
         self._buf[_LO] = -np.inf
         self._buf[_HI] = np.inf
-        self._buf[_ALPHA] = 1.0
+        self._buf[_IALPHA] = 1.0
         self._cfg = np.zeros(_CFG_LEN)
         self._x = self._buf[_X]
         self._shape = (self.n,)
@@ -823,8 +899,10 @@ class MotionFilter:
             _check("pmin", lo, lo < hi, "below pmax")
             row(_LO)[:], row(_HI)[:] = lo, hi
         # derived rows (the kernels never recompute them)
+        for k_row, inv_row in ((_KV, _IHV), (_KA, _IHA), (_KJ, _IHJ)):
+            row(inv_row)[:] = 1.0 / (0.5 * row(k_row))
         row(_EXPO)[:] = 1.0 - row(_SIGMA)
-        row(_OMR)[:] = 1.0 - np.minimum(row(_RHO), RHO_MAX)
+        row(_IOMR)[:] = 1.0 / (1.0 - np.minimum(row(_RHO), RHO_MAX))
         row(_TWOB)[:] = 2.0 * row(_BETA)
         row(_HMIX)[:] = 1.0 - row(_BYPASS)
         lo, hi = row(_LO), row(_HI)
@@ -834,7 +912,7 @@ class MotionFilter:
             span = hi - lo
             alpha = np.where(np.isfinite(span), span / 2.0, hi / 2.0 - lo / 2.0)  # no overflow near ±1e308
             center = lo + alpha
-        row(_ALPHA)[:] = np.where(finite & (alpha > 0), alpha, 1.0)
+        row(_IALPHA)[:] = np.where(finite & (alpha > 0), 1.0 / np.where(alpha > 0, alpha, 1.0), 1.0)
         row(_CENTER)[:] = np.where(finite, center, 0.0)
         if self._grouped:
             self._check_groups(prm, off)
@@ -845,7 +923,7 @@ class MotionFilter:
             self.limiter = limiter
         self._hard = self.limiter == "hard"
         self._cfg[:] = (self.dt, self.order, float(self._hard), self._n_groups, float(self._grouped),
-                        float(self._buf[_HASPOS].any()), float(np.all(self._buf[_BYPASS] != 0.0)))
+                        float(self._buf[_HASPOS].any()), float(np.all(self._buf[_BYPASS] != 0.0)), self.rate)
 
     def _check_groups(self, prm: np.ndarray, off: int) -> None:
         for members in self.groups:
