@@ -32,6 +32,15 @@ def _label(name: str) -> str:
     return f"{name} {PRESETS[name].meaning}"
 
 
+# W and B nearly coincide on large steps (B's H is ~identity above v ~ 7): W is drawn wide and pale
+# underneath so that it stays visible.
+def _style(name: str) -> dict:
+    return {"lw": 3.5, "alpha": 0.45, "zorder": 1} if name == "W" else {"lw": 1.5, "zorder": 2}
+
+
+DERIV_LABELS = ("velocity [units/s]", "acceleration [units/s²]", "jerk [units/s³]")
+
+
 def fig_inputs(plt, out: Path) -> Path:
     fig, axes = plt.subplots(1, 3, figsize=(12, 3), sharey=True)
     t = ex.times()
@@ -39,7 +48,7 @@ def fig_inputs(plt, out: Path) -> Path:
         ax.step(t, fn(), where="post", color="k")
         ax.set_title(f"{name}")
         ax.set_xlabel("t [s]")
-    axes[0].set_ylabel("set-point")
+    axes[0].set_ylabel("set-point [units]")
     fig.suptitle("The paper's example inputs (60 Hz, 10 s)")
     return _save(fig, out / "nmf_inputs.png")
 
@@ -53,7 +62,7 @@ def fig_h(plt, out: Path) -> Path:
             h = v if p.bypass else stabilise(v, p.sigma, p.rho)
             ax.plot(v, h, color=COLOURS[name], label=_label(name) + ("" if p.bypass else f" (σ={p.sigma}, ρ={p.rho})"))
         ax.set_xlabel("induced velocity v [units/s]")
-        ax.set_ylabel("H(v)")
+        ax.set_ylabel("target velocity H(v) [units/s]")
         ax.set_title(f"stabilisation function H over [0, {vmax:g}]")
         ax.legend(fontsize=7)
     return _save(fig, out / "nmf_h.png")
@@ -65,8 +74,8 @@ def fig_omega(plt, out: Path) -> Path:
     for beta, style in ((5, "-"), (20, "--"), (100, ":")):
         ax.plot(x, omega(1.0, x, -10.0, 20.0, beta), style, color="#1f77b4", label=f"β={beta}, v > 0")
         ax.plot(x, -omega(-1.0, x, -10.0, 20.0, beta), style, color="#d62728", label=f"β={beta}, v < 0")
-    ax.set_xlabel("position x (Pmin = -10, Pmax = 20)")
-    ax.set_ylabel("Ω(v, x) / v")
+    ax.set_xlabel("position x [units] (Pmin = -10, Pmax = 20: the spec's example range)")
+    ax.set_ylabel("Ω(v, x) / v  (fraction of v kept)")
     ax.set_title("position saturation Ω: speed toward a limit fades to zero")
     ax.legend(fontsize=7, ncol=2)
     return _save(fig, out / "nmf_omega.png")
@@ -79,12 +88,16 @@ def _presets_on(plt, out: Path, name: str, x: np.ndarray, fname: str, limiter: s
     for p in PRESETS:
         y = _filter(p, x, limiter=limiter)
         vel, acc, jerk = derivatives(np.r_[y[0], y], ex.RATE)
-        axes[0].plot(t, y, color=COLOURS[p], label=_label(p))
+        axes[0].plot(t, y, color=COLOURS[p], label=_label(p), **_style(p))
         for ax, d in zip(axes[1:], (vel, acc, jerk)):
             ax.plot(t, d[1:, 0], color=COLOURS[p], lw=0.8)
-    axes[0].set_title(f"all presets on {name} — order 3, {limiter} limiter")
-    axes[0].legend(fontsize=7, ncol=4)
-    for ax, lab in zip(axes[1:], ("velocity", "acceleration", "jerk")):
+    axes[0].set_title(f"all presets on {name} — order 3, {limiter} limiter "
+                      "(derivatives: finite differences of the output)")
+    axes[0].set_ylabel("position [units]")
+    lo, hi = axes[0].get_ylim()
+    axes[0].set_ylim(lo - 0.35 * (hi - lo), hi)  # room for the legend below the curves
+    axes[0].legend(fontsize=7, ncol=4, loc="lower center")
+    for ax, lab in zip(axes[1:], DERIV_LABELS):
         ax.set_ylabel(lab)
     axes[-1].set_xlabel("t [s]")
     return _save(fig, out / fname)
@@ -99,11 +112,13 @@ def fig_tanh_vs_hard(plt, out: Path) -> Path:
             ax = axes[row, col]
             ax.step(t, x, where="post", color="k", ls="--", lw=1)
             for p in names:
-                ax.plot(t, _filter(p, x, limiter=limiter), color=COLOURS[p], label=_label(p))
+                ax.plot(t, _filter(p, x, limiter=limiter), color=COLOURS[p], label=_label(p), **_style(p))
             ax.set_title(f"Φ_L, {limiter} limiter")
-            ax.legend(fontsize=7)
+            ax.legend(fontsize=7, loc="lower left")
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("position [units]")
     fig.suptitle("Each preset on Φ_L with the tanh and the hard limiter (hard: larger overshoot and oscillation)")
     return _save(fig, out / "nmf_presets_phi_l.png")
 
@@ -117,13 +132,13 @@ def fig_orders(plt, out: Path) -> Path:
         for p in "WAD":
             y = _filter(p, x, order=order)
             vel, acc, jerk = derivatives(np.r_[y[0], y], ex.RATE)
-            axes[0, col].plot(t, y, color=COLOURS[p], label=_label(p))
+            axes[0, col].plot(t, y, color=COLOURS[p], label=_label(p), **_style(p))
             for r, d in enumerate((vel, acc, jerk), start=1):
                 axes[r, col].plot(t, d[1:, 0], color=COLOURS[p], lw=0.8)
-        axes[0, col].set_title(f"order {order} (C{order - 1}→C{order} continuity)")
-        axes[0, col].legend(fontsize=7)
+        axes[0, col].set_title(f"order {order} ({('velocity', 'acceleration', 'jerk')[order - 1]} limited)")
+        axes[0, col].legend(fontsize=7, loc="center right")
         axes[-1, col].set_xlabel("t [s]")
-    for r, lab in enumerate(("position", "velocity", "acceleration", "jerk")):
+    for r, lab in enumerate(("position [units]",) + DERIV_LABELS):
         axes[r, 0].set_ylabel(lab)
     fig.suptitle("Orders 1-3 side by side on Φ_L: lower order, higher sustained velocity for the same limits")
     return _save(fig, out / "nmf_orders.png")
@@ -137,9 +152,10 @@ def fig_overview(plt, out: Path) -> Path:
         x = fn()
         ax.step(t, x, where="post", color="k", ls="--", lw=1, label="set-point")
         for p in PRESETS:
-            ax.plot(t, _filter(p, x), color=COLOURS[p], label=_label(p))
+            ax.plot(t, _filter(p, x), color=COLOURS[p], label=_label(p), **_style(p))
         ax.set_title(f"{name} — order 3, tanh limiter")
         ax.set_xlabel("t [s]")
+        ax.set_ylabel("position [units]")
     axes[0, 0].legend(fontsize=7)
     ax = axes[1, 1]
     x = ex.phi_l()
@@ -150,6 +166,7 @@ def fig_overview(plt, out: Path) -> Path:
     ax.plot(t, a.velocity[:, 0], color="#9467bd", label="A velocity (tanh)")
     ax.set_title(f"Φ_L: tanh vs hard limiter; A peaks at {np.abs(a.velocity).max():.1f} of its velocity limit 20")
     ax.set_xlabel("t [s]")
+    ax.set_ylabel("position [units], velocity [units/s]")
     ax.legend(fontsize=7)
     fig.tight_layout()
     return _save(fig, out / "nmf_overview.png")
