@@ -453,11 +453,18 @@ def create_app(session: EngineSession, *, token: str | None = None, previz: Any 
         hub.loop = asyncio.get_running_loop()
         return True
 
-    async def ws_receive_json(ws: WebSocket) -> Any:
-        raw = await ws.receive_text()
-        if len(raw) > MAX_WS_MESSAGE:
-            raise ValueError(f"message over {MAX_WS_MESSAGE} bytes")
-        return _loads(raw)
+    async def ws_messages(ws: WebSocket):
+        """Parsed JSON messages of a client; malformed or oversized ones are answered with an error."""
+        while True:
+            raw = await ws.receive_text()
+            try:
+                if len(raw) > MAX_WS_MESSAGE:
+                    raise ValueError(f"message over {MAX_WS_MESSAGE} bytes")
+                data = _loads(raw)
+            except ValueError as exc:
+                await ws.send_json({"type": "error", "code": "malformed_json", "message": str(exc)})
+                continue
+            yield data
 
     @app.websocket("/ws/control")
     async def ws_control(ws: WebSocket) -> None:
@@ -472,12 +479,7 @@ def create_app(session: EngineSession, *, token: str | None = None, previz: Any 
 
         sender = asyncio.create_task(pump())
         try:
-            while True:
-                try:
-                    data = await ws_receive_json(ws)
-                except ValueError as exc:
-                    await ws.send_json({"type": "error", "code": "malformed_json", "message": str(exc)})
-                    continue
+            async for data in ws_messages(ws):
                 cid = data.get("id") if isinstance(data, dict) else None
                 try:
                     ack = await asyncio.to_thread(hub.run_command, data)
@@ -499,12 +501,7 @@ def create_app(session: EngineSession, *, token: str | None = None, previz: Any 
         emb = session.embodiment
 
         async def receive() -> None:
-            while True:
-                try:
-                    data = await ws_receive_json(ws)
-                except ValueError as exc:
-                    await ws.send_json({"type": "error", "code": "malformed_json", "message": str(exc)})
-                    continue
+            async for data in ws_messages(ws):
                 if not isinstance(data, dict) or data.get("type") != "subscribe":
                     await ws.send_json({"type": "error", "code": "invalid_message",
                                         "message": "send {'type': 'subscribe', 'signals': [...], 'frames': bool, 'rate': Hz}"})

@@ -8,18 +8,14 @@ Screenshots go to test-artifacts/.
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
-import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 
-from backend.client import NuttyClient
+from server_process import running_server
 
 ROOT = Path(__file__).resolve().parents[1]
 DIST = ROOT / "frontend" / "dist" / "index.html"
@@ -37,40 +33,14 @@ pytestmark = [
 ]
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
     robot = tmp_path_factory.mktemp("robot") / "nutty_desk"
     shutil.copytree(ROOT / "robots" / "nutty_desk", robot)  # saves go to a scratch copy of the robot
     for p in (robot / "programs").glob("*.json"):
         p.unlink()
-    port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "serve", "--robot", str(robot), "--port", str(port),
-                             "--no-previz"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    client = NuttyClient(f"http://127.0.0.1:{port}")
-    deadline = time.time() + 120  # generous: a busy CI machine compiles the NMF kernels at start-up
-    while True:
-        try:
-            client.status()
-            break
-        except Exception:
-            if proc.poll() is not None or time.time() > deadline:
-                proc.kill()
-                pytest.fail(f"server did not start: {proc.stdout.read() if proc.stdout else ''}")
-            time.sleep(0.3)
-    yield {"url": f"http://127.0.0.1:{port}", "client": client}
-    client.close()
-    proc.terminate()
-    try:
-        proc.wait(15)
-    except subprocess.TimeoutExpired:
-        proc.kill()
+    with running_server("--robot", str(robot), "--no-previz") as (url, _, client):
+        yield {"url": url, "client": client}
 
 
 @pytest.fixture(scope="module")

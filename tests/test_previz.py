@@ -2,20 +2,13 @@
 
 from __future__ import annotations
 
-import socket
-
 import numpy as np
 import pytest
 
 from backend.engine.frames import FrameEvent
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from server_process import free_port
 
 
 @pytest.fixture()

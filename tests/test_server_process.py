@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import os
-import socket
 import subprocess
 import sys
 import time
@@ -14,43 +12,15 @@ import time
 import pytest
 import websockets
 
-from backend.client import NuttyClient, NuttyError
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from backend.client import NuttyError
+from server_process import running_server
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    port = free_port()
     record = tmp_path_factory.mktemp("rec") / "frames.jsonl"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "backend.cli", "serve", "--port", str(port), "--no-previz", "--rate", "100",
-         "--record", str(record)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    url = f"http://127.0.0.1:{port}"
-    deadline = time.time() + 60
-    client = NuttyClient(url, timeout=2.0)
-    while True:
-        try:
-            client.status()
-            break
-        except Exception:
-            if proc.poll() is not None or time.time() > deadline:
-                out = proc.stdout.read() if proc.stdout else ""
-                proc.kill()
-                pytest.fail(f"nutty serve did not start: {out}")
-            time.sleep(0.3)
-    yield {"url": url, "port": port, "client": client, "record": record, "proc": proc}
-    client.close()
-    proc.terminate()
-    try:
-        proc.wait(15)
-    except subprocess.TimeoutExpired:
-        proc.kill()
+    with running_server("--no-previz", "--rate", "100", "--record", str(record)) as (url, port, client):
+        yield {"url": url, "port": port, "client": client, "record": record}
 
 
 def test_driver_client_gets_frames_at_rate_while_others_churn(server):
