@@ -65,3 +65,30 @@ def test_live_param_change_keeps_filter_state(desk):
     assert session.engine.apu.block("nmf") is block
     np.testing.assert_array_equal(block.filter.position, before)  # no jump, no reset
     assert block.filter.params()["sigma"][0] == pytest.approx(0.95)
+
+
+def test_limit_overrides_bound_the_output_and_keep_state(desk):
+    session = EngineSession.create(desk, rate=100, program=stepped_program(True))
+    list(session.run_headless(100))
+    block = session.engine.apu.block("nmf")
+    before = block.filter.position.copy()
+    session.update_params("nmf", {"preset": "D", "vel_limit": 0.2, "acc_limit": 2.0, "jerk_limit": 50.0})
+    assert session.engine.apu.block("nmf") is block
+    np.testing.assert_array_equal(block.filter.position, before)  # no reset
+    assert block.filter.params()["vel_limit"][0] == pytest.approx(0.4)  # tanh: V = 2 x the output bound
+    frames = list(session.run_headless(400))
+    i = desk.channel_index["head_yaw"]
+    pos = np.array([f.position[i] for f in frames])
+    assert np.abs(np.diff(pos)).max() * 100 <= 0.2 + 1e-9  # the output stays below the new bound
+
+
+def test_stage2_filters_every_continuous_channel_with_the_robots_limits(desk):
+    from backend.engine.embodiment import ChannelKind
+
+    session = EngineSession.create(desk, rate=100, program=stepped_program(True))
+    list(session.run_headless(1))
+    block = session.engine.apu.block("nmf")
+    sel = desk.channel_kind != ChannelKind.enum
+    np.testing.assert_array_equal(block.idx, np.flatnonzero(sel))
+    np.testing.assert_allclose(block.filter.params()["acc_limit"], desk.acc_limit[sel])
+    np.testing.assert_allclose(block.filter.params()["vel_limit"], 2 * desk.vel_limit[sel])

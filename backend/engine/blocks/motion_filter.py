@@ -3,7 +3,9 @@
 Limits default to the embodiment's per-DoF limits. With the tanh limiter the filter's velocity
 never reaches V/2, so the robot's velocity limit Vr is passed as V = 2 Vr (the output then stays
 below Vr); acceleration and jerk limits are passed as they are (the spec bounds the output by A and
-J). With the hard limiter V = Vr. `limit_scale` uses a fraction of the robot's limits.
+J). With the hard limiter V = Vr. `limit_scale` uses a fraction of the limits; `vel_limit`,
+`acc_limit`, `jerk_limit` replace the robot's limits for every filtered DoF (same meaning: bounds
+of the output). Parameter changes reach the running filter through `set_params`: its state stays.
 """
 
 from __future__ import annotations
@@ -33,6 +35,12 @@ class FilterParams(BlockParams):
     limiter: Literal["tanh", "hard"] = Field("tanh", description="tanh (smooth, keeps headroom) or hard clip")
     limit_scale: float = Field(1.0, gt=0.0, le=1.0, description="fraction of the robot's velocity, "
                                                                "acceleration and jerk limits to use (0..1]")
+    vel_limit: float | None = Field(None, gt=0.0, le=1e6, description="velocity bound of the output for every "
+                                    "filtered DoF (units/s); default: the robot's per-DoF limits")
+    acc_limit: float | None = Field(None, gt=0.0, le=1e8, description="acceleration bound of the output "
+                                    "(units/s²); default: the robot's per-DoF limits")
+    jerk_limit: float | None = Field(None, gt=0.0, le=1e10, description="jerk bound of the output (units/s³); "
+                                     "default: the robot's per-DoF limits")
     beta: float = Field(5.0, ge=1.0, le=200.0, description="position-saturation exponent β (>= 1)")
 
 
@@ -70,9 +78,13 @@ class _FilterBlock(Block):
         idx = np.flatnonzero(self.sel)
         self.idx = idx
         scale = p.limit_scale
-        vel = emb.vel_limit[idx] * scale * (2.0 if p.limiter == "tanh" else 1.0)
-        acc = emb.acc_limit[idx] * scale
-        jerk = emb.jerk_limit[idx] * scale
+        def limit(override: float | None, robot: np.ndarray) -> np.ndarray:
+            return (robot[idx] if override is None else np.full(idx.size, float(override))) * scale
+
+        # tanh keeps the output's velocity below V/2: V = 2 x the bound (see the module doc)
+        vel = limit(p.vel_limit, emb.vel_limit) * (2.0 if p.limiter == "tanh" else 1.0)
+        acc = limit(p.acc_limit, emb.acc_limit)
+        jerk = limit(p.jerk_limit, emb.jerk_limit)
         groups = []
         for members in emb.groups.values():
             local = [int(np.searchsorted(idx, m)) for m in members if self.sel[m]]
