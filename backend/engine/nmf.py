@@ -166,7 +166,7 @@ _ROUND_BITS = int(np.float64(_ROUND).view(np.int64))
 _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13 = (1.0 / math.factorial(k) for k in range(2, 14))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _tanh(x):
     a = min(abs(x), _TANH_CAP)
     y = a + a
@@ -314,7 +314,7 @@ def stabilise(v: np.ndarray | float, sigma: float, rho: float) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _lim(u, k, inv_h, hard):
     """lam for one value: the tanh limiter (headroom k/2; inv_h = 2/k) or the hard clip at k."""
     if hard:
@@ -322,13 +322,13 @@ def _lim(u, k, inv_h, hard):
     return (0.5 * k) * _tanh(u * inv_h)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _induced(s, x, rate):
     """(s - x)/dt, capped at +-V_CLAMP (only ever reached when s - x overflows the float range)."""
     return min(max((s - x) * rate, -V_CLAMP), V_CLAMP)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _omega1(v, x, center, inv_alpha, twob):
     if (x > center and v > 0.0) or (x < center and v < 0.0):
         r = min(abs(x - center) * inv_alpha, 1.0)
@@ -345,7 +345,7 @@ def _h_arg(speed, inv_omr, expo):
     return p - math.pi
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _advance(u, x, vel, acc, i, buf, dt, rate, order, hard):
     """Limiters and integration for DoF i with target velocity u: (x', vel', acc', reported jerk)."""
     if order == 1:
@@ -370,7 +370,7 @@ def _advance(u, x, vel, acc, i, buf, dt, rate, order, hard):
     return xn, w, a, (a - acc) * rate
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _advance_all(buf, n, dt, rate, order, hard):
     """`_advance` over all uncoupled DoFs, as passes that each write one array (the compiler
     vectorises a loop only when few arrays may alias), with branch-free selects. Called with literal
@@ -418,7 +418,7 @@ def _advance_all(buf, n, dt, rate, order, hard):
         x[i] = min(max(x[i] + w[i] * dt, lo[i]), hi[i])
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _ingest(sp_in, buf, n):
     """Store new set-points (NaN = hold); a DoF's first set-point initialises its position."""
     for i in range(n):
@@ -454,7 +454,7 @@ def _step_one_pass(sp_in, buf, cfg):
         buf[_JERK, i] = j
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _norms(vec, buf, n, n_groups):
     """|vec_i|, or for members of a coupled group the group's Euclidean norm (scaled: no overflow),
     into the scratch row _WN."""
@@ -484,7 +484,7 @@ def _norms(vec, buf, n, n_groups):
             nrm[i] = abs(vec[i])
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _limit_groups(vec, krow, ihrow, hard, buf, n, n_groups):
     """lam in place: per DoF, or on each coupled group's norm with the vector scaled proportionally."""
     _norms(vec, buf, n, n_groups)
