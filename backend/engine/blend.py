@@ -9,7 +9,9 @@ Modes (per layer):
 - `additive`: `acc = acc + w * (v - rest)`, an offset from the rest pose; `v == rest` is identity.
 Enum channels (face expressions) are never interpolated (index 1.5 means nothing): an override
 switches to the layer's option once its weight reaches 0.5, average layers contribute the option of
-the heaviest layer, and additive layers leave them alone.
+the heaviest layer, and an additive layer switches to its option only where that differs from the rest
+option (an option has no offset; the rest option means "no change", so a zero additive layer stays the
+identity).
 """
 
 from __future__ import annotations
@@ -76,6 +78,8 @@ def blend_layers(
             out = np.where(m, mixed, out)
         else:
             out = np.where(m & ~enum, out + w[i] * (values[i] - rest), out)
+            if enum.any() and w[i] >= 0.5:
+                out = np.where(m & enum & (values[i] != rest), values[i], out)
         out_mask |= m
     return out, out_mask
 

@@ -56,6 +56,9 @@ class MixerParams(BlockParams):
     def _unique(cls, v: list[LayerSpec]) -> list[LayerSpec]:
         names = [layer.name for layer in v]
         dup = {n for n in names if names.count(n) > 1}
+        clash = sorted(n for n in names if n.endswith("_weight") and n[: -len("_weight")] in names)
+        if clash:
+            raise ValueError(f"layer names {clash} clash with the weight ports of other layers")
         if dup:
             raise ValueError(f"layer names must be unique; repeated: {sorted(dup)}")
         return v
@@ -82,6 +85,8 @@ class LayerMixer(Block):
     def ports(cls, params: MixerParams | None = None):  # type: ignore[override]
         layers = params.layers if params is not None else []
         ins = {layer.name: Port(PortType.frame, f"layer '{layer.name}' ({layer.mode.value})") for layer in layers}
+        for layer in layers:  # optional live weights (a clip player's envelope, an emotion mapping)
+            ins[f"{layer.name}_weight"] = Port(PortType.float, f"multiplies layer '{layer.name}''s weight (0..1)")
         return ins, cls.outputs
 
     def configure(self) -> None:
@@ -93,6 +98,8 @@ class LayerMixer(Block):
         self.layer_masks = np.stack([channel_mask(self.emb, layer.mask) for layer in layers])
         self._values = np.zeros((len(layers), self.emb.n_channels))
         self._masks = np.zeros((len(layers), self.emb.n_channels), dtype=bool)
+        self.weight_ports = [f"{name}_weight" for name in self.names]
+        self.signal_weights = np.ones(len(layers))
 
     def reset(self) -> None:
         active = np.array([1.0 if layer.active else 0.0 for layer in self.params.layers])
@@ -110,10 +117,13 @@ class LayerMixer(Block):
                 self.fade_target[i] = old.fade_target[j]
 
     def effective_weights(self) -> np.ndarray:
-        return self.weights * self.fade_level
+        return self.weights * self.fade_level * self.signal_weights
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         self.fade_level = advance_fades(self.fade_level, self.fade_target, self.fade_time, dt)
+        for i, port in enumerate(self.weight_ports):
+            w = self.signal(inputs, port, 1.0)
+            self.signal_weights[i] = min(max(float(w), 0.0), 1.0)
         w = self.effective_weights()
         events = []
         self._masks[:] = False
