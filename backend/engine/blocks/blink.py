@@ -1,0 +1,200 @@
+"""The blink scheduler: natural eye blinks at random intervals, held back during held expressions and
+drawn to gaze shifts."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from backend.engine.blocks.base import (
+    Block,
+    BlockParams,
+    DofSelection,
+    Port,
+    PortType,
+    Role,
+    register_block,
+)
+from backend.engine.blocks.idle import block_rng
+from backend.engine.frames import PartialFrame
+from backend.engine.selectors import channel_mask
+
+
+class BlinkParams(BlockParams):
+    dofs: DofSelection = Field(default=["blink"])
+    closed: float | Literal["max", "min"] = Field(
+        "max", description="position of a closed eyelid (rad or m), or 'max'/'min' for each DoF's limit")
+    close_time: float = Field(0.08, ge=0.02, le=1.0, description="time to close (s)")
+    hold_time: float = Field(0.03, ge=0.0, le=1.0, description="time held closed (s)")
+    open_time: float = Field(0.18, ge=0.02, le=2.0, description="time to open again (s)")
+    min_interval: float = Field(1.5, ge=0.2, le=120.0, description="shortest time between blinks (s)")
+    mean_interval: float = Field(4.0, ge=0.2, le=120.0, description="average time between blinks (s)")
+    max_interval: float = Field(10.0, ge=0.2, le=120.0, description="longest time between blinks (s)")
+    double_blink_probability: float = Field(0.1, ge=0.0, le=1.0, description="chance a blink is doubled (0..1)")
+    double_blink_gap: float = Field(0.12, ge=0.0, le=2.0,
+                                    description="pause between the two blinks of a double blink (s)")
+    gaze_shift_threshold: float = Field(
+        0.2, ge=0.0, le=math.pi,
+        description="gaze change that counts as a gaze shift (rad: angle between target directions, or change "
+                    "of a gaze angle)")
+    seed: int = Field(0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)")
+
+    @model_validator(mode="after")
+    def _intervals(self) -> "BlinkParams":
+        if not self.min_interval <= self.mean_interval <= self.max_interval:
+            raise ValueError(
+                "blink intervals must satisfy min_interval <= mean_interval <= max_interval, got "
+                f"min_interval={self.min_interval}, mean_interval={self.mean_interval}, "
+                f"max_interval={self.max_interval}")
+        return self
+
+
+@register_block
+class Blink(Block):
+    """Blinks the eyelids at natural random intervals, never during a held expression, gladly at a gaze shift.
+
+    A blink closes fast, holds briefly and opens more slowly; intervals follow a gamma distribution with
+    mean `mean_interval`, clipped to [`min_interval`, `max_interval`], with occasional double blinks.
+    While the `hold` input is true blinks are postponed. When the `gaze` target turns by more than
+    `gaze_shift_threshold`, the eyes blink with the shift (if the last blink is over `min_interval`/2
+    ago), as people do. The run-time command `blink` forces a blink now. Outside blinks the selected
+    DoFs sit at rest; `blinking` is true while the lids move.
+    """
+
+    type_name = "blink"
+    title = "Blink scheduler"
+    category = "sources"
+    role = Role.source
+    Params = BlinkParams
+    inputs = {
+        "hold": Port(PortType.bool, "while true, no blink starts (a held expression)"),
+        "gaze": Port(PortType.vec3, "gaze target (m, robot frame); turning it by more than the threshold blinks"),
+    }
+    outputs = {
+        "out": Port(PortType.frame, "the eyelid DoFs"),
+        "blinking": Port(PortType.bool, "true during a blink"),
+    }
+    state_attrs = ("t", "last_onset", "next_at", "active", "elapsed", "double_at", "forced", "gaze_ref", "rng")
+
+    def configure(self) -> None:
+        p, emb = self.params, self.emb
+        self.mask = channel_mask(emb, p.dofs, continuous_only=True)
+        if p.closed == "max":
+            closed = emb.max
+        elif p.closed == "min":
+            closed = emb.min
+        else:
+            closed = np.clip(float(p.closed), emb.min, emb.max)
+        self.delta = np.where(self.mask, closed - emb.rest, 0.0)
+
+    def reset(self) -> None:
+        self.t = 0.0
+        self.last_onset = -math.inf
+        self.rng = block_rng(self.ctx, self.params.seed, self.node_id)
+        self.next_at = self._interval()
+        self.active = False
+        self.elapsed = 0.0
+        self.double_at: float | None = None
+        self.forced = False
+        self.gaze_ref: np.ndarray | None = None
+
+    # --- scheduling -----------------------------------------------------------------------------
+    def _interval(self) -> float:
+        """Time to the next blink: min + gamma(shape 2) with the requested mean, clipped to max."""
+        p = self.params
+        extra = p.mean_interval - p.min_interval
+        draw = float(self.rng.gamma(2.0, extra / 2.0)) if extra > 0 else 0.0
+        return min(p.min_interval + draw, p.max_interval)
+
+    def _start(self, scheduled: bool = True) -> None:
+        """Begin a blink now; a regular (not second-of-a-double) blink schedules the next one."""
+        self.active = True
+        self.elapsed = 0.0
+        if scheduled:
+            self.last_onset = self.t
+            self.next_at = self.t + self._interval()
+            if self.rng.random() < self.params.double_blink_probability:
+                p = self.params
+                self.double_at = self.t + p.close_time + p.hold_time + p.open_time + p.double_blink_gap
+            else:
+                self.double_at = None
+
+    def _gaze_shift(self, value: Any) -> bool:
+        """Whether the gaze moved by more than the threshold since the last shift: for a target point the
+        angle between its directions from the robot (a target moving away is no shift), for a number (or
+        other vector) the plain difference."""
+        if value is None:
+            return False
+        try:
+            g = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        except (TypeError, ValueError):
+            return False
+        if not np.all(np.isfinite(g)):
+            return False
+        if self.gaze_ref is None or self.gaze_ref.shape != g.shape:
+            self.gaze_ref = g.copy()
+            return False
+        ref = self.gaze_ref
+        n_g, n_ref = float(np.linalg.norm(g)), float(np.linalg.norm(ref))
+        if g.size == 3 and n_g > 1e-9 and n_ref > 1e-9:  # a target point: the angle between the directions
+            change = math.acos(min(max(float(g @ ref) / (n_g * n_ref), -1.0), 1.0))
+        else:  # gaze angle(s)
+            change = float(np.linalg.norm(g - ref))
+        if change > self.params.gaze_shift_threshold:
+            self.gaze_ref = g.copy()
+            return True
+        return False
+
+    def envelope(self, e: float) -> float:
+        """Lid closure (0 open .. 1 closed) at time e into a blink: fast close, hold, slower open."""
+        p = self.params
+        if e <= 0.0:
+            return 0.0
+        if e < p.close_time:
+            return 0.5 - 0.5 * math.cos(math.pi * e / p.close_time)
+        e -= p.close_time
+        if e < p.hold_time:
+            return 1.0
+        e -= p.hold_time
+        if e < p.open_time:
+            return 0.5 + 0.5 * math.cos(math.pi * e / p.open_time)
+        return 0.0
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command == "blink":
+            self.forced = True
+            return {"blink": True}
+        return super().handle(command, args)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        p = self.params
+        self.t += dt
+        hold = bool(inputs.get("hold") or False)
+        shifted = self._gaze_shift(inputs.get("gaze"))
+        if not self.active:
+            if self.forced:
+                self._start()
+            elif not hold:
+                if self.double_at is not None and self.t >= self.double_at:
+                    self.double_at = None
+                    self._start(scheduled=False)
+                elif shifted and self.t - self.last_onset > p.min_interval / 2:
+                    self._start()
+                elif self.t >= self.next_at:
+                    self._start()
+            else:
+                self.double_at = None  # a held expression cancels a pending second blink
+            self.forced = False
+        k = 0.0
+        if self.active:
+            self.elapsed += dt
+            k = self.envelope(self.elapsed)
+            if self.elapsed >= p.close_time + p.hold_time + p.open_time:
+                self.active, k = False, 0.0
+        emb = self.emb
+        values = np.clip(emb.rest + k * self.delta, emb.min, emb.max)
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), []),
+                "blinking": self.active}

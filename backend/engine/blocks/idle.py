@@ -1,0 +1,291 @@
+"""Procedural idle ("keep-alive") sources: breathing, smooth noise and slow weight shifts.
+
+A robot that stands perfectly still looks switched off. These sources add the small, never-repeating
+motions of a living body around the rest pose; put them in an additive layer of a mixer so they ride
+on top of whatever else the robot does.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from typing import Any
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from backend.engine.blocks.base import (
+    Block,
+    BlockContext,
+    BlockParams,
+    DofSelection,
+    Port,
+    PortType,
+    Role,
+    register_block,
+)
+from backend.engine.blocks.core import FRAME_OUT
+from backend.engine.embodiment import DofType, Embodiment
+from backend.engine.frames import PartialFrame
+from backend.engine.selectors import SelectorError, channel_mask
+
+
+def block_rng(ctx: BlockContext, seed: int, node_id: str) -> np.random.Generator:
+    """A reproducible generator for one block: the engine seed, the block's seed and a stable hash of
+    its node id, so two nodes of the same type differ while every run of a program is identical."""
+    words = [int(ctx.seed) % 2**32, int(seed) % 2**32, zlib.crc32(node_id.encode("utf-8"))]
+    return np.random.default_rng(np.random.SeedSequence(words))
+
+
+def per_dof_vector(emb: Embodiment, values: dict[str, float], field_name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Channel vector and mask from a DoF name -> number dict; unknown or non-continuous DoFs are errors."""
+    vec = np.zeros(emb.n_channels)
+    mask = np.zeros(emb.n_channels, dtype=bool)
+    for name, value in values.items():
+        if not emb.has_dof(name):
+            raise SelectorError(name, f"{field_name}: robot '{emb.name}' has no DoF '{name}'")
+        d = emb.dof(name)
+        if d.type is not DofType.continuous:
+            raise ValueError(f"{field_name}: DoF '{name}' is not continuous")
+        vec[d.channels] = float(value)
+        mask[d.channels] = True
+    return vec, mask
+
+
+# --------------------------------------------------------------------------------------------------
+# Breathing
+# --------------------------------------------------------------------------------------------------
+
+
+class BreatheParams(BlockParams):
+    dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
+    amplitude: float = Field(0.03, ge=0.0, le=1.0, description="peak deviation from the rest pose (rad or m)")
+    amplitudes: dict[str, float] = Field(
+        default_factory=dict,
+        description="per-DoF peak deviation overriding `amplitude` (DoF name -> rad or m; negative inverts)",
+    )
+    frequency: float = Field(0.25, ge=0.0, le=5.0, description="breaths per second (Hz)")
+    phase_spread: float = Field(0.4, ge=-math.pi, le=math.pi,
+                                description="extra phase lag per selected DoF (rad), so the breath travels")
+    phases: dict[str, float] = Field(default_factory=dict,
+                                     description="extra phase per DoF (DoF name -> rad), added to the spread")
+    inhale_ratio: float = Field(0.4, ge=0.3, le=0.7,
+                                description="fraction of a cycle spent inhaling (rising); < 0.5 inhales faster")
+
+
+@register_block
+class Breathe(Block):
+    """Asymmetric breathing around the rest pose on the selected DoFs.
+
+    Each DoF follows a smooth cycle that rises during the inhale (the first `inhale_ratio` of the cycle)
+    and falls during the slower exhale; phase warping keeps velocity continuous and the cycle mean at
+    rest. A per-DoF phase lag makes the breath travel through the body. The phase is integrated, so a
+    live frequency change never jumps; amplitude and frequency can be driven by signals (a connected
+    amplitude scales per-DoF overrides in proportion).
+    """
+
+    type_name = "breathe"
+    title = "Breathing"
+    category = "sources"
+    role = Role.source
+    Params = BreatheParams
+    inputs = {
+        "amplitude": Port(PortType.float, "overrides the amplitude parameter (rad or m)"),
+        "frequency": Port(PortType.float, "overrides the frequency parameter (Hz)"),
+    }
+    outputs = FRAME_OUT
+    state_attrs = ("phi",)
+
+    def configure(self) -> None:
+        p = self.params
+        emb = self.emb
+        self.mask = channel_mask(emb, p.dofs, continuous_only=True)
+        amp_vec, self.amp_override = per_dof_vector(emb, p.amplitudes, "amplitudes")
+        self.amp_override &= self.mask
+        self.amp_values = np.where(self.amp_override, amp_vec, 0.0)
+        phase_vec, _ = per_dof_vector(emb, p.phases, "phases")
+        index = np.cumsum(self.mask) - 1
+        phase = np.where(self.mask, index * p.phase_spread + phase_vec, 0.0)
+        self.offset_cycles = -phase / (2 * math.pi)  # a positive phase lags behind
+
+    def reset(self) -> None:
+        self.phi = 0.0  # cycles, in [0, 1)
+
+    def wave(self, u: np.ndarray) -> np.ndarray:
+        """The breath shape on cycle fraction u in [0, 1): -1 at u=0, +1 at the end of the inhale."""
+        r = self.params.inhale_ratio
+        v = np.where(u < r, 0.5 * u / r, 0.5 + 0.5 * (u - r) / (1.0 - r))
+        return -np.cos(2 * math.pi * v)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        p = self.params
+        amp = min(max(float(self.signal(inputs, "amplitude", p.amplitude)), 0.0), 1.0)
+        freq = min(max(float(self.signal(inputs, "frequency", p.frequency)), 0.0), 5.0)
+        scale = amp / p.amplitude if p.amplitude > 0 else 1.0
+        amps = np.where(self.amp_override, self.amp_values * scale, amp)
+        u = np.mod(self.phi + self.offset_cycles, 1.0)
+        emb = self.emb
+        values = np.clip(emb.rest + amps * self.wave(u), emb.min, emb.max)
+        self.phi = (self.phi + freq * dt) % 1.0
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
+
+
+# --------------------------------------------------------------------------------------------------
+# Smooth noise
+# --------------------------------------------------------------------------------------------------
+
+
+class NoiseParams(BlockParams):
+    dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
+    amplitude: float = Field(0.02, ge=0.0, le=1.0, description="standard deviation around the rest pose (rad or m)")
+    tau: float = Field(1.5, ge=0.05, le=60.0, description="correlation time of the wander (s)")
+    smoothing: float = Field(0.3, ge=0.0, le=10.0,
+                             description="time constant of the second low-pass stage (s); 0 turns it off")
+    seed: int = Field(0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)")
+
+
+@register_block
+class Noise(Block):
+    """Smooth mean-reverting random wander (Ornstein-Uhlenbeck) around the rest pose.
+
+    Each selected DoF wanders independently, pulled back to rest with correlation time `tau`; a second
+    low-pass stage (`smoothing`) makes the velocity continuous too. Both stages are discretised exactly
+    and the output is rescaled so its long-run standard deviation equals `amplitude` at any tick rate.
+    Runs are reproducible (seed, engine seed and node id); the amplitude can be driven by a signal.
+    """
+
+    type_name = "noise"
+    title = "Smooth noise"
+    category = "sources"
+    role = Role.source
+    Params = NoiseParams
+    inputs = {"amplitude": Port(PortType.float, "overrides the amplitude parameter (rad or m)")}
+    outputs = FRAME_OUT
+    state_attrs = ("x", "y", "rng")
+
+    def configure(self) -> None:
+        self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
+        self._dt: float | None = None
+        self._tau_s: tuple[float, float] | None = None
+
+    def reset(self) -> None:
+        n = self.emb.n_channels
+        self.x = np.zeros(n)  # OU state, unit stationary variance
+        self.y = np.zeros(n)  # low-passed state
+        self.rng = block_rng(self.ctx, self.params.seed, self.node_id)
+
+    def _transition(self, dt: float) -> None:
+        """Exact discretisation of the linear SDE (x, y) over dt: x_{n+1} = a x + L11 e1,
+        y_{n+1} = c x + b y + L21 e1 + L22 e2 (noise covariance from the stationary covariance)."""
+        tau, s = self.params.tau, self.params.smoothing
+        if self._dt == dt and self._tau_s == (tau, s):
+            return
+        a = math.exp(-dt / tau)
+        if s <= 0.0:
+            b, c, var_y, cov = 0.0, 0.0, 1.0, 1.0
+        else:
+            b = math.exp(-dt / s)
+            c = (dt / s) * b if abs(tau - s) < 1e-9 else tau * (a - b) / (tau - s)
+            var_y = cov = tau / (tau + s)
+        # Q = Sigma - Phi Sigma Phi^T with Sigma = [[1, cov], [cov, var_y]], Phi = [[a, 0], [c, b]]
+        q11 = 1.0 - a * a
+        q21 = cov - (a * c + a * b * cov)
+        q22 = var_y - (c * c + 2 * c * b * cov + b * b * var_y)
+        l11 = math.sqrt(max(q11, 0.0))
+        l21 = q21 / l11 if l11 > 1e-15 else 0.0
+        l22 = math.sqrt(max(q22 - l21 * l21, 0.0))
+        self._coef = (a, b, c, l11, l21, l22, 1.0 / math.sqrt(var_y))
+        self._dt, self._tau_s = dt, (tau, s)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        amp = min(max(float(self.signal(inputs, "amplitude", self.params.amplitude)), 0.0), 1.0)
+        emb = self.emb
+        if dt > 0:
+            self._transition(dt)
+            a, b, c, l11, l21, l22, _ = self._coef
+            e = self.rng.standard_normal((2, emb.n_channels))
+            x_new = a * self.x + l11 * e[0]
+            if self.params.smoothing > 0.0:
+                self.y = c * self.x + b * self.y + l21 * e[0] + l22 * e[1]
+            else:
+                self.y = x_new
+            self.x = x_new
+        tau, s = self.params.tau, self.params.smoothing
+        norm = math.sqrt((tau + s) / tau)  # the low-pass stage shrinks the variance by tau / (tau + s)
+        values = np.clip(emb.rest + amp * norm * self.y, emb.min, emb.max)
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
+
+
+# --------------------------------------------------------------------------------------------------
+# Weight shift
+# --------------------------------------------------------------------------------------------------
+
+
+class WeightShiftParams(BlockParams):
+    dofs: DofSelection = Field(default=["*roll*", "*body*", "*torso*"])
+    amplitude: float = Field(0.08, ge=0.0, le=1.0, description="largest offset from the rest pose (rad or m)")
+    min_interval: float = Field(4.0, ge=0.5, le=120.0, description="shortest time between shifts (s)")
+    max_interval: float = Field(12.0, ge=0.5, le=120.0, description="longest time between shifts (s)")
+    shift_duration: float = Field(2.5, ge=0.1, le=30.0, description="time to ease into a new offset (s)")
+    seed: int = Field(0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)")
+
+    @model_validator(mode="after")
+    def _intervals(self) -> "WeightShiftParams":
+        if self.min_interval > self.max_interval:
+            raise ValueError(f"min_interval ({self.min_interval} s) must not exceed max_interval "
+                             f"({self.max_interval} s)")
+        return self
+
+
+@register_block
+class WeightShift(Block):
+    """Slow, asymmetric posture shifts, like a person shifting their weight.
+
+    Every random interval between `min_interval` and `max_interval` a new offset within ±`amplitude` is
+    drawn for the selected DoFs, each DoF moving by its own random fraction (never a symmetric sway), and
+    the pose eases there over `shift_duration` with a sine in/out. The default selectors (`*roll*`,
+    `*body*`, `*torso*`) find the fitting DoFs on any robot. Output: the rest pose plus the offset.
+    """
+
+    type_name = "weight_shift"
+    title = "Weight shift"
+    category = "sources"
+    role = Role.source
+    Params = WeightShiftParams
+    outputs = FRAME_OUT
+    state_attrs = ("offset", "start", "target", "elapsed", "until_next", "rng")
+
+    def configure(self) -> None:
+        self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
+
+    def reset(self) -> None:
+        n = self.emb.n_channels
+        self.offset = np.zeros(n)
+        self.start = np.zeros(n)
+        self.target = np.zeros(n)
+        self.elapsed = 0.0
+        self.rng = block_rng(self.ctx, self.params.seed, self.node_id)
+        self.until_next = float(self.rng.uniform(0.25, 1.0)) * self.params.min_interval
+
+    def _new_target(self) -> np.ndarray:
+        p, emb = self.params, self.emb
+        magnitude = self.rng.uniform(0.4, 1.0)  # how big this shift is overall
+        fractions = self.rng.uniform(-1.0, 1.0, emb.n_channels)  # each DoF its own share and direction
+        target = p.amplitude * magnitude * fractions
+        return np.clip(emb.rest + target, emb.min, emb.max) - emb.rest
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        p = self.params
+        self.until_next -= dt
+        if self.until_next <= 0.0:
+            self.start = self.offset.copy()
+            self.target = self._new_target()
+            self.elapsed = 0.0
+            self.until_next = float(self.rng.uniform(p.min_interval, p.max_interval))
+        self.elapsed += dt
+        u = min(self.elapsed / p.shift_duration, 1.0)
+        k = 0.5 - 0.5 * math.cos(math.pi * u)
+        self.offset = self.start + k * (self.target - self.start)
+        emb = self.emb
+        values = np.clip(emb.rest + self.offset, emb.min, emb.max)
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
