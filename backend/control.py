@@ -339,6 +339,10 @@ def execute(session: Any, command: Any, command_id: str | None = None) -> Any:
         session.engine.inject_event(FrameEvent(dof.name, "say" if t == "say" else "sound", payload))
         return {"dof": dof.name, **payload, "done": True}  # emitted at once: nothing left to wait for
     if t in ("set_led", "set_face"):
+        block = _display_block(session, command)
+        if block is not None:  # the program shows this DoF itself: tell its led/face block
+            args = command.model_dump(exclude={"type", "id"}, exclude_none=True)
+            return _handle(session, block, t, {**args, "command_id": cid})
         return _display_override(session, command)
     if t == "reset":
         for block in _blocks(session, ("clip_player",)):
@@ -358,6 +362,14 @@ def execute(session: Any, command: Any, command_id: str | None = None) -> Any:
                 _set_inputs(session, defaults)
         return {"stopped": True}
     raise CommandError(f"unsupported command type '{t}'", field="type")
+
+
+def _display_block(session: Any, command: Any) -> Any:
+    """The program's led/face block driving the command's DoF (or the only one, if no DoF is named)."""
+    blocks = _blocks(session, ("led",) if command.type == "set_led" else ("face",))
+    if command.dof:
+        blocks = [b for b in blocks if getattr(getattr(b, "dof", None), "name", None) == command.dof]
+    return blocks[0] if len(blocks) == 1 else None
 
 
 def _display_override(session: Any, command: Any) -> Any:

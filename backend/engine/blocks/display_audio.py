@@ -1,0 +1,415 @@
+"""Sources for the display and audible dimensions: LEDs, face expressions, speech and sounds.
+
+The LED and face blocks set display DoFs (a colour, an enum option); the say and play-sound blocks put
+events on the frame (the driver speaks or plays them) and report `started` / `completed` to the engine,
+so an AI can wait for an utterance to end. While speaking, the say block flaps the mouth.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field, field_validator
+
+from backend.engine.blocks.base import (
+    Block,
+    BlockCommandError,
+    BlockParams,
+    Port,
+    PortType,
+    Role,
+    register_block,
+)
+from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
+from backend.engine.frames import FrameEvent, PartialFrame
+
+FRAME_OUT = {"out": Port(PortType.frame, "resulting frame")}
+
+
+def _resolve_dof(emb: Embodiment, name: str | None, want: DofType, what: str, kind: str | None = None) -> Dof:
+    """The named DoF (checked to be of type `want`, and audible `kind`), or the robot's first such DoF."""
+    def fits(d: Dof) -> bool:
+        return d.type is want and (kind is None or d.kind == kind)
+
+    label = f"{kind} " if kind else f"{want.value} "
+    if name:
+        if not emb.has_dof(name):
+            raise ValueError(f"{what}: robot '{emb.name}' has no DoF '{name}'")
+        d = emb.dof(name)
+        if not fits(d):
+            raise ValueError(f"{what}: DoF '{name}' is not a {label}DoF")
+        return d
+    found = next((d for d in emb.dofs if fits(d) and (want is not DofType.enum or d.dimension is Dimension.display)),
+                 None)
+    if found is None:
+        raise ValueError(f"{what}: robot '{emb.name}' has no {label}DoF")
+    return found
+
+
+def _colour(value: Any, where: str) -> np.ndarray:
+    """A colour [r, g, b] with components in [0, 1]; raises BlockCommandError naming `where`."""
+    try:
+        c = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise BlockCommandError(f"{where}: a colour is [r, g, b] in 0..1, got {value!r}") from None
+    if c.shape != (3,) or not np.all(np.isfinite(c)) or np.any(c < 0.0) or np.any(c > 1.0):
+        raise BlockCommandError(f"{where}: a colour is [r, g, b] with components in 0..1, got {value!r}")
+    return c
+
+
+# --------------------------------------------------------------------------------------------------
+# LED
+# --------------------------------------------------------------------------------------------------
+
+
+class LedParams(BlockParams):
+    dof: str | None = Field(None, description="colour DoF (LED or LED group); default: the robot's first",
+                            json_schema_extra={"x-widget": "dof"})
+    colour: list[float] = Field(default=[1.0, 1.0, 1.0], min_length=3, max_length=3,
+                                description="colour [r, g, b], components 0..1",
+                                json_schema_extra={"x-widget": "colour"})
+    mode: Literal["solid", "pulse", "breathe"] = Field(
+        "solid", description="solid; pulse (a quick flash then a fade, like a heartbeat); breathe (a slow sine)")
+    frequency: float = Field(0.5, ge=0.0, le=10.0, description="pulses or breaths per second (Hz)")
+    depth: float = Field(0.5, ge=0.0, le=1.0, description="how far the brightness dips (0 = none, 1 = to black)")
+
+    @field_validator("colour")
+    @classmethod
+    def _range(cls, v: list[float]) -> list[float]:
+        if not all(math.isfinite(c) and 0.0 <= c <= 1.0 for c in v):
+            raise ValueError(f"colour components must be within 0..1, got {v}")
+        return v
+
+
+def brightness(mode: str, u: float, depth: float) -> float:
+    """Brightness factor in [1 - depth, 1] at phase u in [0, 1) (cycles)."""
+    if mode == "breathe":
+        return 1.0 - depth * (0.5 - 0.5 * math.cos(2.0 * math.pi * u))
+    if mode == "pulse":
+        attack = 0.12
+        level = 0.5 - 0.5 * math.cos(math.pi * u / attack) if u < attack else math.exp(-5.0 * (u - attack))
+        return (1.0 - depth) + depth * level
+    return 1.0
+
+
+@register_block
+class Led(Block):
+    """Sets an LED (a colour DoF) to a colour, solid, pulsing or breathing.
+
+    The colour comes from the `colour` input when connected, else from the last `set_led` command, else
+    from the parameter. Pulse and breathe modulate the brightness by `depth` at `frequency` Hz; every
+    component stays within 0..1.
+    """
+
+    type_name = "led"
+    title = "LED"
+    category = "sources"
+    role = Role.source
+    Params = LedParams
+    inputs = {"colour": Port(PortType.colour, "overrides the colour [r, g, b]"),
+              "frequency": Port(PortType.float, "overrides the frequency (Hz)"),
+              "depth": Port(PortType.float, "overrides the depth (0..1)")}
+    outputs = FRAME_OUT
+    state_attrs = ("cycles", "commanded")
+
+    def configure(self) -> None:
+        self.dof = _resolve_dof(self.emb, self.params.dof, DofType.colour, "led")
+        self.mask = np.zeros(self.emb.n_channels, dtype=bool)
+        self.mask[self.dof.channels] = True
+
+    def reset(self) -> None:
+        self.cycles = 0.0
+        self.commanded: np.ndarray | None = None
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command == "set_led":
+            dof = args.get("dof")
+            if dof and dof != self.dof.name:
+                raise BlockCommandError(f"led '{self.node_id}' drives '{self.dof.name}', not '{dof}'")
+            self.commanded = _colour(args.get("colour"), "set_led")
+            return {"dof": self.dof.name, "colour": [float(c) for c in self.commanded]}
+        return super().handle(command, args)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        p = self.params
+        colour = self.commanded if self.commanded is not None else np.asarray(p.colour, dtype=float)
+        wired = inputs.get("colour")
+        if wired is not None:
+            try:
+                colour = _colour(wired, "colour input")
+            except BlockCommandError:
+                pass  # a malformed signal keeps the last good colour source
+        freq = max(float(self.signal(inputs, "frequency", p.frequency)), 0.0)
+        depth = min(max(float(self.signal(inputs, "depth", p.depth)), 0.0), 1.0)
+        factor = brightness(p.mode, self.cycles % 1.0, depth)
+        self.cycles = (self.cycles + freq * dt) % 1.0
+        values = self.emb.rest.copy()
+        values[self.dof.channels] = np.clip(colour * factor, 0.0, 1.0)
+        return {"out": PartialFrame(values, self.mask.copy(), [])}
+
+
+# --------------------------------------------------------------------------------------------------
+# Face
+# --------------------------------------------------------------------------------------------------
+
+
+class FaceParams(BlockParams):
+    dof: str | None = Field(None, description="enum display DoF (face/screen); default: the robot's first",
+                            json_schema_extra={"x-widget": "dof"})
+    expression: str | None = Field(None, description="option to show; default: the DoF's rest option")
+
+
+@register_block
+class Face(Block):
+    """Shows a face/screen expression: one option of an enum display DoF (smile, frown, …).
+
+    The expression comes from the `expression` input when connected (unknown names are ignored), else
+    from the last `set_face` command, else from the parameter. Unknown expressions in the parameter or
+    a command are errors that list the DoF's options.
+    """
+
+    type_name = "face"
+    title = "Face expression"
+    category = "sources"
+    role = Role.source
+    Params = FaceParams
+    inputs = {"expression": Port(PortType.string, "overrides the expression (an option name)")}
+    outputs = FRAME_OUT
+    state_attrs = ("commanded",)
+
+    def configure(self) -> None:
+        self.dof = _resolve_dof(self.emb, self.params.dof, DofType.enum, "face")
+        self.options = list(self.dof.options or ())
+        self.channel = self.dof.channels.start
+        self.mask = np.zeros(self.emb.n_channels, dtype=bool)
+        self.mask[self.channel] = True
+        if self.params.expression is None:
+            self.default_index = int(round(float(self.emb.rest[self.channel])))
+        else:
+            self.default_index = self._index(self.params.expression, ValueError)
+
+    def _index(self, name: Any, error: type[Exception]) -> int:
+        if not isinstance(name, str) or name not in self.options:
+            raise error(f"face: DoF '{self.dof.name}' has no expression {name!r} (options: {self.options})")
+        return self.options.index(name)
+
+    def reset(self) -> None:
+        self.commanded: int | None = None
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command == "set_face":
+            dof = args.get("dof")
+            if dof and dof != self.dof.name:
+                raise BlockCommandError(f"face '{self.node_id}' drives '{self.dof.name}', not '{dof}'")
+            self.commanded = self._index(args.get("expression"), BlockCommandError)
+            return {"dof": self.dof.name, "expression": self.options[self.commanded]}
+        return super().handle(command, args)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        index = self.commanded if self.commanded is not None else self.default_index
+        wired = inputs.get("expression")
+        if isinstance(wired, str) and wired in self.options:
+            index = self.options.index(wired)
+        values = self.emb.rest.copy()
+        values[self.channel] = index
+        return {"out": PartialFrame(values, self.mask.copy(), [])}
+
+
+# --------------------------------------------------------------------------------------------------
+# Say
+# --------------------------------------------------------------------------------------------------
+
+
+class SayParams(BlockParams):
+    dof: str | None = Field(None, description="speech DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"})
+    text: str = Field("", max_length=2000, description="text said on a rising edge of the trigger input")
+    words_per_second: float = Field(2.5, ge=0.5, le=10.0, description="speaking rate used to estimate the duration")
+    min_duration: float = Field(0.4, ge=0.0, le=10.0, description="shortest estimated utterance (s)")
+    lip_sync: bool = Field(True, description="flap the mouth while speaking")
+    lip_dof: str | None = Field(None, description="continuous DoF opening the mouth; default: mouth_open if any",
+                                json_schema_extra={"x-widget": "dof"})
+    syllable_rate: float = Field(4.0, ge=0.5, le=12.0, description="mouth flaps per second (Hz)")
+    lip_amount: float = Field(0.7, ge=0.0, le=1.0, description="how far the mouth opens (fraction of its range)")
+
+
+@register_block
+class Say(Block):
+    """Speaks a text: a `say` event on the speech DoF, with the mouth flapping while it lasts.
+
+    Triggered by the `say` command (the API's say, which waits for completion) or a rising edge of the
+    `trigger` input (saying `text`). It reports `started` when the event is emitted and `completed`
+    after the estimated duration (words / words_per_second); a new utterance cancels the running one.
+    While speaking, the lip DoF (mouth_open by default) opens and closes at the syllable rate.
+    """
+
+    type_name = "say"
+    title = "Say"
+    category = "sources"
+    role = Role.source
+    Params = SayParams
+    inputs = {"trigger": Port(PortType.bool, "says `text` on a rising edge"),
+              "text": Port(PortType.string, "overrides the text parameter")}
+    outputs = {**FRAME_OUT, "speaking": Port(PortType.bool, "true while speaking")}
+    state_attrs = ("pending", "current", "elapsed", "length", "last_trigger", "closing")
+
+    def configure(self) -> None:
+        emb = self.emb
+        self.dof = _resolve_dof(emb, self.params.dof, DofType.event, "say", kind="speech")
+        self.lip: int | None = None
+        name = self.params.lip_dof
+        if self.params.lip_sync:
+            if name:
+                self.lip = _resolve_dof(emb, name, DofType.continuous, "say lip_dof").channels.start
+            elif emb.has_dof("mouth_open") and emb.dof("mouth_open").type is DofType.continuous:
+                self.lip = emb.dof("mouth_open").channels.start
+        self.lip_mask = np.zeros(emb.n_channels, dtype=bool)
+        if self.lip is not None:
+            self.lip_mask[self.lip] = True
+
+    def reset(self) -> None:
+        self.pending: dict[str, Any] | None = None
+        self.current: dict[str, Any] | None = None
+        self.elapsed = 0.0
+        self.length = 0.0
+        self.last_trigger = False
+        self.closing = False
+
+    def duration(self, text: str) -> float:
+        return max(self.params.min_duration, len(text.split()) / self.params.words_per_second)
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command == "say":
+            text = str(args.get("text") or "").strip()
+            if not text:
+                raise BlockCommandError("say: the text is empty")
+            self.pending = {"text": text, "command_id": args.get("command_id")}
+            return {"text": text, "duration": self.duration(text)}
+        if command in ("stop", "cancel"):
+            self._cancel()
+            self.pending = None
+            return {"stopped": True}
+        return super().handle(command, args)
+
+    def _cancel(self) -> None:
+        if self.current is not None:
+            self.ctx.notify(self.node_id, "cancelled", command_id=self.current["command_id"],
+                            text=self.current["text"])
+            self.current = None
+            self.closing = True
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        trigger = bool(inputs.get("trigger") or False)
+        if trigger and not self.last_trigger:
+            text = str(self.signal(inputs, "text", self.params.text) or "").strip()
+            if text:
+                self.pending = {"text": text, "command_id": None}
+        self.last_trigger = trigger
+        if self.current is not None:  # time goes on for the running utterance
+            self.elapsed += dt
+            if self.elapsed >= self.length - 1e-9:
+                self.ctx.notify(self.node_id, "completed", command_id=self.current["command_id"],
+                                text=self.current["text"])
+                self.current = None
+                self.closing = True
+        events: list[FrameEvent] = []
+        if self.pending is not None:
+            self._cancel()
+            self.current, self.pending = self.pending, None
+            self.elapsed, self.length = 0.0, self.duration(self.current["text"])
+            events.append(FrameEvent(self.dof.name, "say", {"text": self.current["text"]}))
+            self.ctx.notify(self.node_id, "started", command_id=self.current["command_id"], text=self.current["text"])
+        values = self.emb.rest.copy()
+        mask = np.zeros(self.emb.n_channels, dtype=bool)
+        if self.current is not None:
+            if self.lip is not None:
+                span = self.emb.max[self.lip] - self.emb.rest[self.lip]
+                flap = 0.5 - 0.5 * math.cos(2.0 * math.pi * self.params.syllable_rate * self.elapsed)
+                values[self.lip] = self.emb.rest[self.lip] + self.params.lip_amount * span * flap
+                mask |= self.lip_mask
+        elif self.closing:  # one frame at rest closes the mouth; after that the lip DoF is left alone
+            mask |= self.lip_mask
+            self.closing = False
+        return {"out": PartialFrame(values, mask, events), "speaking": self.current is not None}
+
+
+# --------------------------------------------------------------------------------------------------
+# Play sound
+# --------------------------------------------------------------------------------------------------
+
+
+class PlaySoundParams(BlockParams):
+    dof: str | None = Field(None, description="sound DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"})
+    sound: str | None = Field(None, description="clip played on a rising edge of the trigger input; default: the first")
+    duration: float = Field(1.0, ge=0.05, le=60.0, description="estimated length of a clip, for `completed` (s)")
+
+
+@register_block
+class PlaySound(Block):
+    """Plays a sound clip: a `sound` event on the sound DoF, with started/completed notifications.
+
+    Triggered by the `play_sound` command or a rising edge of the `trigger` input (playing `sound`).
+    Clip names are checked against the sound DoF's list; `completed` follows after `duration` seconds.
+    Several clips may play at once.
+    """
+
+    type_name = "play_sound"
+    title = "Play sound"
+    category = "sources"
+    role = Role.source
+    Params = PlaySoundParams
+    inputs = {"trigger": Port(PortType.bool, "plays `sound` on a rising edge")}
+    outputs = {**FRAME_OUT, "playing": Port(PortType.bool, "true while a clip plays")}
+    state_attrs = ("pending", "active", "last_trigger")
+
+    def configure(self) -> None:
+        self.dof = _resolve_dof(self.emb, self.params.dof, DofType.event, "play_sound", kind="sound")
+        self.sounds = list(self.dof.sounds)
+        if self.params.sound is not None:
+            self._check(self.params.sound, ValueError)
+        self.trigger_sound = self.params.sound or (self.sounds[0] if self.sounds else None)
+
+    def _check(self, name: Any, error: type[Exception]) -> str:
+        if not isinstance(name, str) or not name or (self.sounds and name not in self.sounds):
+            raise error(f"play_sound: unknown sound {name!r} on '{self.dof.name}' (options: {self.sounds})")
+        return name
+
+    def reset(self) -> None:
+        self.pending: list[dict[str, Any]] = []
+        self.active: list[dict[str, Any]] = []
+        self.last_trigger = False
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command == "play_sound":
+            name = self._check(args.get("sound"), BlockCommandError)
+            self.pending.append({"sound": name, "command_id": args.get("command_id")})
+            return {"sound": name, "duration": self.params.duration}
+        if command in ("stop", "cancel"):
+            for clip in self.active:
+                self.ctx.notify(self.node_id, "cancelled", command_id=clip["command_id"], sound=clip["sound"])
+            self.active, self.pending = [], []
+            return {"stopped": True}
+        return super().handle(command, args)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        trigger = bool(inputs.get("trigger") or False)
+        if trigger and not self.last_trigger and self.trigger_sound:
+            self.pending.append({"sound": self.trigger_sound, "command_id": None})
+        self.last_trigger = trigger
+        still = []
+        for clip in self.active:
+            clip["remaining"] -= dt
+            if clip["remaining"] <= 1e-9:
+                self.ctx.notify(self.node_id, "completed", command_id=clip["command_id"], sound=clip["sound"])
+            else:
+                still.append(clip)
+        self.active = still
+        events = []
+        for clip in self.pending:
+            events.append(FrameEvent(self.dof.name, "sound", {"clip": clip["sound"]}))
+            self.ctx.notify(self.node_id, "started", command_id=clip["command_id"], sound=clip["sound"])
+            self.active.append({**clip, "remaining": self.params.duration})
+        self.pending = []
+        return {"out": PartialFrame(self.emb.rest.copy(), np.zeros(self.emb.n_channels, dtype=bool), events),
+                "playing": bool(self.active)}

@@ -1,0 +1,274 @@
+"""Signal blocks: scalar math, low-frequency oscillators and the emotion mapper (valence/arousal ->
+speed, amplitude, posture), for driving block parameters through their signal inputs."""
+
+from __future__ import annotations
+
+import math
+import random
+from typing import Any, Literal
+
+from pydantic import Field, model_validator
+
+from backend.engine.blocks.base import Block, BlockParams, Port, PortType, Role, register_block
+
+# --------------------------------------------------------------------------------------------------
+# Math
+# --------------------------------------------------------------------------------------------------
+
+MathOp = Literal["add", "subtract", "multiply", "divide", "min", "max", "map_range", "clamp", "abs", "smoothstep"]
+
+
+class MathParams(BlockParams):
+    op: MathOp = Field("add", description="operation on a (and b): add, subtract, multiply, divide, min, max, "
+                                          "map_range, clamp, abs, smoothstep")
+    a: float = Field(0.0, description="value of a when its input is not connected")
+    b: float = Field(0.0, description="value of b when its input is not connected")
+    in_min: float = Field(0.0, description="map_range/smoothstep: input value mapped to out_min (lower edge)")
+    in_max: float = Field(1.0, description="map_range/smoothstep: input value mapped to out_max (upper edge)")
+    out_min: float = Field(0.0, description="map_range: output at in_min")
+    out_max: float = Field(1.0, description="map_range: output at in_max")
+    clamped: bool = Field(True, description="map_range: keep the output within [out_min, out_max]")
+    min: float = Field(0.0, description="clamp: lower bound")
+    max: float = Field(1.0, description="clamp: upper bound")
+
+    @model_validator(mode="after")
+    def _check(self) -> "MathParams":
+        if self.op in ("map_range", "smoothstep") and self.in_min == self.in_max:
+            raise ValueError(f"{self.op}: in_min and in_max must differ (both are {self.in_min})")
+        if self.op == "clamp" and self.min > self.max:
+            raise ValueError(f"clamp: min ({self.min}) must not exceed max ({self.max})")
+        return self
+
+
+@register_block
+class Math(Block):
+    """Scalar math on signals: arithmetic, min/max, map range, clamp, abs and smoothstep.
+
+    Inputs `a` and `b` override the parameters of the same name. Unary operations (map_range, clamp,
+    abs, smoothstep) act on `a`. Division by zero and any other non-finite result hold the last finite
+    output, so a bad value upstream never reaches the robot.
+    """
+
+    type_name = "math"
+    title = "Math"
+    category = "signals"
+    role = Role.signal
+    Params = MathParams
+    inputs = {"a": Port(PortType.float, "first operand (overrides parameter a)"),
+              "b": Port(PortType.float, "second operand (overrides parameter b)")}
+    outputs = {"value": Port(PortType.float, "result")}
+    state_attrs = ("last",)
+
+    def reset(self) -> None:
+        self.last = 0.0
+
+    def compute(self, a: float, b: float) -> float:
+        p = self.params
+        op = p.op
+        if op == "add":
+            return a + b
+        if op == "subtract":
+            return a - b
+        if op == "multiply":
+            return a * b
+        if op == "divide":
+            return a / b if b != 0.0 else math.nan
+        if op == "min":
+            return min(a, b)
+        if op == "max":
+            return max(a, b)
+        if op == "abs":
+            return abs(a)
+        if op == "clamp":
+            return min(max(a, p.min), p.max)
+        u = (a - p.in_min) / (p.in_max - p.in_min)
+        if op == "smoothstep":
+            u = min(max(u, 0.0), 1.0)
+            return u * u * (3.0 - 2.0 * u)
+        # map_range
+        if p.clamped:
+            u = min(max(u, 0.0), 1.0)
+        return p.out_min + u * (p.out_max - p.out_min)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        try:
+            a = float(self.signal(inputs, "a", self.params.a))
+            b = float(self.signal(inputs, "b", self.params.b))
+            value = self.compute(a, b)
+        except (OverflowError, TypeError, ValueError):
+            value = math.nan
+        if math.isfinite(value):
+            self.last = float(value)
+        return {"value": self.last}
+
+
+# --------------------------------------------------------------------------------------------------
+# LFO
+# --------------------------------------------------------------------------------------------------
+
+Waveform = Literal["sine", "triangle", "square", "saw", "random_smooth"]
+
+
+def waveform(shape: str, u: float, knots: tuple[float, float] = (0.0, 0.0)) -> float:
+    """Value in [-1, 1] of a waveform at phase u in [0, 1) (cycles). random_smooth eases between knots."""
+    if shape == "sine":
+        return math.sin(2.0 * math.pi * u)
+    if shape == "triangle":  # starts at 0 going up, like the sine
+        return 4.0 * u if u < 0.25 else (2.0 - 4.0 * u if u < 0.75 else 4.0 * u - 4.0)
+    if shape == "square":
+        return 1.0 if u < 0.5 else -1.0
+    if shape == "saw":
+        return 2.0 * u - 1.0
+    k = 0.5 - 0.5 * math.cos(math.pi * u)  # random_smooth: cosine ease from one random knot to the next
+    return knots[0] + k * (knots[1] - knots[0])
+
+
+class LfoParams(BlockParams):
+    waveform: Waveform = Field("sine", description="sine, triangle, square, saw or random_smooth (smooth noise)")
+    frequency: float = Field(0.5, ge=0.0, le=50.0, description="cycles per second (Hz)")
+    amplitude: float = Field(1.0, ge=0.0, le=100.0, description="peak deviation from the offset")
+    offset: float = Field(0.0, ge=-100.0, le=100.0, description="centre value")
+    phase: float = Field(0.0, ge=0.0, le=1.0, description="phase at start (cycles, 0..1)")
+
+
+@register_block
+class Lfo(Block):
+    """A low-frequency oscillator: `offset + amplitude * wave(phase)` as a signal.
+
+    Waveforms sine, triangle, square, saw, or random_smooth (a new random level every cycle, eased
+    in between). The phase is integrated, so changing the frequency live never jumps. Frequency and
+    amplitude can be driven by signals (e.g. the emotion block's speed).
+    """
+
+    type_name = "lfo"
+    title = "LFO"
+    category = "signals"
+    role = Role.signal
+    Params = LfoParams
+    inputs = {"frequency": Port(PortType.float, "overrides the frequency (Hz)"),
+              "amplitude": Port(PortType.float, "overrides the amplitude"),
+              "offset": Port(PortType.float, "overrides the offset")}
+    outputs = {"value": Port(PortType.float, "current value")}
+    state_attrs = ("cycles", "knots", "rng")
+
+    def reset(self) -> None:
+        self.cycles = float(self.params.phase)
+        self.rng = random.Random(f"{self.ctx.seed}:{self.node_id}")
+        self.knots = (self.rng.uniform(-1, 1), self.rng.uniform(-1, 1))
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        p = self.params
+        freq = max(float(self.signal(inputs, "frequency", p.frequency)), 0.0)
+        amp = float(self.signal(inputs, "amplitude", p.amplitude))
+        off = float(self.signal(inputs, "offset", p.offset))
+        u = self.cycles % 1.0
+        value = off + amp * waveform(p.waveform, u, self.knots)
+        advanced = self.cycles + freq * dt
+        for _ in range(min(int(advanced) - int(self.cycles), 2)):  # a new cycle: a new random knot
+            self.knots = (self.knots[1], self.rng.uniform(-1, 1))
+        self.cycles = advanced % 1.0
+        if not math.isfinite(value):
+            value = off
+        return {"value": value}
+
+
+# --------------------------------------------------------------------------------------------------
+# Emotion
+# --------------------------------------------------------------------------------------------------
+
+DEFAULT_POSTURES: dict[str, tuple[float, float]] = {
+    "neutral": (0.0, 0.0),
+    "happy": (0.7, 0.45),
+    "surprised": (0.05, 0.9),
+    "sad": (-0.7, -0.35),
+    "sleepy": (0.1, -0.85),
+}
+
+
+class EmotionParams(BlockParams):
+    valence: float = Field(0.0, ge=-1.0, le=1.0, description="unpleasant (-1) to pleasant (+1), when not connected")
+    arousal: float = Field(0.0, ge=-1.0, le=1.0, description="calm (-1) to excited (+1), when not connected")
+    speed_min: float = Field(0.6, gt=0.0, le=1.0, description="speed multiplier at arousal -1 (1 at arousal 0)")
+    speed_max: float = Field(1.6, ge=1.0, le=4.0, description="speed multiplier at arousal +1")
+    amplitude_min: float = Field(0.5, ge=0.0, le=1.0, description="amplitude gain at arousal -1 (1 at arousal 0)")
+    amplitude_max: float = Field(1.5, ge=1.0, le=3.0, description="amplitude gain at arousal +1")
+    valence_amplitude: float = Field(0.2, ge=0.0, le=1.0,
+                                     description="extra amplitude gain at |valence| = 1 (strong feelings show)")
+    droop: float = Field(0.2, ge=0.0, le=1.0, description="posture offset at valence -1 (rad, + = head down)")
+    arousal_lift: float = Field(0.05, ge=0.0, le=0.5, description="posture lift at arousal +1 (rad, head up)")
+    postures: dict[str, tuple[float, float]] = Field(
+        default_factory=lambda: dict(DEFAULT_POSTURES),
+        description="posture name -> its (valence, arousal); the nearest one is output")
+    smoothing: float = Field(0.5, ge=0.0, le=10.0, description="time constant of the valence/arousal smoothing (s)")
+    hysteresis: float = Field(0.05, ge=0.0, le=0.5,
+                              description="how much nearer a new posture must be before switching to it")
+
+    @model_validator(mode="after")
+    def _check(self) -> "EmotionParams":
+        if not self.postures:
+            raise ValueError("postures needs at least one name -> (valence, arousal) entry")
+        return self
+
+
+@register_block
+class Emotion(Block):
+    """Maps valence and arousal to animation parameters: speed, amplitude, posture offset and posture.
+
+    Arousal changes timing (speed multiplier from `speed_min` to `speed_max`) and, with the strength
+    of the feeling |valence|, the amplitude of idle motion and gestures. Low valence droops the head
+    (a positive pitch offset), high valence and arousal lift it. `posture` names the nearest of the
+    emotional postures (happy, sad, surprised, sleepy, neutral). Inputs are smoothed, so outputs never
+    jump when the emotion is set abruptly.
+    """
+
+    type_name = "emotion"
+    title = "Emotion"
+    category = "signals"
+    role = Role.signal
+    Params = EmotionParams
+    inputs = {"valence": Port(PortType.float, "valence -1..1 (overrides the parameter)"),
+              "arousal": Port(PortType.float, "arousal -1..1 (overrides the parameter)")}
+    outputs = {
+        "speed": Port(PortType.float, "timing multiplier (1 = neutral)"),
+        "amplitude": Port(PortType.float, "gain for idle motion and gestures (1 = neutral)"),
+        "posture_offset": Port(PortType.float, "pitch offset for head/neck (rad, + = down)"),
+        "posture": Port(PortType.string, "name of the nearest emotional posture"),
+        "valence": Port(PortType.float, "smoothed valence"),
+        "arousal": Port(PortType.float, "smoothed arousal"),
+    }
+    state_attrs = ("v", "a", "posture", "primed")
+
+    def reset(self) -> None:
+        self.v = 0.0
+        self.a = 0.0
+        self.posture = ""
+        self.primed = False
+
+    def _nearest(self, v: float, a: float) -> str:
+        dist = {n: math.hypot(v - pv, a - pa) for n, (pv, pa) in self.params.postures.items()}
+        best = min(dist, key=dist.get)  # type: ignore[arg-type]
+        current = dist.get(self.posture)
+        if current is not None and dist[best] > current - self.params.hysteresis:
+            return self.posture
+        return best
+
+    def outputs_for(self, v: float, a: float) -> dict[str, Any]:
+        p = self.params
+        speed = 1.0 + a * ((p.speed_max - 1.0) if a > 0 else (1.0 - p.speed_min))
+        amp_a = 1.0 + a * ((p.amplitude_max - 1.0) if a > 0 else (1.0 - p.amplitude_min))
+        amplitude = amp_a + p.valence_amplitude * abs(v)
+        offset = -v * p.droop - max(a, 0.0) * p.arousal_lift
+        return {"speed": speed, "amplitude": amplitude, "posture_offset": offset, "valence": v, "arousal": a}
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        p = self.params
+        tv = min(max(float(self.signal(inputs, "valence", p.valence)), -1.0), 1.0)
+        ta = min(max(float(self.signal(inputs, "arousal", p.arousal)), -1.0), 1.0)
+        if not self.primed:
+            self.v, self.a, self.primed = tv, ta, True
+        else:
+            k = 1.0 if p.smoothing <= 0.0 else 1.0 - math.exp(-dt / p.smoothing)
+            self.v += k * (tv - self.v)
+            self.a += k * (ta - self.a)
+        self.posture = self._nearest(self.v, self.a)
+        return {**self.outputs_for(self.v, self.a), "posture": self.posture}
