@@ -1,0 +1,70 @@
+"""CSV keyframes -> channels.
+
+Header `time,<dof>,<dof>,...` (the first column may also be called `t`); one row per key time in
+seconds, values in rad or m, or an option name for enum DoFs; an empty cell means "no key for that
+column at this time". Every column becomes one scalar channel.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from backend.importers.mapping import ClipImportError, SourceChannel
+
+
+def read_csv(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
+    path = Path(path)
+    try:
+        with path.open(newline="") as fh:
+            rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ClipImportError(f"cannot read CSV file '{path}': {exc}") from exc
+    rows = [r for r in rows if not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise ClipImportError(f"CSV '{path.name}' is empty")
+    header = [h.strip() for h in rows[0]]
+    if header[0].lower() not in ("time", "t"):
+        raise ClipImportError(f"CSV '{path.name}': the first column must be 'time' (s), got '{header[0]}'")
+    if len(header) < 2:
+        raise ClipImportError(f"CSV '{path.name}': no value columns after 'time'")
+    if len(set(header)) != len(header):
+        raise ClipImportError(f"CSV '{path.name}': duplicate column names in {header}")
+    times: list[float] = []
+    cols: list[list[tuple[float, float | str]]] = [[] for _ in header[1:]]
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) > len(header):
+            raise ClipImportError(f"CSV '{path.name}' line {line}: {len(row)} cells, header has {len(header)}")
+        try:
+            t = float(row[0])
+        except ValueError:
+            raise ClipImportError(f"CSV '{path.name}' line {line}: time '{row[0]}' is not a number") from None
+        if not math.isfinite(t) or t < 0:
+            raise ClipImportError(f"CSV '{path.name}' line {line}: time must be a finite number >= 0")
+        if times and t <= times[-1]:
+            raise ClipImportError(f"CSV '{path.name}' line {line}: times must increase ({times[-1]} then {t})")
+        times.append(t)
+        for c, cell in enumerate(row[1:]):
+            cell = cell.strip()
+            if not cell:
+                continue
+            try:
+                v: float | str = float(cell)
+                if not math.isfinite(v):
+                    raise ClipImportError(f"CSV '{path.name}' line {line}: {header[c + 1]}: value must be finite")
+            except ValueError:
+                v = cell
+            cols[c].append((t, v))
+    channels = []
+    for name, keys in zip(header[1:], cols):
+        if not keys:
+            continue
+        ts = np.array([k[0] for k in keys])
+        vals = [k[1] for k in keys]
+        if all(isinstance(v, float) for v in vals):
+            vals = np.array(vals, dtype=float)
+        channels.append(SourceChannel(name, "scalar", ts, vals, "LINEAR"))
+    return channels, {"rows": len(times)}, []

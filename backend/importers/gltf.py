@@ -1,0 +1,230 @@
+"""glTF 2.0 animations (.gltf with embedded data URIs or a .bin next to it, or binary .glb) -> channels.
+
+Reads one animation: each channel targets a node's `rotation`, `translation`, `scale` or `weights`;
+its sampler gives input times and output values through accessors (buffer views with or without a
+byteStride, float or normalised integer components). CUBICSPLINE outputs are triplets
+(in-tangent, value, out-tangent) per key.
+"""
+
+from __future__ import annotations
+
+import base64
+from pathlib import Path
+from typing import Any
+from urllib.parse import unquote
+
+import numpy as np
+
+from backend.importers.mapping import ClipImportError, SourceChannel
+
+_COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+_NORMALISE = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0, 5125: 4294967295.0}
+_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+class _Reader:
+    def __init__(self, gltf: Any, folder: Path):
+        self.gltf = gltf
+        self.folder = folder
+        self._buffers: dict[int, bytes] = {}
+
+    def buffer(self, index: int) -> bytes:
+        if index in self._buffers:
+            return self._buffers[index]
+        try:
+            buf = self.gltf.buffers[index]
+        except (IndexError, TypeError):
+            raise ClipImportError(f"glTF: buffer {index} does not exist") from None
+        uri = buf.uri
+        if not uri:
+            data = self.gltf.binary_blob()
+            if data is None:
+                raise ClipImportError(f"glTF: buffer {index} has no uri and the file has no binary chunk")
+        elif uri.startswith("data:"):
+            try:
+                data = base64.b64decode(uri.split(",", 1)[1])
+            except (IndexError, ValueError) as exc:
+                raise ClipImportError(f"glTF: buffer {index}: bad data URI: {exc}") from exc
+        else:
+            path = self.folder / unquote(uri)
+            try:
+                data = path.read_bytes()
+            except OSError as exc:
+                raise ClipImportError(f"glTF: buffer {index}: cannot read '{path}': {exc.strerror or exc}") from exc
+        self._buffers[index] = bytes(data)
+        return self._buffers[index]
+
+    def accessor(self, index: int) -> np.ndarray:
+        """The accessor's elements as a float array (count, width)."""
+        try:
+            acc = self.gltf.accessors[index]
+        except (IndexError, TypeError):
+            raise ClipImportError(f"glTF: accessor {index} does not exist") from None
+        dtype = _COMPONENT.get(acc.componentType)
+        width = _WIDTH.get(acc.type)
+        if dtype is None or width is None:
+            raise ClipImportError(f"glTF: accessor {index}: unsupported componentType {acc.componentType} "
+                                  f"or type {acc.type}")
+        dtype = np.dtype(dtype).newbyteorder("<")
+        count = int(acc.count)
+        if acc.bufferView is None:
+            out = np.zeros((count, width))
+        else:
+            view = self.gltf.bufferViews[acc.bufferView]
+            data = self.buffer(view.buffer)
+            start = int(view.byteOffset or 0) + int(acc.byteOffset or 0)
+            elem = dtype.itemsize * width
+            stride = int(view.byteStride or elem)
+            need = start + (count - 1) * stride + elem if count else start
+            end = int(view.byteOffset or 0) + int(view.byteLength)
+            if need > min(end, len(data)):
+                raise ClipImportError(f"glTF: accessor {index} reads past the end of its buffer view")
+            arr = np.ndarray((count, width), dtype=dtype, buffer=data, offset=start,
+                             strides=(stride, dtype.itemsize))
+            out = arr.astype(float)
+            if acc.normalized and acc.componentType in _NORMALISE:
+                out = out / _NORMALISE[acc.componentType]
+                if acc.componentType in (5120, 5122):
+                    out = np.maximum(out, -1.0)
+        if getattr(acc, "sparse", None) is not None:
+            out = self._apply_sparse(acc, out, width, index)
+        return out
+
+    def _apply_sparse(self, acc: Any, out: np.ndarray, width: int, index: int) -> np.ndarray:
+        sp = acc.sparse
+        out = out.copy()
+        n = int(sp.count)
+        idx_view = self.gltf.bufferViews[sp.indices.bufferView]
+        idx_dtype = np.dtype(_COMPONENT[sp.indices.componentType]).newbyteorder("<")
+        idx_data = self.buffer(idx_view.buffer)
+        idx = np.frombuffer(idx_data, dtype=idx_dtype, count=n,
+                            offset=int(idx_view.byteOffset or 0) + int(sp.indices.byteOffset or 0))
+        val_view = self.gltf.bufferViews[sp.values.bufferView]
+        val_dtype = np.dtype(_COMPONENT[acc.componentType]).newbyteorder("<")
+        vals = np.frombuffer(self.buffer(val_view.buffer), dtype=val_dtype, count=n * width,
+                             offset=int(val_view.byteOffset or 0) + int(sp.values.byteOffset or 0))
+        vals = vals.reshape(n, width).astype(float)
+        if acc.normalized and acc.componentType in _NORMALISE:
+            vals = vals / _NORMALISE[acc.componentType]
+        if np.any(idx >= len(out)):
+            raise ClipImportError(f"glTF: accessor {index}: sparse index out of range")
+        out[idx] = vals
+        return out
+
+
+def _load(path: Path) -> Any:
+    from pygltflib import GLTF2
+
+    try:
+        return GLTF2().load(str(path))
+    except Exception as exc:  # pygltflib raises many kinds for malformed files
+        raise ClipImportError(f"cannot read glTF file '{path}': {exc}") from exc
+
+
+def read_gltf(path: str | Path, animation: str | int | None = None) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
+    """Channels of one animation of a glTF/GLB file; plus (source info, notes)."""
+    path = Path(path)
+    gltf = _load(path)
+    anims = list(gltf.animations or [])
+    if not anims:
+        raise ClipImportError(f"'{path}' has no animations")
+    names = [a.name or f"animation{i}" for i, a in enumerate(anims)]
+    if animation is None or animation == "":
+        index = 0
+    elif isinstance(animation, int) or (isinstance(animation, str) and animation.lstrip("-").isdigit()
+                                        and animation not in names):
+        index = int(animation)
+        if not 0 <= index < len(anims):
+            raise ClipImportError(f"'{path}' has {len(anims)} animation(s); index {index} is out of range "
+                                  f"(animations: {names})")
+    else:
+        if animation not in names:
+            raise ClipImportError(f"'{path}' has no animation '{animation}' (animations: {names})")
+        index = names.index(animation)
+    notes: list[str] = []
+    if len(anims) > 1:
+        notes.append(f"file has {len(anims)} animations {names}; imported #{index} '{names[index]}' "
+                     "(choose with --animation)")
+    anim = anims[index]
+    reader = _Reader(gltf, path.parent)
+    nodes = gltf.nodes or []
+    node_names = _unique_names([n.name or f"node{i}" for i, n in enumerate(nodes)])
+    channels: list[SourceChannel] = []
+    for ci, ch in enumerate(anim.channels or []):
+        target = ch.target
+        if target is None or target.node is None:
+            notes.append(f"channel {ci} has no target node; skipped")
+            continue
+        if not 0 <= target.node < len(nodes):
+            raise ClipImportError(f"glTF: channel {ci} targets node {target.node}, which does not exist")
+        try:
+            sampler = anim.samplers[ch.sampler]
+        except (IndexError, TypeError):
+            raise ClipImportError(f"glTF: channel {ci} uses sampler {ch.sampler}, which does not exist") from None
+        # float32 times read back as the decimal they were written from (1.2, not 1.2000000476837158)
+        times = np.array([float(str(x)) for x in reader.accessor(sampler.input)[:, 0].astype(np.float32)])
+        out = reader.accessor(sampler.output)
+        interp = (sampler.interpolation or "LINEAR").upper()
+        if interp not in ("STEP", "LINEAR", "CUBICSPLINE"):
+            raise ClipImportError(f"glTF: sampler {ch.sampler}: unknown interpolation '{interp}'")
+        node = node_names[target.node]
+        n = len(times)
+        triplet = 3 if interp == "CUBICSPLINE" else 1
+        if target.path in ("rotation", "translation", "scale"):
+            if out.shape[0] != n * triplet:
+                raise ClipImportError(f"glTF: channel {ci} ({node}.{target.path}): {n} times but "
+                                      f"{out.shape[0]} output values")
+            series = [(target.path, out)]
+        elif target.path == "weights":
+            if n == 0 or out.shape[0] % (n * triplet):
+                raise ClipImportError(f"glTF: channel {ci} ({node}.weights): output count does not "
+                                      "divide by the key count")
+            m = out.shape[0] // (n * triplet)
+            flat = out[:, 0].reshape(n * triplet, m)
+            tnames = _target_names(gltf, nodes[target.node], m)
+            series = [(f"weights[{tnames[k]}]", flat[:, k:k + 1]) for k in range(m)]
+        else:
+            notes.append(f"channel {ci} ({node}) animates unknown path '{target.path}'; skipped")
+            continue
+        for label, vals in series:
+            kind = {"rotation": "rotation", "translation": "translation"}.get(label, "scalar")
+            if label == "scale":
+                kind = "scale"
+            if interp == "CUBICSPLINE":
+                v3 = vals.reshape(n, 3, vals.shape[1])
+                in_t, value, out_t = v3[:, 0], v3[:, 1], v3[:, 2]
+            else:
+                in_t = out_t = None
+                value = vals
+            if kind == "scalar":
+                value = value[:, 0]
+                in_t = None if in_t is None else in_t[:, 0]
+                out_t = None if out_t is None else out_t[:, 0]
+            channels.append(SourceChannel(node, kind, np.asarray(times, dtype=float), value, interp,
+                                          in_t, out_t, path=label))
+    info = {"animation": names[index], "animation_index": index}
+    return channels, info, notes
+
+
+def _unique_names(names: list[str]) -> list[str]:
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:
+        if n in seen:
+            seen[n] += 1
+            out.append(f"{n}#{seen[n]}")
+        else:
+            seen[n] = 0
+            out.append(n)
+    return out
+
+
+def _target_names(gltf: Any, node: Any, m: int) -> list[str]:
+    names: list[str] = []
+    if node.mesh is not None and gltf.meshes and 0 <= node.mesh < len(gltf.meshes):
+        extras = gltf.meshes[node.mesh].extras or {}
+        if isinstance(extras, dict) and isinstance(extras.get("targetNames"), list):
+            names = [str(x) for x in extras["targetNames"]]
+    if len(names) != m:
+        names = [str(k) for k in range(m)]
+    return names
