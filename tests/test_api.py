@@ -35,7 +35,7 @@ def test_robot_blocks_and_schemas(client):
     assert {"sine", "layer_mixer", "nmf_stage2", "output"} <= set(blocks)
     assert blocks["sine"]["params_schema"]["properties"]["amplitude"]["maximum"] == 10.0
     ports = client.post("/api/blocks/layer_mixer/ports", json={"params": {"layers": [{"name": "a"}, {"name": "b"}]}})
-    assert list(ports.json()["inputs"]) == ["a", "b"]
+    assert list(ports.json()["inputs"]) == ["a", "b", "a_weight", "b_weight"]
     assert client.post("/api/blocks/nope/ports", json={}).status_code == 404
     assert client.get("/api/schema/program").json()["title"] == "Nutty Animation Program"
     assert "play_clip" in json.dumps(client.get("/api/schema/commands").json())

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from backend.engine.blocks import BLOCKS
+from backend.engine.blocks import BLOCKS, BlockContext
 from backend.engine.blocks.base import Role
 from backend.engine.blocks.mixer import LayerSpec
 from backend.engine.embodiment import load_embodiment
@@ -73,12 +73,19 @@ def _field(name: str, info):
 
 
 @st.composite
-def params_for(draw, model):
+def params_for(draw, model, block=None):
     out = {}
     for name, info in model.model_fields.items():
         strat = _field(name, info)
         if strat is not None and draw(st.booleans()):
             out[name] = draw(strat)
+    try:  # fields drawn one by one may break a cross-field rule (min <= mean <= max) or not fit the
+        # robot (a yaw DoF as a pitch DoF): such drawings are invalid programs, so use the defaults
+        params = model.model_validate(out)
+        if block is not None:
+            block(params, BlockContext(embodiment=EMB, rate=100.0), "probe")
+    except ValueError:
+        return {}
     return out
 
 
@@ -123,7 +130,7 @@ def valid_programs(draw):
 
     def add(kind: str, params: dict | None = None) -> str:
         nid = f"{kind}_{next(counter)}"
-        p = draw(params_for(BLOCKS[kind].Params)) if params is None else params
+        p = draw(params_for(BLOCKS[kind].Params, BLOCKS[kind])) if params is None else params
         nodes.append({"id": nid, "type": kind, "params": p, "ui": draw(ui)})
         return nid
 

@@ -79,9 +79,13 @@ def test_python_client_round_trip(server):
     with pytest.raises(NuttyError) as err:
         c.set(arousal=7)
     assert err.value.status == 422 and "outside" in str(err.value)
+    assert c.play("wave", layer="gesture")["status"] in ("started", "completed")
     with pytest.raises(NuttyError) as err:
-        c.play("wave", layer="gesture")
+        c.play("wave", layer="sparkles")
     assert err.value.code == "no_target"
+    with pytest.raises(NuttyError) as err:
+        c.play("moonwalk", layer="gesture")
+    assert err.value.status == 422 and "no clip named 'moonwalk'" in str(err.value)
     status = c.status()
     names = [s["name"] for s in status["sinks"]]
     assert any(n.startswith("recorder:") for n in names) and "sim-servo" in names
