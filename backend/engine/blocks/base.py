@@ -24,6 +24,7 @@ Register a block class with `@register_block`. Every module of this package is i
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, field
 from enum import Enum
@@ -235,5 +236,7 @@ def register_block(cls: type[Block]) -> type[Block]:
         raise TypeError(f"{cls.__name__} has no type_name")
     if cls.type_name in BLOCKS and BLOCKS[cls.type_name] is not cls:
         raise TypeError(f"block type '{cls.type_name}' registered twice ({BLOCKS[cls.type_name].__name__}, {cls.__name__})")
+    if not cls.doc and cls.__doc__:  # the class docstring is the doc the editor shows
+        cls.doc = inspect.cleandoc(cls.__doc__)
     BLOCKS[cls.type_name] = cls
     return cls
