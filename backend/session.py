@@ -58,8 +58,10 @@ class EngineSession:
     # --- construction ---------------------------------------------------------------------------
     @classmethod
     def create(cls, embodiment: Embodiment, *, rate: float | None = None, program_text: str | None = None,
-               program: Any = None, max_level: int = MAX_LEVEL) -> "EngineSession":
-        """A session with a compiled program loaded (not yet ticking). Raises SessionError."""
+               program: Any = None, max_level: int = MAX_LEVEL, safety: bool = True) -> "EngineSession":
+        """A session with a compiled program loaded (not yet ticking). Raises SessionError.
+
+        safety=False switches the engine's safety net off (the explicit `--unsafe-no-limits`)."""
         source = program_text if program_text is not None else program
         preferred = None
         if source is not None:
@@ -69,7 +71,7 @@ class EngineSession:
             except json.JSONDecodeError:
                 preferred = None
         try:
-            engine = Engine(embodiment, rate=float(rate or preferred or 100.0), max_level=max_level)
+            engine = Engine(embodiment, rate=float(rate or preferred or 100.0), max_level=max_level, safety=safety)
         except ValueError as exc:
             raise SessionError(str(exc), code="invalid_rate") from exc
         session = cls(engine)
@@ -143,22 +145,41 @@ class EngineSession:
                 self.report = result.report
                 return result.report, list(kept)
 
-            def swap_and_install() -> list[str]:
-                kept_ids = apu.adopt_state_from(self.engine.apu) if self.engine.apu is not None else []
-                self.engine.apu = apu
-                self.engine.swaps += 1
-                install_inputs()
-                return kept_ids
-
-            if apu.level > self.engine.max_level:
-                msg = f"program needs APU level {apu.level} but this engine allows at most {self.engine.max_level}"
-                raise SessionError(msg, ValidationReport(valid=False, level=apu.level,
-                                                         errors=[Issue(code="level_too_high", message=msg)]))
             # One tick boundary for the swap and the inputs, so no tick runs the new program without them.
-            kept = self.engine.call(swap_and_install)
+            kept = self.engine.load(apu, also=install_inputs)
             self.program = result.program
             self.report = result.report
             return result.report, list(kept)  # type: ignore[arg-type]
+
+    def reset(self, fade: float | None = None) -> None:
+        """The running program as it starts: fresh blocks (every layer as the program declares it, no
+        clip, gaze target or IK state left), inputs at their defaults, no display overrides. The robot
+        moves there over `fade` seconds (at least as long as its limits need)."""
+        with self._lock:
+            if self.program is None:
+                self.engine.load(None, adopt=False, transition=fade, also=self.engine.clear_overrides)
+                return
+            result = compile_program(self.program, self.embodiment, max_level=self.engine.max_level,
+                                     ctx=self._scratch_ctx(), rate=self.engine.rate)
+            if not result.ok:  # the running program compiled before; only its resources can have gone
+                raise SessionError(f"the running program no longer compiles ({len(result.report.errors)} error(s))",
+                                   result.report)
+            for step in result.apu.steps:
+                step.block.ctx = self.engine.ctx
+            defaults = {i.name: i.coerce(i.default) for i in self.program.inputs}
+
+            def fresh_start() -> None:
+                self.engine.ctx.inputs.clear()
+                self.engine.ctx.inputs.update(defaults)
+                self.engine.clear_overrides()
+
+            self.engine.load(result.apu, adopt=False, transition=fade, also=fresh_start)
+
+    def park(self, timeout: float = 3.0) -> dict[str, Any]:
+        """Bring the robot to its exact rest pose within its limits and stop running the program (for
+        shutdown): returns {"reached_rest", "seconds", "max_error"} (see Engine.park)."""
+        with self._lock:
+            return self.engine.park(timeout)
 
     def _same_structure(self, program: Program | None) -> bool:
         """Whether `program` differs from the running one in parameters (and editor data) only."""

@@ -87,3 +87,16 @@ def test_breathe_anything_runs_on_another_robot():
     pos = np.array([f.position for f in frames])
     assert np.ptp(pos[:, panda.continuous_mask], axis=0).max() > 0.005
     assert_within_limits(panda, frames)
+
+
+@pytest.mark.parametrize("name", ["idle", "greet", "interactive", "breathe-anything"])
+def test_the_safety_net_leaves_the_bundled_programs_unchanged(desk, name):
+    """The bundled programs respect the robot's limits themselves: the engine's safety net passes them
+    through bit for bit (idle starts away from the rest pose the robot is assumed to start in, so its
+    first ticks are eased in)."""
+    script = SCRIPT if name == "interactive" else ()
+    with_net, frames, _ = run_program(desk, name, script=script)
+    without = [f.program for f in frames]  # the program's own frames, before the net
+    start = 50 if name == "idle" else 0
+    assert all(np.array_equal(f.position, p) for f, p in zip(frames[start:], without[start:]))
+    assert with_net.engine.safety.stats()["corrected_ticks"] <= start

@@ -78,7 +78,8 @@ def test_limit_overrides_bound_the_output_and_keep_state(desk):
     assert block.filter.params()["vel_limit"][0] == pytest.approx(0.4)  # tanh: V = 2 x the output bound
     frames = list(session.run_headless(400))
     i = desk.channel_index["head_yaw"]
-    pos = np.array([f.position[i] for f in frames])
+    # The filter's own output (the program's frame); the engine's safety net eases the sudden slow-down.
+    pos = np.array([f.program[i] for f in frames])
     assert np.abs(np.diff(pos)).max() * 100 <= 0.2 + 1e-9  # the output stays below the new bound
 
 

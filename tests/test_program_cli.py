@@ -190,12 +190,15 @@ def test_run_commands_replays_timed_inputs(capsys, tmp_path):
     commands.write_text("# arousal drops to zero after half a second\n"
                         '{"t": 0.5, "type": "set_input", "name": "arousal", "value": 0.0}\n')
     out = tmp_path / "out.csv"
-    code, _, err = nutty(capsys, "run", program, "--seconds", 1, "--rate", 100, "--out", out, "--commands", commands)
+    code, _, err = nutty(capsys, "run", program, "--seconds", 2, "--rate", 100, "--out", out, "--commands", commands)
     assert code == 0, err
     header, data = read_csv(out)
     col = header.index("head_yaw")
     assert np.ptp(data[:50, col]) > 0.1
-    assert np.allclose(data[50:, col], 0.0)  # gain 0 around a rest of 0
+    # Gain 0 around a rest of 0: the program steps to 0 at 0.5 s, and the engine's safety net brings
+    # the head there within its limits (brakes, turns back, lands exactly) within a second.
+    assert np.all(np.abs(data[50:, col]) <= np.abs(data[50, col]) + 0.02)
+    assert np.all(data[150:, col] == 0.0)
     commands.write_text('{"t": 0.5, "type": "set_input", "name": "arousal"}\n')
     code, _, err = nutty(capsys, "run", program, "--seconds", 1, "--out", out, "--commands", commands)
     assert code == 2 and "cmd.jsonl:1" in err
@@ -206,3 +209,19 @@ def test_run_invalid_program_prints_every_error(capsys, tmp_path):
     code, _, err = nutty(capsys, "run", GOLDEN / "invalid" / "edge_into_unknown_type.json", "--seconds", 1, "--out", out)
     assert code == 1
     assert "[unknown_block_type] breath:" in err
+
+
+def test_run_unsafe_no_limits_writes_the_programs_own_frames(capsys, tmp_path):
+    program = GOLDEN / "valid" / "level1_chain.json"
+    commands = tmp_path / "cmd.jsonl"
+    commands.write_text('{"t": 0.5, "type": "set_input", "name": "arousal", "value": 0.0}\n')
+    safe, raw = tmp_path / "safe.csv", tmp_path / "raw.csv"
+    assert nutty(capsys, "run", program, "--seconds", 1, "--rate", 100, "--out", safe, "--commands", commands)[0] == 0
+    code, _, err = nutty(capsys, "run", program, "--seconds", 1, "--rate", 100, "--out", raw, "--commands", commands,
+                         "--unsafe-no-limits")
+    assert code == 0 and "safety net is OFF" in err
+    header, s = read_csv(safe)
+    _, r = read_csv(raw)
+    col = header.index("head_yaw")
+    assert np.allclose(r[50:, col], 0.0)  # the program's step, unfiltered
+    assert not np.allclose(s[50:60, col], 0.0)  # what the robot is allowed to do

@@ -12,7 +12,7 @@ import math
 import sys
 from pathlib import Path
 
-from backend.commands._common import fail
+from backend.commands._common import fail, warn_unsafe
 from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embodiment
 from backend.engine.runtime import MAX_RATE, MIN_RATE
 
@@ -31,6 +31,9 @@ def register(sub) -> None:
     p.add_argument("--commands", default=None, metavar="FILE.jsonl",
                    help="replay timed commands: one JSON object per line with 't' (s) and a command")
     p.add_argument("--max-level", type=int, default=3, choices=(0, 1, 2, 3), help="highest APU level allowed")
+    p.add_argument("--unsafe-no-limits", action="store_true",
+                   help="write the program's frames without the engine's safety net (position, velocity, "
+                        "acceleration and jerk limits): for inspecting a program, never for a robot")
     p.set_defaults(func=run)
 
 
@@ -62,7 +65,10 @@ def run(args) -> int:
     except OSError as exc:
         return fail(f"cannot read program '{args.program}': {exc.strerror}")
     try:
-        session = EngineSession.create(emb, rate=args.rate, program_text=text, max_level=args.max_level)
+        if args.unsafe_no_limits:
+            warn_unsafe()
+        session = EngineSession.create(emb, rate=args.rate, program_text=text, max_level=args.max_level,
+                                       safety=not args.unsafe_no_limits)
     except SessionError as exc:
         print(exc.render(), file=sys.stderr)
         return 1

@@ -66,6 +66,8 @@ class AnimationFrame:
     `position` holds every channel (rad, m, colour component or enum index); `velocity`,
     `acceleration` and `jerk` are finite differences of the emitted positions (per s, s², s³).
     `stage1` is the pose before the stage-2 post-processors (the paper's *ghost*), if there are any.
+    `program` is the program's own frame before the engine's safety net, and `corrected` marks the
+    channels the net had to change on this frame (None when it passed everything through).
     """
 
     embodiment: str
@@ -78,6 +80,8 @@ class AnimationFrame:
     jerk: np.ndarray
     events: list[FrameEvent] = field(default_factory=list)
     stage1: np.ndarray | None = None
+    corrected: np.ndarray | None = None  # (C,) bool: channels the safety net corrected (None: none)
+    program: np.ndarray | None = None  # (C,) the program's frame before the safety net
 
     def to_dict(self, embodiment: Embodiment, derivatives: bool = True) -> dict[str, Any]:
         """JSON-friendly form keyed by DoF name: continuous -> float, enum -> option, colour -> [r,g,b]."""

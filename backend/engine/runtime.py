@@ -6,6 +6,11 @@
 - Sinks (drivers) each get frames through their own bounded queue and thread: a slow sink drops
   frames (counted) and never stalls the clock.
 - Headless mode (`run_ticks`) steps as fast as possible with the same semantics, for `nutty run`.
+- Every frame passes the engine's safety net (backend/engine/safety.py) last: no program, swap or
+  shutdown can move a DoF beyond its position, velocity, acceleration or jerk limits. A swap also
+  blends the jump between the last output and the new program's out over a short transition.
+- Under CPU contention the clock *stretches* time rather than bursting to catch up: frames come
+  late, so the robot moves slower, never faster. Ticks that should have run are counted as lost.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
+from backend.engine.safety import SafetyNet
+from backend.engine.transition import Transition
 
 MIN_RATE, MAX_RATE = 30.0, 1000.0
 
@@ -125,7 +132,7 @@ class Engine:
     """
 
     def __init__(self, embodiment: Embodiment, rate: float = 100.0, max_level: int = MAX_LEVEL,
-                 resources: Any = None, seed: int = 0):
+                 resources: Any = None, seed: int = 0, safety: bool = True):
         if not (isinstance(rate, (int, float)) and MIN_RATE <= rate <= MAX_RATE):
             raise ValueError(f"rate must be within [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate}")
         if max_level not in (0, 1, 2, 3):
@@ -151,7 +158,11 @@ class Engine:
         self.lateness = RingStats()
         self.ticks = 0
         self.overruns = 0
+        self.lost_ticks = 0
         self.swaps = 0
+        #: The last step before every sink; `safety=False` only through an explicit, logged opt-out.
+        self.safety = SafetyNet(embodiment, self.rate, enabled=safety)
+        self._transition: Transition | None = None
         self._injected: list = []  # events added by commands for the next frame
         self._override_mask = np.zeros(embodiment.n_channels, dtype=bool)  # display values set by commands
         self._override_values = np.zeros(embodiment.n_channels)
@@ -174,24 +185,68 @@ class Engine:
                 return fn()
         return self.call_soon(fn).result(timeout)
 
-    def load(self, apu: APU, *, wait: bool = True) -> Future | list[str]:
-        """Swap in a compiled program at a tick boundary; blocks keeping id and type keep their state.
+    def load(self, apu: APU | None, *, wait: bool = True, adopt: bool = True, transition: float | None = None,
+             also: Callable[[], Any] | None = None) -> Future | list[str]:
+        """Swap in a compiled program at a tick boundary (the only way a program is swapped).
 
+        adopt: blocks keeping id and type keep their state. transition: seconds over which the jump
+        between the last output and the new program's is blended out (None: as short as the robot's
+        limits allow; 0: none — the safety net still bounds the motion). `apu=None` runs no program:
+        the robot goes to its rest pose. `also` runs in the same tick boundary (e.g. installing the
+        program's inputs), so no tick runs the new program without it.
         Raises LevelError (changing nothing) if the program needs a level above `max_level`.
         Returns the ids of the blocks that kept their state (or a Future of them).
         """
-        if apu.level > self.max_level:
-            raise LevelError(f"program needs APU level {apu.level} but this engine allows at most {self.max_level}")
-        if apu.steps and apu.steps[apu.output].block.emb is not self.embodiment:
-            raise ValueError("program was compiled for another embodiment")
+        if apu is not None:
+            if apu.level > self.max_level:
+                raise LevelError(f"program needs APU level {apu.level} but this engine allows at most {self.max_level}")
+            if apu.steps and apu.steps[apu.output].block.emb is not self.embodiment:
+                raise ValueError("program was compiled for another embodiment")
 
         def swap() -> list[str]:
-            kept = apu.adopt_state_from(self.apu) if self.apu is not None else []
+            kept = apu.adopt_state_from(self.apu) if (adopt and apu is not None and self.apu is not None) else []
             self.apu = apu
             self.swaps += 1
+            if also is not None:
+                also()
+            if self.seq:  # nothing has been sent yet: the safety net alone starts from rest
+                self._transition = Transition.start(self.embodiment, self._pos, self._vel, self.rate, transition)
             return kept
 
         return self.call(swap) if wait else self.call_soon(swap)
+
+    def park(self, timeout: float = 3.0) -> dict[str, Any]:
+        """Bring the robot to its exact rest pose (no program, no display overrides) within its limits.
+
+        Returns once every channel is at rest with zero velocity and acceleration, or at `timeout`
+        (s): {"reached_rest", "seconds", "max_error"}. Ticks the engine itself when the clock is not
+        running. The program is dropped; load one again to resume.
+        """
+        t0 = time.perf_counter()
+        self.load(None, wait=self.running, adopt=False, also=self.clear_overrides)
+        deadline = t0 + max(0.0, timeout)
+        ticks_allowed = int(math.ceil(max(0.0, timeout) * self.rate))
+        n = 0
+        while not self.at_rest():
+            if self.running:
+                if time.perf_counter() >= deadline:
+                    break
+                time.sleep(min(0.01, self.dt))
+            else:
+                if n >= ticks_allowed:
+                    break
+                self.tick()
+                n += 1
+        seconds = (time.perf_counter() - t0) if self.running else n * self.dt
+        error = np.abs(self._pos - self.embodiment.rest)
+        return {"reached_rest": self.at_rest(), "seconds": seconds,
+                "max_error": float(error[self.embodiment.continuous_mask].max(initial=0.0))}
+
+    def at_rest(self) -> bool:
+        """Whether the last frame is the rest pose exactly, standing still, with no program running."""
+        emb = self.embodiment
+        return (self.apu is None and self._transition is None and self.seq > 2
+                and bool(np.array_equal(self._pos, emb.rest)) and not np.any(self._vel) and not np.any(self._acc))
 
     def set_input(self, name: str, value: Any) -> Future:
         """Set an exposed input at the next tick boundary."""
@@ -244,7 +299,7 @@ class Engine:
                 item.future.set_exception(exc)
 
     def tick(self) -> AnimationFrame:
-        """Apply queued inputs, run the program once and emit one Animation Frame."""
+        """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
         with self._tick_lock:
             t0 = time.perf_counter()
             self._drain_pending()
@@ -257,9 +312,15 @@ class Engine:
                     final, stage1, events = self._pos, self._pos, []
             else:
                 final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
-            pos = np.array(final, dtype=float)
+            program = np.array(final, dtype=float)
             if self._override_mask.any():
-                np.copyto(pos, self._override_values, where=self._override_mask)
+                np.copyto(program, self._override_values, where=self._override_mask)
+            target = program
+            if self._transition is not None:
+                target = program.copy()
+                if self._transition.apply(target):
+                    self._transition = None
+            pos = self.safety.step(target)
             if self._injected:
                 events, self._injected = [*events, *self._injected], []
             vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
@@ -270,6 +331,8 @@ class Engine:
                 embodiment=self.embodiment.name, t=self.t, dt=dt, seq=self.seq, position=pos,
                 velocity=vel, acceleration=acc, jerk=jerk, events=list(events),
                 stage1=np.array(stage1, dtype=float),
+                corrected=self.safety.corrected.copy() if self.safety.corrected_any else None,
+                program=program,
             )
             self.last_frame = frame
             self.seq += 1
@@ -340,8 +403,10 @@ class Engine:
             deadline += period
             behind = time.perf_counter() - deadline
             if behind > period:
-                # More than a whole tick late: count it and re-anchor rather than bursting to catch up.
+                # More than a whole tick late: count it and re-anchor rather than bursting to catch up
+                # (time stretches: the robot moves slower, never faster); the skipped ticks are lost.
                 self.overruns += 1
+                self.lost_ticks += int(behind // period)
                 deadline = time.perf_counter() + period - math.fmod(behind, period)
 
     def stats(self) -> dict[str, Any]:
@@ -353,7 +418,9 @@ class Engine:
             "max_level": self.max_level,
             "running": self.running,
             "overruns": self.overruns,
+            "lost_ticks": self.lost_ticks,
             "swaps": self.swaps,
+            "safety": self.safety.stats(),
             "tick_cost": self.tick_cost.summary(),
             "period": self.period.summary(),
             "jitter": self.lateness.summary(),

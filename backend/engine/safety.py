@@ -1,0 +1,415 @@
+"""The engine's safety net: the last step before every driver, which no program can remove.
+
+Per continuous DoF channel with finite velocity/acceleration/jerk limits, on the *finite differences*
+of the output positions at the engine rate (what a motor sees; dt = 1/rate):
+
+    v_k = (p_k - p_{k-1})/dt,  a_k = (v_k - v_{k-1})/dt,  j_k = (a_k - a_{k-1})/dt
+
+it keeps p in [min, max], |v| <= V, |a| <= A and |j| <= J from any program and any start, and
+
+- **passes the program through bit for bit** when its next sample is reachable within the limits
+  and leaves a *viable* state (one from which the DoF can still stop inside its position and
+  velocity limits): no lag and no change of character for a program that respects the robot;
+- otherwise **corrects**: a discrete-time jerk-limited tracker whose state *is* the output's
+  finite-difference state (so the switch between pass-through and correction cannot create a jerk
+  the limits do not allow). Far from the program it approaches time-optimally with a braking rule
+  (the largest jerk from which it can still brake onto the program without overshoot); near it, a
+  receding-horizon plan of N small jerks (the shortest N whose minimum-norm plan fits the jerk
+  limit) lands exactly on the program's position, velocity and acceleration, after which the
+  program's samples are feasible again and pass through: the net *re-locks*. Every jerk is clipped
+  to the interval that keeps the next state within the limits and viable.
+
+Viability is checked with the continuous-time, time-optimal braking profile (ramp the acceleration
+down at J, hold at -A, ramp back to 0 at J) plus a margin for the discretisation that vanishes at
+rest, so a program holding a DoF at its position limit still passes through exactly.
+
+Coupled groups (a planar base) are limited per axis here; channels without finite limits (LED
+colours, enum options) pass through untouched. Vectorised over channels: the pass-through test is a
+handful of numpy operations; the correction is a compiled (numba) loop over the channels that need it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from backend.engine.embodiment import Embodiment
+
+#: Relative slack on the limit tests, for floating-point rounding only (not a tolerance on the limits).
+EPS = 1e-12
+#: Longest receding-horizon plan (s) the net tries before it falls back to the braking approach.
+PLAN_SECONDS = 0.4
+_BISECT = 40
+
+
+# --------------------------------------------------------------------------------------------------
+# Braking analysis (continuous time, time-optimal), scalar for the compiled correction path
+# --------------------------------------------------------------------------------------------------
+
+
+@njit(cache=True, fastmath=False)
+def _stop_up(v: float, a: float, A: float, J: float) -> tuple:
+    """Braking upward motion (v, a) as fast as the limits allow: (peak velocity, displacement until the
+    motion no longer rises). Assumes a <= A."""
+    peak_v = v
+    d = 0.0
+    if a > 0.0:
+        t1 = a / J
+        d += v * t1 + a * t1 * t1 / 2.0 - J * t1 * t1 * t1 / 6.0
+        v = v + a * a / (2.0 * J)
+        peak_v = v
+        a = 0.0
+    if v > 0.0:
+        if a * a / (2.0 * J) >= v:
+            disc = a * a - 2.0 * J * v
+            t = (-a - math.sqrt(max(disc, 0.0))) / J
+            d += v * t + a * t * t / 2.0 + J * t * t * t / 6.0
+        else:
+            am = math.sqrt((2.0 * J * v + a * a) / 2.0)
+            th = 0.0
+            if am > A:
+                am = A
+                th = (v - (2.0 * A * A - a * a) / (2.0 * J)) / A
+            ta = (am + a) / J
+            d += v * ta + a * ta * ta / 2.0 - J * ta * ta * ta / 6.0
+            v += a * ta - J * ta * ta / 2.0
+            a = -am
+            d += v * th + a * th * th / 2.0
+            v += a * th
+            tc = am / J
+            d += v * tc + a * tc * tc / 2.0 + J * tc * tc * tc / 6.0
+    return peak_v, d
+
+
+@njit(cache=True)
+def _stoppable_up(p: float, v: float, a: float, hi: float, V: float, A: float, J: float, h: float) -> bool:
+    """The continuous-time braking test with margins for sampling it at the tick rate (they vanish at
+    rest): the discrete profile's velocity leads the continuous one by at most one tick of
+    acceleration while the deceleration ramps back to 0, which adds at most h·am²/J of travel."""
+    if v <= 0.0 and a <= 0.0:  # not rising, and never will while braking: only the bound itself
+        return p <= hi
+    peak_v, d = _stop_up(v, a, A, J)
+    if peak_v + h * max(a, 0.0) > V * (1.0 + EPS):
+        return False
+    am2 = min(A * A, J * max(v, 0.0) + a * a)
+    return p + max(d, 0.0) + h * am2 / J + h * h * abs(a) <= hi
+
+
+@njit(cache=True)
+def _viable_up(p: float, v: float, a: float, hi: float, V: float, A: float, J: float, h: float) -> bool:
+    """Whether the DoF can stop rising before `hi` without exceeding +V: the braking test now, or
+    after one or two ticks of the hardest braking the limits allow (exact in discrete time), which
+    is what a slow approach that ends exactly at the limit needs."""
+    for _ in range(3):
+        if _stoppable_up(p, v, a, hi, V, A, J, h):
+            return True
+        a = max(a - h * J, -A)
+        v = v + h * a
+        p = p + h * v
+        if p > hi or v > V * (1.0 + EPS):
+            return False
+    return False
+
+
+@njit(cache=True)
+def _viable(p: float, v: float, a: float, lo: float, hi: float, V: float, A: float, J: float, h: float) -> bool:
+    return _viable_up(p, v, a, hi, V, A, J, h) and _viable_up(-p, -v, -a, -lo, V, A, J, h)
+
+
+@njit(cache=True)
+def _succ(p: float, v: float, a: float, j: float, h: float) -> tuple:
+    a1 = a + h * j
+    v1 = v + h * a1
+    return p + h * v1, v1, a1
+
+
+@njit(cache=True)
+def _jerk_interval(p, v, a, lo, hi, V, A, J, h) -> tuple:
+    """The jerks allowed next: within ±J and keeping |a| <= A always (hard), and within those, the ones
+    whose next state keeps |v| <= V, lo <= p <= hi and stays viable. Returns (j_lo, j_hi); when the
+    velocity/position side cannot be met the interval is the hard one's braking end."""
+    up_hard = min(J, (A - a) / h)
+    dn_hard = max(-J, (-A - a) / h)
+    up = min(up_hard, ((V - v) / h - a) / h, (((hi - p) / h - v) / h - a) / h)
+    dn = max(dn_hard, ((-V - v) / h - a) / h, (((lo - p) / h - v) / h - a) / h)
+    # Upper viability is lost as j grows: the largest j in [dn_hard, up] that keeps it.
+    j_hi = dn_hard
+    if up >= dn_hard:
+        p1, v1, a1 = _succ(p, v, a, up, h)
+        if _viable_up(p1, v1, a1, hi, V, A, J, h):
+            j_hi = up
+        else:
+            lo_j, hi_j = dn_hard, up
+            p1, v1, a1 = _succ(p, v, a, lo_j, h)
+            if _viable_up(p1, v1, a1, hi, V, A, J, h):
+                for _ in range(_BISECT):
+                    mid = 0.5 * (lo_j + hi_j)
+                    p1, v1, a1 = _succ(p, v, a, mid, h)
+                    if _viable_up(p1, v1, a1, hi, V, A, J, h):
+                        lo_j = mid
+                    else:
+                        hi_j = mid
+                j_hi = lo_j
+    # Lower viability, mirrored: the smallest j in [dn, up_hard] that keeps it.
+    j_lo = up_hard
+    if dn <= up_hard:
+        p1, v1, a1 = _succ(p, v, a, dn, h)
+        if _viable_up(-p1, -v1, -a1, -lo, V, A, J, h):
+            j_lo = dn
+        else:
+            lo_j, hi_j = dn, up_hard
+            p1, v1, a1 = _succ(p, v, a, hi_j, h)
+            if _viable_up(-p1, -v1, -a1, -lo, V, A, J, h):
+                for _ in range(_BISECT):
+                    mid = 0.5 * (lo_j + hi_j)
+                    p1, v1, a1 = _succ(p, v, a, mid, h)
+                    if _viable_up(-p1, -v1, -a1, -lo, V, A, J, h):
+                        hi_j = mid
+                    else:
+                        lo_j = mid
+                j_lo = hi_j
+    if j_lo > j_hi:  # the two sides conflict (a range narrower than the braking allows): split
+        mid = min(max(0.5 * (j_lo + j_hi), dn_hard), up_hard)
+        return mid, mid
+    return j_lo, j_hi
+
+
+@njit(cache=True)
+def _stop_point(e: float, f: float, g: float, A: float, J: float) -> float:
+    """Where relative motion (e, f, g) comes to rest under the hardest braking (signed)."""
+    g = min(max(g, -A), A)
+    if f > 0.0 or (f == 0.0 and g > 0.0):
+        return e + _stop_up(f, g, A, J)[1]
+    return e - _stop_up(-f, -g, A, J)[1]
+
+
+@njit(cache=True)
+def _approach(e, f, g, A, J, h) -> float:
+    """Time-optimal jerk toward relative position 0 from the relative state (e, f, g): as much push
+    toward the target as still lets the relative motion brake onto it without overshoot."""
+    s = 1.0 if _stop_point(e, f, g, A, J) < 0.0 else -1.0
+    # Mirror so that stopping short lies below: maximise u subject to the stop point staying <= 0.
+    e, f, g = s * e, s * f, s * g
+    lo_u, hi_u = -J, J
+    p1, v1, a1 = _succ(e, f, g, hi_u, h)
+    if _stop_point(p1, v1, a1, A, J) <= 0.0:
+        return s * hi_u
+    p1, v1, a1 = _succ(e, f, g, lo_u, h)
+    if _stop_point(p1, v1, a1, A, J) > 0.0:
+        return s * lo_u
+    for _ in range(_BISECT):
+        mid = 0.5 * (lo_u + hi_u)
+        p1, v1, a1 = _succ(e, f, g, mid, h)
+        if _stop_point(p1, v1, a1, A, J) <= 0.0:
+            lo_u = mid
+        else:
+            hi_u = mid
+    return s * lo_u
+
+
+@njit(cache=True)
+def _plan(e, f, g, J, h, gains, starts) -> tuple:
+    """First jerk of the shortest receding-horizon plan that zeroes the relative state within the jerk
+    limit; (found, jerk). `gains` stacks the minimum-norm plans (rows) of every horizon, in scaled units."""
+    se, sf, sg = e / (h * h * h), f / (h * h), g / h
+    for n in range(len(starts) - 1):
+        r0, r1 = starts[n], starts[n + 1]
+        fits = True
+        for r in range(r0, r1):
+            u = gains[r, 0] * se + gains[r, 1] * sf + gains[r, 2] * sg
+            if abs(u) > J:
+                fits = False
+                break
+        if fits:
+            return True, gains[r0, 0] * se + gains[r0, 1] * sf + gains[r0, 2] * sg
+    return False, 0.0
+
+
+@njit(cache=True)
+def _net_step(out, idx, state, limits, locked, corrected, counts, h, gains, starts) -> int:
+    """One tick for every governed channel, in place: `out` holds the program's frame and becomes the
+    output. Returns how many channels were corrected.
+
+    state rows (per governed channel): p, v, a (the output's finite differences) and tx, tv, ta (the
+    program's, clipped to the limits for prediction); limits rows: lo, hi, V, A, J; locked: passed
+    through last tick; corrected (per frame channel) and counts (corrections per channel) are written."""
+    n_fixed = 0
+    for k in range(len(idx)):
+        i = idx[k]
+        p, v, a = state[0, k], state[1, k], state[2, k]
+        lo, hi, V, A, J = limits[0, k], limits[1, k], limits[2, k], limits[3, k], limits[4, k]
+        xi = out[i]
+        if not math.isfinite(xi):  # a faulty block: hold the last output
+            xi = p
+        # The program's own finite differences (raw for the lock test, clipped for the tracker).
+        rv = (xi - state[3, k]) / h
+        ra = (rv - state[4, k]) / h
+        tv = min(max(rv, -V), V)
+        ta = min(max(ra, -A), A)
+        state[3, k], state[4, k], state[5, k] = xi, tv, ta
+        v1 = (xi - p) / h
+        a1 = (v1 - v) / h
+        j1 = (a1 - a) / h
+        ok = (abs(j1) <= J * (1.0 + EPS) and abs(a1) <= A * (1.0 + EPS) and abs(v1) <= V * (1.0 + EPS)
+              and lo <= xi <= hi and _viable(xi, v1, a1, lo, hi, V, A, J, h))
+        if ok and not locked[k]:
+            # Re-locking: only once the next predicted sample (the program going on at its present
+            # acceleration) is reachable too, so the net does not flicker between the two modes.
+            v2 = rv + h * ra
+            j2 = ((v2 - v1) / h - a1) / h
+            ok = abs(j2) <= 0.5 * J
+        if ok:
+            new = xi
+            corrected[i] = False
+        else:
+            # The program's motion as a constant-acceleration trajectory through its newest sample,
+            # taken back one tick: the relative state the plan must bring to zero.
+            e, f, g = p - (xi - h * tv), v - (tv - h * ta), a - ta
+            found, j = _plan(e, f, g, J, h, gains, starts)
+            if not found:
+                j = _approach(e, f, g, A, J, h)
+            j_lo, j_hi = _jerk_interval(p, v, a, lo, hi, V, A, J, h)
+            j = min(max(j, j_lo), j_hi)
+            new, _, _ = _succ(p, v, a, j, h)
+            corrected[i] = True
+            counts[i] += 1
+            n_fixed += 1
+        locked[k] = ok
+        # The state is the output's own finite differences, computed as a motor's would be.
+        nv = (new - p) / h
+        state[2, k] = (nv - v) / h
+        state[1, k] = nv
+        state[0, k] = new
+        out[i] = new
+    return n_fixed
+
+
+def plan_horizons(rate: float, seconds: float = PLAN_SECONDS) -> list[int]:
+    """Horizons (ticks) the receding-horizon plan tries, shortest first: 3, 4, 5, ... growing by about
+    a quarter each, up to `seconds` of ticks (at least 48)."""
+    top = max(48, int(math.ceil(seconds * rate)))
+    out, n = [], 3
+    while n <= top:
+        out.append(n)
+        n = max(n + 1, int(round(n * 1.25)))
+    return out
+
+
+def plan_gains(horizons: list[int] | int) -> tuple[np.ndarray, np.ndarray]:
+    """Minimum-norm jerk plans that bring a triple integrator's scaled state (e/h^3, f/h^2, g/h) to
+    rest in n ticks, for each horizon n: rows stacked per horizon, and the row where each starts."""
+    if isinstance(horizons, int):
+        horizons = list(range(3, horizons + 1))
+    F = np.array([[1.0, 1.0, 1.0], [0.0, 1.0, 1.0], [0.0, 0.0, 1.0]])  # h = 1 in scaled units
+    G = np.array([1.0, 1.0, 1.0])
+    rows, starts = [], [0]
+    for n in horizons:
+        powers = [np.eye(3)]
+        for _ in range(n):
+            powers.append(F @ powers[-1])
+        C = np.stack([powers[n - 1 - i] @ G for i in range(n)], axis=1)  # final state = F^n s + C u
+        K = -C.T @ np.linalg.solve(C @ C.T, powers[n])  # (n, 3)
+        rows.append(K)
+        starts.append(starts[-1] + n)
+    return np.ascontiguousarray(np.concatenate(rows)), np.array(starts, dtype=np.int64)
+
+
+class SafetyNet:
+    """The last step before the drivers: enforces each DoF's limits on the output's finite differences.
+
+    `step(target)` takes the program's frame (C,) and returns the frame to send (a new array); the
+    channels it had to correct this tick are in `corrected` (bool (C,)), and `corrections` counts the
+    ticks each channel was corrected since the start. `enabled=False` passes everything through (the
+    explicit, logged `--unsafe-no-limits`).
+    """
+
+    def __init__(self, emb: Embodiment, rate: float, enabled: bool = True, start: np.ndarray | None = None):
+        self.emb = emb
+        self.h = 1.0 / float(rate)
+        self.enabled = enabled
+        cont = emb.continuous_mask
+        finite = np.isfinite(emb.vel_limit) & np.isfinite(emb.acc_limit) & np.isfinite(emb.jerk_limit)
+        finite &= (emb.vel_limit > 0) & (emb.acc_limit > 0) & (emb.jerk_limit > 0)
+        #: Channels the net governs: continuous, with finite positive limits.
+        self.mask = cont & finite
+        self.idx = np.flatnonzero(self.mask).astype(np.int64)
+        i = self.idx
+        #: rows lo, hi, V, A, J of the governed channels
+        self.limits = np.ascontiguousarray(np.stack([emb.min[i], emb.max[i], emb.vel_limit[i], emb.acc_limit[i],
+                                                     emb.jerk_limit[i]]).astype(float))
+        self._gains, self._starts = plan_gains(plan_horizons(rate))
+        self.corrections = np.zeros(emb.n_channels, dtype=np.int64)
+        self.corrected = np.zeros(emb.n_channels, dtype=bool)
+        self.corrected_ticks = 0
+        #: Whether the last step corrected any channel.
+        self.corrected_any = False
+        self.reset(emb.rest if start is None else start)
+
+    @property
+    def lo(self) -> np.ndarray:
+        return self.limits[0]
+
+    @property
+    def hi(self) -> np.ndarray:
+        return self.limits[1]
+
+    @property
+    def V(self) -> np.ndarray:
+        return self.limits[2]
+
+    @property
+    def A(self) -> np.ndarray:
+        return self.limits[3]
+
+    @property
+    def J(self) -> np.ndarray:
+        return self.limits[4]
+
+    def reset(self, position: np.ndarray) -> None:
+        """Start from `position` at rest (zero velocity and acceleration)."""
+        p = np.clip(np.asarray(position, dtype=float)[self.idx], self.lo, self.hi)
+        #: rows p, v, a (the output's finite differences), tx, tv, ta (the program's)
+        self.state = np.zeros((6, len(self.idx)))
+        self.state[0] = p
+        self.state[3] = p
+        self._locked = np.ones(len(self.idx), dtype=bool)
+        self.corrected[:] = False
+
+    @property
+    def p(self) -> np.ndarray:
+        return self.state[0]
+
+    @property
+    def v(self) -> np.ndarray:
+        return self.state[1]
+
+    @property
+    def a(self) -> np.ndarray:
+        return self.state[2]
+
+    def step(self, target: np.ndarray) -> np.ndarray:
+        """The frame to send for the program's frame `target` (C,): a new array."""
+        out = np.array(target, dtype=float)
+        self.corrected_any = False
+        if self.enabled and len(self.idx):
+            if _net_step(out, self.idx, self.state, self.limits, self._locked, self.corrected, self.corrections,
+                         self.h, self._gains, self._starts):
+                self.corrected_ticks += 1
+                self.corrected_any = True
+        return out
+
+    @property
+    def settled(self) -> bool:
+        """Whether every governed channel is at rest (zero velocity and acceleration)."""
+        return not (np.any(self.v) or np.any(self.a))
+
+    def stats(self) -> dict:
+        names = self.emb.channel_names
+        return {
+            "enabled": self.enabled,
+            "corrected_ticks": int(self.corrected_ticks),
+            "corrections": {names[i]: int(self.corrections[i]) for i in np.flatnonzero(self.corrections)},
+            "correcting": [names[i] for i in np.flatnonzero(self.corrected)],
+        }

@@ -1,0 +1,225 @@
+"""The engine's safety net (backend/engine/safety.py), checked on the finite differences of its output.
+
+Whatever the program sends (steps, noise, chirps, values far beyond the limits, NaN), every governed
+DoF stays within its position, velocity, acceleration and jerk limits at 30, 100 and 1000 Hz; a
+program that respects the limits passes through bit for bit; after a correction the net returns to
+exact pass-through (re-locks) within a bounded time.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from backend.engine.safety import SafetyNet, plan_gains, plan_horizons
+from backend.engine.trajectory import analyze
+
+RATES = (30.0, 100.0, 1000.0)
+# Finite differences of float positions at 1000 Hz amplify rounding by 1/dt^3 = 1e9: this is that
+# rounding, not a tolerance on the limits.
+ROUNDING = 1e-6
+
+
+def run(net: SafetyNet, program: np.ndarray) -> np.ndarray:
+    """Feed (T, C) program frames through the net; returns the (T, C) output."""
+    return np.array([net.step(row) for row in program])
+
+
+def limit_ratios(net: SafetyNet, out: np.ndarray, start: np.ndarray) -> dict[str, float]:
+    """Worst |v|/V, |a|/A, |j|/J and position excess of the governed channels, from finite differences
+    of the output preceded by the state the net started from (at rest: three equal samples)."""
+    p = np.vstack([start[None, net.idx]] * 3 + [out[:, net.idx]])
+    rate = 1.0 / net.h
+    v = np.diff(p, axis=0) * rate
+    a = np.diff(v, axis=0) * rate
+    j = np.diff(a, axis=0) * rate
+    return {"v": float((np.abs(v) / net.V).max()), "a": float((np.abs(a) / net.A).max()),
+            "j": float((np.abs(j) / net.J).max()),
+            "below": float((net.lo - p).max()), "above": float((p - net.hi).max())}
+
+
+def assert_within_limits(net: SafetyNet, out: np.ndarray, start: np.ndarray) -> None:
+    r = limit_ratios(net, out, start)
+    assert r["v"] <= 1 + ROUNDING and r["a"] <= 1 + ROUNDING and r["j"] <= 1 + ROUNDING, r
+    assert r["below"] <= 1e-12 and r["above"] <= 1e-12, r
+
+
+def hostile_program(desk, kind: str, rate: float, seconds: float, seed: int) -> np.ndarray:
+    """Frames of a program that breaks every limit in its own way."""
+    rng = np.random.default_rng(seed)
+    n = int(seconds * rate)
+    t = np.arange(n) / rate
+    frames = np.tile(desk.rest, (n, 1))
+    cont = np.flatnonzero(desk.continuous_mask)
+    lo, hi = desk.min[cont], desk.max[cont]
+    span, mid = hi - lo, (hi + lo) / 2
+    if kind == "steps":
+        hold = max(1, int(rate * rng.uniform(0.05, 0.6)))
+        levels = rng.uniform(lo - 0.3 * span, hi + 0.3 * span, size=(n // hold + 1, len(cont)))
+        x = np.repeat(levels, hold, axis=0)[:n]
+    elif kind == "noise":
+        x = rng.uniform(lo - 0.2 * span, hi + 0.2 * span, size=(n, len(cont)))
+    elif kind == "chirp":
+        f = rng.uniform(0.1, 0.5) + rng.uniform(1, 6) * t / seconds
+        x = mid + rng.uniform(0.3, 0.8) * span * np.sin(2 * np.pi * np.cumsum(f) / rate)[:, None]
+    elif kind == "beyond":
+        x = np.where(rng.random(len(cont)) < 0.5, hi + 10.0, lo - 10.0) * np.ones((n, 1))
+    else:  # "spikes": a smooth program with single-sample spikes and NaN holes
+        x = mid + 0.2 * span * np.sin(2 * np.pi * 0.4 * t)[:, None]
+        spikes = rng.random(x.shape) < 0.02
+        x = np.where(spikes, x + rng.normal(0, 1.0, x.shape), x)
+        x[rng.random(x.shape) < 0.01] = np.nan
+    frames[:, cont] = x
+    return frames
+
+
+@pytest.mark.parametrize("rate", RATES)
+@pytest.mark.parametrize("kind", ["steps", "noise", "chirp", "beyond", "spikes"])
+def test_every_limit_holds_on_the_finite_differences(desk, rate, kind):
+    net = SafetyNet(desk, rate)
+    out = run(net, hostile_program(desk, kind, rate, 6.0, seed=hash((kind, rate)) % 2**32))
+    assert np.all(np.isfinite(out))
+    assert_within_limits(net, out, desk.rest)
+    assert net.corrections[net.idx].sum() > 0  # it had work to do
+
+
+@settings(max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(kind=st.sampled_from(["steps", "noise", "chirp", "beyond", "spikes"]), rate=st.sampled_from(RATES),
+       seed=st.integers(0, 2**31 - 1), start=st.floats(-1.0, 1.0))
+def test_limits_hold_from_any_start_property(desk, kind, rate, seed, start):
+    """Random programs from a random starting pose (within the limits)."""
+    pose = np.clip(desk.rest + start * (desk.max - desk.min) / 2, desk.min, desk.max)
+    pose = np.where(desk.continuous_mask & np.isfinite(pose), pose, desk.rest)
+    net = SafetyNet(desk, rate, start=pose)
+    out = run(net, hostile_program(desk, kind, rate, 2.0, seed))
+    assert_within_limits(net, out, pose)
+
+
+def gentle(t: np.ndarray, f: float = 0.3) -> np.ndarray:
+    """0..1..0 at f Hz, starting at rest: position, velocity, acceleration and jerk all 0 at t = 0."""
+    return (1 - np.cos(2 * np.pi * f * t)) ** 2 / 4
+
+
+def smooth_feasible(desk, rate: float, seconds: float) -> np.ndarray:
+    """Slow waves that start at rest, well inside every limit."""
+    n = int(seconds * rate)
+    t = np.arange(n) / rate
+    frames = np.tile(desk.rest, (n, 1))
+    cont = np.flatnonzero(desk.continuous_mask)
+    span = desk.max[cont] - desk.min[cont]
+    amp = 0.1 * np.minimum(span, 0.6 * desk.vel_limit[cont])
+    frames[:, cont] = desk.rest[cont] + amp * gentle(t)[:, None]
+    return frames
+
+
+@pytest.mark.parametrize("rate", RATES)
+def test_a_program_within_the_limits_passes_bit_for_bit(desk, rate):
+    net = SafetyNet(desk, rate)
+    program = smooth_feasible(desk, rate, 5.0)
+    out = run(net, program)
+    assert np.array_equal(out, program)  # no lag, no change of character
+    assert net.corrected_ticks == 0 and not net.corrections.any()
+
+
+def test_reaching_and_holding_a_position_limit_passes_through(desk):
+    net = SafetyNet(desk, 100.0)
+    i = desk.channel_index["neck_pitch"]
+    u = np.clip(np.arange(400) / 200.0, 0.0, 1.0)  # 2 s smootherstep from rest to the limit, then hold
+    frames = np.tile(desk.rest, (400, 1))
+    frames[:, i] = desk.max[i] * u ** 3 * (u * (6 * u - 15) + 10)
+    out = run(net, frames)
+    assert np.array_equal(out, frames)
+    assert out[-1, i] == desk.max[i]
+    assert out[-1, desk.channel_index["mouth_open"]] == desk.min[desk.channel_index["mouth_open"]]  # rest at a limit
+
+
+@pytest.mark.parametrize("rate", [100.0, 1000.0])
+def test_relocks_after_a_step_on_a_smooth_program(desk, rate):
+    """A 0.5 rad step riding on a slow sine on the neck: corrected, then exact again within 2 s."""
+    net = SafetyNet(desk, rate)
+    i = desk.channel_index["neck_pitch"]
+    n = int(6 * rate)
+    t = np.arange(n) / rate
+    program = np.tile(desk.rest, (n, 1))
+    program[:, i] = 0.1 * gentle(t) + np.where(t >= 1.0, 0.3, 0.0) - 0.15 * (t >= 3.5)
+    out = run(net, program)
+    assert_within_limits(net, out, desk.rest)
+    exact = out[:, i] == program[:, i]
+    assert exact[: int(rate)].all()  # before the step: pass-through
+    assert not exact[int(rate)]  # the step is corrected
+    relock = int(rate) + int(np.argmax(exact[int(rate):]))
+    assert exact[relock: int(3.5 * rate)].all()  # once re-locked it stays locked
+    assert (relock - rate) / rate < 2.0, (relock - rate) / rate
+    relock2 = int(3.5 * rate) + int(np.argmax(exact[int(3.5 * rate):]))
+    assert exact[relock2:].all() and (relock2 - 3.5 * rate) / rate < 2.0
+
+
+def test_corrections_are_counted_per_dof(desk):
+    net = SafetyNet(desk, 100.0)
+    program = smooth_feasible(desk, 100.0, 3.0)
+    i, k = desk.channel_index["head_yaw"], desk.channel_index["ear_left"]
+    program[150:, i] += 0.4  # one DoF steps
+    out = run(net, program)
+    differs = (out != program).sum(axis=0)
+    # The net counts exactly the ticks where it changed a channel's sample (or had to decide to keep it).
+    assert net.corrections[i] >= differs[i] > 0
+    assert net.corrections[k] == differs[k] == 0
+    stats = net.stats()
+    assert stats["corrections"] == {"head_yaw": int(net.corrections[i])}
+    assert stats["corrected_ticks"] == net.corrected_ticks >= differs[i]
+
+
+def test_non_finite_samples_hold_the_last_output(desk):
+    net = SafetyNet(desk, 100.0)
+    frames = smooth_feasible(desk, 100.0, 1.0)
+    frames[50, desk.channel_index["head_yaw"]] = np.nan
+    frames[51, desk.channel_index["head_yaw"]] = np.inf
+    out = run(net, frames)
+    assert np.all(np.isfinite(out))
+    assert_within_limits(net, out, desk.rest)
+
+
+def test_colour_and_enum_channels_pass_untouched(desk):
+    net = SafetyNet(desk, 100.0)
+    frames = np.tile(desk.rest, (20, 1))
+    led = desk.dof("eye_leds").channels
+    frames[10:, led] = [1.0, 0.0, 0.0]
+    frames[10:, desk.channel_index["mouth"]] = 3
+    out = run(net, frames)
+    assert np.array_equal(out[:, led], frames[:, led])
+    assert np.array_equal(out[:, desk.channel_index["mouth"]], frames[:, desk.channel_index["mouth"]])
+
+
+def test_disabled_net_passes_everything(desk):
+    net = SafetyNet(desk, 100.0, enabled=False)
+    program = hostile_program(desk, "noise", 100.0, 1.0, seed=3)
+    assert np.array_equal(run(net, program), program)
+
+
+def test_plan_gains_bring_a_triple_integrator_to_rest():
+    """The receding-horizon plans (scaled units, h = 1) are exact: each zeroes the state in n ticks."""
+    assert plan_horizons(100.0)[:4] == [3, 4, 5, 6] and plan_horizons(1000.0)[-1] <= 400
+    gains, starts = plan_gains([3, 4, 7, 12, 40])
+    rng = np.random.default_rng(0)
+    for k in range(len(starts) - 1):
+        n = starts[k + 1] - starts[k]
+        s = rng.normal(size=3)
+        e, f, g = s
+        for u in gains[starts[k]:starts[k + 1]] @ s:
+            g = g + u
+            f = f + g
+            e = e + f
+        assert abs(e) + abs(f) + abs(g) < 1e-9 * (1 + n ** 3), n
+
+
+def test_the_trajectory_helper_agrees(desk):
+    """backend/engine/trajectory.py (the editor's colouring) finds no violation in the net's output."""
+    net = SafetyNet(desk, 100.0)
+    out = run(net, hostile_program(desk, "steps", 100.0, 4.0, seed=11))
+    idx = net.idx
+    pos = np.vstack([np.tile(desk.rest[idx], (3, 1)), out[:, idx]])
+    res = analyze(pos, 100.0, desk.vel_limit[idx] * (1 + ROUNDING), desk.acc_limit[idx] * (1 + ROUNDING),
+                  desk.jerk_limit[idx] * (1 + ROUNDING), desk.min[idx], desk.max[idx])
+    assert res.ok, res.summary
