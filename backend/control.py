@@ -9,10 +9,11 @@ Display and audible commands fall back to the engine itself (a display override,
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator
+
+from backend.security import JsonSafetyError, check_json
 
 Vec3 = tuple[float, float, float]
 
@@ -131,7 +132,9 @@ class SetEmotion(_Command):
 
 
 class Reset(_Command):
-    """Back to rest: stop clips, fade every layer but the bottom one out, clear display overrides."""
+    """Start the running program afresh: long actions are cancelled, every block, layer and exposed
+    input is as the program declares it, display overrides are cleared; the robot blends there over
+    `fade` seconds (longer if its limits need it)."""
 
     type: Literal["reset"] = "reset"
     fade: float = Field(1.0, ge=0.0, le=30.0)
@@ -168,22 +171,19 @@ class CommandError(ValueError):
         self.code = code
 
 
-def _reject_non_finite(data: Any, path: str = "") -> None:
-    if isinstance(data, float) and not math.isfinite(data):
-        raise CommandError(f"{path or 'value'}: NaN and infinity are not allowed", field=path or None)
-    if isinstance(data, dict):
-        for k, v in data.items():
-            _reject_non_finite(v, f"{path}.{k}" if path else str(k))
-    elif isinstance(data, (list, tuple)):
-        for i, v in enumerate(data):
-            _reject_non_finite(v, f"{path}[{i}]")
-
-
 def parse_command(data: Any, where: str = "command") -> Any:
-    """Validate a command; raises CommandError (a ValueError) naming the field."""
+    """Validate a command; raises CommandError (a ValueError) naming the field.
+
+    Every entry point (REST, WebSocket, `nutty run --commands`, in-process callers) gets the same
+    JSON-safety check (`backend.security.check_json`: finite numbers, valid Unicode, bounded depth)
+    before the typed union.
+    """
     if not isinstance(data, dict):
         raise CommandError(f"{where}: a command is a JSON object with a 'type'")
-    _reject_non_finite(data)
+    try:
+        check_json(data)
+    except JsonSafetyError as exc:
+        raise CommandError(f"{where}: {exc}", field=exc.field, code=exc.code) from exc
     try:
         return COMMAND_ADAPTER.validate_python(data)
     except ValidationError as exc:
@@ -272,12 +272,20 @@ def _declared(session: Any, name: str) -> bool:
 
 
 def _set_inputs(session: Any, values: dict[str, Any]) -> dict[str, Any]:
+    """Check every value first, then set them all at one tick: a rejected command changes nothing."""
+    program = session.program
     out = {}
     for name, value in values.items():
+        decl = program.input(name) if program is not None else None
+        if decl is None:
+            declared = [i.name for i in program.inputs] if program is not None else []
+            raise CommandError(f"the running program has no exposed input '{name}' (declared: {declared})",
+                               field=name, code="invalid_input")
         try:
-            out[name] = session.set_input(name, value)
-        except ValueError as exc:
+            out[name] = decl.coerce(value)
+        except (ValueError, TypeError, OverflowError) as exc:
             raise CommandError(str(exc), field=name, code="invalid_input") from exc
+    session.engine.call(lambda: session.engine.ctx.inputs.update(out))
     return out
 
 
@@ -345,12 +353,14 @@ def execute(session: Any, command: Any, command_id: str | None = None) -> Any:
             return _handle(session, block, t, {**args, "command_id": cid})
         return _display_override(session, command)
     if t == "reset":
-        for block in _blocks(session, ("clip_player",)):
-            _handle(session, block, "stop", {"fade": command.fade})
-        for mixer in _mixer_layers(session):
-            for name in mixer.names[1:]:
-                session.engine.call(lambda m=mixer, n=name: m.set_layer_active(n, False, command.fade))
-        session.engine.call(session.engine.clear_overrides)
+        # Long actions end as cancelled (their blocks are about to be replaced), then the program
+        # starts afresh as it declares itself: layers, inputs, no overrides.
+        for block in _blocks(session, ("clip_player", "posture", "say")):
+            try:
+                _handle(session, block, "stop", {"fade": 0.0})
+            except CommandError:  # a block with nothing to stop
+                pass
+        session.reset(fade=command.fade)
         return {"reset": True}
     if t == "stop_all":
         for block in _blocks(session, ("clip_player",)):

@@ -7,20 +7,37 @@
 - A draggable gaze target sets the program's `gaze_target` input when the program declares one.
 - Updates run on the Pre-Viz sink's own thread at <= 60 Hz; a stale frame is dropped, never queued,
   so the engine clock never waits for viser.
+
+Safety: viser itself has no authentication and its gaze gizmo moves the robot, so it only ever
+listens on 127.0.0.1. Browsers reach it through the API port (`/previz/`, see `fetch_page` and
+`relay_socket`), behind the API's Origin/Host checks and token. Its own loopback port refuses
+WebSocket clients whose Origin or Host is foreign (a web page the user happens to visit could
+otherwise connect to ws://127.0.0.1:8080 and drag the gaze), and gaze drags count only from
+clients that passed that check or came through the proxy.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import math
+import secrets
 import threading
 import time
 from typing import Any
+from urllib.parse import quote
 
 import numpy as np
 
 from backend.engine.embodiment import DofType
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
+from backend.security import LOOPBACK_NAMES, AccessPolicy
+from backend.security import cancel_all as _cancel_all
+
+PROXY_HEADER = "X-Nutty-Previz-Proxy"
+MAX_PAGE = 64 * 1024 * 1024  # bytes of one proxied file (viser's page is about 1 MB)
+MAX_PREVIZ_MESSAGE = 64 * 1024 * 1024
 
 MAX_RATE = 60.0
 CAPTION_SECONDS = 4.0
@@ -38,15 +55,24 @@ def _yaw_pitch_roll_to_wxyz(yaw: float, pitch: float, roll: float) -> tuple[floa
 class PreViz:
     """A viser server showing a session's robot. `start()` attaches it to the engine as a sink."""
 
-    def __init__(self, session: Any, host: str = "127.0.0.1", port: int = 8080):
+    def __init__(self, session: Any, host: str = "127.0.0.1", port: int = 8080,
+                 allowed_origins: list[str] | None = None):
         import viser
         import yourdfpy
         from viser.extras import ViserUrdf
 
+        if host not in LOOPBACK_NAMES:
+            raise ValueError(f"the Pre-Viz listens on loopback only, not {host!r}: "
+                             "it is served to the network through the API's /previz/ (behind its token)")
         self.session = session
         self.emb = session.embodiment
-        self.host, self.port = host, port
+        self.host = host
+        self.proxy_secret = secrets.token_urlsafe(24)  # marks connections that came through the API's proxy
+        self._trusted: set[int] = set()  # viser client ids whose gaze drags count
+        self._allowed_origins = list(allowed_origins or [])
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.port = self.server.get_port()  # viser moves to the next free port when this one is taken
+        self._guard_direct_clients()
         self.server.scene.set_up_direction("+z")
         self.server.scene.add_grid("/grid", width=2.0, height=2.0, cell_size=0.1, plane="xy", position=(0, 0, 0))
         urdf = yourdfpy.URDF.load(str(self.emb.urdf_path), build_scene_graph=True, load_meshes=True)
@@ -71,11 +97,48 @@ class PreViz:
         self.gaze = self.server.scene.add_transform_controls("/gaze_target", scale=0.12, position=(0.6, 0.0, 0.35),
                                                              disable_rotations=True)
         self.server.scene.add_icosphere("/gaze_target/ball", radius=0.02, color=(255, 200, 40))
-        self.gaze.on_update(lambda _: self._on_gaze_drag())
+        self.gaze.on_update(lambda event: self._on_gaze_drag(event))
         self._sink: Sink | None = None
         self.frames_shown = 0
         self._lock = threading.Lock()
         self._set_camera_on_connect()
+
+    # --- who may connect ------------------------------------------------------------------------
+    def _guard_direct_clients(self) -> None:
+        """Close viser WebSockets from foreign pages; remember the clients that may drag the gaze.
+
+        Uses viser's connection hook (`_websock_server.on_client_connect`, which runs before any
+        scene data is sent) to read the handshake's headers. Fails closed: without the hook no
+        client is trusted and the gizmo is inert.
+        """
+        policy = AccessPolicy(port=self.port, bind_host=self.host, allowed_origins=self._allowed_origins)
+        ws_server = getattr(self.server, "_websock_server", None)
+        if ws_server is None or not hasattr(ws_server, "on_client_connect"):
+            return
+
+        async def check(conn: Any) -> None:
+            connection = getattr(ws_server, "_live_connections", {}).get(conn.client_id)
+            request = getattr(connection, "request", None)
+            if request is None:
+                return
+            headers = request.headers
+            proxied = headers.get(PROXY_HEADER)
+            if proxied is not None and secrets.compare_digest(proxied.encode(), self.proxy_secret.encode()):
+                self._trusted.add(conn.client_id)
+                return
+            problem = policy.host_problem(headers.get("Host")) or policy.origin_problem(headers.get("Origin"),
+                                                                                       headers.get("Host"))
+            if problem is None:
+                self._trusted.add(conn.client_id)
+                return
+            with contextlib.suppress(Exception):
+                await connection.close(4403, "forbidden: " + problem[:100])
+
+        async def forget(conn: Any) -> None:
+            self._trusted.discard(conn.client_id)
+
+        ws_server.on_client_connect(check)
+        ws_server.on_client_disconnect(forget)
 
     # --- scene pieces ---------------------------------------------------------------------------
     def _link_node(self, link: str, root: str = "/robot/body") -> str | None:
@@ -129,7 +192,10 @@ class PreViz:
     def ghost_visible(self) -> bool:
         return bool(self.ghost_base.visible)
 
-    def _on_gaze_drag(self) -> None:
+    def _on_gaze_drag(self, event: Any = None) -> None:
+        """The gizmo moved: set `gaze_target`. From a viser client, only a trusted one counts."""
+        if event is not None and getattr(event, "client_id", None) not in self._trusted:
+            return
         prog = self.session.program
         if prog is None or prog.input("gaze_target") is None:
             return
@@ -185,3 +251,96 @@ class PreViz:
             self.session.engine.remove_sink(self._sink)
             self._sink = None
         self.server.stop()
+
+
+# --------------------------------------------------------------------------------------------------
+# The proxy the API serves at /previz/ (viser's page builds its WebSocket URL from the page's own
+# URL without the query: /previz/?token=T connects to ws://host/previz, which carries the cookie
+# the page response set; see backend.security.previz_cookie_value)
+# --------------------------------------------------------------------------------------------------
+
+
+async def fetch_page(port: int, path: str, accept_encoding: str = "", timeout: float = 20.0
+                     ) -> tuple[int, dict[str, str], bytes]:
+    """GET one file of viser's client from its loopback port: (status, headers to pass on, body)."""
+    target = "/" + quote(path.lstrip("/"), safe="/._-~")
+    reader, writer = await asyncio.wait_for(asyncio.open_connection("127.0.0.1", port), timeout)
+    try:
+        encoding = "gzip" if "gzip" in accept_encoding.lower() else "identity"
+        writer.write((f"GET {target} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nAccept-Encoding: {encoding}\r\n"
+                      f"Connection: close\r\n\r\n").encode("latin-1"))
+        await writer.drain()
+        head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), timeout)
+        lines = head.decode("latin-1").split("\r\n")
+        parts = lines[0].split(" ", 2)
+        if len(parts) < 2 or not parts[1].isdigit():
+            raise ValueError("malformed response from the Pre-Viz")
+        status = int(parts[1])
+        headers: dict[str, str] = {}
+        for line in lines[1:]:
+            name, sep, value = line.partition(":")
+            if sep:
+                headers[name.strip().lower()] = value.strip()
+        length = headers.get("content-length")
+        if length is not None and length.isdigit():
+            if int(length) > MAX_PAGE:
+                raise ValueError("response too large")
+            body = await asyncio.wait_for(reader.readexactly(int(length)), timeout)
+        else:
+            body = await asyncio.wait_for(reader.read(MAX_PAGE), timeout)
+    finally:
+        writer.close()
+        with contextlib.suppress(Exception):
+            await writer.wait_closed()
+    keep = {k: headers[k] for k in ("content-type", "content-encoding") if k in headers}
+    keep["cache-control"] = "no-store"
+    return status, keep, body
+
+
+async def relay_socket(ws: Any, previz: PreViz, stopping: asyncio.Event | None) -> None:
+    """Relay a browser's Pre-Viz WebSocket (a Starlette WebSocket, already past the API's guard) to
+    viser on loopback, both ways, until either side leaves or the app shuts down."""
+    from websockets.asyncio.client import connect
+    from websockets.typing import Subprotocol
+
+    offered = [p for p in (ws.scope.get("subprotocols") or []) if p.startswith("viser-")]
+    try:
+        upstream = await connect(f"ws://127.0.0.1:{previz.port}",
+                                 subprotocols=[Subprotocol(p) for p in offered] or None,
+                                 additional_headers={PROXY_HEADER: previz.proxy_secret},
+                                 max_size=MAX_PREVIZ_MESSAGE, compression=None, open_timeout=10,
+                                 ping_interval=None)
+    except Exception:
+        await ws.accept(subprotocol=offered[0] if offered else None)
+        await ws.close(code=1011, reason="the Pre-Viz is not available")
+        return
+    try:
+        await ws.accept(subprotocol=upstream.subprotocol)
+
+        async def to_upstream() -> None:
+            while True:
+                message = await ws.receive()
+                if message["type"] == "websocket.disconnect":
+                    return
+                data = message.get("bytes")
+                await upstream.send(data if data is not None else message.get("text") or "")
+
+        async def to_client() -> None:
+            async for data in upstream:
+                if isinstance(data, bytes):
+                    await ws.send_bytes(data)
+                else:
+                    await ws.send_text(data)
+
+        tasks = [asyncio.ensure_future(to_upstream()), asyncio.ensure_future(to_client())]
+        if stopping is not None:
+            tasks.append(asyncio.ensure_future(stopping.wait()))
+        try:
+            await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            await _cancel_all(tasks)
+    finally:
+        with contextlib.suppress(Exception):
+            await upstream.close()
+        with contextlib.suppress(Exception):
+            await ws.close()

@@ -60,7 +60,8 @@ def test_get_validate_and_put_program(client, session):
     next(n for n in doc["nodes"] if n["id"] == "breathe")["params"]["amplitude"] = 0.08
     r = client.put("/api/program", json=doc)
     assert r.status_code == 200 and "breathe" in r.json()["kept"]
-    assert client.put("/api/program", content=b"{not json").status_code == 400
+    assert client.put("/api/program", content=b"{not json", headers={"content-type": "application/json"}).status_code == 400
+    assert client.put("/api/program", content=b"{not json").status_code == 415  # JSON must be declared
 
 
 def test_patch_params_live(client, session):
@@ -219,13 +220,52 @@ def test_long_action_reports_started_then_completed(client):
         assert r.status_code == 200 and r.json()["status"] == "started"
         cid = r.json()["id"]
         events = []
-        deadline = time.time() + 5
-        while time.time() < deadline and "completed" not in events:
+        while "completed" not in events:
             msg = ws.receive_json()
-            if msg.get("command_id") == cid or msg.get("id") == cid:
+            assert "command_id" not in msg  # one event shape: the command's id is `id`
+            if msg.get("id") == cid:
                 events.append(msg["event"])
-        assert events[-1] == "completed"
+        assert events == ["started", "completed"]  # started once, not once per reporter
     assert client.get(f"/api/commands/{cid}").json()["status"] == "completed"
     r = client.post("/api/commands", json={"type": "go_posture", "posture": "sad", "duration": 5})
     cid = r.json()["id"]
     assert client.delete(f"/api/commands/{cid}").json()["status"] == "cancelled"
+
+
+def test_unexpected_errors_are_json_500s_without_a_traceback(session, tmp_path, monkeypatch):
+    def boom(*_, **__):
+        raise RuntimeError("secret internals /etc/passwd")
+
+    monkeypatch.setattr(session, "validate", boom)
+    with TestClient(create_app(session, frontend_dir=None), raise_server_exceptions=False) as c:
+        r = c.post("/api/program/validate", json={"nodes": []})
+        assert r.status_code == 500
+        assert r.json() == {"detail": {"code": "internal_error", "message": "the server could not handle this request"}}
+        assert "secret" not in r.text and "Traceback" not in r.text
+        assert c.get("/api/robot").status_code == 200  # and the server goes on
+
+
+def test_errors_keep_the_contract_shape(client):
+    r = client.get("/api/no-such-route")
+    assert r.status_code == 404 and r.json()["detail"]["code"] == "not_found"
+    r = client.put("/api/inputs/arousal", json={"volume": 1})
+    assert r.status_code == 422 and r.json()["detail"] == {
+        "code": "invalid_body", "message": "value: Field required", "field": "value"}
+    r = client.post("/api/commands", content=rb'{"type": "\ud800"}', headers={"content-type": "application/json"})
+    assert r.status_code == 400 and r.json()["detail"]["code"] == "invalid_unicode" and r.json()["detail"]["field"] == "type"
+    r = client.post("/api/commands", content=b'{"type": "set_led", "colour": [1e999, 0, 0]}',
+                    headers={"content-type": "application/json"})
+    assert r.status_code == 400 and r.json()["detail"] == {
+        "code": "non_finite", "message": "colour[0]: NaN and infinity are not allowed", "field": "colour[0]"}
+
+
+def test_previz_info_without_viser(client):
+    assert client.get("/api/previz").json() == {"url": None, "direct": None, "token_required": False, "ghost": None}
+    assert client.get("/previz/").status_code == 404
+
+
+def test_set_inputs_is_all_or_nothing(client, session):
+    client.put("/api/inputs/arousal", json={"value": 0.25})
+    r = client.post("/api/commands", json={"type": "set_inputs", "values": {"arousal": 0.5, "nope": 1}})
+    assert r.status_code == 422 and r.json()["detail"]["field"] == "nope"
+    assert client.get("/api/inputs").json()["values"]["arousal"] == 0.25  # the valid one was not applied either

@@ -60,3 +60,55 @@ def test_dragging_the_gaze_target_sets_the_input(previz):
     previz._on_gaze_drag()
     previz.session.engine.tick()
     assert previz.session.inputs()["gaze_target"] == pytest.approx([0.5, 0.2, 0.4])
+
+
+def test_previz_listens_on_loopback_only(desk):
+    from backend.previz import PreViz
+
+    session = EngineSession.create(desk, rate=100)
+    with pytest.raises(ValueError, match="loopback"):
+        PreViz(session, host="0.0.0.0", port=free_port())
+    session.engine.close()
+
+
+def test_gaze_drags_count_only_from_trusted_clients(previz):
+    from types import SimpleNamespace
+
+    previz.gaze.position = np.array([0.4, -0.2, 0.3])
+    previz._on_gaze_drag(SimpleNamespace(client_id=12345))  # a client that never passed the checks
+    previz.session.engine.tick()
+    assert previz.session.inputs()["gaze_target"] == pytest.approx([1.0, 0.0, 0.3])
+    previz._trusted.add(12345)
+    previz._on_gaze_drag(SimpleNamespace(client_id=12345))
+    previz.session.engine.tick()
+    assert previz.session.inputs()["gaze_target"] == pytest.approx([0.4, -0.2, 0.3])
+
+
+def test_viser_port_refuses_foreign_pages_and_trusts_its_own(previz):
+    import viser
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect
+
+    sub = [f"viser-v{viser.__version__}"]
+    url = f"ws://127.0.0.1:{previz.port}"
+    with connect(url, subprotocols=sub, origin="http://evil.example", max_size=None, open_timeout=30) as ws:
+        with pytest.raises(ConnectionClosed) as closed:
+            while True:
+                ws.recv(timeout=30)
+        assert closed.value.rcvd.code == 4403
+    assert not previz._trusted
+    for origin in (f"http://localhost:{previz.port}", None):  # its own page, or a local non-browser client
+        with connect(url, subprotocols=sub, origin=origin, max_size=None, open_timeout=30) as ws:
+            assert isinstance(ws.recv(timeout=30), bytes)
+            assert previz._trusted  # its gaze drags count
+
+
+def test_the_proxy_fetches_viser_pages(previz):
+    import asyncio
+
+    from backend.previz import fetch_page
+
+    status, headers, body = asyncio.run(fetch_page(previz.port, ""))
+    assert status == 200 and headers["content-type"].startswith("text/html") and b"<html" in body[:500].lower()
+    status, _, _ = asyncio.run(fetch_page(previz.port, "../../etc/passwd"))
+    assert status == 404

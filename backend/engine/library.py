@@ -3,21 +3,30 @@
 Layout: `robots/<name>/clips/<clip>.json`, `robots/<name>/postures/<posture>.json`,
 `robots/<name>/programs/<program>.json`. Postures declared in `embodiment.yaml` are listed too
 (read-only). Names are restricted to a safe character set, so a request can never escape the folder.
-Writes are atomic (write to a temporary file, then rename).
+Writes are atomic (write to a temporary file, then rename) and validated against the asset's
+format first, so nothing malformed is ever stored: a program must parse as `nutty-program/1`, a clip
+as `nutty-clip/1` whose tracks are DoFs of the robot, a posture as `nutty-posture/1`
+(`{"name", "description"?, "values": {dof: value}}`, every DoF the robot's, every value within
+the DoF's limits: a number for a continuous DoF, `[r, g, b]` in 0..1 for a colour, an option name
+or index for an expression).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import tempfile
 import threading
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 KINDS = ("clips", "postures", "programs")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-\.]{0,79}$")
+POSTURE_FORMAT = "nutty-posture/1"
 
 
 class LibraryError(ValueError):
@@ -26,6 +35,89 @@ class LibraryError(ValueError):
 
 class NotFound(LibraryError):
     pass
+
+
+class Posture(BaseModel):
+    """A named posture (`nutty-posture/1`): DoF name -> value. `builtin` (set on the postures
+    `embodiment.yaml` declares, as GET returns them) is accepted so a GET/PUT round trip works, and
+    never stored."""
+
+    model_config = ConfigDict(extra="forbid")
+    format: Literal["nutty-posture/1"] = POSTURE_FORMAT
+    name: str = Field("", max_length=80)
+    description: str = Field("", max_length=2000)
+    values: dict[str, float | str | list[float]] = Field(
+        ..., min_length=1, max_length=1000,
+        description="DoF name -> value: rad/m for continuous DoFs, [r, g, b] in 0..1 for colours, an option name")
+    builtin: bool | None = None
+
+
+def _first_error(exc: ValidationError) -> str:
+    first = exc.errors()[0]
+    where = ".".join(str(p) for p in first["loc"])
+    return f"{where}: {first['msg']}" if where else first["msg"]
+
+
+def check_posture_values(values: dict[str, Any], embodiment: Any) -> None:
+    """Every DoF is the robot's and every value is within its limits; LibraryError names the first
+    that is not."""
+    from backend.engine.embodiment import DofType
+
+    for name, value in values.items():
+        if not embodiment.has_dof(name):
+            raise LibraryError(f"invalid posture: values.{name}: robot '{embodiment.name}' has no DoF '{name}'")
+        dof = embodiment.dof(name)
+        where = f"invalid posture: values.{name}"
+        if dof.type is DofType.continuous:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise LibraryError(f"{where}: a continuous DoF takes a finite number, got {value!r}")
+            if not dof.min <= value <= dof.max:
+                raise LibraryError(f"{where}: {value:g} is outside the DoF's limits [{dof.min:g}, {dof.max:g}]")
+        elif dof.type is DofType.colour:
+            if not isinstance(value, list) or len(value) != 3 or not all(
+                    isinstance(c, (int, float)) and not isinstance(c, bool) and 0.0 <= c <= 1.0 for c in value):
+                raise LibraryError(f"{where}: a colour DoF takes [r, g, b] within 0..1, got {value!r}")
+        elif dof.type is DofType.enum:
+            options = list(dof.options or ())
+            if isinstance(value, str):
+                if value not in options:
+                    raise LibraryError(f"{where}: '{value}' is not one of {options}")
+            elif isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value) \
+                    or not 0 <= value < len(options):
+                raise LibraryError(f"{where}: an expression DoF takes one of {options} (or its index), got {value!r}")
+        else:
+            raise LibraryError(f"{where}: '{name}' is an event DoF and has no pose value")
+
+
+def validate_posture_doc(doc: Any, embodiment: Any = None, name: str = "") -> dict[str, Any]:
+    """A normalised posture document, or LibraryError naming the field."""
+    if not isinstance(doc, dict):
+        raise LibraryError("invalid posture: a posture is a JSON object {\"name\", \"values\": {dof: value}}")
+    try:
+        posture = Posture.model_validate(doc)
+    except ValidationError as exc:
+        raise LibraryError(f"invalid posture: {_first_error(exc)}") from exc
+    if embodiment is not None:
+        check_posture_values(doc["values"], embodiment)
+    out = posture.model_dump(mode="json", exclude={"builtin"})
+    out["values"] = dict(doc["values"])  # as written: ints stay ints, option names stay names
+    out["name"] = posture.name or name
+    if not out["description"]:
+        del out["description"]
+    return out
+
+
+def validate_program_doc(doc: Any) -> dict[str, Any]:
+    """The program format (`nutty-program/1`); the API also compiles it against the robot."""
+    from backend.graph.schema import Program
+
+    if not isinstance(doc, dict):
+        raise LibraryError("invalid program: a program is a JSON object")
+    try:
+        Program.model_validate(doc)
+    except ValidationError as exc:
+        raise LibraryError(f"invalid program: {_first_error(exc)}") from exc
+    return doc
 
 
 class RobotLibrary:
@@ -98,11 +190,41 @@ class RobotLibrary:
             return False
 
     # --- changes --------------------------------------------------------------------------------------
+    def validate(self, kind: str, name: str, doc: Any) -> dict[str, Any]:
+        """The document as it would be stored, or LibraryError: every write is checked against its
+        format (and the robot, when the library knows it) before anything touches the disk."""
+        if kind not in KINDS:
+            raise LibraryError(f"unknown asset kind '{kind}' (one of {list(KINDS)})")
+        if not isinstance(doc, dict):
+            raise LibraryError(f"invalid {kind[:-1]}: a {kind[:-1]} is a JSON object")
+        if kind == "postures":
+            return validate_posture_doc(doc, self.embodiment, name)
+        if kind == "programs":
+            doc = validate_program_doc(doc)
+        validate = self.validators.get(kind)
+        if validate is None and kind == "clips":
+            from backend.engine.clips import validate_clip_doc  # registers itself; import for the check
+
+            validate = validate_clip_doc
+        if validate is not None:
+            try:
+                doc = validate(doc)
+            except LibraryError:
+                raise
+            except ValueError as exc:
+                raise LibraryError(str(exc)) from exc
+        if kind == "clips" and self.embodiment is not None:
+            from backend.engine.clips import compile_clip
+
+            try:
+                compile_clip(doc, self.embodiment)
+            except ValueError as exc:
+                raise LibraryError(f"invalid clip: {exc}") from exc
+        return doc
+
     def save(self, kind: str, name: str, doc: dict[str, Any]) -> dict[str, Any]:
         name = self.check_name(name)
-        validate = self.validators.get(kind)
-        if validate is not None:
-            doc = validate(doc)
+        doc = self.validate(kind, name, doc)
         d = self._dir(kind)
         with self._lock:
             d.mkdir(parents=True, exist_ok=True)

@@ -327,7 +327,9 @@ export interface SetEmotion {
   valence: Valence;
 }
 /**
- * Back to rest: stop clips, fade every layer but the bottom one out, clear display overrides.
+ * Start the running program afresh: long actions are cancelled, every block, layer and exposed
+ * input is as the program declares it, display overrides are cleared; the robot blends there over
+ * `fade` seconds (longer if its limits need it).
  */
 export interface Reset {
   fade?: Fade2;
