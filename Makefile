@@ -1,6 +1,7 @@
 # Nutty — one Makefile for a fresh Debian machine (Python 3.11, Node 20, root).
 #   make run   install everything, build the editor, serve the default robot and program
 #   make test  install everything and run every test (Python, front-end unit, browser end-to-end)
+#   make bench engine and NMF benchmarks; make soak: a served robot under churning clients (optional)
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
@@ -8,7 +9,7 @@ PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
 FRONTEND := frontend
 
-.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench figures clean
+.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench soak figures clean
 
 run: deps frontend-build
 	$(VENV)/bin/nutty serve
@@ -33,6 +34,9 @@ $(VENV)/bin/activate:
 
 deps-python: $(VENV)/bin/activate
 	$(PIP) install -q -e ".[test,bench,robots]"
+	@# Blender as a module (tests that make glTF files with real Blender). bpy 5.0 pins numpy<2 in its
+	@# metadata but runs with numpy 2, so it is installed without its pins (its other needs are listed).
+	@$(PY) -c "import bpy" 2>/dev/null || $(PIP) install -q --no-deps "bpy==5.0.*" cython requests zstandard
 
 deps-frontend:
 	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm ci --no-audit --no-fund --loglevel=error; fi
@@ -49,6 +53,12 @@ test-frontend:
 bench: deps-python
 	$(PY) benchmarks/bench_engine.py
 	$(PY) benchmarks/bench_nmf.py
+	$(PY) benchmarks/bench_safety.py
+
+# Optional, not part of bench: `nutty serve` at 100 Hz under churning clients, then a SIGTERM.
+SOAK_MINUTES ?= 1
+soak: deps-python
+	$(PY) benchmarks/soak.py --minutes $(SOAK_MINUTES)
 
 figures: deps-python
 	$(VENV)/bin/nutty figures docs/figures

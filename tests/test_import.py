@@ -117,6 +117,12 @@ def qa(axis, angle) -> np.ndarray:
     return quat_axis_angle(np.asarray(axis, float), np.asarray(angle, float))
 
 
+def G(robot_vec) -> np.ndarray:
+    """A robot-frame vector (+Z up) in glTF's axes (+Y up): robot (x, y, z) = glTF (x, -z, y)."""
+    x, y, z = robot_vec
+    return np.array([x, z, -y], dtype=float)
+
+
 def dq(axis, angle, rate) -> np.ndarray:
     """Time derivative of the quaternion of a rotation by `angle` about `axis` turning at `rate`."""
     axis = np.asarray(axis, float) / np.linalg.norm(axis)
@@ -136,23 +142,23 @@ def build_gltf(path: Path, mode: str = "datauri") -> Path:
     yaw, pitch, roll = b.node("head_yaw"), b.node("Head-Pitch"), b.node("head_roll")
     neck, ear, tail, face = b.node("Neck"), b.node("ear_left"), b.node("Tail"), b.node("Face")
     # LINEAR about the URDF axis, output with a padded byteStride
-    b.channel(yaw, "rotation", YAW_T, qa(urdf_axis("head_yaw"), YAW_A), "VEC4", stride_pad=8)
+    b.channel(yaw, "rotation", YAW_T, qa(G(urdf_axis("head_yaw")), YAW_A), "VEC4", stride_pad=8)
     # STEP, with a swing about a perpendicular axis that must be dropped
-    swing = qa([1, 0, 0], 0.25)
-    q_pitch = quat_mul(qa(urdf_axis("head_pitch"), PITCH_A), swing)
+    swing = qa(G([1, 0, 0]), 0.25)
+    q_pitch = quat_mul(qa(G(urdf_axis("head_pitch")), PITCH_A), swing)
     b.channel(pitch, "rotation", PITCH_T, q_pitch, "VEC4", interp="STEP")
     # CUBICSPLINE rotation: [in, value, out] triplets
-    ax = urdf_axis("head_roll")
+    ax = G(urdf_axis("head_roll"))
     trip = []
     for a, w in zip(ROLL_A, ROLL_W):
         d = dq(ax, a, w)
         trip += [d, qa(ax, a), d]
     b.channel(roll, "rotation", ROLL_T, np.array(trip), "VEC4", interp="CUBICSPLINE")
-    b.channel(neck, "rotation", NECK_T, qa([0, 1, 0], NECK_A), "VEC4")
+    b.channel(neck, "rotation", NECK_T, qa(G([0, 1, 0]), NECK_A), "VEC4")
     b.channel(neck, "translation", NECK_T, np.array([[0, 0, 0.1], [0, 0, 0.2]]), "VEC3")
     # normalised int16 quaternions
-    b.channel(ear, "rotation", EAR_T, qa(urdf_axis("ear_left"), EAR_A), "VEC4", ctype=5122, normalized=True)
-    b.channel(tail, "rotation", [0.0, 1.0], qa([0, 0, 1], [0.0, 1.0]), "VEC4")
+    b.channel(ear, "rotation", EAR_T, qa(G(urdf_axis("ear_left")), EAR_A), "VEC4", ctype=5122, normalized=True)
+    b.channel(tail, "rotation", [0.0, 1.0], qa(G([0, 0, 1]), [0.0, 1.0]), "VEC4")
     # CUBICSPLINE morph-target weight (scalar): exact bezier keys
     wt = np.array([[i, v, o] for i, v, o in zip(FACE_IN, FACE_V, FACE_OUT)]).reshape(-1)
     b.channel(face, "weights", FACE_T, wt, "SCALAR", interp="CUBICSPLINE")
@@ -199,10 +205,11 @@ def test_gltf_import_cli(tmp_path, capsys, emb, mode):
     ear = tracks["ear_left"]  # int16 normalised: precision ~3e-5
     np.testing.assert_allclose([k["v"] for k in ear], EAR_A, atol=2e-4)
 
-    # CUBICSPLINE rotation: sampled to linear keys; midpoint matches the Hermite evaluation
+    # CUBICSPLINE rotation: sampled densely, smooth (bezier) keys through the samples; midpoint matches
+    # the Hermite evaluation
     roll = tracks["head_roll"]
-    assert all(k["interp"] == "linear" for k in roll) and len(roll) > 3
-    ax = urdf_axis("head_roll")
+    assert all(k["interp"] == "bezier" for k in roll) and len(roll) > 3
+    ax = G(urdf_axis("head_roll"))
     qs = np.array([qa(ax, a) for a in ROLL_A])
     ds = np.array([dq(ax, a, w) for a, w in zip(ROLL_A, ROLL_W)])
     for t in (0.25, 0.75, 0.6):
@@ -258,7 +265,7 @@ def test_gltf_mapping_file_and_json_report(tmp_path, capsys, emb):
 def test_gltf_animation_choice_and_clamp(tmp_path, emb):
     b = GltfBuilder()
     n = b.node("head_yaw")
-    b.channel(n, "rotation", [0.0, 1.0], qa([0, 0, 1], [0.0, 2.0]), "VEC4")  # 2.0 > limit 1.2
+    b.channel(n, "rotation", [0.0, 1.0], qa(G([0, 0, 1]), [0.0, 2.0]), "VEC4")  # 2.0 > limit 1.2
     src = b.save(tmp_path / "a.gltf")
     doc, report = import_clip(src, emb, animation="0")
     assert doc["tracks"]["head_yaw"][1]["v"] == pytest.approx(emb.dof("head_yaw").max)
@@ -302,11 +309,12 @@ Frame Time: 0.1
 
 def test_bvh_import(tmp_path, capsys, emb):
     n = 11
-    yaw = np.linspace(0, 40, n)  # degrees, about z (first in ZXY) + swing about x
-    pitch = 20 * np.sin(np.linspace(0, math.pi, n))  # about y (after X in XYZ) + swing about x
+    # BVH is +Y up: the robot's yaw axis (+Z) is the file's +Y, its pitch axis (+Y) the file's -Z
+    yaw = np.linspace(0, 40, n)  # degrees, about Y (last in ZXY) after a swing about X
+    pitch = 20 * np.sin(np.linspace(0, math.pi, n))  # about -Z (last in XYZ) after a swing about X
     rows = []
     for i in range(n):
-        rows.append(" ".join(str(x) for x in [1, 2, 3, 5, 0, 0, yaw[i], 15, 0, 10, pitch[i], 0]))
+        rows.append(" ".join(str(x) for x in [1, 2, 3, 5, 0, 0, 0, 15, yaw[i], 10, 0, -pitch[i]]))
     src = tmp_path / "mocap.bvh"
     src.write_text(BVH.replace("{n}", str(n)).replace("{rows}", "\n".join(rows)))
     out = tmp_path / "clip.json"
@@ -315,7 +323,8 @@ def test_bvh_import(tmp_path, capsys, emb):
     doc = json.loads(out.read_text())
     compile_clip(doc, emb)
     y = doc["tracks"]["head_yaw"]
-    assert len(y) == n and all(k["interp"] == "linear" for k in y)
+    # BVH frames are samples of a motion: smooth bezier keys through them (they were linear keys)
+    assert len(y) == n and all(k["interp"] == "bezier" for k in y)
     np.testing.assert_allclose([k["t"] for k in y], np.arange(n) * 0.1, atol=1e-12)
     np.testing.assert_allclose([k["v"] for k in y], np.radians(yaw), atol=1e-9)
     np.testing.assert_allclose([k["v"] for k in doc["tracks"]["head_pitch"]], np.radians(pitch), atol=1e-9)
@@ -416,12 +425,13 @@ def test_decimate():
 def test_yaml_mapping_translation_to_linear_dof(tmp_path, emb):
     src = build_gltf(tmp_path / "anim.gltf")
     mapping = tmp_path / "map.yaml"
-    mapping.write_text("joints:\n  Neck.translation: {dof: base_x, axis: [0, 0, 1], scale: 2.0, offset: -0.1}\n"
+    # axes are in the robot's frame: the node's glTF +Z (0.1, 0.2) is the robot's -Y
+    mapping.write_text("joints:\n  Neck.translation: {dof: base_x, axis: [0, -1, 0], scale: 2.0, offset: -0.1}\n"
                        "  Tail: {dof: body_yaw}\n")
     doc, report = import_clip(src, emb, mapping)
     np.testing.assert_allclose([k["v"] for k in doc["tracks"]["base_x"]], [0.1, 0.3], atol=1e-6)
     np.testing.assert_allclose([k["v"] for k in doc["tracks"]["body_yaw"]], [0.0, 1.0], atol=1e-6)
     assert {m["source"]: m["dof"] for m in report["mapped"]}["Neck.translation"] == "base_x"
-    _, report = import_clip(src, emb, {"joints": {"Tail": "no_such_dof"}})
-    reasons = {u["source"]: u["reason"] for u in report["unmapped"]}
-    assert "names DoF 'no_such_dof', which robot 'nutty_desk' does not have" in reasons["Tail.rotation"]
+    # an unknown DoF is an error naming the closest DoFs (it used to leave the channel unmapped)
+    with pytest.raises(ValueError, match=r"robot 'nutty_desk' has no DoF 'body_yw' \(closest: body_yaw"):
+        import_clip(src, emb, {"joints": {"Tail": "body_yw"}})

@@ -189,3 +189,96 @@ def step_metrics(setpoints: np.ndarray, response: np.ndarray, rate: float, toler
         over.append(overshoot(seg, before, target))
         settle.append(settle_time(seg, target, rate, tolerance * abs(target - before)))
     return StepMetrics(over, settle, float(np.sqrt(np.mean((y - sp) ** 2))) if sp.size else 0.0)
+
+
+# --- what a trajectory needs to fit the limits (the importer's report) --------------------------------
+
+
+def limit_counts(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: Any, jerk_limit: Any,
+                 tolerance: float = 1e-9) -> list[dict[str, Any]]:
+    """Per DoF of `positions` (T,) or (T, n): how many samples are over the velocity, the acceleration
+    and the jerk limit, each counted on its own (a sample may be over several), and the peaks.
+    Same finite differences and slack as `analyze`."""
+    x = np.asarray(positions, dtype=float)
+    if x.ndim == 1:
+        x = x[:, None]
+    n = x.shape[1]
+    lims = [_limit(name, value, n) for name, value in (("vel_limit", vel_limit), ("acc_limit", acc_limit),
+                                                        ("jerk_limit", jerk_limit))]
+    derivs = derivatives(x, rate)
+    slack = 1.0 + tolerance
+    out = []
+    for i in range(n):
+        row: dict[str, Any] = {"samples": int(x.shape[0])}
+        for name, d, lim in zip(("velocity", "acceleration", "jerk"), derivs, lims):
+            peak = float(np.abs(d[:, i]).max(initial=0.0))
+            row[name] = int((np.abs(d[:, i]) > lim[i] * slack).sum())
+            row[f"max_{name}"] = peak
+            row[f"{name}_limit"] = float(lim[i])
+        out.append(row)
+    return out
+
+
+def time_scale_to_fit(sample: Any, duration: float, rate: float, vel_limit: Any, acc_limit: Any, jerk_limit: Any,
+                      max_scale: float = 20.0, precision: float = 0.01) -> float | None:
+    """The smallest uniform slow-down factor s >= 1 (within `precision`, relative) such that the
+    trajectory played s times slower and sampled at `rate` is within every velocity, acceleration
+    and jerk limit; None if even `max_scale` is not enough.
+
+    `sample(t)` returns the positions (len(t), n) at trajectory times `t` (s, in [0, duration])."""
+    def fits(s: float) -> bool:
+        t = np.arange(int(np.floor(duration * s * rate + 1e-9)) + 1) / rate / s
+        if t.size < 2:
+            t = np.array([0.0, duration])
+        x = np.asarray(sample(np.minimum(t, duration)), dtype=float)
+        counts = limit_counts(x, rate, vel_limit, acc_limit, jerk_limit)
+        return all(c["velocity"] == 0 and c["acceleration"] == 0 and c["jerk"] == 0 for c in counts)
+
+    if fits(1.0):
+        return 1.0
+    if max_scale <= 1.0:
+        return None
+    lo, hi = 1.0, min(2.0, max_scale)
+    while not fits(hi):
+        if hi >= max_scale:
+            return None
+        lo, hi = hi, min(hi * 2.0, max_scale)
+    while hi / lo > 1.0 + precision:
+        mid = float(np.sqrt(lo * hi))
+        if fits(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def preset_fit(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: Any, jerk_limit: Any,
+               pmin: Any = None, pmax: Any = None, presets: Any = None, limiter: str = "tanh") -> list[dict[str, Any]]:
+    """How well each NMF preset keeps the shape of a trajectory (T,) or (T, n) under the robot's
+    limits (as the stage-2 filter applies them: the tanh limiter gets 2 x the velocity bound), best
+    first: {"preset", "rms", "max" (deviation of the filtered ghost from the trajectory, over all
+    samples and DoFs), "ghost_ok" (the ghost itself is within the limits)}."""
+    from backend.engine.nmf import PRESETS
+
+    x = np.asarray(positions, dtype=float)
+    if x.ndim == 1:
+        x = x[:, None]
+    n = x.shape[1]
+    vel = _limit("vel_limit", vel_limit, n)
+    acc = _limit("acc_limit", acc_limit, n)
+    jerk = _limit("jerk_limit", jerk_limit, n)
+    pos = {} if pmin is None else {"pmin": _limit("pmin", pmin, n), "pmax": _limit("pmax", pmax, n)}
+    out = []
+    for name in presets or list(PRESETS):
+        p = PRESETS[name]
+        f = MotionFilter(n, rate, order=3, sigma=p.sigma, rho=p.rho, bypass=p.bypass, limiter=limiter,
+                         vel_limit=vel * (2.0 if limiter == "tanh" else 1.0), acc_limit=acc, jerk_limit=jerk,
+                         x0=x[0], **pos)
+        g = f.run(x).position
+        err = np.abs(g - x)
+        counts = limit_counts(g, rate, vel, acc, jerk, tolerance=1e-3)
+        out.append({"preset": name, "meaning": p.meaning, "rms": float(np.sqrt(np.mean(err ** 2))),
+                    "max": float(err.max(initial=0.0)),
+                    "ghost_ok": all(c["velocity"] == 0 and c["acceleration"] == 0 and c["jerk"] == 0 for c in counts)})
+    out.sort(key=lambda r: r["rms"])
+    return out

@@ -7,21 +7,38 @@ MOTION: `Frames: N`, `Frame Time: dt`, then N lines of channel values (rotations
 A joint's rotation is the product of its rotation channels in the order listed (R = R1 R2 R3, the
 usual BVH convention); each joint gives one rotation channel (quaternions) and, if it has position
 channels, one translation channel, both keyed linearly at every frame.
+
+Rest pose: the frame the hierarchy's OFFSETs define (every rotation channel at 0, so each joint's
+rest frame is aligned with the file's world axes), or with `rest_frame=N` the pose of frame N. A
+rotation channel carries `pre` (the parent's rest world rotation) and `post` (the inverse of the
+joint's own), so `pre * q * post` is its change from rest in world axes. Position channels are taken
+relative to the first imported frame (or frame N).
+
+Bad data stops the import with one short message naming the frame (index and time) and the channel:
+a header number that is not finite (`OFFSET nan`, `Frames: nan`, `Frame Time: inf`), a value that is
+not a number or not finite. With `fill="hold"|"linear"`, gaps of non-finite values of at most
+`max_gap` frames are repaired instead (hold the last good value, or interpolate linearly).
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
-from backend.importers.mapping import ClipImportError, SourceChannel, quat_axis_angle, quat_mul
+from backend.importers.mapping import ClipImportError, SourceChannel
+from backend.importers.rotations import IDENTITY, quat_axis_angle, quat_conj, quat_mul, quat_normalise
 
 _AXIS = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
+_CHANNELS = ("xposition", "yposition", "zposition", "xrotation", "yrotation", "zrotation")
+FILL_MODES = ("hold", "linear")
 
 
-def read_bvh(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
+def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | None = None,
+             max_gap: int = 10) -> tuple[list[SourceChannel], dict, list[str]]:
     path = Path(path)
+    where = f"BVH '{path.name}'"
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
@@ -32,82 +49,118 @@ def read_bvh(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
     def take() -> str:
         nonlocal pos
         if pos >= len(tokens):
-            raise ClipImportError(f"BVH '{path.name}': unexpected end of file")
+            raise ClipImportError(f"{where}: unexpected end of file")
         pos += 1
         return tokens[pos - 1]
 
     def expect(word: str) -> None:
         got = take()
         if got.upper() != word.upper():
-            raise ClipImportError(f"BVH '{path.name}': expected '{word}', got '{got}'")
+            raise ClipImportError(f"{where}: expected '{word}', got '{got[:40]}'")
 
     expect("HIERARCHY")
-    joints: list[tuple[str, list[str]]] = []  # (name, channel names) in file order
-    stack: list[str] = []
+    names: list[str] = []
+    parents: list[int] = []
+    chans_of: list[list[str]] = []
+    offsets: list[np.ndarray] = []
+    stack: list[int] = []  # joint indices; -1 for an End Site
     word = take()
     if word.upper() != "ROOT":
-        raise ClipImportError(f"BVH '{path.name}': expected 'ROOT', got '{word}'")
+        raise ClipImportError(f"{where}: expected 'ROOT', got '{word[:40]}'")
     while True:
-        if word.upper() in ("ROOT", "JOINT"):
+        up = word.upper()
+        if up in ("ROOT", "JOINT"):
+            if up == "ROOT" and stack:
+                raise ClipImportError(f"{where}: ROOT inside joint '{names[stack[-1]]}'")
             name = take()
             expect("{")
-            stack.append(name)
-            joints.append((name, []))
-            current = len(joints) - 1
-        elif word.upper() == "END":
+            parent = next((i for i in reversed(stack) if i >= 0), -1)
+            names.append(name)
+            parents.append(parent)
+            chans_of.append([])
+            offsets.append(np.zeros(3))
+            stack.append(len(names) - 1)
+        elif up == "END":
             expect("Site")
             expect("{")
-            stack.append("")
-            current = -1
-        elif word.upper() == "OFFSET":
-            for _ in range(3):
-                _number(take(), path)
-        elif word.upper() == "CHANNELS":
-            if current < 0:
-                raise ClipImportError(f"BVH '{path.name}': an End Site cannot have channels")
-            n = int(_number(take(), path))
+            stack.append(-1)
+        elif up == "OFFSET":
+            owner = stack[-1] if stack else -1
+            label = f"joint '{names[owner]}'" if owner >= 0 else "an End Site"
+            vals = [_number(take(), f"{where}: {label}: OFFSET") for _ in range(3)]
+            if owner >= 0:
+                offsets[owner] = np.array(vals)
+        elif up == "CHANNELS":
+            if not stack or stack[-1] < 0:
+                raise ClipImportError(f"{where}: an End Site cannot have channels")
+            cur = stack[-1]
+            n = _count(take(), f"{where}: joint '{names[cur]}': CHANNELS")
             chans = [take() for _ in range(n)]
             for c in chans:
-                if c.lower() not in ("xposition", "yposition", "zposition", "xrotation", "yrotation", "zrotation"):
-                    raise ClipImportError(f"BVH '{path.name}': joint '{joints[current][0]}': unknown channel '{c}'")
-            joints[current][1].extend(chans)
+                if c.lower() not in _CHANNELS:
+                    raise ClipImportError(f"{where}: joint '{names[cur]}': unknown channel '{c[:40]}'")
+            chans_of[cur].extend(chans)
         elif word == "}":
             if not stack:
-                raise ClipImportError(f"BVH '{path.name}': unbalanced '}}'")
+                raise ClipImportError(f"{where}: unbalanced '}}'")
             stack.pop()
             if not stack:
                 break
-            # back in the parent joint (End Sites have no channels anyway)
-            current = next((i for i in range(len(joints) - 1, -1, -1) if joints[i][0] == stack[-1]), -1)
         else:
-            raise ClipImportError(f"BVH '{path.name}': unexpected '{word}' in HIERARCHY")
+            raise ClipImportError(f"{where}: unexpected '{word[:40]}' in HIERARCHY")
         word = take()
     expect("MOTION")
     expect("Frames:")
-    n_frames = int(_number(take(), path))
+    n_frames = _count(take(), f"{where}: Frames:")
+    if n_frames < 1:
+        raise ClipImportError(f"{where}: Frames: must be at least 1, got {n_frames}")
     expect("Frame")
     expect("Time:")
-    dt = _number(take(), path)
+    dt = _number(take(), f"{where}: Frame Time:")
     if dt <= 0:
-        raise ClipImportError(f"BVH '{path.name}': Frame Time must be > 0, got {dt}")
-    n_ch = sum(len(c) for _, c in joints)
+        raise ClipImportError(f"{where}: Frame Time: must be > 0 s, got {dt:g}")
+    columns = [f"{names[j]}.{c}" for j in range(len(names)) for c in chans_of[j]]
+    n_ch = len(columns)
+    if n_ch == 0:
+        raise ClipImportError(f"{where}: no joint has CHANNELS")
     values = tokens[pos:pos + n_frames * n_ch]
-    if len(values) < n_frames * n_ch or n_frames < 1:
-        raise ClipImportError(f"BVH '{path.name}': expected {n_frames} frames of {n_ch} values, "
-                              f"got {len(values)} values")
+    if len(values) < n_frames * n_ch:
+        got = len(values) // n_ch
+        raise ClipImportError(f"{where}: 'Frames: {n_frames}' but only {got} complete frame(s) of {n_ch} values "
+                              f"follow ({len(values)} values)")
     try:
         data = np.array(values, dtype=float).reshape(n_frames, n_ch)
-    except ValueError as exc:
-        raise ClipImportError(f"BVH '{path.name}': bad number in MOTION: {exc}") from exc
+    except ValueError:
+        for i, tok in enumerate(values):
+            try:
+                float(tok)
+            except ValueError:
+                f, c = divmod(i, n_ch)
+                raise ClipImportError(f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is "
+                                      f"'{tok[:40]}', not a number") from None
+        raise
+    notes: list[str] = []
+    extra = len(tokens) - pos - n_frames * n_ch
+    if extra > 0:
+        notes.append(f"{extra} value(s) after the {n_frames} frames announced by 'Frames:' were ignored")
+    filled = _repair(data, columns, dt, where, fill, max_gap)
+    if filled:
+        per = ", ".join(f"{k} {v}" for k, v in filled.items())
+        notes.append(f"--fill {fill}: filled {sum(filled.values())} sample(s) ({per})")
+    if rest_frame is not None and not 0 <= rest_frame < n_frames:
+        raise ClipImportError(f"{where}: --rest-frame {rest_frame} is not a frame of the file (0..{n_frames - 1})")
+
     times = np.arange(n_frames) * dt
-    channels: list[SourceChannel] = []
+    local: list[np.ndarray | None] = []
+    positions: list[np.ndarray | None] = []
+    orders: list[str] = []
     col = 0
-    for name, chans in joints:
-        q = np.tile([0.0, 0.0, 0.0, 1.0], (n_frames, 1))
+    for j in range(len(names)):
+        q = np.tile(IDENTITY, (n_frames, 1))
         p = np.zeros((n_frames, 3))
         has_rot = has_pos = False
         order = ""
-        for c in chans:
+        for c in chans_of[j]:
             letter = c[0].lower()
             if c.lower().endswith("rotation"):
                 q = quat_mul(q, quat_axis_angle(_AXIS[letter], np.radians(data[:, col])))
@@ -117,17 +170,89 @@ def read_bvh(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
                 p[:, "xyz".index(letter)] = data[:, col]
                 has_pos = True
             col += 1
-        if has_rot:
-            channels.append(SourceChannel(name, "rotation", times, q, "LINEAR", path="rotation",
-                                          decimate=True, detail=f"BVH channel order {order}"))
-        if has_pos:
-            channels.append(SourceChannel(name, "translation", times, p, "LINEAR", path="translation",
-                                          decimate=True))
-    return channels, {"frames": n_frames, "frame_time": dt}, []
+        local.append(quat_normalise(q) if has_rot else None)
+        positions.append(p if has_pos else None)
+        orders.append(order)
+    # rest: the OFFSET pose (identity rotations) or frame N
+    rest_local = [IDENTITY if (rest_frame is None or q is None) else q[rest_frame] for q in local]
+    rest_world: list[np.ndarray] = []
+    for j in range(len(names)):
+        base = rest_world[parents[j]] if parents[j] >= 0 else IDENTITY
+        rest_world.append(quat_normalise(quat_mul(base, rest_local[j])))
+    rest_note = "the OFFSET pose" if rest_frame is None else f"frame {rest_frame}"
+    channels: list[SourceChannel] = []
+    for j, name in enumerate(names):
+        pre = rest_world[parents[j]] if parents[j] >= 0 else IDENTITY
+        if local[j] is not None:
+            channels.append(SourceChannel(name, "rotation", times, local[j], "LINEAR", path="rotation",
+                                          decimate=True, detail=f"BVH channel order {orders[j]}", pre=pre,
+                                          post=quat_conj(rest_world[j]), unit="frame", rest_note=rest_note))
+        if positions[j] is not None:
+            rest = None if rest_frame is None else positions[j][rest_frame]
+            channels.append(SourceChannel(name, "translation", times, positions[j], "LINEAR", path="translation",
+                                          decimate=True, pre=pre, rest=rest, unit="frame",
+                                          rest_note="first frame" if rest is None else rest_note))
+    info = {"frames": n_frames, "frame_time": dt, "joints": len(names), "rest": rest_note}
+    return channels, info, notes
 
 
-def _number(tok: str, path: Path) -> float:
+def _repair(data: np.ndarray, columns: list[str], dt: float, where: str, fill: str | None,
+            max_gap: int) -> dict[str, int]:
+    """Check for non-finite values; with `fill`, repair gaps of at most `max_gap` frames in place.
+    Returns the number of samples filled per column."""
+    bad = ~np.isfinite(data)
+    if not bad.any():
+        return {}
+    if fill is None:
+        f, c = (int(x) for x in np.argwhere(bad)[0])
+        n_bad_frames = int(bad.any(axis=1).sum())
+        more = f" ({n_bad_frames} frames have such values)" if n_bad_frames > 1 else ""
+        raise ClipImportError(f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is {float(data[f, c])}, "
+                              f"not a finite number{more}\n"
+                              f"  --fill hold|linear repairs gaps of up to {max_gap} frames")
+    filled: dict[str, int] = {}
+    for c in np.flatnonzero(bad.any(axis=0)):
+        col = data[:, c]
+        good = np.flatnonzero(~bad[:, c])
+        if good.size == 0:
+            raise ClipImportError(f"{where}: {columns[c]} has no finite value in any frame; nothing to fill from")
+        runs = _runs(bad[:, c])
+        for a, b in runs:  # frames a..b-1 are bad
+            if b - a > max_gap:
+                raise ClipImportError(f"{where}: frames {a}-{b - 1} (t = {a * dt:.4f}-{(b - 1) * dt:.4f} s): "
+                                      f"{columns[c]} has a gap of {b - a} frames that are not finite numbers, "
+                                      f"longer than --max-gap {max_gap}")
+        if fill == "hold":
+            for a, b in runs:
+                col[a:b] = col[a - 1] if a > 0 else col[b]
+        else:
+            idx = np.arange(len(col))
+            col[bad[:, c]] = np.interp(idx[bad[:, c]], good, col[good])
+        filled[columns[c]] = int(bad[:, c].sum())
+    return filled
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) of each run of True."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+
+
+def _number(tok: str, what: str) -> float:
     try:
-        return float(tok)
+        v = float(tok)
     except ValueError:
-        raise ClipImportError(f"BVH '{path.name}': expected a number, got '{tok}'") from None
+        raise ClipImportError(f"{what} expected a number, got '{tok[:40]}'") from None
+    if not math.isfinite(v):
+        raise ClipImportError(f"{what} expected a finite number, got '{tok[:40]}'")
+    return v
+
+
+def _count(tok: str, what: str) -> int:
+    try:
+        v = int(tok)
+    except ValueError:
+        raise ClipImportError(f"{what} expected a whole number, got '{tok[:40]}'") from None
+    if v < 0:
+        raise ClipImportError(f"{what} expected a whole number >= 0, got {v}")
+    return v

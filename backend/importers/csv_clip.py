@@ -2,7 +2,9 @@
 
 Header `time,<dof>,<dof>,...` (the first column may also be called `t`); one row per key time in
 seconds, values in rad or m, or an option name for enum DoFs; an empty cell means "no key for that
-column at this time". Every column becomes one scalar channel.
+column at this time". Every column becomes one scalar channel. A cell that reads as a number but is
+not finite (nan, inf) is an error naming the line, the time and the column; with `fill` it counts
+as an empty cell (no key there: the keys around it interpolate).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 from backend.importers.mapping import ClipImportError, SourceChannel
 
 
-def read_csv(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
+def read_csv(path: str | Path, fill: str | None = None) -> tuple[list[SourceChannel], dict, list[str]]:
     path = Path(path)
     try:
         with path.open(newline="") as fh:
@@ -34,6 +36,7 @@ def read_csv(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
     if len(set(header)) != len(header):
         raise ClipImportError(f"CSV '{path.name}': duplicate column names in {header}")
     times: list[float] = []
+    filled: dict[str, int] = {}
     cols: list[list[tuple[float, float | str]]] = [[] for _ in header[1:]]
     for line, row in enumerate(rows[1:], start=2):
         if len(row) > len(header):
@@ -53,10 +56,15 @@ def read_csv(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
                 continue
             try:
                 v: float | str = float(cell)
-                if not math.isfinite(v):
-                    raise ClipImportError(f"CSV '{path.name}' line {line}: {header[c + 1]}: value must be finite")
             except ValueError:
                 v = cell
+            if isinstance(v, float) and not math.isfinite(v):
+                if fill is None:
+                    raise ClipImportError(f"CSV '{path.name}' line {line} (t = {t:g} s): {header[c + 1]} is "
+                                          f"'{cell}', not a finite number\n  --fill hold|linear skips such "
+                                          "cells (the keys around them interpolate)")
+                filled[header[c + 1]] = filled.get(header[c + 1], 0) + 1
+                continue
             cols[c].append((t, v))
     channels = []
     for name, keys in zip(header[1:], cols):
@@ -66,5 +74,9 @@ def read_csv(path: str | Path) -> tuple[list[SourceChannel], dict, list[str]]:
         vals = [k[1] for k in keys]
         if all(isinstance(v, float) for v in vals):
             vals = np.array(vals, dtype=float)
-        channels.append(SourceChannel(name, "scalar", ts, vals, "LINEAR"))
-    return channels, {"rows": len(times)}, []
+        channels.append(SourceChannel(name, "scalar", ts, vals, "LINEAR", unit="row"))
+    notes = []
+    if filled:
+        per = ", ".join(f"{k} {v}" for k, v in filled.items())
+        notes.append(f"--fill {fill}: skipped {sum(filled.values())} non-finite cell(s) ({per})")
+    return channels, {"rows": len(times)}, notes

@@ -4,6 +4,13 @@ Reads one animation: each channel targets a node's `rotation`, `translation`, `s
 its sampler gives input times and output values through accessors (buffer views with or without a
 byteStride, float or normalised integer components). CUBICSPLINE outputs are triplets
 (in-tangent, value, out-tangent) per key.
+
+Rest pose: every node's rest (bind) rotation in the file's world axes comes from the nodes' own
+rest transforms (`rotation` or `matrix`, composed down the node tree) or, for a joint of a skin, from
+the skin's inverse bind matrices (which hold the bind pose even when the nodes were exported in
+another pose). A rotation channel carries `pre` (the parent's rest world rotation) and `post` (the
+inverse of the node's rest world rotation), so its change from rest in world axes is
+`pre * q(t) * post`.
 """
 
 from __future__ import annotations
@@ -16,6 +23,7 @@ from urllib.parse import unquote
 import numpy as np
 
 from backend.importers.mapping import ClipImportError, SourceChannel
+from backend.importers.rotations import IDENTITY, quat_conj, quat_from_matrix, quat_mul, quat_normalise
 
 _COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _NORMALISE = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0, 5125: 4294967295.0}
@@ -31,10 +39,7 @@ class _Reader:
     def buffer(self, index: int) -> bytes:
         if index in self._buffers:
             return self._buffers[index]
-        try:
-            buf = self.gltf.buffers[index]
-        except (IndexError, TypeError):
-            raise ClipImportError(f"glTF: buffer {index} does not exist") from None
+        buf = _item(self.gltf.buffers, index, "buffer")
         uri = buf.uri
         if not uri:
             data = self.gltf.binary_blob()
@@ -56,10 +61,7 @@ class _Reader:
 
     def accessor(self, index: int) -> np.ndarray:
         """The accessor's elements as a float array (count, width)."""
-        try:
-            acc = self.gltf.accessors[index]
-        except (IndexError, TypeError):
-            raise ClipImportError(f"glTF: accessor {index} does not exist") from None
+        acc = _item(self.gltf.accessors, index, "accessor")
         dtype = _COMPONENT.get(acc.componentType)
         width = _WIDTH.get(acc.type)
         if dtype is None or width is None:
@@ -70,7 +72,7 @@ class _Reader:
         if acc.bufferView is None:
             out = np.zeros((count, width))
         else:
-            view = self.gltf.bufferViews[acc.bufferView]
+            view = _item(self.gltf.bufferViews, acc.bufferView, f"accessor {index}: bufferView")
             data = self.buffer(view.buffer)
             start = int(view.byteOffset or 0) + int(acc.byteOffset or 0)
             elem = dtype.itemsize * width
@@ -121,7 +123,8 @@ def _load(path: Path) -> Any:
         raise ClipImportError(f"cannot read glTF file '{path}': {exc}") from exc
 
 
-def read_gltf(path: str | Path, animation: str | int | None = None) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
+def read_gltf(path: str | Path, animation: str | int | None = None
+              ) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
     """Channels of one animation of a glTF/GLB file; plus (source info, notes)."""
     path = Path(path)
     gltf = _load(path)
@@ -149,6 +152,10 @@ def read_gltf(path: str | Path, animation: str | int | None = None) -> tuple[lis
     reader = _Reader(gltf, path.parent)
     nodes = gltf.nodes or []
     node_names = _unique_names([n.name or f"node{i}" for i, n in enumerate(nodes)])
+    rest_world, rest_local, rest_from = _rest_pose(gltf, reader, node_names)
+    parents = {c: i for i, n in enumerate(nodes) for c in (n.children or []) if isinstance(c, int)}
+    if any(v.startswith("skin") for v in rest_from.values()):
+        notes.append("rest pose: the skin's inverse bind matrices (joints), the nodes' rest transforms (others)")
     channels: list[SourceChannel] = []
     for ci, ch in enumerate(anim.channels or []):
         target = ch.target
@@ -157,17 +164,20 @@ def read_gltf(path: str | Path, animation: str | int | None = None) -> tuple[lis
             continue
         if not 0 <= target.node < len(nodes):
             raise ClipImportError(f"glTF: channel {ci} targets node {target.node}, which does not exist")
-        try:
-            sampler = anim.samplers[ch.sampler]
-        except (IndexError, TypeError):
-            raise ClipImportError(f"glTF: channel {ci} uses sampler {ch.sampler}, which does not exist") from None
+        sampler = _item(anim.samplers, ch.sampler, f"channel {ci}: sampler")
+        node = node_names[target.node]
         # float32 times read back as the decimal they were written from (1.2, not 1.2000000476837158)
-        times = np.array([float(str(x)) for x in reader.accessor(sampler.input)[:, 0].astype(np.float32)])
+        raw_t = reader.accessor(sampler.input)[:, 0]
+        bad = np.flatnonzero(~np.isfinite(raw_t))
+        if bad.size:
+            k = int(bad[0])
+            raise ClipImportError(f"glTF: {node}.{target.path}: key {k} has time {float(raw_t[k])}, not a finite "
+                                  f"number (input accessor {sampler.input})")
+        times = np.array([float(str(x)) for x in raw_t.astype(np.float32)])
         out = reader.accessor(sampler.output)
         interp = (sampler.interpolation or "LINEAR").upper()
         if interp not in ("STEP", "LINEAR", "CUBICSPLINE"):
             raise ClipImportError(f"glTF: sampler {ch.sampler}: unknown interpolation '{interp}'")
-        node = node_names[target.node]
         n = len(times)
         triplet = 3 if interp == "CUBICSPLINE" else 1
         if target.path in ("rotation", "translation", "scale"):
@@ -200,10 +210,92 @@ def read_gltf(path: str | Path, animation: str | int | None = None) -> tuple[lis
                 value = value[:, 0]
                 in_t = None if in_t is None else in_t[:, 0]
                 out_t = None if out_t is None else out_t[:, 0]
-            channels.append(SourceChannel(node, kind, np.asarray(times, dtype=float), value, interp,
-                                          in_t, out_t, path=label))
+            sc = SourceChannel(node, kind, np.asarray(times, dtype=float), value, interp,
+                               in_t, out_t, path=label, unit="key")
+            n_idx = target.node
+            p_idx = parents.get(n_idx)
+            parent_world = rest_world[p_idx] if p_idx is not None else IDENTITY
+            if kind == "rotation":
+                sc.pre = parent_world
+                sc.post = quat_conj(rest_world[n_idx])
+                sc.rest_note = rest_from[n_idx]
+            elif kind == "translation":
+                sc.pre = parent_world
+                sc.rest = rest_local[n_idx]
+                sc.rest_note = "node rest translation"
+            channels.append(sc)
     info = {"animation": names[index], "animation_index": index}
     return channels, info, notes
+
+
+def _item(items: Any, index: Any, what: str) -> Any:
+    """items[index] for a glTF index that must exist (no negative indices, no None)."""
+    if isinstance(index, bool) or not isinstance(index, int) or not items or not 0 <= index < len(items) \
+            or items[index] is None:
+        raise ClipImportError(f"glTF: {what} {index!r} does not exist")
+    return items[index]
+
+
+def _node_rest(node: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(rest rotation quaternion, rest translation) of a node, checked for NaN/inf."""
+    if node.matrix is not None and len(node.matrix) == 16:
+        m = np.asarray(node.matrix, dtype=float).reshape(4, 4).T  # column-major
+        if not np.all(np.isfinite(m)):
+            raise ClipImportError(f"glTF: node '{name}': its rest matrix has values that are not finite numbers")
+        if abs(np.linalg.det(m[:3, :3])) < 1e-12:
+            return IDENTITY.copy(), m[:3, 3].copy()
+        return quat_from_matrix(m[:3, :3]), m[:3, 3].copy()
+    rot = np.asarray(node.rotation if node.rotation is not None else IDENTITY, dtype=float)
+    tr = np.asarray(node.translation if node.translation is not None else [0.0, 0.0, 0.0], dtype=float)
+    for what, arr, n in (("rotation", rot, 4), ("translation", tr, 3)):
+        if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+            raise ClipImportError(f"glTF: node '{name}': its rest {what} {arr.tolist()} is not {n} finite numbers")
+    if np.linalg.norm(rot) < 1e-9:
+        raise ClipImportError(f"glTF: node '{name}': its rest rotation has length 0")
+    return quat_normalise(rot), tr
+
+
+def _rest_pose(gltf: Any, reader: _Reader, names: list[str]
+               ) -> tuple[list[np.ndarray], list[np.ndarray], dict[int, str]]:
+    """Per node: rest rotation in world axes, rest local translation, and where the rest came from."""
+    nodes = gltf.nodes or []
+    local_q, local_t = zip(*[_node_rest(n, names[i]) for i, n in enumerate(nodes)]) if nodes else ((), ())
+    parents = {c: i for i, n in enumerate(nodes) for c in (n.children or []) if isinstance(c, int)}
+    world: dict[int, np.ndarray] = {}
+
+    def w(i: int, depth: int = 0) -> np.ndarray:
+        if i not in world:
+            p = parents.get(i)
+            base = w(p, depth + 1) if p is not None and depth < 1024 else IDENTITY
+            world[i] = quat_normalise(quat_mul(base, local_q[i]))
+        return world[i]
+
+    out = [w(i) for i in range(len(nodes))]
+    source = {i: "node rest rotations" for i in range(len(nodes))}
+    for s_i, skin in enumerate(gltf.skins or []):
+        joints = [j for j in (skin.joints or []) if isinstance(j, int) and 0 <= j < len(nodes)]
+        if skin.inverseBindMatrices is None or not joints:
+            continue
+        ibm = reader.accessor(skin.inverseBindMatrices)
+        if ibm.shape[1] != 16 or len(ibm) < len(skin.joints):
+            raise ClipImportError(f"glTF: skin {s_i}: inverseBindMatrices has {len(ibm)} matrices for "
+                                  f"{len(skin.joints)} joints")
+        for k, j in enumerate(skin.joints):
+            if not (isinstance(j, int) and 0 <= j < len(nodes)) or source.get(j) == "skin":
+                continue
+            m = ibm[k].reshape(4, 4).T
+            if not np.all(np.isfinite(m)):
+                raise ClipImportError(f"glTF: skin {s_i}: the inverse bind matrix of joint '{names[j]}' has "
+                                      "values that are not finite numbers")
+            try:
+                bind = np.linalg.inv(m)
+            except np.linalg.LinAlgError:
+                raise ClipImportError(f"glTF: skin {s_i}: the inverse bind matrix of joint '{names[j]}' "
+                                      "cannot be inverted") from None
+            out[j] = quat_from_matrix(bind[:3, :3])
+            source[j] = "skin"
+    source = {i: ("skin inverse bind matrices" if v == "skin" else v) for i, v in source.items()}
+    return out, list(local_t), source
 
 
 def _unique_names(names: list[str]) -> list[str]:

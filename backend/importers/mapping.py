@@ -1,12 +1,16 @@
-"""Source channels, quaternion helpers and the source-name -> robot-DoF mapping used by the importers.
+"""Source channels, the robot's joint frames and the source-name -> robot-DoF mapping of the importers.
 
-Every importer turns its file into a list of `SourceChannel`s (a named, timed series of rotations,
-translations or scalars). `resolve_mapping` then decides which robot DoF each channel drives:
+Every importer turns its file into `SourceChannel`s (a named, timed series of rotations,
+translations or scalars) that carry their rest pose (`pre`, `post`, `rest`). `resolve_channel` then
+decides which robot DoF(s) each channel drives:
 
 1. an entry of the mapping file (`--map`), looked up as `"<name>.<path>"` (e.g. `Neck.rotation`,
    `Hips.translation`) and then as `"<name>"` (rotation and scalar channels only);
 2. a DoF of exactly the same name;
-3. a DoF whose name matches ignoring case and separators (`Head-Yaw` -> `head_yaw`).
+3. a joint of exactly that name, or a joint whose child link has exactly that name (Blender bones are
+   often named after the link they move), driven by a DoF of its own;
+4. a DoF or joint name ignoring case and separators (`Head-Yaw` -> `head_yaw`); link names only
+   match exactly (a mocap `Head` is not the link `head`).
 
 Translation channels are only mapped by an explicit `"<name>.translation"` entry.
 
@@ -14,15 +18,17 @@ Mapping file (JSON or YAML)::
 
     {"joints": {"Neck": {"dof": "neck_pitch", "axis": [0, 1, 0], "scale": 1.0, "offset": 0.0},
                 "HeadTurn": "head_yaw",
+                "Head": [{"dof": "head_yaw"}, {"dof": "head_pitch"}],   # yaw, then pitch
                 "Tail": null}}            # null: ignore this source channel
 
-A rotation becomes the angle of its *twist* about the axis (swing-twist decomposition), so rotation
-about other axes is dropped cleanly; the axis defaults to the URDF axis of the DoF's joint (for a
-symbolic DoF, of the joint it drives most). A translation is projected onto the axis.
+Every name must exist: a source name the file does not have, a DoF the robot does not have, two
+entries for one source (`Head` and `Head.rotation`) or for one DoF are errors naming the closest
+names. `axis` is in the robot's frame at rest (+X forward, +Z up), like the DoF's own axis.
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import re
@@ -34,20 +40,31 @@ from typing import Any
 import numpy as np
 
 from backend.engine.embodiment import Dimension, DofType, Embodiment
+from backend.importers.rotations import (IDENTITY, RotationError, check_axes, quat_axis_angle, quat_mul,
+                                         swing_twist, twist_angle, unit)
+
+__all__ = ["ChannelMap", "ClipImportError", "DofTarget", "MappingSpec", "SourceChannel", "check_mapping",
+           "dof_axis", "load_mapping", "normalise_name", "parse_mapping", "quat_axis_angle", "quat_mul",
+           "resolve_channel", "robot_joint_frames", "swing_twist", "twist_angle", "urdf_joint_axes"]
 
 
 class ClipImportError(ValueError):
-    """A file that cannot be imported (missing, unknown format, malformed, nothing to map)."""
+    """A file that cannot be imported (missing, unknown format, malformed, bad data, nothing to map)."""
 
 
 @dataclass
 class SourceChannel:
     """One animated channel of a source file.
 
-    kind: "rotation" (values (N, 4) quaternions x, y, z, w), "translation" (values (N, 3)) or
-    "scalar" (values (N,) numbers, or option names for CSV enum columns).
+    kind: "rotation" (values (N, 4) quaternions x, y, z, w: the node's *local* rotation, as stored),
+    "translation" (values (N, 3), local), "scale" or "scalar" (values (N,) numbers, or option names
+    for CSV enum columns).
     interp: "STEP", "LINEAR" or "CUBICSPLINE"; for CUBICSPLINE `in_tangents`/`out_tangents` have the
     shape of `values` (derivatives per second, as glTF stores them).
+    Rest pose, in the source's world axes: a rotation's change from rest, in world axes, is
+    `pre * q * post` (pre: the parent's rest world rotation; post: the inverse of the node's own
+    rest world rotation); a translation's is `pre * (p - rest)`.
+    unit: how a sample is named in messages ("frame" for BVH, "key" for glTF, "row" for CSV).
     """
 
     name: str
@@ -60,6 +77,11 @@ class SourceChannel:
     path: str = ""  # source path label: rotation, translation, weights[0], column, ...
     decimate: bool = False  # keys may be dropped where linear interpolation reproduces them
     detail: str = ""  # for the report
+    pre: np.ndarray = field(default_factory=lambda: IDENTITY.copy())
+    post: np.ndarray = field(default_factory=lambda: IDENTITY.copy())
+    rest: np.ndarray | None = None  # translation at rest (local)
+    unit: str = "key"
+    rest_note: str = ""
 
     @property
     def label(self) -> str:
@@ -67,142 +89,171 @@ class SourceChannel:
 
 
 @dataclass
-class ChannelMap:
-    """How one source channel drives one DoF."""
+class DofTarget:
+    """One DoF a channel drives: the rotation about (or translation along) `axis` (robot frame)."""
 
     dof: str
     axis: np.ndarray | None
     scale: float = 1.0
     offset: float = 0.0
+    axis_given: bool = False
+
+
+@dataclass
+class ChannelMap:
+    """How one source channel drives one DoF, or several (a rotation split in the listed order)."""
+
+    targets: list[DofTarget]
     how: str = "exact name"
+    key: str | None = None  # the mapping file's entry
+
+    @property
+    def dof(self) -> str:
+        return self.targets[0].dof
+
+    @property
+    def axis(self) -> np.ndarray | None:
+        return self.targets[0].axis
+
+    @property
+    def scale(self) -> float:
+        return self.targets[0].scale
+
+    @property
+    def offset(self) -> float:
+        return self.targets[0].offset
 
 
 @dataclass
 class MappingSpec:
-    """A parsed mapping file: source name -> entry (None means: ignore the channel)."""
+    """A parsed mapping file: source name -> list of entries (None means: ignore the channel)."""
 
-    joints: dict[str, dict[str, Any] | None] = field(default_factory=dict)
+    joints: dict[str, list[dict[str, Any]] | None] = field(default_factory=dict)
     path: str = ""
 
 
 # --------------------------------------------------------------------------------------------------
-# Quaternions (x, y, z, w), vectorised over a leading axis
+# The robot's joint frames at rest
 # --------------------------------------------------------------------------------------------------
 
-
-def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product a * b of quaternions (..., 4) in x, y, z, w order."""
-    ax, ay, az, aw = np.moveaxis(np.asarray(a, dtype=float), -1, 0)
-    bx, by, bz, bw = np.moveaxis(np.asarray(b, dtype=float), -1, 0)
-    return np.stack([
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ], axis=-1)
-
-
-def quat_axis_angle(axis: np.ndarray, angle: np.ndarray | float) -> np.ndarray:
-    """Quaternions (x, y, z, w) for rotations by `angle` (rad, scalar or (N,)) about `axis`."""
-    axis = _unit(axis)
-    half = 0.5 * np.asarray(angle, dtype=float)
-    s = np.sin(half)[..., None]
-    return np.concatenate([s * axis, np.cos(half)[..., None]], axis=-1)
-
-
-def swing_twist(q: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Split rotations `q` (..., 4) into (swing, twist) with q = swing * twist, twist about `axis`.
-
-    The twist is the projection of the quaternion's vector part onto the axis, renormalised; a
-    rotation of exactly 180 degrees about an axis perpendicular to `axis` has no defined twist and
-    gets the identity."""
-    q = np.asarray(q, dtype=float)
-    axis = _unit(axis)
-    proj = np.sum(q[..., :3] * axis, axis=-1)
-    twist = np.concatenate([proj[..., None] * axis, q[..., 3:4]], axis=-1)
-    norm = np.linalg.norm(twist, axis=-1, keepdims=True)
-    degenerate = norm[..., 0] < 1e-12
-    twist = np.where(degenerate[..., None], np.array([0.0, 0.0, 0.0, 1.0]), twist / np.where(norm == 0, 1, norm))
-    conj = twist * np.array([-1.0, -1.0, -1.0, 1.0])
-    swing = quat_mul(q, conj)
-    return swing, twist
-
-
-def twist_angle(q: np.ndarray, axis: np.ndarray, unwrap: bool = True) -> np.ndarray:
-    """Angle (rad) of the twist of each rotation `q` (N, 4) about `axis`, in (-pi, pi].
-
-    With `unwrap`, a sequence is made continuous (no 2*pi jumps between successive samples)."""
-    q = np.atleast_2d(np.asarray(q, dtype=float))
-    axis = _unit(axis)
-    s = q[:, :3] @ axis
-    w = q[:, 3]
-    ang = 2.0 * np.arctan2(s, w)
-    ang = (ang + math.pi) % (2 * math.pi) - math.pi
-    ang = np.where(np.isclose(ang, -math.pi), math.pi, ang)
-    if unwrap and len(ang) > 1:
-        ang = np.unwrap(ang)
-    return ang
-
-
-def _unit(v: Any) -> np.ndarray:
-    v = np.asarray(v, dtype=float).reshape(3)
-    n = float(np.linalg.norm(v))
-    if not math.isfinite(n) or n < 1e-12:
-        raise ClipImportError(f"axis {v.tolist()} has no direction")
-    return v / n
-
-
-# --------------------------------------------------------------------------------------------------
-# Robot axes
-# --------------------------------------------------------------------------------------------------
-
-_AXES_CACHE: dict[str, dict[str, np.ndarray]] = {}
+_FRAMES_CACHE: dict[str, dict[str, dict[str, Any]]] = {}
 _SPATIAL_AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1), "roll": (1, 0, 0), "pitch": (0, 1, 0),
                  "yaw": (0, 0, 1)}
 
 
-def urdf_joint_axes(urdf_path: str | Path) -> dict[str, np.ndarray]:
-    """Joint name -> unit axis (the URDF `<axis xyz>`, default 1 0 0) of every joint of a URDF."""
+def _floats(text: str | None, default: str, n: int = 3) -> list[float]:
+    try:
+        vals = [float(x) for x in (text if text is not None else default).split()]
+    except ValueError:
+        vals = [float(x) for x in default.split()]
+    return vals if len(vals) == n and all(math.isfinite(v) for v in vals) else [float(x) for x in default.split()]
+
+
+def _rpy_quat(r: float, p: float, y: float) -> np.ndarray:
+    qz = quat_axis_angle([0, 0, 1], y)
+    qy = quat_axis_angle([0, 1, 0], p)
+    qx = quat_axis_angle([1, 0, 0], r)
+    return quat_mul(quat_mul(qz, qy), qx)
+
+
+def robot_joint_frames(urdf_path: str | Path) -> dict[str, dict[str, Any]]:
+    """Joint name -> {"axis": local unit axis, "world_axis": the axis in the robot's base frame in
+    the URDF's zero configuration, "world": that frame's rotation (quaternion), "child", "parent"}."""
     key = str(urdf_path)
-    if key not in _AXES_CACHE:
-        axes: dict[str, np.ndarray] = {}
+    if key not in _FRAMES_CACHE:
         try:
             root = ET.parse(key).getroot()
         except (OSError, ET.ParseError) as exc:
             raise ClipImportError(f"cannot read joint axes from '{urdf_path}': {exc}") from exc
+        raw: dict[str, dict[str, Any]] = {}
         for j in root.iter("joint"):
             el = j.find("axis")
-            xyz = el.get("xyz", "1 0 0") if el is not None else "1 0 0"
             try:
-                axes[j.get("name", "")] = _unit([float(x) for x in xyz.split()])
-            except (ValueError, ClipImportError):
-                axes[j.get("name", "")] = np.array([1.0, 0.0, 0.0])
-        _AXES_CACHE[key] = axes
-    return _AXES_CACHE[key]
+                axis = unit(_floats(el.get("xyz") if el is not None else None, "1 0 0"))
+            except RotationError:
+                axis = np.array([1.0, 0.0, 0.0])
+            o = j.find("origin")
+            rpy = _floats(o.get("rpy") if o is not None else None, "0 0 0")
+            parent = j.find("parent")
+            child = j.find("child")
+            raw[j.get("name", "")] = {"axis": axis, "origin": _rpy_quat(*rpy),
+                                      "parent": parent.get("link", "") if parent is not None else "",
+                                      "child": child.get("link", "") if child is not None else ""}
+        by_child = {v["child"]: k for k, v in raw.items()}
+        frames: dict[str, dict[str, Any]] = {}
+
+        def world(name: str, depth: int = 0) -> np.ndarray:
+            if name in frames:
+                return frames[name]["world"]
+            j = raw[name]
+            up = by_child.get(j["parent"])
+            base = world(up, depth + 1) if up is not None and depth < 256 else IDENTITY
+            q = quat_mul(base, j["origin"])
+            m = _qmat(q)
+            frames[name] = {"axis": j["axis"], "world": q, "world_axis": unit(m @ j["axis"]),
+                            "child": j["child"], "parent": up}
+            return q
+
+        for name in raw:
+            world(name)
+        _FRAMES_CACHE[key] = frames
+    return _FRAMES_CACHE[key]
+
+
+def _qmat(q: np.ndarray) -> np.ndarray:
+    from backend.importers.rotations import quat_to_matrix
+
+    return quat_to_matrix(q)
+
+
+def urdf_joint_axes(urdf_path: str | Path) -> dict[str, np.ndarray]:
+    """Joint name -> unit axis (the URDF `<axis xyz>`, default 1 0 0) in the joint's own frame."""
+    return {k: v["axis"] for k, v in robot_joint_frames(urdf_path).items()}
+
+
+def dof_joint(emb: Embodiment, dof_name: str) -> str | None:
+    """The URDF joint a DoF turns: its own, or for a symbolic DoF the one it drives most."""
+    d = emb.dof(dof_name)
+    if d.drives:
+        return max(d.drives.items(), key=lambda kv: abs(kv[1]))[0]
+    return d.joint
 
 
 def dof_axis(emb: Embodiment, dof_name: str) -> np.ndarray | None:
-    """The default axis of a DoF: its URDF joint's axis, the most-driven joint's for a symbolic DoF,
-    the base axis for a spatial DoF; None if unknown."""
+    """The default axis of a DoF in the robot's frame at rest (the URDF's zero configuration): its
+    joint's axis (the most-driven joint's for a symbolic DoF), the base axis for a spatial DoF;
+    None if unknown."""
     d = emb.dof(dof_name)
     if d.axis in _SPATIAL_AXES:
         return np.array(_SPATIAL_AXES[d.axis], dtype=float)
-    joint = d.joint
-    if d.drives:
-        joint = max(d.drives.items(), key=lambda kv: abs(kv[1]))[0]
+    joint = dof_joint(emb, dof_name)
     if joint is None or emb.urdf_path is None:
         return None
-    return urdf_joint_axes(emb.urdf_path).get(joint)
+    f = robot_joint_frames(emb.urdf_path).get(joint)
+    return None if f is None else f["world_axis"]
 
 
 # --------------------------------------------------------------------------------------------------
-# Mapping
+# Mapping file
 # --------------------------------------------------------------------------------------------------
 
 
 def normalise_name(name: str) -> str:
     """Lower case without separators: `Head-Yaw`, `head_yaw` and `HeadYaw` all give `headyaw`."""
     return re.sub(r"[^0-9a-z]", "", name.lower())
+
+
+def closest(name: str, candidates: list[str], n: int = 4) -> str:
+    """`closest: a, b` (or the first few candidates) for an error message."""
+    cands = sorted(set(candidates))
+    by_norm = [c for c in cands if normalise_name(c) == normalise_name(name)]
+    near = by_norm + [c for c in difflib.get_close_matches(name, cands, n=n, cutoff=0.5) if c not in by_norm]
+    if not near:
+        low = {c.lower(): c for c in cands}
+        near = [low[c] for c in difflib.get_close_matches(name.lower(), list(low), n=n, cutoff=0.4)]
+    if near:
+        return "closest: " + ", ".join(near[:n])
+    return "known: " + ", ".join(cands[:8]) + (", ..." if len(cands) > 8 else "") if cands else "none known"
 
 
 def load_mapping(path: str | Path) -> MappingSpec:
@@ -220,55 +271,124 @@ def load_mapping(path: str | Path) -> MappingSpec:
         else:
             raw = json.loads(text)
     except Exception as exc:  # json/yaml errors
-        raise ClipImportError(f"mapping file '{path}': cannot parse: {exc}") from exc
+        raise ClipImportError(f"mapping file '{path}': cannot parse: {str(exc)[:200]}") from exc
     return parse_mapping(raw, str(path))
 
 
+_ENTRY_KEYS = ("dof", "axis", "scale", "offset")
+
+
+def _parse_entry(entry: Any, here: str) -> dict[str, Any]:
+    if isinstance(entry, str):
+        entry = {"dof": entry}
+    if not isinstance(entry, dict) or not isinstance(entry.get("dof"), str) or not entry["dof"]:
+        raise ClipImportError(f"{here}: expected a DoF name, an object with 'dof', or a list of them")
+    bad = set(entry) - set(_ENTRY_KEYS)
+    if bad:
+        raise ClipImportError(f"{here}: unknown keys {sorted(bad)} (dof, axis, scale, offset)")
+    out: dict[str, Any] = {"dof": entry["dof"]}
+    if entry.get("axis") is not None:
+        ax = entry["axis"]
+        if not (isinstance(ax, (list, tuple)) and len(ax) == 3
+                and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in ax)):
+            raise ClipImportError(f"{here}: axis must be [x, y, z]")
+        try:
+            out["axis"] = unit(ax)
+        except RotationError as exc:
+            raise ClipImportError(f"{here}: {exc}") from None
+    for k, default in (("scale", 1.0), ("offset", 0.0)):
+        v = entry.get(k, default)
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+            raise ClipImportError(f"{here}: {k} must be a finite number")
+        out[k] = float(v)
+    return out
+
+
 def parse_mapping(raw: Any, where: str = "mapping") -> MappingSpec:
-    """Check a mapping document `{"joints": {source: dof | {dof, axis, scale, offset} | null}}`."""
+    """Check a mapping document `{"joints": {source: dof | {dof, axis, scale, offset} | [..] | null}}`."""
     if isinstance(raw, MappingSpec):
         return raw
     if not isinstance(raw, dict) or not isinstance(raw.get("joints"), dict):
         raise ClipImportError(f"{where}: expected an object with a 'joints' object "
-                              "(source name -> DoF name or {dof, axis, scale, offset})")
+                              "(source name -> DoF name, {dof, axis, scale, offset}, a list of them, or null)")
     extra = set(raw) - {"joints"}
     if extra:
         raise ClipImportError(f"{where}: unknown keys {sorted(extra)} (only 'joints')")
-    joints: dict[str, dict[str, Any] | None] = {}
+    joints: dict[str, list[dict[str, Any]] | None] = {}
     for src, entry in raw["joints"].items():
         here = f"{where}: joints.{src}"
         if entry is None:
             joints[str(src)] = None
             continue
-        if isinstance(entry, str):
-            entry = {"dof": entry}
-        if not isinstance(entry, dict) or not isinstance(entry.get("dof"), str) or not entry["dof"]:
-            raise ClipImportError(f"{here}: expected a DoF name or an object with 'dof'")
-        bad = set(entry) - {"dof", "axis", "scale", "offset"}
-        if bad:
-            raise ClipImportError(f"{here}: unknown keys {sorted(bad)} (dof, axis, scale, offset)")
-        out: dict[str, Any] = {"dof": entry["dof"]}
-        if entry.get("axis") is not None:
-            ax = entry["axis"]
-            if not (isinstance(ax, (list, tuple)) and len(ax) == 3 and all(isinstance(x, (int, float)) for x in ax)):
-                raise ClipImportError(f"{here}: axis must be [x, y, z]")
-            try:
-                out["axis"] = _unit(ax)
-            except ClipImportError as exc:
-                raise ClipImportError(f"{here}: {exc}") from None
-        for k, default in (("scale", 1.0), ("offset", 0.0)):
-            v = entry.get(k, default)
-            if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-                raise ClipImportError(f"{here}: {k} must be a finite number")
-            out[k] = float(v)
-        joints[str(src)] = out
+        if isinstance(entry, list):
+            if not entry:
+                raise ClipImportError(f"{here}: an empty list (use null to ignore a source)")
+            if len(entry) > 3:
+                raise ClipImportError(f"{here}: one rotation can drive at most 3 DoFs, got {len(entry)}")
+            items = [_parse_entry(e, f"{here}[{i}]") for i, e in enumerate(entry)]
+        else:
+            items = [_parse_entry(entry, here)]
+        dofs = [e["dof"] for e in items]
+        dup = sorted({d for d in dofs if dofs.count(d) > 1})
+        if dup:
+            raise ClipImportError(f"{here}: DoF {dup[0]!r} is listed twice")
+        joints[str(src)] = items
+    # one source named twice (Head and Head.rotation), one DoF driven from two entries
+    by_base: dict[str, list[str]] = {}
+    for k in joints:
+        base = k.split(".", 1)[0]
+        by_base.setdefault(base, []).append(k)
+    for base, keys in by_base.items():
+        if base in keys and any(k.startswith(base + ".rotation") for k in keys if k != base):
+            other = next(k for k in keys if k != base and k.startswith(base + ".rotation"))
+            raise ClipImportError(f"{where}: '{base}' and '{other}' both map the same rotation; keep one")
+    owner: dict[str, str] = {}
+    for k, items in joints.items():
+        for e in items or []:
+            if e["dof"] in owner:
+                raise ClipImportError(f"{where}: DoF '{e['dof']}' is driven by both '{owner[e['dof']]}' "
+                                      f"and '{k}'; a DoF takes one source")
+            owner[e["dof"]] = k
     return MappingSpec(joints, where)
 
 
+def check_mapping(spec: MappingSpec, channels: list[SourceChannel], emb: Embodiment, file_name: str) -> None:
+    """Every entry must name a source of the file and DoFs of the robot (errors list the closest)."""
+    names = sorted({ch.name for ch in channels})
+    labels = sorted({ch.label for ch in channels})
+    for key, items in spec.joints.items():
+        if key not in labels and key not in names:
+            raise ClipImportError(f"{spec.path}: joints.{key}: '{file_name}' has no animated source '{key}' "
+                                  f"({closest(key, labels + names)})")
+        if key in names and key not in labels:
+            kinds = {ch.kind for ch in channels if ch.name == key}
+            if items is not None and kinds <= {"translation", "scale"}:
+                raise ClipImportError(f"{spec.path}: joints.{key}: '{key}' has only "
+                                      f"{'/'.join(sorted(kinds))} channels; name it '{key}.translation'")
+        for e in items or []:
+            if not emb.has_dof(e["dof"]):
+                raise ClipImportError(f"{spec.path}: joints.{key}: robot '{emb.name}' has no DoF '{e['dof']}' "
+                                      f"({closest(e['dof'], emb.dof_names)})")
+        if items and len(items) > 1:
+            chs = [ch for ch in channels if ch.name == key or ch.label == key]
+            if any(ch.kind != "rotation" for ch in chs):
+                raise ClipImportError(f"{spec.path}: joints.{key}: only a rotation can drive several DoFs")
+
+
+# --------------------------------------------------------------------------------------------------
+# Resolution
+# --------------------------------------------------------------------------------------------------
+
+
+def _joint_dofs(emb: Embodiment) -> dict[str, str]:
+    """URDF joint name -> the (non-symbolic, stationary) DoF that drives it 1:1."""
+    return {d.joint: d.name for d in emb.dofs if d.joint and not d.drives}
+
+
 def resolve_channel(ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None) -> tuple[ChannelMap | None, str]:
-    """The DoF a channel drives and how, or (None, reason)."""
+    """The DoF(s) a channel drives and how, or (None, reason)."""
     spec = spec or MappingSpec()
-    entry: dict[str, Any] | None = None
+    items: list[dict[str, Any]] | None = None
     key = None
     if ch.kind == "scale":
         return None, "scale channel (no DoF takes a node's scale)"
@@ -276,16 +396,18 @@ def resolve_channel(ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None
     for k in (f"{ch.name}.{ch.path}" if ch.path else None, ch.name if by_name else None):
         if k is not None and k in spec.joints:
             key = k
-            entry = spec.joints[k]
+            items = spec.joints[k]
             break
-    if key is not None and entry is None:
+    if key is not None and items is None:
         return None, f"ignored by the mapping file ('{key}': null)"
-    if entry is not None:
-        dof = entry["dof"]
-        if not emb.has_dof(dof):
-            return None, f"mapping file names DoF '{dof}', which robot '{emb.name}' does not have"
+    if items is not None:
+        for e in items:
+            if not emb.has_dof(e["dof"]):
+                return None, f"mapping file names DoF '{e['dof']}', which robot '{emb.name}' does not have"
         how = f"mapping file ('{key}')"
-        return _finish(ch, emb, dof, entry.get("axis"), entry["scale"], entry["offset"], how)
+        if len(items) > 1:
+            how += ", split in order " + " then ".join(e["dof"] for e in items)
+        return _finish(ch, emb, [(e["dof"], e.get("axis"), e["scale"], e["offset"]) for e in items], how, key)
     if ch.kind == "translation":
         return None, (f"translation channel (map '{ch.name}.translation' to a linear DoF with --map to use it)")
     name = ch.name
@@ -294,30 +416,50 @@ def resolve_channel(ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None
         if name.isdigit():
             return None, "morph-target weight with no target name (map it with --map)"
     if emb.has_dof(name):
-        return _finish(ch, emb, name, None, 1.0, 0.0, "exact name")
+        return _finish(ch, emb, [(name, None, 1.0, 0.0)], "exact name")
+    joint_dofs = _joint_dofs(emb)
+    links = {j.child: j.name for j in emb.joints if j.child}
+    if ch.kind == "rotation":
+        if name in joint_dofs:
+            return _finish(ch, emb, [(joint_dofs[name], None, 1.0, 0.0)], f"joint '{name}'")
+        if name in links and links[name] in joint_dofs:
+            return _finish(ch, emb, [(joint_dofs[links[name]], None, 1.0, 0.0)],
+                           f"child link of joint '{links[name]}'")
     norm = normalise_name(name)
-    matches = [d.name for d in emb.dofs if normalise_name(d.name) == norm and norm]
+    matches = sorted({d.name for d in emb.dofs if normalise_name(d.name) == norm and norm})
+    if not matches and ch.kind == "rotation" and norm:  # link names only match exactly (Head is no link 'head')
+        matches = sorted({dof for j, dof in joint_dofs.items() if normalise_name(j) == norm})
     if len(matches) == 1:
-        return _finish(ch, emb, matches[0], None, 1.0, 0.0, "name ignoring case and separators")
+        return _finish(ch, emb, [(matches[0], None, 1.0, 0.0)], "name ignoring case and separators")
     if len(matches) > 1:
         return None, f"ambiguous name: matches DoFs {matches} (use --map)"
     return None, f"no DoF of that name on robot '{emb.name}' (use --map)"
 
 
-def _finish(ch: SourceChannel, emb: Embodiment, dof_name: str, axis: np.ndarray | None, scale: float,
-            offset: float, how: str) -> tuple[ChannelMap | None, str]:
-    d = emb.dof(dof_name)
-    if d.type is DofType.event:
-        return None, f"DoF '{dof_name}' is an event DoF (takes events, not keys)"
-    if ch.kind in ("rotation", "translation"):
-        if d.type is not DofType.continuous:
-            return None, f"DoF '{dof_name}' is {d.type.value}, not continuous"
-        if axis is None:
-            axis = dof_axis(emb, dof_name)
-        if axis is None:
-            return None, f"DoF '{dof_name}' has no joint axis (give 'axis' in the mapping file)"
-        if ch.kind == "rotation" and d.dimension is Dimension.spatial and d.axis in ("x", "y", "z"):
-            return None, f"DoF '{dof_name}' is a linear base axis; a rotation cannot drive it"
-    elif d.type is DofType.colour:
-        return None, f"DoF '{dof_name}' is a colour DoF (a single column cannot set it)"
-    return ChannelMap(dof_name, None if axis is None else np.asarray(axis, dtype=float), scale, offset, how), ""
+def _finish(ch: SourceChannel, emb: Embodiment, items: list[tuple[str, Any, float, float]], how: str,
+            key: str | None = None) -> tuple[ChannelMap | None, str]:
+    targets: list[DofTarget] = []
+    for dof_name, axis, scale, offset in items:
+        d = emb.dof(dof_name)
+        given = axis is not None
+        if d.type is DofType.event:
+            return None, f"DoF '{dof_name}' is an event DoF (takes events, not keys)"
+        if ch.kind in ("rotation", "translation"):
+            if d.type is not DofType.continuous:
+                return None, f"DoF '{dof_name}' is {d.type.value}, not continuous"
+            if axis is None:
+                axis = dof_axis(emb, dof_name)
+            if axis is None:
+                return None, f"DoF '{dof_name}' has no joint axis (give 'axis' in the mapping file)"
+            if ch.kind == "rotation" and d.dimension is Dimension.spatial and d.axis in ("x", "y", "z"):
+                return None, f"DoF '{dof_name}' is a linear base axis; a rotation cannot drive it"
+        elif d.type is DofType.colour:
+            return None, f"DoF '{dof_name}' is a colour DoF (a single column cannot set it)"
+        targets.append(DofTarget(dof_name, None if axis is None else np.asarray(axis, dtype=float),
+                                 scale, offset, given))
+    if len(targets) > 1:
+        try:
+            check_axes([t.axis for t in targets])
+        except RotationError as exc:
+            raise ClipImportError(f"{key}: {' then '.join(t.dof for t in targets)}: {exc}") from None
+    return ChannelMap(targets, how, key), ""
