@@ -16,6 +16,8 @@ Conventions
   of the same id and type in the program being replaced (a hot swap keeps a playing clip playing).
 - A signal input that is connected overrides the parameter of the same name (see `signal`).
 - `handle(command)` receives run-time commands (play, seek, set layer, …) addressed to the block.
+- `check(params, node)` / `check_wiring(params, node)` add the block type's own rules to the program
+  checks (`backend.graph.checks.hooks`), so the checker never names a block type.
 - Hot paths are vectorised over channels; never loop over DoFs in `tick`.
 
 Register a block class with `@register_block`. Every module of this package is imported by
@@ -174,6 +176,18 @@ class Block:
             "outputs": {k: p.to_dict() for k, p in outs.items()},
             "dynamic_ports": _has_dynamic_ports(cls),
         }
+
+    # --- program checks (called by backend.graph.checks; `node` is its NodeCheck) ----------------
+    @classmethod
+    def check(cls, params: BlockParams, node: Any) -> None:
+        """Rules of this block type beyond its parameter model, checked before it is configured.
+
+        Report with `node.error(code, message, port=..., at=<path in params>)`; default: none.
+        """
+
+    @classmethod
+    def check_wiring(cls, params: BlockParams, node: Any) -> None:
+        """Warnings once the program's edges are known (`node.connected(port)`); default: none."""
 
     # --- life cycle -----------------------------------------------------------------------------
     def configure(self) -> None:

@@ -3,6 +3,7 @@ sine source, gain/offset and DoF masks, and the stage-2 safety limiter."""
 
 from __future__ import annotations
 
+import difflib
 import math
 from typing import Any, Literal
 
@@ -93,6 +94,23 @@ class ExposedInput(Block):
     def ports(cls, params: InputParams | None = None):  # type: ignore[override]
         kind = PortType(params.type) if params is not None else PortType.float
         return {}, {"value": Port(kind, "current value of the exposed input")}
+
+    @classmethod
+    def check(cls, params: InputParams, node: Any) -> None:
+        """The program must declare the exposed input, with this type."""
+        name, kind = params.name, params.type
+        declared = node.read_input(name)
+        if declared is None and name not in node.broken_inputs:
+            names = list(node.exposed_inputs)
+            hint = difflib.get_close_matches(name, names, n=1)
+            extra = f"; did you mean '{hint[0]}'?" if hint else f" (declared: {', '.join(sorted(names)) or 'none'})"
+            node.error("unknown_exposed_input", port="name", at=("name",),
+                       message=f"node '{node.node_id}' reads exposed input '{name}', which the program "
+                               f"does not declare in 'inputs'{extra}")
+        elif declared is not None and declared.type != kind:
+            node.error("port_type_mismatch", port="type", at=("type",), ports_in_doubt=True,
+                       message=f"node '{node.node_id}' reads exposed input '{name}' as {kind}, but the "
+                               f"program declares it as {declared.type}")
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         return {"value": self.ctx.inputs.get(self.params.name)}

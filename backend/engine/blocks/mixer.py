@@ -89,6 +89,17 @@ class LayerMixer(Block):
             ins[f"{layer.name}_weight"] = Port(PortType.float, f"multiplies layer '{layer.name}''s weight (0..1)")
         return ins, cls.outputs
 
+    @classmethod
+    def check_wiring(cls, params: MixerParams, node: Any) -> None:
+        """Warn about layers that can have no effect: weight 0, or nothing connected."""
+        for k, layer in enumerate(params.layers):
+            if layer.weight == 0:
+                node.warning("zero_weight_layer", port=layer.name, at=("layers", k, "weight"),
+                             message=f"layer '{layer.name}' of '{node.node_id}' has weight 0, so it has no effect")
+            if not node.connected(layer.name):
+                node.warning("empty_layer", port=layer.name, at=("layers", k),
+                             message=f"layer '{layer.name}' of '{node.node_id}' has nothing connected")
+
     def configure(self) -> None:
         layers = self.params.layers
         self.names = [layer.name for layer in layers]
