@@ -7,7 +7,7 @@ J). With the hard limiter V = Vr. `limit_scale` uses a fraction of the limits; `
 `acc_limit`, `jerk_limit` replace the robot's limits for every filtered DoF (same meaning: bounds
 of the output). Parameter changes reach the running filter through `set_params`: its state stays.
 The spec's jerk bound on the output is only guaranteed while one tick's jerk budget J/rate is at least
-0.2 A (see backend/engine/nmf.py); the bundled robot's J = 10 A gives 0.12 at 100 Hz, where the
+0.2 A (see backend/engine/nmf/__init__.py); the bundled robot's J = 10 A gives 0.12 at 100 Hz, where the
 output measured at most 0.62 J on a square wave, but without that guarantee.
 """
 
