@@ -1,5 +1,5 @@
 """The block base class: drivable parameters (port + resolved value), the declared state object and its
-adoption in a hot swap, the operator's missing-frame handling and the history ring buffer.
+adoption in a hot swap, the operator's missing-frame handling and the frame history ring buffer.
 
 The demo blocks here are not registered, so the catalog stays as it is.
 """
@@ -20,13 +20,12 @@ from backend.engine.blocks.base import (
     Block,
     BlockContext,
     BlockParams,
-    History,
     Operator,
     Port,
     PortType,
     drivable,
 )
-from backend.engine.frames import PartialFrame
+from backend.engine.frames import FrameHistory, PartialFrame
 from backend.engine.library import RobotLibrary
 
 
@@ -264,8 +263,8 @@ def test_an_operator_without_an_input_frame_outputs_an_empty_frame_and_stands_st
     assert blk.state.count == 0
 
 
-def test_history_reads_each_channel_its_lag_back_and_starts_primed():
-    h = History.for_delay(0.05, 100.0, 2)  # 5 ticks of delay at most
+def test_frame_history_reads_each_channel_its_lag_back_and_starts_primed():
+    h = FrameHistory.for_delay(0.05, 100.0, 2)  # 5 ticks of delay at most
     assert h.values.shape == (7, 2)
     lag = np.array([0, 2])
     outs = [h.push_read(np.array([k, k], dtype=float), np.array([True, k % 2 == 0]), lag) for k in range(1, 6)]

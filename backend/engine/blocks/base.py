@@ -18,8 +18,9 @@ Conventions
 - State lives in one object, `self.state`, an instance of the block's `State` dataclass made by
   `reset()`; `adopt_state(old)` takes the old block's state over as a whole in a hot swap (same id and
   type), unless one of its arrays changed shape (a hot swap keeps a playing clip playing).
-- `Operator` is the base of blocks that transform the frame on their `in` port; it handles a missing
-  input frame once for all of them.
+- `Operator` is the base of blocks that transform the frame on their `in` port (it handles a missing
+  input frame once for all of them); `Source` and `SignalBlock` give sources and signal blocks their
+  category and role.
 - `handle(command)` receives run-time commands (play, seek, set layer, …) addressed to the block.
 - Hot paths are vectorised over channels; never loop over DoFs in `tick`.
 
@@ -139,15 +140,8 @@ def vec3_or_none(value: Any) -> np.ndarray | None:
 
 def colour_or_none(value: Any) -> np.ndarray | None:
     """A colour [r, g, b] with components in [0, 1] from a signal or command, or None when it is not one."""
-    if value is None:
-        return None
-    try:
-        c = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        return None
-    if c.shape != (3,) or not np.all(np.isfinite(c)) or np.any(c < 0.0) or np.any(c > 1.0):
-        return None
-    return c
+    c = vec3_or_none(value)
+    return None if c is None or np.any(c < 0.0) or np.any(c > 1.0) else c
 
 
 def _number(value: Any) -> Any:
@@ -433,36 +427,19 @@ class Operator(Block):
         raise NotImplementedError
 
 
-@dataclass
-class History:
-    """A ring buffer of the last frames (values and masks), read back per channel a number of ticks ago:
-    the whole state of the delay operators."""
+class Source(Block):
+    """A block that creates a frame (on `out`) from its parameters, inputs and state."""
 
-    values: np.ndarray  # (capacity, channels)
-    mask: np.ndarray  # (capacity, channels) bool
-    head: int = 0
-    primed: bool = False
+    category = "sources"
+    role = Role.source
+    outputs = FRAME_OUT
 
-    @classmethod
-    def for_delay(cls, max_seconds: float, rate: float, n_channels: int) -> "History":
-        """Room for delays up to `max_seconds` at `rate` Hz."""
-        capacity = int(math.ceil(max_seconds * rate)) + 2
-        return cls(np.zeros((capacity, n_channels)), np.zeros((capacity, n_channels), dtype=bool))
 
-    def push_read(self, values: np.ndarray, mask: np.ndarray, lag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Store this tick's frame and read each channel `lag[c]` ticks back (0 = now)."""
-        cap = self.values.shape[0]
-        if not self.primed:  # start as if the first frame had always been there: no jump at start
-            self.values[:] = values
-            self.mask[:] = mask
-            self.primed = True
-        self.values[self.head] = values
-        self.mask[self.head] = mask
-        rows = (self.head - np.minimum(lag, cap - 1)) % cap
-        cols = np.arange(values.shape[0])
-        out_v, out_m = self.values[rows, cols], self.mask[rows, cols]
-        self.head = (self.head + 1) % cap
-        return out_v, out_m
+class SignalBlock(Block):
+    """A block that computes scalar signals (exposed inputs, math, oscillators, mappings)."""
+
+    category = "signals"
+    role = Role.signal
 
 
 def _has_dynamic_ports(cls: type[Block]) -> bool:

@@ -10,15 +10,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import (
-    Block,
-    BlockParams,
-    DofSelection,
-    Port,
-    PortType,
-    Role,
-    register_block,
-)
+from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, register_block
 from backend.engine.blocks.idle import block_rng
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
@@ -54,7 +46,7 @@ class BlinkParams(BlockParams):
 
 
 @register_block
-class Blink(Block):
+class Blink(Source):
     """Blinks the eyelids at natural random intervals, never during a held expression, gladly at a gaze shift.
 
     A blink closes fast, holds briefly and opens more slowly; intervals follow a gamma distribution with
@@ -67,8 +59,6 @@ class Blink(Block):
 
     type_name = "blink"
     title = "Blink scheduler"
-    category = "sources"
-    role = Role.source
     Params = BlinkParams
     inputs = {
         "hold": Port(PortType.bool, "while true, no blink starts (a held expression)"),

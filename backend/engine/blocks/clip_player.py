@@ -10,13 +10,12 @@ import numpy as np
 from pydantic import Field
 
 from backend.engine.blocks.base import (
-    Block,
     BlockCommandError,
     BlockParams,
     DofSelection,
     Port,
     PortType,
-    Role,
+    Source,
     drivable,
     register_block,
 )
@@ -46,7 +45,7 @@ def _smooth(x: float) -> float:
 
 
 @register_block
-class ClipPlayer(Block):
+class ClipPlayer(Source):
     """Plays keyframed clips (per-DoF animation curves) once, looped or ping-pong, at any speed.
 
     Commands: `play {clip, speed?, mode?, crossfade?, anchors?}`, `stop {fade?}`, `seek {t}`. A new clip
@@ -59,8 +58,6 @@ class ClipPlayer(Block):
 
     type_name = "clip_player"
     title = "Clip player"
-    category = "sources"
-    role = Role.source
     Params = ClipPlayerParams
     inputs = {"trigger": Port(PortType.bool, "a rising edge plays `clip`")}
     outputs = {

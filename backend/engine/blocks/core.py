@@ -20,6 +20,8 @@ from backend.engine.blocks.base import (
     Port,
     PortType,
     Role,
+    SignalBlock,
+    Source,
     drivable,
     register_block,
 )
@@ -81,7 +83,7 @@ class InputParams(BlockParams):
 
 
 @register_block
-class ExposedInput(Block):
+class ExposedInput(SignalBlock):
     """Reads one of the program's exposed inputs (e.g. `arousal`, `gaze_target`) as a signal.
 
     Exposed inputs are declared by the program with a type, default and range, and set at run time by
@@ -90,8 +92,6 @@ class ExposedInput(Block):
 
     type_name = "input"
     title = "Exposed input"
-    category = "signals"
-    role = Role.signal
     Params = InputParams
     outputs = {"value": Port(PortType.float, "current value")}
 
@@ -114,7 +114,7 @@ class RestPoseParams(BlockParams):
 
 
 @register_block
-class RestPose(Block):
+class RestPose(Source):
     """The robot's rest pose on the selected DoFs.
 
     A neutral base layer: under an additive idle layer it gives a robot that breathes around its rest.
@@ -122,10 +122,7 @@ class RestPose(Block):
 
     type_name = "rest_pose"
     title = "Rest pose"
-    category = "sources"
-    role = Role.source
     Params = RestPoseParams
-    outputs = FRAME_OUT
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs)
@@ -185,15 +182,12 @@ class PoseParams(BlockParams):
 
 
 @register_block
-class Pose(Block):
+class Pose(Source):
     """A constant pose: fixed values for some DoFs (and/or a named posture of the robot)."""
 
     type_name = "pose"
     title = "Constant pose"
-    category = "sources"
-    role = Role.source
     Params = PoseParams
-    outputs = FRAME_OUT
 
     def configure(self) -> None:
         values: dict[str, PoseValue] = {}
@@ -222,7 +216,7 @@ class SineParams(BlockParams):
 
 
 @register_block
-class Sine(Block):
+class Sine(Source):
     """A sine wave around the rest pose on the selected continuous DoFs.
 
     `rest + offset + amplitude * sin(2*pi*frequency*t + phase + i*phase_spread)`; the phase is
@@ -232,10 +226,7 @@ class Sine(Block):
 
     type_name = "sine"
     title = "Sine"
-    category = "sources"
-    role = Role.source
     Params = SineParams
-    outputs = FRAME_OUT
 
     @dataclass
     class State:

@@ -16,12 +16,11 @@ from pydantic import Field, field_validator
 
 from backend.engine.blocks.base import (
     FRAME_OUT,
-    Block,
     BlockCommandError,
     BlockParams,
     Port,
     PortType,
-    Role,
+    Source,
     colour_or_none,
     drivable,
     register_block,
@@ -98,7 +97,7 @@ def brightness(mode: str, u: float, depth: float) -> float:
 
 
 @register_block
-class Led(Block):
+class Led(Source):
     """Sets an LED (a colour DoF) to a colour, solid, pulsing or breathing.
 
     The colour comes from the `colour` input when connected, else from the last `set_led` command, else
@@ -108,10 +107,7 @@ class Led(Block):
 
     type_name = "led"
     title = "LED"
-    category = "sources"
-    role = Role.source
     Params = LedParams
-    outputs = FRAME_OUT
 
     @dataclass
     class State:
@@ -156,7 +152,7 @@ class FaceParams(BlockParams):
 
 
 @register_block
-class Face(Block):
+class Face(Source):
     """Shows a face/screen expression: one option of an enum display DoF (smile, frown, …).
 
     The expression comes from the `expression` input when connected (unknown names are ignored), else
@@ -166,10 +162,7 @@ class Face(Block):
 
     type_name = "face"
     title = "Face expression"
-    category = "sources"
-    role = Role.source
     Params = FaceParams
-    outputs = FRAME_OUT
 
     @dataclass
     class State:
@@ -230,7 +223,7 @@ class SayParams(BlockParams):
 
 
 @register_block
-class Say(Block):
+class Say(Source):
     """Speaks a text: a `say` event on the speech DoF, with the mouth flapping while it lasts.
 
     Triggered by the `say` command (the API's say, which waits for completion) or a rising edge of the
@@ -241,8 +234,6 @@ class Say(Block):
 
     type_name = "say"
     title = "Say"
-    category = "sources"
-    role = Role.source
     Params = SayParams
     inputs = {"trigger": Port(PortType.bool, "says `text` on a rising edge")}
     outputs = {**FRAME_OUT, "speaking": Port(PortType.bool, "true while speaking")}
@@ -340,7 +331,7 @@ class PlaySoundParams(BlockParams):
 
 
 @register_block
-class PlaySound(Block):
+class PlaySound(Source):
     """Plays a sound clip: a `sound` event on the sound DoF, with started/completed notifications.
 
     Triggered by the `play_sound` command or a rising edge of the `trigger` input (playing `sound`).
@@ -350,8 +341,6 @@ class PlaySound(Block):
 
     type_name = "play_sound"
     title = "Play sound"
-    category = "sources"
-    role = Role.source
     Params = PlaySoundParams
     inputs = {"trigger": Port(PortType.bool, "plays `sound` on a rising edge")}
     outputs = {**FRAME_OUT, "playing": Port(PortType.bool, "true while a clip plays")}

@@ -18,7 +18,6 @@ from backend.engine.blocks.base import (
     FRAME_OUT,
     BlockParams,
     DofSelection,
-    History,
     Operator,
     Port,
     PortType,
@@ -26,69 +25,12 @@ from backend.engine.blocks.base import (
     register_block,
 )
 from backend.engine.embodiment import Dof, DofType, Embodiment
-from backend.engine.frames import PartialFrame
-from backend.engine.selectors import channel_mask
+from backend.engine.frames import FrameHistory, PartialFrame
+from backend.engine.selectors import channel_mask, find_pairs, pair_channels
 
 # --------------------------------------------------------------------------------------------------
 # Helpers
 # --------------------------------------------------------------------------------------------------
-
-# (left pattern, right pattern) as (prefix, suffix) pairs: *_left/*_right, left_*/right_*, *_l/*_r.
-_SIDE_PATTERNS = ((("", "_left"), ("", "_right")), (("left_", ""), ("right_", "")), (("", "_l"), ("", "_r")))
-
-
-def _width(d: Dof) -> int:
-    return d.channels.stop - d.channels.start
-
-
-def _partner_name(name: str) -> str | None:
-    """The right-side name of a left-side DoF name, or None if the name has no left marker."""
-    for (lp, ls), (rp, rs) in _SIDE_PATTERNS:
-        if name.startswith(lp) and name.endswith(ls) and len(name) > len(lp) + len(ls):
-            core = name[len(lp):len(name) - len(ls)] if ls else name[len(lp):]
-            return f"{rp}{core}{rs}"
-    return None
-
-
-def find_pairs(emb: Embodiment, explicit: list[list[str]] | None = None, auto: bool = True) -> list[tuple[Dof, Dof]]:
-    """Left/right DoF pairs: explicit `[left, right]` pairs first, then pairs found by name.
-
-    Raises ValueError naming the DoF when an explicit pair is unknown or mismatched.
-    """
-    pairs: list[tuple[Dof, Dof]] = []
-    used: set[str] = set()
-    for pair in explicit or []:
-        a, b = pair
-        for name in (a, b):
-            if not emb.has_dof(name):
-                raise ValueError(f"pair {pair}: robot '{emb.name}' has no DoF '{name}'")
-            if name in used:
-                raise ValueError(f"pair {pair}: DoF '{name}' is already in another pair")
-        da, db = emb.dof(a), emb.dof(b)
-        if da.type is not db.type or _width(da) != _width(db):
-            raise ValueError(f"pair {pair}: '{a}' is {da.type.value} and '{b}' is {db.type.value}; "
-                             f"paired DoFs must have the same type")
-        if _width(da) == 0:
-            raise ValueError(f"pair {pair}: event DoFs cannot be paired")
-        pairs.append((da, db))
-        used.update((a, b))
-    if auto:
-        for d in emb.dofs:
-            partner = _partner_name(d.name)
-            if partner is None or d.name in used or partner in used or not emb.has_dof(partner):
-                continue
-            p = emb.dof(partner)
-            if p.type is d.type and _width(d) == _width(p) and _width(d) > 0:
-                pairs.append((d, p))
-                used.update((d.name, partner))
-    return pairs
-
-
-def _pair_channels(pairs: list[tuple[Dof, Dof]]) -> tuple[np.ndarray, np.ndarray]:
-    left = [i for a, _ in pairs for i in range(a.channels.start, a.channels.stop)]
-    right = [i for _, b in pairs for i in range(b.channels.start, b.channels.stop)]
-    return np.array(left, dtype=np.intp), np.array(right, dtype=np.intp)
-
 
 def _continuous_dof(emb: Embodiment, name: str, what: str) -> Dof:
     if not emb.has_dof(name):
@@ -151,7 +93,7 @@ class Mirror(Operator):
     def configure(self) -> None:
         emb = self.emb
         n = emb.n_channels
-        left, right = _pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
+        left, right = pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
         perm = np.arange(n)
         perm[left], perm[right] = right, left
         self.perm = perm
@@ -213,12 +155,12 @@ class Asymmetry(Operator):
     type_name = "asymmetry"
     title = "Asymmetry"
     Params = AsymmetryParams
-    State = History
+    State = FrameHistory
 
     def configure(self) -> None:
         emb = self.emb
         n = emb.n_channels
-        _, right = _pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
+        _, right = pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
         self.right = np.zeros(n, dtype=bool)
         self.right[right] = True
         self.gain = np.ones(n)
@@ -229,7 +171,7 @@ class Asymmetry(Operator):
             self.offset[_continuous_dof(emb, name, f"offsets['{name}']").channels] = o
 
     def reset(self) -> None:
-        self.state = History.for_delay(MAX_ASYM_DELAY, self.ctx.rate, self.emb.n_channels)
+        self.state = FrameHistory.for_delay(MAX_ASYM_DELAY, self.ctx.rate, self.emb.n_channels)
 
     def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
         delay = self.driven(inputs).delay
@@ -493,7 +435,7 @@ class Delay(Operator):
     type_name = "delay"
     title = "Delay / overlap"
     Params = DelayParams
-    State = History
+    State = FrameHistory
 
     def configure(self) -> None:
         emb = self.emb
@@ -506,7 +448,7 @@ class Delay(Operator):
         self.lag = np.rint(seconds * self.ctx.rate).astype(np.intp)
 
     def reset(self) -> None:
-        self.state = History.for_delay(MAX_DELAY, self.ctx.rate, self.emb.n_channels)
+        self.state = FrameHistory.for_delay(MAX_DELAY, self.ctx.rate, self.emb.n_channels)
 
     def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
         values, mask = self.state.push_read(frame.values, frame.mask, self.lag)

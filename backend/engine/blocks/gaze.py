@@ -9,16 +9,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import (
-    FRAME_OUT,
-    Block,
-    BlockParams,
-    Port,
-    PortType,
-    Role,
-    drivable,
-    register_block,
-)
+from backend.engine.blocks.base import FRAME_OUT, BlockParams, Port, PortType, Source, drivable, register_block
 from backend.engine.embodiment import Dimension, DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for, joint_depths
@@ -67,7 +58,7 @@ class GazeParams(BlockParams):
 
 
 @register_block
-class Gaze(Block):
+class Gaze(Source):
     """Looks at a 3D target: head leads, body follows, turns follow an arc.
 
     Each tick the block computes, from the eye point (the robot's gaze eye link and offset, posed by forward
@@ -83,8 +74,6 @@ class Gaze(Block):
 
     type_name = "gaze"
     title = "Gaze / look-at"
-    category = "sources"
-    role = Role.source
     Params = GazeParams
     outputs = {**FRAME_OUT, "on_target": Port(PortType.bool, "the gaze points at the target (within tolerance)")}
 

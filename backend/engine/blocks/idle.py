@@ -15,16 +15,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import (
-    FRAME_OUT,
-    Block,
-    BlockContext,
-    BlockParams,
-    DofSelection,
-    Role,
-    drivable,
-    register_block,
-)
+from backend.engine.blocks.base import BlockContext, BlockParams, DofSelection, Source, drivable, register_block
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask
@@ -76,7 +67,7 @@ class BreatheParams(BlockParams):
 
 
 @register_block
-class Breathe(Block):
+class Breathe(Source):
     """Asymmetric breathing around the rest pose on the selected DoFs.
 
     Each DoF follows a smooth cycle that rises during the inhale (the first `inhale_ratio` of the cycle)
@@ -88,10 +79,7 @@ class Breathe(Block):
 
     type_name = "breathe"
     title = "Breathing"
-    category = "sources"
-    role = Role.source
     Params = BreatheParams
-    outputs = FRAME_OUT
 
     @dataclass
     class State:
@@ -143,7 +131,7 @@ class NoiseParams(BlockParams):
 
 
 @register_block
-class Noise(Block):
+class Noise(Source):
     """Smooth mean-reverting random wander (Ornstein-Uhlenbeck) around the rest pose.
 
     Each selected DoF wanders independently, pulled back to rest with correlation time `tau`; a second
@@ -154,10 +142,7 @@ class Noise(Block):
 
     type_name = "noise"
     title = "Smooth noise"
-    category = "sources"
-    role = Role.source
     Params = NoiseParams
-    outputs = FRAME_OUT
 
     @dataclass
     class State:
@@ -238,7 +223,7 @@ class WeightShiftParams(BlockParams):
 
 
 @register_block
-class WeightShift(Block):
+class WeightShift(Source):
     """Slow, asymmetric posture shifts, like a person shifting their weight.
 
     Every random interval between `min_interval` and `max_interval` a new offset within ±`amplitude` is
@@ -249,10 +234,7 @@ class WeightShift(Block):
 
     type_name = "weight_shift"
     title = "Weight shift"
-    category = "sources"
-    role = Role.source
     Params = WeightShiftParams
-    outputs = FRAME_OUT
 
     @dataclass
     class State:

@@ -10,15 +10,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from backend.engine.blend import BlendMode, advance_fades, blend_layers
-from backend.engine.blocks.base import (
-    Block,
-    BlockCommandError,
-    BlockParams,
-    Port,
-    PortType,
-    Role,
-    register_block,
-)
+from backend.engine.blocks.base import Block, BlockCommandError, BlockParams, Port, PortType, Role, register_block
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
 

@@ -9,7 +9,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import Block, BlockCommandError, BlockParams, Port, PortType, Role, register_block
+from backend.engine.blocks.base import BlockCommandError, BlockParams, Port, PortType, Source, register_block
 from backend.engine.blocks.core import pose_vector
 from backend.engine.frames import PartialFrame
 
@@ -45,7 +45,7 @@ class PostureParams(BlockParams):
 
 
 @register_block
-class Posture(Block):
+class Posture(Source):
     """Goes to a named posture of the robot (happy, sad, curious, …) with a duration and an easing.
 
     Run-time command `go {posture, duration?, easing?}` (the API's go_posture) starts a move from where
@@ -55,8 +55,6 @@ class Posture(Block):
 
     type_name = "posture"
     title = "Posture"
-    category = "sources"
-    role = Role.source
     Params = PostureParams
     outputs = {"out": Port(PortType.frame, "the pose"), "moving": Port(PortType.bool, "true while moving")}
 

@@ -10,7 +10,7 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import Block, BlockParams, Port, PortType, Role, drivable, register_block
+from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock, drivable, register_block
 
 # --------------------------------------------------------------------------------------------------
 # Math
@@ -44,7 +44,7 @@ class MathParams(BlockParams):
 
 
 @register_block
-class Math(Block):
+class Math(SignalBlock):
     """Scalar math on signals: arithmetic, min/max, map range, clamp, abs and smoothstep.
 
     Inputs `a` and `b` override the parameters of the same name. Unary operations (map_range, clamp,
@@ -54,8 +54,6 @@ class Math(Block):
 
     type_name = "math"
     title = "Math"
-    category = "signals"
-    role = Role.signal
     Params = MathParams
     outputs = {"value": Port(PortType.float, "result")}
 
@@ -134,7 +132,7 @@ class LfoParams(BlockParams):
 
 
 @register_block
-class Lfo(Block):
+class Lfo(SignalBlock):
     """A low-frequency oscillator: `offset + amplitude * wave(phase)` as a signal.
 
     Waveforms sine, triangle, square, saw, or random_smooth (a new random level every cycle, eased
@@ -144,8 +142,6 @@ class Lfo(Block):
 
     type_name = "lfo"
     title = "LFO"
-    category = "signals"
-    role = Role.signal
     Params = LfoParams
     outputs = {"value": Port(PortType.float, "current value")}
 
@@ -215,7 +211,7 @@ class EmotionParams(BlockParams):
 
 
 @register_block
-class Emotion(Block):
+class Emotion(SignalBlock):
     """Maps valence and arousal to animation parameters: speed, amplitude, posture offset and posture.
 
     Arousal changes timing (speed multiplier from `speed_min` to `speed_max`) and, with the strength
@@ -227,8 +223,6 @@ class Emotion(Block):
 
     type_name = "emotion"
     title = "Emotion"
-    category = "signals"
-    role = Role.signal
     Params = EmotionParams
     outputs = {
         "speed": Port(PortType.float, "timing multiplier (1 = neutral)"),
