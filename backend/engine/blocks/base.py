@@ -39,7 +39,6 @@ from enum import Enum
 from types import SimpleNamespace
 from typing import Annotated, Any, ClassVar, Literal
 
-import annotated_types
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
@@ -194,8 +193,8 @@ class DrivenParam:
     def of(cls, name: str, info: FieldInfo, drive: Drive) -> "DrivenParam":
         lo = hi = None
         if drive.clamp is not None:
-            lo = next((m.ge for m in info.metadata if isinstance(m, annotated_types.Ge)), None)
-            hi = next((m.le for m in info.metadata if isinstance(m, annotated_types.Le)), None)
+            lo = next((m.ge for m in info.metadata if getattr(m, "ge", None) is not None), None)  # Field(ge=)
+            hi = next((m.le for m in info.metadata if getattr(m, "le", None) is not None), None)  # Field(le=)
             if lo is None or (drive.clamp == "range" and hi is None):
                 raise TypeError(f"drivable parameter '{name}' has clamp={drive.clamp!r} but no ge/le bounds")
             if drive.clamp == "floor":
@@ -382,7 +381,7 @@ class Block:
     def driven(self, inputs: dict[str, Any], **fallbacks: Any) -> SimpleNamespace:
         """Every drivable parameter for this tick, by name: the wired value when its input is connected
         and usable, else the parameter, or the fallback given here (e.g. a value set by a command)."""
-        unknown = fallbacks.keys() - self.drivables.keys()
+        unknown = fallbacks.keys() - self.drivables.keys() if fallbacks else ()
         if unknown:
             raise TypeError(f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters")
         params = self.params
