@@ -18,7 +18,7 @@ TOL = 1e-7
 # The spec's jerk bound holds when one sample's jerk budget J dt is at least Q_MIN of A (measured worst
 # 0.86 J at q = 0.2 over 20 000 random cases, 30-500 Hz). With a smaller jerk budget the velocity
 # limiter's compression (which the spec does not charge to the jerk budget) shows up in the output's
-# jerk: up to 1.6 J at q = 0.01. See "Known limits of the spec's guarantees" in backend/engine/nmf.py.
+# jerk: up to 1.6 J at q = 0.01. See "Known limits of the spec's guarantees" in backend/engine/nmf/__init__.py.
 Q_MIN = 0.2
 
 setpoint_streams = st.lists(

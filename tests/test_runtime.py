@@ -80,9 +80,9 @@ def test_layer_fade_out_and_in(desk):
     session.execute({"type": "set_layer", "layer": "gesture", "active": False, "fade": 0.5})
     mixer = session.engine.apu.block("mix")
     list(session.run_headless(25))
-    assert mixer.fade_level[2] == pytest.approx(0.5, abs=0.03)
+    assert mixer.state.fade_level[2] == pytest.approx(0.5, abs=0.03)
     list(session.run_headless(30))
-    assert mixer.fade_level[2] == 0.0
+    assert mixer.state.fade_level[2] == 0.0
     yaw = desk.channel_index["head_yaw"]
     assert session.engine.last_frame.program[yaw] == pytest.approx(0.0, abs=1e-9)
     list(session.run_headless(100))  # the safety net brings the robot there within its limits
@@ -92,13 +92,13 @@ def test_layer_fade_out_and_in(desk):
 def test_hot_swap_keeps_state_of_surviving_blocks(desk):
     session = EngineSession.create(desk, rate=100, program=level1().build())
     list(session.run_headless(37))
-    phi_before = session.engine.apu.block("wave").phi
+    phi_before = session.engine.apu.block("wave").state.phi
     doc = level1().to_dict()
     doc["nodes"][1]["params"]["gain"] = 1.5  # gain node changes, the sine keeps its id and type
     _, kept = session.load_program(doc)
     assert {"wave", "gain"} <= set(kept)
     session.engine.tick()
-    assert session.engine.apu.block("wave").phi == pytest.approx(phi_before + 2 * np.pi * 0.01)
+    assert session.engine.apu.block("wave").state.phi == pytest.approx(phi_before + 2 * np.pi * 0.01)
 
 
 def test_swap_of_new_block_type_starts_fresh(desk):
@@ -109,7 +109,7 @@ def test_swap_of_new_block_type_starts_fresh(desk):
     doc["edges"][0]["from"]["node"] = "wave2"
     _, kept = session.load_program(doc)
     assert "wave2" not in kept
-    assert session.engine.apu.block("wave2").phi == 0.0
+    assert session.engine.apu.block("wave2").state.phi == 0.0
 
 
 def test_empty_program_outputs_rest_and_partial_frames_hold(desk):

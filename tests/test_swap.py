@@ -146,7 +146,7 @@ def test_update_params_rebuilds_nothing(desk):
     apu = engine.apu
     blocks = {s.node_id: s.block for s in apu.steps}
     breath = apu.block("breath")
-    phi = breath.phi
+    phi = breath.state.phi
     engine.start()
     try:
         params = session.update_params("breath", {"frequency": FREQ * 1.2})
@@ -158,7 +158,7 @@ def test_update_params_rebuilds_nothing(desk):
     assert {s.node_id: s.block for s in engine.apu.steps} == blocks
     assert all(engine.apu.block(n) is b for n, b in blocks.items())
     assert breath.params.frequency == pytest.approx(FREQ * 1.2)
-    assert breath.phi != phi  # the phase went on from where it was, it was not reset
+    assert breath.state.phi != phi  # the phase went on from where it was, it was not reset
     # The running program's document follows the change.
     assert session.program.node("breath").params["frequency"] == pytest.approx(FREQ * 1.2)
     last = engine.last_frame.program[col]

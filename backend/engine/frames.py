@@ -2,11 +2,13 @@
 
 Both are structure-of-arrays over the embodiment's channels (see `Embodiment`): one float64 vector
 per quantity, never one object per DoF. Events (speech, sounds, one-shot display changes) ride
-along as a short list, since they are discrete and rare.
+along as a short list, since they are discrete and rare. `FrameHistory` keeps the last frames for
+operators that look back in time (delays).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -109,3 +111,35 @@ class AnimationFrame:
             "events": [e.to_dict() for e in self.events],
         }
         return out
+
+
+@dataclass
+class FrameHistory:
+    """A ring buffer of the last frames (values and masks), read back per channel a number of ticks ago
+    (the state of the delay and asymmetry operators)."""
+
+    values: np.ndarray  # (capacity, channels)
+    mask: np.ndarray  # (capacity, channels) bool
+    head: int = 0
+    primed: bool = False
+
+    @classmethod
+    def for_delay(cls, max_seconds: float, rate: float, n_channels: int) -> "FrameHistory":
+        """Room for delays up to `max_seconds` at `rate` Hz."""
+        capacity = int(math.ceil(max_seconds * rate)) + 2
+        return cls(np.zeros((capacity, n_channels)), np.zeros((capacity, n_channels), dtype=bool))
+
+    def push_read(self, values: np.ndarray, mask: np.ndarray, lag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Store this tick's frame and read each channel `lag[c]` ticks back (0 = now)."""
+        cap = self.values.shape[0]
+        if not self.primed:  # start as if the first frame had always been there: no jump at start
+            self.values[:] = values
+            self.mask[:] = mask
+            self.primed = True
+        self.values[self.head] = values
+        self.mask[self.head] = mask
+        rows = (self.head - np.minimum(lag, cap - 1)) % cap
+        cols = np.arange(values.shape[0])
+        out_v, out_m = self.values[rows, cols], self.mask[rows, cols]
+        self.head = (self.head + 1) % cap
+        return out_v, out_m

@@ -8,6 +8,9 @@ A selector is one of:
 - a type selector `type:continuous`, `type:colour`, `type:enum`, `type:event`;
 - `*` for every DoF.
 A leading `!` excludes what the rest of the selector matches (applied after all inclusions).
+
+`find_pairs` names left/right DoF pairs the same robot-independent way (*_left/*_right, left_*/right_*,
+*_l/*_r, or explicit pairs).
 """
 
 from __future__ import annotations
@@ -103,3 +106,65 @@ def _channel_mask_cached(emb: Embodiment, selectors: tuple[str, ...], continuous
         mask &= emb.continuous_mask
     mask.setflags(write=False)
     return mask
+
+
+# --------------------------------------------------------------------------------------------------
+# Left/right pairs (the mirror and asymmetry operators)
+# --------------------------------------------------------------------------------------------------
+
+# (left pattern, right pattern) as (prefix, suffix) pairs: *_left/*_right, left_*/right_*, *_l/*_r.
+_SIDE_PATTERNS = ((("", "_left"), ("", "_right")), (("left_", ""), ("right_", "")), (("", "_l"), ("", "_r")))
+
+
+def _width(d: Dof) -> int:
+    return d.channels.stop - d.channels.start
+
+
+def _partner_name(name: str) -> str | None:
+    """The right-side name of a left-side DoF name, or None if the name has no left marker."""
+    for (lp, ls), (rp, rs) in _SIDE_PATTERNS:
+        if name.startswith(lp) and name.endswith(ls) and len(name) > len(lp) + len(ls):
+            core = name[len(lp):len(name) - len(ls)] if ls else name[len(lp):]
+            return f"{rp}{core}{rs}"
+    return None
+
+
+def find_pairs(emb: Embodiment, explicit: list[list[str]] | None = None, auto: bool = True) -> list[tuple[Dof, Dof]]:
+    """Left/right DoF pairs: explicit `[left, right]` pairs first, then pairs found by name.
+
+    Raises ValueError naming the DoF when an explicit pair is unknown or mismatched.
+    """
+    pairs: list[tuple[Dof, Dof]] = []
+    used: set[str] = set()
+    for pair in explicit or []:
+        a, b = pair
+        for name in (a, b):
+            if not emb.has_dof(name):
+                raise ValueError(f"pair {pair}: robot '{emb.name}' has no DoF '{name}'")
+            if name in used:
+                raise ValueError(f"pair {pair}: DoF '{name}' is already in another pair")
+        da, db = emb.dof(a), emb.dof(b)
+        if da.type is not db.type or _width(da) != _width(db):
+            raise ValueError(f"pair {pair}: '{a}' is {da.type.value} and '{b}' is {db.type.value}; "
+                             f"paired DoFs must have the same type")
+        if _width(da) == 0:
+            raise ValueError(f"pair {pair}: event DoFs cannot be paired")
+        pairs.append((da, db))
+        used.update((a, b))
+    if auto:
+        for d in emb.dofs:
+            partner = _partner_name(d.name)
+            if partner is None or d.name in used or partner in used or not emb.has_dof(partner):
+                continue
+            p = emb.dof(partner)
+            if p.type is d.type and _width(d) == _width(p) and _width(d) > 0:
+                pairs.append((d, p))
+                used.update((d.name, partner))
+    return pairs
+
+
+def pair_channels(pairs: list[tuple[Dof, Dof]]) -> tuple[np.ndarray, np.ndarray]:
+    """The channels of the left and of the right DoF of each pair, in pair order."""
+    left = [i for a, _ in pairs for i in range(a.channels.start, a.channels.stop)]
+    right = [i for _, b in pairs for i in range(b.channels.start, b.channels.stop)]
+    return np.array(left, dtype=np.intp), np.array(right, dtype=np.intp)

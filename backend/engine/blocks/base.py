@@ -12,9 +12,15 @@ A block is a small class with
 Conventions
 - `configure()` derives cached data from `self.params` (resolved DoF masks, …); it runs at creation
   and after `update_params`, and must not touch state, so a parameter change never causes a jump.
-- State lives in the attributes named in `state_attrs`; `adopt_state(old)` copies them from the block
-  of the same id and type in the program being replaced (a hot swap keeps a playing clip playing).
-- A signal input that is connected overrides the parameter of the same name (see `signal`).
+- A parameter declared with `drivable(Field(...), "port doc")` is also an input port of the same name
+  (added after the ports the class declares); `self.driven(inputs)` gives, each tick, every drivable
+  parameter resolved: the wired value when one is connected and usable, else the parameter.
+- State lives in one object, `self.state`, an instance of the block's `State` dataclass made by
+  `reset()`; `adopt_state(old)` takes the old block's state over as a whole in a hot swap (same id and
+  type), unless one of its arrays changed shape (a hot swap keeps a playing clip playing).
+- `Operator` is the base of blocks that transform the frame on their `in` port (it handles a missing
+  input frame once for all of them); `Source` and `SignalBlock` give sources and signal blocks their
+  category and role.
 - `handle(command)` receives run-time commands (play, seek, set layer, …) addressed to the block.
 - `check(params, node)` / `check_wiring(params, node)` add the block type's own rules to the program
   checks (`backend.graph.checks.hooks`), so the checker never names a block type.
@@ -26,14 +32,18 @@ Register a block class with `@register_block`. Every module of this package is i
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import inspect
 import math
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Annotated, Any, ClassVar
+from types import SimpleNamespace
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+from pydantic.fields import FieldInfo
 
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import PartialFrame
@@ -91,6 +101,10 @@ class Port:
         return {"type": self.type.value, "doc": self.doc, "required": self.required}
 
 
+FRAME_IN = {"in": Port(PortType.frame, "frame to transform", required=True)}
+FRAME_OUT = {"out": Port(PortType.frame, "resulting frame")}
+
+
 class BlockParams(BaseModel):
     """Base of every block's parameter model: unknown parameters are errors, never ignored."""
 
@@ -105,6 +119,123 @@ DofSelection = Annotated[
         json_schema_extra={"x-widget": "dofs"},
     ),
 ]
+
+
+# --------------------------------------------------------------------------------------------------
+# Signal values and drivable parameters
+# --------------------------------------------------------------------------------------------------
+
+
+def vec3_or_none(value: Any) -> np.ndarray | None:
+    """A finite 3-vector from a vec3 signal, or None when it is missing or not finite."""
+    if value is None:
+        return None
+    try:
+        v = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        return None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        return None
+    return v
+
+
+def colour_or_none(value: Any) -> np.ndarray | None:
+    """A colour [r, g, b] with components in [0, 1] from a signal or command, or None when it is not one."""
+    c = vec3_or_none(value)
+    return None if c is None or np.any(c < 0.0) or np.any(c > 1.0) else c
+
+
+def _number(value: Any) -> Any:
+    """A wired number, or None when it is missing or not finite (NaN/inf never override a parameter)."""
+    if isinstance(value, (float, int)) and not math.isfinite(value):
+        return None
+    return value
+
+
+# What a wired value of each port type must be to override its parameter (None: not usable).
+_USABLE = {PortType.vec3: vec3_or_none, PortType.colour: colour_or_none,
+           PortType.float: _number, PortType.int: _number}
+
+Clamp = Literal["range", "floor"]
+
+
+@dataclass(frozen=True)
+class Drive:
+    """Marks a parameter as drivable (see `drivable`); kept in the pydantic field's metadata, which the
+    JSON Schema does not show."""
+
+    doc: str = ""
+    port: PortType = PortType.float
+    clamp: Clamp | None = None
+
+
+def drivable(field_info: FieldInfo, doc: str = "", *, port: PortType = PortType.float,
+             clamp: Clamp | None = None) -> Any:
+    """Declare a parameter drivable by a signal: `amplitude: float = drivable(Field(...), "overrides …")`.
+
+    The block then has an input port of the parameter's name, type `port` and doc `doc`, and
+    `Block.driven(inputs)` resolves the parameter each tick: a connected, usable signal (a finite number,
+    a valid vec3 or colour) overrides it. `clamp="range"` keeps a wired number within the field's
+    `ge`/`le` bounds, `clamp="floor"` only above its `ge` bound; without `clamp` it is taken as it is.
+    """
+    field_info.metadata.append(Drive(doc, port, clamp))
+    return field_info
+
+
+@dataclass(frozen=True)
+class DrivenParam:
+    """One drivable parameter of a block class: its port, and how a wired value replaces it."""
+
+    name: str
+    port: Port
+    lo: float | None = None
+    hi: float | None = None
+
+    @classmethod
+    def of(cls, name: str, info: FieldInfo, drive: Drive) -> "DrivenParam":
+        lo = hi = None
+        if drive.clamp is not None:
+            lo = next((m.ge for m in info.metadata if getattr(m, "ge", None) is not None), None)  # Field(ge=)
+            hi = next((m.le for m in info.metadata if getattr(m, "le", None) is not None), None)  # Field(le=)
+            if lo is None or (drive.clamp == "range" and hi is None):
+                raise TypeError(f"drivable parameter '{name}' has clamp={drive.clamp!r} but no ge/le bounds")
+            if drive.clamp == "floor":
+                hi = None
+        return cls(name, Port(drive.port, drive.doc), lo, hi)
+
+    def resolve(self, wired: Any, fallback: Any) -> Any:
+        """The wired value when it is usable, else `fallback`; numbers as float/int, clamped as declared."""
+        kind = self.port.type
+        usable = _USABLE.get(kind)
+        value = wired if usable is None else usable(wired)
+        if value is None:
+            if kind in (PortType.vec3, PortType.colour):  # as an array, like a wired one, when it is valid
+                converted = usable(fallback)
+                return fallback if converted is None else converted
+            value = fallback
+        if value is None or kind not in (PortType.float, PortType.int):
+            return value
+        value = float(value) if kind is PortType.float else int(value)
+        if self.lo is not None:
+            value = max(value, self.lo)
+        if self.hi is not None:
+            value = min(value, self.hi)
+        return value
+
+
+def driven_params(params_model: type[BaseModel]) -> dict[str, DrivenParam]:
+    """The drivable parameters of a parameter model, in field order."""
+    out = {}
+    for name, info in params_model.model_fields.items():
+        drive = next((m for m in info.metadata if isinstance(m, Drive)), None)
+        if drive is not None:
+            out[name] = DrivenParam.of(name, info, drive)
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# Context and blocks
+# --------------------------------------------------------------------------------------------------
 
 
 @dataclass
@@ -131,6 +262,30 @@ class BlockCommandError(ValueError):
     """A command a block cannot carry out (unknown clip, bad argument); the message says why."""
 
 
+def state_fits(fresh: Any, old: Any) -> bool:
+    """Whether `old` state can replace `fresh`: the same class, and every array of `fresh` matched by an
+    array of the same shape (parameters may have changed the DoF set or a buffer's length)."""
+    if type(old) is not type(fresh):
+        return False
+    for f in dataclasses.fields(fresh):
+        mine = getattr(fresh, f.name)
+        if isinstance(mine, np.ndarray):
+            theirs = getattr(old, f.name)
+            if not isinstance(theirs, np.ndarray) or theirs.shape != mine.shape:
+                return False
+    return True
+
+
+def copy_state(state: Any) -> Any:
+    """A copy of a state object whose arrays are copied too (other values are shared)."""
+    out = copy.copy(state)
+    for f in dataclasses.fields(state):
+        value = getattr(state, f.name)
+        if isinstance(value, np.ndarray):
+            setattr(out, f.name, value.copy())
+    return out
+
+
 class Block:
     type_name: ClassVar[str] = ""
     title: ClassVar[str] = ""
@@ -138,9 +293,23 @@ class Block:
     role: ClassVar[Role] = Role.operator
     doc: ClassVar[str] = ""
     Params: ClassVar[type[BlockParams]] = BlockParams
-    inputs: ClassVar[dict[str, Port]] = {}
+    inputs: ClassVar[dict[str, Port]] = {}  # the declared ports, then one per drivable parameter
     outputs: ClassVar[dict[str, Port]] = {}
-    state_attrs: ClassVar[tuple[str, ...]] = ()
+    drivables: ClassVar[dict[str, DrivenParam]] = {}
+    _declared_inputs: ClassVar[dict[str, Port]] = {}
+    # The run-time state: a dataclass; `reset()` puts a fresh instance at `self.state`.
+    State: ClassVar[type | None] = None
+    state: Any
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        declared = cls.__dict__.get("inputs", cls._declared_inputs)
+        cls._declared_inputs = declared
+        cls.drivables = driven_params(cls.Params)
+        clash = sorted(declared.keys() & cls.drivables.keys())
+        if clash:
+            raise TypeError(f"{cls.__name__}: ports {clash} are declared by hand and as drivable parameters")
+        cls.inputs = {**declared, **{name: d.port for name, d in cls.drivables.items()}}
 
     def __init__(self, params: BlockParams, ctx: BlockContext, node_id: str = ""):
         self.params = params
@@ -194,7 +363,9 @@ class Block:
         """Derive cached data from `self.params`. Must not reset state."""
 
     def reset(self) -> None:
-        """Return to the initial state."""
+        """Return to the initial state: a fresh `State()` (override when it starts from the robot, …)."""
+        if self.State is not None:
+            self.state = self.State()
 
     def update_params(self, params: BlockParams) -> None:
         """Apply new parameters live, keeping state (a slider drag never causes a jump by itself)."""
@@ -204,16 +375,13 @@ class Block:
     def adopt_state(self, old: "Block") -> None:
         """Take over the state of the block this one replaces in a hot swap (same id and type).
 
-        Arrays whose shape changed with the new parameters keep their fresh value.
+        The state is taken as a whole (arrays copied), unless an array in it changed shape with the new
+        parameters: then the fresh state stays.
         """
-        for name in self.state_attrs:
-            if not hasattr(old, name):
-                continue
-            value = getattr(old, name)
-            mine = getattr(self, name, None)
-            if isinstance(mine, np.ndarray) and (not isinstance(value, np.ndarray) or value.shape != mine.shape):
-                continue
-            setattr(self, name, value.copy() if isinstance(value, np.ndarray) else value)
+        mine = getattr(self, "state", None)
+        theirs = getattr(old, "state", None)
+        if mine is not None and theirs is not None and state_fits(mine, theirs):
+            self.state = copy_state(theirs)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         """Advance by `dt` seconds and return the outputs by port name."""
@@ -224,17 +392,67 @@ class Block:
         raise BlockCommandError(f"block '{self.node_id}' ({self.type_name}) does not take command '{command}'")
 
     # --- helpers --------------------------------------------------------------------------------
+    def driven(self, inputs: dict[str, Any], **fallbacks: Any) -> SimpleNamespace:
+        """Every drivable parameter for this tick, by name: the wired value when its input is connected
+        and usable, else the parameter, or the fallback given here (e.g. a value set by a command)."""
+        unknown = fallbacks.keys() - self.drivables.keys() if fallbacks else ()
+        if unknown:
+            raise TypeError(f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters")
+        params = self.params
+        return SimpleNamespace(**{
+            name: d.resolve(inputs.get(name), fallbacks[name] if name in fallbacks else getattr(params, name))
+            for name, d in self.drivables.items()})
+
     def signal(self, inputs: dict[str, Any], name: str, default: Any) -> Any:
-        """A connected signal input overrides the parameter of the same name; NaN/inf are ignored."""
-        value = inputs.get(name)
-        if value is None:
-            return default
-        if isinstance(value, (float, int)) and not math.isfinite(value):
-            return default
-        return value
+        """A signal input that is not a parameter (e.g. the mixer's layer weights), or `default` when it
+        is unconnected; NaN/inf are ignored."""
+        value = _number(inputs.get(name))
+        return default if value is None else value
 
     def empty(self) -> PartialFrame:
         return PartialFrame.empty(self.emb.n_channels)
+
+
+class Operator(Block):
+    """A block that transforms the frame on its `in` port into the frame on its `out` port.
+
+    With no frame on `in` (nothing upstream this tick) it outputs `without_input()` (an empty frame)
+    and its state stands still; otherwise `transform` does the work.
+    """
+
+    category = "operators"
+    role = Role.operator
+    inputs = FRAME_IN
+    outputs = FRAME_OUT
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        frame: PartialFrame | None = inputs.get("in")
+        if frame is None:
+            return self.without_input()
+        return self.transform(dt, frame, inputs)
+
+    def without_input(self) -> dict[str, Any]:
+        """The outputs when no frame arrives on `in`."""
+        return {"out": self.empty()}
+
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        """Advance by `dt` with `frame` on `in` (and the other inputs); return the outputs by port name."""
+        raise NotImplementedError
+
+
+class Source(Block):
+    """A block that creates a frame (on `out`) from its parameters, inputs and state."""
+
+    category = "sources"
+    role = Role.source
+    outputs = FRAME_OUT
+
+
+class SignalBlock(Block):
+    """A block that computes scalar signals (exposed inputs, math, oscillators, mappings)."""
+
+    category = "signals"
+    role = Role.signal
 
 
 def _has_dynamic_ports(cls: type[Block]) -> bool:

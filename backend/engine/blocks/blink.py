@@ -4,20 +4,13 @@ drawn to gaze shifts."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import (
-    Block,
-    BlockParams,
-    DofSelection,
-    Port,
-    PortType,
-    Role,
-    register_block,
-)
+from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, register_block
 from backend.engine.blocks.idle import block_rng
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
@@ -53,7 +46,7 @@ class BlinkParams(BlockParams):
 
 
 @register_block
-class Blink(Block):
+class Blink(Source):
     """Blinks the eyelids at natural random intervals, never during a held expression, gladly at a gaze shift.
 
     A blink closes fast, holds briefly and opens more slowly; intervals follow a gamma distribution with
@@ -66,8 +59,6 @@ class Blink(Block):
 
     type_name = "blink"
     title = "Blink scheduler"
-    category = "sources"
-    role = Role.source
     Params = BlinkParams
     inputs = {
         "hold": Port(PortType.bool, "while true, no blink starts (a held expression)"),
@@ -77,7 +68,18 @@ class Blink(Block):
         "out": Port(PortType.frame, "the eyelid DoFs"),
         "blinking": Port(PortType.bool, "true during a blink"),
     }
-    state_attrs = ("t", "last_onset", "next_at", "active", "elapsed", "double_at", "forced", "gaze_ref", "rng")
+
+    @dataclass
+    class State:
+        rng: np.random.Generator
+        next_at: float = 0.0  # when the next scheduled blink starts (s)
+        t: float = 0.0  # time since start (s)
+        last_onset: float = -math.inf  # when the last regular blink started (s)
+        active: bool = False  # a blink is under way
+        elapsed: float = 0.0  # s into it
+        double_at: float | None = None  # when the second blink of a double blink starts (s)
+        forced: bool = False  # the `blink` command asked for a blink
+        gaze_ref: np.ndarray | None = None  # the gaze at the last gaze shift
 
     def configure(self) -> None:
         p, emb = self.params, self.emb
@@ -91,36 +93,30 @@ class Blink(Block):
         self.delta = np.where(self.mask, closed - emb.rest, 0.0)
 
     def reset(self) -> None:
-        self.t = 0.0
-        self.last_onset = -math.inf
-        self.rng = block_rng(self.ctx, self.params.seed, self.node_id)
-        self.next_at = self._interval()
-        self.active = False
-        self.elapsed = 0.0
-        self.double_at: float | None = None
-        self.forced = False
-        self.gaze_ref: np.ndarray | None = None
+        self.state = self.State(rng=block_rng(self.ctx, self.params.seed, self.node_id))
+        self.state.next_at = self._interval()
 
     # --- scheduling -----------------------------------------------------------------------------
     def _interval(self) -> float:
         """Time to the next blink: min + gamma(shape 2) with the requested mean, clipped to max."""
         p = self.params
         extra = p.mean_interval - p.min_interval
-        draw = float(self.rng.gamma(2.0, extra / 2.0)) if extra > 0 else 0.0
+        draw = float(self.state.rng.gamma(2.0, extra / 2.0)) if extra > 0 else 0.0
         return min(p.min_interval + draw, p.max_interval)
 
     def _start(self, scheduled: bool = True) -> None:
         """Begin a blink now; a regular (not second-of-a-double) blink schedules the next one."""
-        self.active = True
-        self.elapsed = 0.0
+        s = self.state
+        s.active = True
+        s.elapsed = 0.0
         if scheduled:
-            self.last_onset = self.t
-            self.next_at = self.t + self._interval()
-            if self.rng.random() < self.params.double_blink_probability:
+            s.last_onset = s.t
+            s.next_at = s.t + self._interval()
+            if s.rng.random() < self.params.double_blink_probability:
                 p = self.params
-                self.double_at = self.t + p.close_time + p.hold_time + p.open_time + p.double_blink_gap
+                s.double_at = s.t + p.close_time + p.hold_time + p.open_time + p.double_blink_gap
             else:
-                self.double_at = None
+                s.double_at = None
 
     def _gaze_shift(self, value: Any) -> bool:
         """Whether the gaze moved by more than the threshold since the last shift: for a target point the
@@ -134,17 +130,18 @@ class Blink(Block):
             return False
         if not np.all(np.isfinite(g)):
             return False
-        if self.gaze_ref is None or self.gaze_ref.shape != g.shape:
-            self.gaze_ref = g.copy()
+        s = self.state
+        if s.gaze_ref is None or s.gaze_ref.shape != g.shape:
+            s.gaze_ref = g.copy()
             return False
-        ref = self.gaze_ref
+        ref = s.gaze_ref
         n_g, n_ref = float(np.linalg.norm(g)), float(np.linalg.norm(ref))
         if g.size == 3 and n_g > 1e-9 and n_ref > 1e-9:  # a target point: the angle between the directions
             change = math.acos(min(max(float(g @ ref) / (n_g * n_ref), -1.0), 1.0))
         else:  # gaze angle(s)
             change = float(np.linalg.norm(g - ref))
         if change > self.params.gaze_shift_threshold:
-            self.gaze_ref = g.copy()
+            s.gaze_ref = g.copy()
             return True
         return False
 
@@ -165,36 +162,36 @@ class Blink(Block):
 
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         if command == "blink":
-            self.forced = True
+            self.state.forced = True
             return {"blink": True}
         return super().handle(command, args)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p = self.params
-        self.t += dt
+        p, s = self.params, self.state
+        s.t += dt
         hold = bool(inputs.get("hold") or False)
         shifted = self._gaze_shift(inputs.get("gaze"))
-        if not self.active:
-            if self.forced:
+        if not s.active:
+            if s.forced:
                 self._start()
             elif not hold:
-                if self.double_at is not None and self.t >= self.double_at:
-                    self.double_at = None
+                if s.double_at is not None and s.t >= s.double_at:
+                    s.double_at = None
                     self._start(scheduled=False)
-                elif shifted and self.t - self.last_onset > p.min_interval / 2:
+                elif shifted and s.t - s.last_onset > p.min_interval / 2:
                     self._start()
-                elif self.t >= self.next_at:
+                elif s.t >= s.next_at:
                     self._start()
             else:
-                self.double_at = None  # a held expression cancels a pending second blink
-            self.forced = False
+                s.double_at = None  # a held expression cancels a pending second blink
+            s.forced = False
         k = 0.0
-        if self.active:
-            self.elapsed += dt
-            k = self.envelope(self.elapsed)
-            if self.elapsed >= p.close_time + p.hold_time + p.open_time:
-                self.active, k = False, 0.0
+        if s.active:
+            s.elapsed += dt
+            k = self.envelope(s.elapsed)
+            if s.elapsed >= p.close_time + p.hold_time + p.open_time:
+                s.active, k = False, 0.0
         emb = self.emb
         values = np.clip(emb.rest + k * self.delta, emb.min, emb.max)
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), []),
-                "blinking": self.active}
+                "blinking": s.active}

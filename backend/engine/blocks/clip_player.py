@@ -3,12 +3,22 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import Block, BlockCommandError, BlockParams, DofSelection, Port, PortType, Role, register_block
+from backend.engine.blocks.base import (
+    BlockCommandError,
+    BlockParams,
+    DofSelection,
+    Port,
+    PortType,
+    Source,
+    drivable,
+    register_block,
+)
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
 from backend.engine.frames import FrameEvent, PartialFrame
 from backend.engine.selectors import channel_mask
@@ -21,7 +31,8 @@ class ClipPlayerParams(BlockParams):
                              json_schema_extra={"x-widget": "clip"})
     autoplay: bool = Field(False, description="start playing `clip` when the program starts")
     mode: PlayMode = Field("once", description="once, loop, or ping_pong (forward then backward)")
-    speed: float = Field(1.0, ge=0.05, le=5.0, description="playback speed (1 = authored timing)")
+    speed: float = drivable(Field(1.0, ge=0.05, le=5.0, description="playback speed (1 = authored timing)"),
+                            "overrides the speed (e.g. from an emotion mapping)")
     crossfade: float = Field(0.3, ge=0.0, le=5.0, description="blend-in time from the current pose (s)")
     release: float = Field(0.4, ge=0.0, le=5.0, description="blend-out time after the clip ends or stops (s)")
     hold: bool = Field(False, description="after a `once` clip ends, hold its last pose instead of releasing")
@@ -34,7 +45,7 @@ def _smooth(x: float) -> float:
 
 
 @register_block
-class ClipPlayer(Block):
+class ClipPlayer(Source):
     """Plays keyframed clips (per-DoF animation curves) once, looped or ping-pong, at any speed.
 
     Commands: `play {clip, speed?, mode?, crossfade?, anchors?}`, `stop {fade?}`, `seek {t}`. A new clip
@@ -47,22 +58,38 @@ class ClipPlayer(Block):
 
     type_name = "clip_player"
     title = "Clip player"
-    category = "sources"
-    role = Role.source
     Params = ClipPlayerParams
-    inputs = {
-        "speed": Port(PortType.float, "overrides the speed (e.g. from an emotion mapping)"),
-        "trigger": Port(PortType.bool, "a rising edge plays `clip`"),
-    }
+    inputs = {"trigger": Port(PortType.bool, "a rising edge plays `clip`")}
     outputs = {
         "out": Port(PortType.frame, "the clip's pose on its DoFs"),
         "weight": Port(PortType.float, "blend envelope 0..1 (wire to the mixer's layer weight)"),
         "playing": Port(PortType.bool, "true while a clip plays"),
         "time": Port(PortType.float, "clip time (s)"),
     }
-    state_attrs = ("current", "pos", "play_t", "direction", "env", "env_target", "values", "from_values",
-                   "xfade_t", "xfade", "mask", "old_mask", "command_id", "last_trigger", "warp", "speed",
-                   "mode", "done", "fade_in", "fade_out", "pending_autoplay")
+
+    @dataclass
+    class State:
+        values: np.ndarray  # the pose shown (before the relative-clip fade)
+        from_values: np.ndarray  # the pose a crossfade starts from
+        mask: np.ndarray  # the DoFs of the current clip
+        old_mask: np.ndarray  # the DoFs of the clip being crossfaded out
+        mode: str  # once | loop | ping_pong
+        fade_in: float  # envelope fade-in time (s)
+        fade_out: float  # envelope fade-out time (s)
+        pending_autoplay: bool  # start `clip` on the first tick
+        current: CompiledClip | None = None
+        pos: float = 0.0  # clip time (s)
+        play_t: float = 0.0  # time since play (s)
+        direction: float = 1.0  # +1 forward, -1 backward (ping_pong)
+        env: float = 0.0  # blend envelope 0..1
+        env_target: float = 0.0
+        xfade_t: float = 0.0  # s into the crossfade
+        xfade: float = 0.0  # crossfade length (s)
+        command_id: Any = None
+        last_trigger: bool = False
+        warp: tuple[np.ndarray, np.ndarray] | None = None  # anchor time map (play time -> clip time)
+        speed: float | None = None  # the play command's speed (None: the parameter)
+        done: bool = False  # the clip ended or was stopped (fading out)
 
     def configure(self) -> None:
         self.allowed = channel_mask(self.emb, self.params.dofs)
@@ -71,28 +98,11 @@ class ClipPlayer(Block):
             self._load(self.params.clip)  # an unknown or broken clip is a configuration error, named
 
     def reset(self) -> None:
-        n = self.emb.n_channels
-        self.current: CompiledClip | None = None
-        self.pos = 0.0  # clip time (s)
-        self.play_t = 0.0  # time since play (s)
-        self.direction = 1.0
-        self.env = 0.0
-        self.env_target = 0.0
-        self.values = self.emb.rest.copy()
-        self.from_values = self.emb.rest.copy()
-        self.xfade_t = 0.0
-        self.xfade = 0.0
-        self.mask = np.zeros(n, dtype=bool)
-        self.old_mask = np.zeros(n, dtype=bool)
-        self.command_id = None
-        self.last_trigger = False
-        self.warp: tuple[np.ndarray, np.ndarray] | None = None
-        self.speed: float | None = None
-        self.mode: str = self.params.mode
-        self.done = False
-        self.fade_in = self.params.crossfade
-        self.fade_out = self.params.release
-        self.pending_autoplay = bool(self.params.autoplay and self.params.clip)
+        n, p = self.emb.n_channels, self.params
+        self.state = self.State(values=self.emb.rest.copy(), from_values=self.emb.rest.copy(),
+                                mask=np.zeros(n, dtype=bool), old_mask=np.zeros(n, dtype=bool), mode=p.mode,
+                                fade_in=p.crossfade, fade_out=p.release,
+                                pending_autoplay=bool(p.autoplay and p.clip))
 
     # --- clips --------------------------------------------------------------------------------------
     def _load(self, name: str) -> CompiledClip:
@@ -115,6 +125,7 @@ class ClipPlayer(Block):
         return compiled
 
     def _start(self, name: str, args: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
         clip = self._load(name)
         mode = str(args.get("mode") or self.params.mode)
         if mode not in ("once", "loop", "ping_pong"):
@@ -130,123 +141,128 @@ class ClipPlayer(Block):
                 raise BlockCommandError(f"clip '{name}': {exc}") from exc
         crossfade = args.get("crossfade")
         crossfade = self.params.crossfade if crossfade is None else float(crossfade)
-        if self.current is not None and not self.done:
-            self.ctx.notify(self.node_id, "cancelled", command_id=self.command_id, clip=self.current.name)
+        if s.current is not None and not s.done:
+            self.ctx.notify(self.node_id, "cancelled", command_id=s.command_id, clip=s.current.name)
         # A clip replacing a visible one crossfades from the shown pose; from nothing, the envelope fades in.
-        self.from_values = self.values.copy()
-        self.old_mask = self.mask & (self.env > 0.0)
-        self.xfade = crossfade if self.env > 0.0 else 0.0
-        self.xfade_t = 0.0
-        self.current, self.mode, self.speed, self.warp = clip, mode, speed, warp
-        self.pos, self.play_t, self.direction, self.done = 0.0, 0.0, 1.0, False
-        self.env_target = 1.0
-        self.fade_in = crossfade
-        self.mask = clip.mask.copy()
-        self.command_id = args.get("command_id")
-        self.ctx.notify(self.node_id, "started", command_id=self.command_id, clip=name, duration=clip.duration)
+        s.from_values = s.values.copy()
+        s.old_mask = s.mask & (s.env > 0.0)
+        s.xfade = crossfade if s.env > 0.0 else 0.0
+        s.xfade_t = 0.0
+        s.current, s.mode, s.speed, s.warp = clip, mode, speed, warp
+        s.pos, s.play_t, s.direction, s.done = 0.0, 0.0, 1.0, False
+        s.env_target = 1.0
+        s.fade_in = crossfade
+        s.mask = clip.mask.copy()
+        s.command_id = args.get("command_id")
+        self.ctx.notify(self.node_id, "started", command_id=s.command_id, clip=name, duration=clip.duration)
         return {"clip": name, "duration": clip.duration, "mode": mode}
 
     def handle(self, command: str, args: dict[str, Any]) -> Any:
+        s = self.state
         if command == "play":
             name = args.get("clip") or self.params.clip
             if not name:
                 raise BlockCommandError(f"clip player '{self.node_id}' has no clip to play: give 'clip'")
             return self._start(str(name), args)
         if command == "stop":
-            if self.current is None or self.done:
+            if s.current is None or s.done:
                 return {"stopped": False}
-            self.ctx.notify(self.node_id, "cancelled", command_id=self.command_id, clip=self.current.name)
+            self.ctx.notify(self.node_id, "cancelled", command_id=s.command_id, clip=s.current.name)
             self._finish(args.get("fade"))
             return {"stopped": True}
         if command == "seek":
-            if self.current is None:
+            if s.current is None:
                 raise BlockCommandError(f"clip player '{self.node_id}' is not playing a clip")
             t = float(args.get("t", 0.0))
-            if not 0.0 <= t <= self.current.duration:
-                raise BlockCommandError(f"seek time {t} s is outside the clip (0..{self.current.duration} s)")
-            self.pos, self.warp = t, None  # a seek leaves any anchor warp behind
+            if not 0.0 <= t <= s.current.duration:
+                raise BlockCommandError(f"seek time {t} s is outside the clip (0..{s.current.duration} s)")
+            s.pos, s.warp = t, None  # a seek leaves any anchor warp behind
             return {"t": t}
         return super().handle(command, args)
 
     def _finish(self, fade: float | None = None) -> None:
-        self.done = True
-        self.env_target = 0.0
-        self.fade_out = self.params.release if fade is None else float(fade)
+        s = self.state
+        s.done = True
+        s.env_target = 0.0
+        s.fade_out = self.params.release if fade is None else float(fade)
 
     # --- tick ---------------------------------------------------------------------------------------
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
         trigger = bool(inputs.get("trigger") or False)
-        if self.pending_autoplay or (trigger and not self.last_trigger and self.params.clip):
-            self.pending_autoplay = False
+        if s.pending_autoplay or (trigger and not s.last_trigger and self.params.clip):
+            s.pending_autoplay = False
             try:
                 self._start(self.params.clip, {})
             except BlockCommandError as exc:
                 self.ctx.notify(self.node_id, "error", message=str(exc))
-        self.last_trigger = trigger
-        clip = self.current
+        s.last_trigger = trigger
+        clip = s.current
         events: list[FrameEvent] = []
         if clip is not None:
-            if not self.done:
-                events = self._advance(clip, dt, float(self.signal(inputs, "speed", self.speed or self.params.speed)))
-            clip.sample(self.pos, self.emb.rest, self.values)
-            if self.xfade_t < self.xfade:
-                self.xfade_t += dt
-                k = _smooth(self.xfade_t / self.xfade)
-                self.values = np.where(self.old_mask & ~self.mask, self.from_values,
-                                       self.from_values + k * (self.values - self.from_values))
+            if not s.done:
+                speed = self.driven(inputs, speed=s.speed or self.params.speed).speed  # else the play command's
+                events = self._advance(clip, dt, speed)
+            clip.sample(s.pos, self.emb.rest, s.values)
+            if s.xfade_t < s.xfade:
+                s.xfade_t += dt
+                k = _smooth(s.xfade_t / s.xfade)
+                s.values = np.where(s.old_mask & ~s.mask, s.from_values, s.from_values + k * (s.values - s.from_values))
             self._advance_envelope(dt)
-            if self.done and self.env <= 0.0:
-                self.current = None
-        weight = _smooth(self.env)
-        visible = self.current is not None or self.env > 0.0
-        mask = (self.mask | (self.old_mask if self.xfade_t < self.xfade else False)) if visible else np.zeros_like(self.mask)
-        values = self.values
+            if s.done and s.env <= 0.0:
+                s.current = None
+        weight = _smooth(s.env)
+        visible = s.current is not None or s.env > 0.0
+        mask = (s.mask | (s.old_mask if s.xfade_t < s.xfade else False)) if visible else np.zeros_like(s.mask)
+        values = s.values
         if clip is not None and clip.relative.any():
             rest = self.emb.rest
             values = rest + weight * (values - rest)
         return {"out": PartialFrame(values.copy(), mask, events), "weight": weight,
-                "playing": self.current is not None and not self.done, "time": self.pos}
+                "playing": s.current is not None and not s.done, "time": s.pos}
 
     def _advance_envelope(self, dt: float) -> None:
-        if self.env < self.env_target:
-            rate = 1.0 / self.fade_in if self.fade_in > 0 else math.inf
-            self.env = min(self.env_target, self.env + rate * dt)
-        elif self.env > self.env_target:
-            rate = 1.0 / self.fade_out if self.fade_out > 0 else math.inf
-            self.env = max(self.env_target, self.env - rate * dt)
+        s = self.state
+        if s.env < s.env_target:
+            rate = 1.0 / s.fade_in if s.fade_in > 0 else math.inf
+            s.env = min(s.env_target, s.env + rate * dt)
+        elif s.env > s.env_target:
+            rate = 1.0 / s.fade_out if s.fade_out > 0 else math.inf
+            s.env = max(s.env_target, s.env - rate * dt)
 
     def _advance(self, clip: CompiledClip, dt: float, speed: float) -> list[FrameEvent]:
-        before = self.pos
+        s = self.state
+        before = s.pos
         duration = clip.duration
-        self.play_t += dt
+        s.play_t += dt
         wrapped = False
-        if self.warp is not None and self.mode == "once":
-            self.pos = float(np.interp(self.play_t, *self.warp))
+        if s.warp is not None and s.mode == "once":
+            s.pos = float(np.interp(s.play_t, *s.warp))
         else:
-            self.pos += self.direction * speed * dt
-        if self.mode == "once":
-            if self.pos >= duration:
-                self.pos = duration
+            s.pos += s.direction * speed * dt
+        if s.mode == "once":
+            if s.pos >= duration:
+                s.pos = duration
                 events = self._events_between(clip, before, duration)
-                self.ctx.notify(self.node_id, "completed", command_id=self.command_id, clip=clip.name)
+                self.ctx.notify(self.node_id, "completed", command_id=s.command_id, clip=clip.name)
                 if self.params.hold:
-                    self.done = True
+                    s.done = True
                 else:
                     self._finish()
                 return events
-        elif self.mode == "loop":
-            if self.pos >= duration:
-                self.pos %= duration
+        elif s.mode == "loop":
+            if s.pos >= duration:
+                s.pos %= duration
                 wrapped = True
         else:  # ping_pong: bounce at both ends
-            if self.pos >= duration:
-                self.pos, self.direction = 2 * duration - self.pos, -1.0
-            elif self.pos <= 0.0:
-                self.pos, self.direction = -self.pos, 1.0
+            if s.pos >= duration:
+                s.pos, s.direction = 2 * duration - s.pos, -1.0
+            elif s.pos <= 0.0:
+                s.pos, s.direction = -s.pos, 1.0
         if wrapped:
-            return self._events_between(clip, before, duration) + self._events_between(clip, -1e-12, self.pos)
-        if self.direction > 0:
-            return self._events_between(clip, before, self.pos)
+            return self._events_between(clip, before, duration) + self._events_between(clip, -1e-12, s.pos)
+        if s.direction > 0:
+            return self._events_between(clip, before, s.pos)
         return []
 
     @staticmethod

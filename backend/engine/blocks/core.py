@@ -5,26 +5,30 @@ from __future__ import annotations
 
 import difflib
 import math
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
 from backend.engine.blocks.base import (
+    FRAME_IN,
+    FRAME_OUT,
     Block,
     BlockParams,
     DofSelection,
+    Operator,
     Port,
     PortType,
     Role,
+    SignalBlock,
+    Source,
+    drivable,
     register_block,
 )
 from backend.engine.embodiment import DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask, select_dofs
-
-FRAME_IN = {"in": Port(PortType.frame, "frame to transform", required=True)}
-FRAME_OUT = {"out": Port(PortType.frame, "resulting frame")}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -52,19 +56,23 @@ class Output(Block):
     Params = OutputParams
     inputs = {"in": Port(PortType.frame, "final frame", required=True)}
     outputs = {}
-    state_attrs = ("held",)
+
+    @dataclass
+    class State:
+        held: np.ndarray  # the last value of every channel
 
     def reset(self) -> None:
-        self.held = self.emb.rest.copy()
+        self.state = self.State(held=self.emb.rest.copy())
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         frame: PartialFrame | None = inputs.get("in")
+        held = self.state.held
         events = []
         if frame is not None:
-            np.copyto(self.held, frame.values, where=frame.mask)
-            np.clip(self.held, self.emb.min, self.emb.max, out=self.held)
+            np.copyto(held, frame.values, where=frame.mask)
+            np.clip(held, self.emb.min, self.emb.max, out=held)
             events = frame.events
-        return {"frame": PartialFrame(self.held, np.ones_like(self.emb.continuous_mask), events)}
+        return {"frame": PartialFrame(held, np.ones_like(self.emb.continuous_mask), events)}
 
 
 SIGNAL_TYPES = Literal["float", "int", "bool", "string", "vec3", "colour", "event"]
@@ -76,7 +84,7 @@ class InputParams(BlockParams):
 
 
 @register_block
-class ExposedInput(Block):
+class ExposedInput(SignalBlock):
     """Reads one of the program's exposed inputs (e.g. `arousal`, `gaze_target`) as a signal.
 
     Exposed inputs are declared by the program with a type, default and range, and set at run time by
@@ -85,8 +93,6 @@ class ExposedInput(Block):
 
     type_name = "input"
     title = "Exposed input"
-    category = "signals"
-    role = Role.signal
     Params = InputParams
     outputs = {"value": Port(PortType.float, "current value")}
 
@@ -126,7 +132,7 @@ class RestPoseParams(BlockParams):
 
 
 @register_block
-class RestPose(Block):
+class RestPose(Source):
     """The robot's rest pose on the selected DoFs.
 
     A neutral base layer: under an additive idle layer it gives a robot that breathes around its rest.
@@ -134,10 +140,7 @@ class RestPose(Block):
 
     type_name = "rest_pose"
     title = "Rest pose"
-    category = "sources"
-    role = Role.source
     Params = RestPoseParams
-    outputs = FRAME_OUT
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs)
@@ -197,15 +200,12 @@ class PoseParams(BlockParams):
 
 
 @register_block
-class Pose(Block):
+class Pose(Source):
     """A constant pose: fixed values for some DoFs (and/or a named posture of the robot)."""
 
     type_name = "pose"
     title = "Constant pose"
-    category = "sources"
-    role = Role.source
     Params = PoseParams
-    outputs = FRAME_OUT
 
     def configure(self) -> None:
         values: dict[str, PoseValue] = {}
@@ -222,16 +222,19 @@ class Pose(Block):
 
 class SineParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
-    amplitude: float = Field(0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)")
-    frequency: float = Field(0.25, ge=0.0, le=20.0, description="cycles per second (Hz)")
+    amplitude: float = drivable(Field(0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)"),
+                                "overrides the amplitude parameter")
+    frequency: float = drivable(Field(0.25, ge=0.0, le=20.0, description="cycles per second (Hz)"),
+                                "overrides the frequency parameter")
     phase: float = Field(0.0, ge=-2 * math.pi, le=2 * math.pi, description="phase at t=0 (rad)")
     phase_spread: float = Field(0.0, ge=-math.pi, le=math.pi,
                                 description="extra phase per selected DoF (rad), for wave-like motion")
-    offset: float = Field(0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)")
+    offset: float = drivable(Field(0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)"),
+                             "overrides the offset parameter")
 
 
 @register_block
-class Sine(Block):
+class Sine(Source):
     """A sine wave around the rest pose on the selected continuous DoFs.
 
     `rest + offset + amplitude * sin(2*pi*frequency*t + phase + i*phase_spread)`; the phase is
@@ -241,32 +244,21 @@ class Sine(Block):
 
     type_name = "sine"
     title = "Sine"
-    category = "sources"
-    role = Role.source
     Params = SineParams
-    inputs = {
-        "amplitude": Port(PortType.float, "overrides the amplitude parameter"),
-        "frequency": Port(PortType.float, "overrides the frequency parameter"),
-        "offset": Port(PortType.float, "overrides the offset parameter"),
-    }
-    outputs = FRAME_OUT
-    state_attrs = ("phi",)
+
+    @dataclass
+    class State:
+        phi: float = 0.0  # integrated phase (rad)
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
         self.spread = np.zeros(self.emb.n_channels)
         self.spread[self.mask] = np.arange(int(self.mask.sum())) * self.params.phase_spread
 
-    def reset(self) -> None:
-        self.phi = 0.0
-
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p = self.params
-        amp = float(self.signal(inputs, "amplitude", p.amplitude))
-        freq = float(self.signal(inputs, "frequency", p.frequency))
-        off = float(self.signal(inputs, "offset", p.offset))
-        values = self.emb.rest + off + amp * np.sin(self.phi + p.phase + self.spread)
-        self.phi = (self.phi + 2 * math.pi * freq * dt) % (2 * math.pi)
+        d, s = self.driven(inputs), self.state
+        values = self.emb.rest + d.offset + d.amplitude * np.sin(s.phi + self.params.phase + self.spread)
+        s.phi = (s.phi + 2 * math.pi * d.frequency * dt) % (2 * math.pi)
         return {"out": PartialFrame(values, self.mask.copy(), [])}
 
 
@@ -277,12 +269,12 @@ class Sine(Block):
 
 class GainOffsetParams(BlockParams):
     dofs: DofSelection = Field(default=["*"])
-    gain: float = Field(1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose")
-    offset: float = Field(0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)")
+    gain: float = drivable(Field(1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose"))
+    offset: float = drivable(Field(0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)"))
 
 
 @register_block
-class GainOffset(Block):
+class GainOffset(Operator):
     """Scales each selected DoF's deviation from the rest pose and adds an offset.
 
     `rest + gain * (value - rest) + offset` on the selected continuous DoFs; other DoFs pass through.
@@ -291,23 +283,15 @@ class GainOffset(Block):
 
     type_name = "gain_offset"
     title = "Gain / offset"
-    category = "operators"
-    role = Role.operator
     Params = GainOffsetParams
-    inputs = {**FRAME_IN, "gain": Port(PortType.float), "offset": Port(PortType.float)}
-    outputs = FRAME_OUT
 
     def configure(self) -> None:
         self.sel = channel_mask(self.emb, self.params.dofs, continuous_only=True)
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
-        gain = float(self.signal(inputs, "gain", self.params.gain))
-        off = float(self.signal(inputs, "offset", self.params.offset))
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        d = self.driven(inputs)
         rest = self.emb.rest
-        scaled = rest + gain * (frame.values - rest) + off
+        scaled = rest + d.gain * (frame.values - rest) + d.offset
         return {"out": PartialFrame(np.where(self.sel, scaled, frame.values), frame.mask.copy(), frame.events)}
 
 
@@ -317,16 +301,12 @@ class MaskParams(BlockParams):
 
 
 @register_block
-class Mask(Block):
+class Mask(Operator):
     """Keeps only the selected DoFs of a frame (or removes them); events follow their DoFs."""
 
     type_name = "mask"
     title = "Mask DoFs"
-    category = "operators"
-    role = Role.operator
     Params = MaskParams
-    inputs = FRAME_IN
-    outputs = FRAME_OUT
 
     def configure(self) -> None:
         sel = channel_mask(self.emb, self.params.dofs)
@@ -336,10 +316,7 @@ class Mask(Block):
         chosen = {d.name for d in select_dofs(self.emb, self.params.dofs)}
         self.event_dofs = chosen if keep else names - chosen
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
         events = [e for e in frame.events if e.dof in self.event_dofs]
         return {"out": PartialFrame(frame.values, frame.mask & self.keep, events)}
 
@@ -371,7 +348,10 @@ class SafetyLimiter(Block):
     Params = SafetyParams
     inputs = FRAME_IN
     outputs = FRAME_OUT
-    state_attrs = ("last",)
+
+    @dataclass
+    class State:
+        last: np.ndarray  # the last output (held where the frame sets nothing)
 
     def configure(self) -> None:
         e = self.emb
@@ -381,13 +361,14 @@ class SafetyLimiter(Block):
         self.vmax = np.where(e.continuous_mask, e.vel_limit * self.params.velocity_scale, np.inf)
 
     def reset(self) -> None:
-        self.last = self.emb.rest.copy()
+        self.state = self.State(last=self.emb.rest.copy())
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         frame: PartialFrame | None = inputs.get("in")
-        target = self.last if frame is None else np.where(frame.mask, frame.values, self.last)
+        s = self.state
+        target = s.last if frame is None else np.where(frame.mask, frame.values, s.last)
         target = np.clip(target, self.lo, self.hi)
         step = self.vmax * dt
-        self.last = self.last + np.clip(target - self.last, -step, step)
-        return {"out": PartialFrame(self.last.copy(), np.ones(self.emb.n_channels, dtype=bool),
+        s.last = s.last + np.clip(target - s.last, -step, step)
+        return {"out": PartialFrame(s.last.copy(), np.ones(self.emb.n_channels, dtype=bool),
                                     frame.events if frame is not None else [])}

@@ -8,24 +8,25 @@ so an AI can wait for an utterance to end. While speaking, the say block flaps t
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, field_validator
 
 from backend.engine.blocks.base import (
-    Block,
+    FRAME_OUT,
     BlockCommandError,
     BlockParams,
     Port,
     PortType,
-    Role,
+    Source,
+    colour_or_none,
+    drivable,
     register_block,
 )
 from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
 from backend.engine.frames import FrameEvent, PartialFrame
-
-FRAME_OUT = {"out": Port(PortType.frame, "resulting frame")}
 
 
 def _resolve_dof(emb: Embodiment, name: str | None, want: DofType, what: str, kind: str | None = None) -> Dof:
@@ -50,11 +51,8 @@ def _resolve_dof(emb: Embodiment, name: str | None, want: DofType, what: str, ki
 
 def _colour(value: Any, where: str) -> np.ndarray:
     """A colour [r, g, b] with components in [0, 1]; raises BlockCommandError naming `where`."""
-    try:
-        c = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise BlockCommandError(f"{where}: a colour is [r, g, b] in 0..1, got {value!r}") from None
-    if c.shape != (3,) or not np.all(np.isfinite(c)) or np.any(c < 0.0) or np.any(c > 1.0):
+    c = colour_or_none(value)
+    if c is None:
         raise BlockCommandError(f"{where}: a colour is [r, g, b] with components in 0..1, got {value!r}")
     return c
 
@@ -67,13 +65,17 @@ def _colour(value: Any, where: str) -> np.ndarray:
 class LedParams(BlockParams):
     dof: str | None = Field(None, description="colour DoF (LED or LED group); default: the robot's first",
                             json_schema_extra={"x-widget": "dof"})
-    colour: list[float] = Field(default=[1.0, 1.0, 1.0], min_length=3, max_length=3,
-                                description="colour [r, g, b], components 0..1",
-                                json_schema_extra={"x-widget": "colour"})
+    colour: list[float] = drivable(Field(default=[1.0, 1.0, 1.0], min_length=3, max_length=3,
+                                         description="colour [r, g, b], components 0..1",
+                                         json_schema_extra={"x-widget": "colour"}),
+                                   "overrides the colour [r, g, b]", port=PortType.colour)
     mode: Literal["solid", "pulse", "breathe"] = Field(
         "solid", description="solid; pulse (a quick flash then a fade, like a heartbeat); breathe (a slow sine)")
-    frequency: float = Field(0.5, ge=0.0, le=10.0, description="pulses or breaths per second (Hz)")
-    depth: float = Field(0.5, ge=0.0, le=1.0, description="how far the brightness dips (0 = none, 1 = to black)")
+    frequency: float = drivable(Field(0.5, ge=0.0, le=10.0, description="pulses or breaths per second (Hz)"),
+                                "overrides the frequency (Hz)", clamp="floor")
+    depth: float = drivable(
+        Field(0.5, ge=0.0, le=1.0, description="how far the brightness dips (0 = none, 1 = to black)"),
+        "overrides the depth (0..1)", clamp="range")
 
     @field_validator("colour")
     @classmethod
@@ -95,7 +97,7 @@ def brightness(mode: str, u: float, depth: float) -> float:
 
 
 @register_block
-class Led(Block):
+class Led(Source):
     """Sets an LED (a colour DoF) to a colour, solid, pulsing or breathing.
 
     The colour comes from the `colour` input when connected, else from the last `set_led` command, else
@@ -105,48 +107,35 @@ class Led(Block):
 
     type_name = "led"
     title = "LED"
-    category = "sources"
-    role = Role.source
     Params = LedParams
-    inputs = {"colour": Port(PortType.colour, "overrides the colour [r, g, b]"),
-              "frequency": Port(PortType.float, "overrides the frequency (Hz)"),
-              "depth": Port(PortType.float, "overrides the depth (0..1)")}
-    outputs = FRAME_OUT
-    state_attrs = ("cycles", "commanded")
+
+    @dataclass
+    class State:
+        cycles: float = 0.0  # pulse/breath phase (cycles)
+        commanded: np.ndarray | None = None  # the colour of the last set_led command
 
     def configure(self) -> None:
         self.dof = _resolve_dof(self.emb, self.params.dof, DofType.colour, "led")
         self.mask = np.zeros(self.emb.n_channels, dtype=bool)
         self.mask[self.dof.channels] = True
 
-    def reset(self) -> None:
-        self.cycles = 0.0
-        self.commanded: np.ndarray | None = None
-
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         if command == "set_led":
             dof = args.get("dof")
             if dof and dof != self.dof.name:
                 raise BlockCommandError(f"led '{self.node_id}' drives '{self.dof.name}', not '{dof}'")
-            self.commanded = _colour(args.get("colour"), "set_led")
-            return {"dof": self.dof.name, "colour": [float(c) for c in self.commanded]}
+            self.state.commanded = _colour(args.get("colour"), "set_led")
+            return {"dof": self.dof.name, "colour": [float(c) for c in self.state.commanded]}
         return super().handle(command, args)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p = self.params
-        colour = self.commanded if self.commanded is not None else np.asarray(p.colour, dtype=float)
-        wired = inputs.get("colour")
-        if wired is not None:
-            try:
-                colour = _colour(wired, "colour input")
-            except BlockCommandError:
-                pass  # a malformed signal keeps the last good colour source
-        freq = max(float(self.signal(inputs, "frequency", p.frequency)), 0.0)
-        depth = min(max(float(self.signal(inputs, "depth", p.depth)), 0.0), 1.0)
-        factor = brightness(p.mode, self.cycles % 1.0, depth)
-        self.cycles = (self.cycles + freq * dt) % 1.0
+        s = self.state
+        # A wired colour wins; a malformed one falls back to the last command, else the parameter.
+        d = self.driven(inputs, colour=s.commanded if s.commanded is not None else self.params.colour)
+        factor = brightness(self.params.mode, s.cycles % 1.0, d.depth)
+        s.cycles = (s.cycles + d.frequency * dt) % 1.0
         values = self.emb.rest.copy()
-        values[self.dof.channels] = np.clip(colour * factor, 0.0, 1.0)
+        values[self.dof.channels] = np.clip(d.colour * factor, 0.0, 1.0)
         return {"out": PartialFrame(values, self.mask.copy(), [])}
 
 
@@ -158,11 +147,12 @@ class Led(Block):
 class FaceParams(BlockParams):
     dof: str | None = Field(None, description="enum display DoF (face/screen); default: the robot's first",
                             json_schema_extra={"x-widget": "dof"})
-    expression: str | None = Field(None, description="option to show; default: the DoF's rest option")
+    expression: str | None = drivable(Field(None, description="option to show; default: the DoF's rest option"),
+                                      "overrides the expression (an option name)", port=PortType.string)
 
 
 @register_block
-class Face(Block):
+class Face(Source):
     """Shows a face/screen expression: one option of an enum display DoF (smile, frown, …).
 
     The expression comes from the `expression` input when connected (unknown names are ignored), else
@@ -172,12 +162,11 @@ class Face(Block):
 
     type_name = "face"
     title = "Face expression"
-    category = "sources"
-    role = Role.source
     Params = FaceParams
-    inputs = {"expression": Port(PortType.string, "overrides the expression (an option name)")}
-    outputs = FRAME_OUT
-    state_attrs = ("commanded",)
+
+    @dataclass
+    class State:
+        commanded: int | None = None  # the option index of the last set_face command
 
     def configure(self) -> None:
         self.dof = _resolve_dof(self.emb, self.params.dof, DofType.enum, "face")
@@ -195,21 +184,19 @@ class Face(Block):
             raise error(f"face: DoF '{self.dof.name}' has no expression {name!r} (options: {self.options})")
         return self.options.index(name)
 
-    def reset(self) -> None:
-        self.commanded: int | None = None
-
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         if command == "set_face":
             dof = args.get("dof")
             if dof and dof != self.dof.name:
                 raise BlockCommandError(f"face '{self.node_id}' drives '{self.dof.name}', not '{dof}'")
-            self.commanded = self._index(args.get("expression"), BlockCommandError)
-            return {"dof": self.dof.name, "expression": self.options[self.commanded]}
+            self.state.commanded = self._index(args.get("expression"), BlockCommandError)
+            return {"dof": self.dof.name, "expression": self.options[self.state.commanded]}
         return super().handle(command, args)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        index = self.commanded if self.commanded is not None else self.default_index
-        wired = inputs.get("expression")
+        commanded = self.state.commanded
+        index = commanded if commanded is not None else self.default_index
+        wired = self.driven(inputs, expression=None).expression  # unknown names are ignored
         if isinstance(wired, str) and wired in self.options:
             index = self.options.index(wired)
         values = self.emb.rest.copy()
@@ -224,7 +211,8 @@ class Face(Block):
 
 class SayParams(BlockParams):
     dof: str | None = Field(None, description="speech DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"})
-    text: str = Field("", max_length=2000, description="text said on a rising edge of the trigger input")
+    text: str = drivable(Field("", max_length=2000, description="text said on a rising edge of the trigger input"),
+                         "overrides the text parameter", port=PortType.string)
     words_per_second: float = Field(2.5, ge=0.5, le=10.0, description="speaking rate used to estimate the duration")
     min_duration: float = Field(0.4, ge=0.0, le=10.0, description="shortest estimated utterance (s)")
     lip_sync: bool = Field(True, description="flap the mouth while speaking")
@@ -235,7 +223,7 @@ class SayParams(BlockParams):
 
 
 @register_block
-class Say(Block):
+class Say(Source):
     """Speaks a text: a `say` event on the speech DoF, with the mouth flapping while it lasts.
 
     Triggered by the `say` command (the API's say, which waits for completion) or a rising edge of the
@@ -246,13 +234,18 @@ class Say(Block):
 
     type_name = "say"
     title = "Say"
-    category = "sources"
-    role = Role.source
     Params = SayParams
-    inputs = {"trigger": Port(PortType.bool, "says `text` on a rising edge"),
-              "text": Port(PortType.string, "overrides the text parameter")}
+    inputs = {"trigger": Port(PortType.bool, "says `text` on a rising edge")}
     outputs = {**FRAME_OUT, "speaking": Port(PortType.bool, "true while speaking")}
-    state_attrs = ("pending", "current", "elapsed", "length", "last_trigger", "closing")
+
+    @dataclass
+    class State:
+        pending: dict[str, Any] | None = None  # the utterance to start next tick {text, command_id}
+        current: dict[str, Any] | None = None  # the utterance being said
+        elapsed: float = 0.0  # s into it
+        length: float = 0.0  # its estimated duration (s)
+        last_trigger: bool = False
+        closing: bool = False  # the mouth still has to close
 
     def configure(self) -> None:
         emb = self.emb
@@ -268,14 +261,6 @@ class Say(Block):
         if self.lip is not None:
             self.lip_mask[self.lip] = True
 
-    def reset(self) -> None:
-        self.pending: dict[str, Any] | None = None
-        self.current: dict[str, Any] | None = None
-        self.elapsed = 0.0
-        self.length = 0.0
-        self.last_trigger = False
-        self.closing = False
-
     def duration(self, text: str) -> float:
         return max(self.params.min_duration, len(text.split()) / self.params.words_per_second)
 
@@ -284,54 +269,54 @@ class Say(Block):
             text = str(args.get("text") or "").strip()
             if not text:
                 raise BlockCommandError("say: the text is empty")
-            self.pending = {"text": text, "command_id": args.get("command_id")}
+            self.state.pending = {"text": text, "command_id": args.get("command_id")}
             return {"text": text, "duration": self.duration(text)}
         if command in ("stop", "cancel"):
             self._cancel()
-            self.pending = None
+            self.state.pending = None
             return {"stopped": True}
         return super().handle(command, args)
 
     def _cancel(self) -> None:
-        if self.current is not None:
-            self.ctx.notify(self.node_id, "cancelled", command_id=self.current["command_id"],
-                            text=self.current["text"])
-            self.current = None
-            self.closing = True
+        s = self.state
+        if s.current is not None:
+            self.ctx.notify(self.node_id, "cancelled", command_id=s.current["command_id"], text=s.current["text"])
+            s.current = None
+            s.closing = True
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
         trigger = bool(inputs.get("trigger") or False)
-        if trigger and not self.last_trigger:
-            text = str(self.signal(inputs, "text", self.params.text) or "").strip()
+        if trigger and not s.last_trigger:
+            text = str(self.driven(inputs).text or "").strip()
             if text:
-                self.pending = {"text": text, "command_id": None}
-        self.last_trigger = trigger
-        if self.current is not None:  # time goes on for the running utterance
-            self.elapsed += dt
-            if self.elapsed >= self.length - 1e-9:
-                self.ctx.notify(self.node_id, "completed", command_id=self.current["command_id"],
-                                text=self.current["text"])
-                self.current = None
-                self.closing = True
+                s.pending = {"text": text, "command_id": None}
+        s.last_trigger = trigger
+        if s.current is not None:  # time goes on for the running utterance
+            s.elapsed += dt
+            if s.elapsed >= s.length - 1e-9:
+                self.ctx.notify(self.node_id, "completed", command_id=s.current["command_id"], text=s.current["text"])
+                s.current = None
+                s.closing = True
         events: list[FrameEvent] = []
-        if self.pending is not None:
+        if s.pending is not None:
             self._cancel()
-            self.current, self.pending = self.pending, None
-            self.elapsed, self.length = 0.0, self.duration(self.current["text"])
-            events.append(FrameEvent(self.dof.name, "say", {"text": self.current["text"]}))
-            self.ctx.notify(self.node_id, "started", command_id=self.current["command_id"], text=self.current["text"])
+            s.current, s.pending = s.pending, None
+            s.elapsed, s.length = 0.0, self.duration(s.current["text"])
+            events.append(FrameEvent(self.dof.name, "say", {"text": s.current["text"]}))
+            self.ctx.notify(self.node_id, "started", command_id=s.current["command_id"], text=s.current["text"])
         values = self.emb.rest.copy()
         mask = np.zeros(self.emb.n_channels, dtype=bool)
-        if self.current is not None:
+        if s.current is not None:
             if self.lip is not None:
                 span = self.emb.max[self.lip] - self.emb.rest[self.lip]
-                flap = 0.5 - 0.5 * math.cos(2.0 * math.pi * self.params.syllable_rate * self.elapsed)
+                flap = 0.5 - 0.5 * math.cos(2.0 * math.pi * self.params.syllable_rate * s.elapsed)
                 values[self.lip] = self.emb.rest[self.lip] + self.params.lip_amount * span * flap
                 mask |= self.lip_mask
-        elif self.closing:  # one frame at rest closes the mouth; after that the lip DoF is left alone
+        elif s.closing:  # one frame at rest closes the mouth; after that the lip DoF is left alone
             mask |= self.lip_mask
-            self.closing = False
-        return {"out": PartialFrame(values, mask, events), "speaking": self.current is not None}
+            s.closing = False
+        return {"out": PartialFrame(values, mask, events), "speaking": s.current is not None}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -346,7 +331,7 @@ class PlaySoundParams(BlockParams):
 
 
 @register_block
-class PlaySound(Block):
+class PlaySound(Source):
     """Plays a sound clip: a `sound` event on the sound DoF, with started/completed notifications.
 
     Triggered by the `play_sound` command or a rising edge of the `trigger` input (playing `sound`).
@@ -356,12 +341,15 @@ class PlaySound(Block):
 
     type_name = "play_sound"
     title = "Play sound"
-    category = "sources"
-    role = Role.source
     Params = PlaySoundParams
     inputs = {"trigger": Port(PortType.bool, "plays `sound` on a rising edge")}
     outputs = {**FRAME_OUT, "playing": Port(PortType.bool, "true while a clip plays")}
-    state_attrs = ("pending", "active", "last_trigger")
+
+    @dataclass
+    class State:
+        pending: list[dict[str, Any]] = field(default_factory=list)  # clips to start next tick
+        active: list[dict[str, Any]] = field(default_factory=list)  # clips playing, with their time left
+        last_trigger: bool = False
 
     def configure(self) -> None:
         self.dof = _resolve_dof(self.emb, self.params.dof, DofType.event, "play_sound", kind="sound")
@@ -375,41 +363,37 @@ class PlaySound(Block):
             raise error(f"play_sound: unknown sound {name!r} on '{self.dof.name}' (options: {self.sounds})")
         return name
 
-    def reset(self) -> None:
-        self.pending: list[dict[str, Any]] = []
-        self.active: list[dict[str, Any]] = []
-        self.last_trigger = False
-
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         if command == "play_sound":
             name = self._check(args.get("sound"), BlockCommandError)
-            self.pending.append({"sound": name, "command_id": args.get("command_id")})
+            self.state.pending.append({"sound": name, "command_id": args.get("command_id")})
             return {"sound": name, "duration": self.params.duration}
         if command in ("stop", "cancel"):
-            for clip in self.active:
+            for clip in self.state.active:
                 self.ctx.notify(self.node_id, "cancelled", command_id=clip["command_id"], sound=clip["sound"])
-            self.active, self.pending = [], []
+            self.state.active, self.state.pending = [], []
             return {"stopped": True}
         return super().handle(command, args)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
         trigger = bool(inputs.get("trigger") or False)
-        if trigger and not self.last_trigger and self.trigger_sound:
-            self.pending.append({"sound": self.trigger_sound, "command_id": None})
-        self.last_trigger = trigger
+        if trigger and not s.last_trigger and self.trigger_sound:
+            s.pending.append({"sound": self.trigger_sound, "command_id": None})
+        s.last_trigger = trigger
         still = []
-        for clip in self.active:
+        for clip in s.active:
             clip["remaining"] -= dt
             if clip["remaining"] <= 1e-9:
                 self.ctx.notify(self.node_id, "completed", command_id=clip["command_id"], sound=clip["sound"])
             else:
                 still.append(clip)
-        self.active = still
+        s.active = still
         events = []
-        for clip in self.pending:
+        for clip in s.pending:
             events.append(FrameEvent(self.dof.name, "sound", {"clip": clip["sound"]}))
             self.ctx.notify(self.node_id, "started", command_id=clip["command_id"], sound=clip["sound"])
-            self.active.append({**clip, "remaining": self.params.duration})
-        self.pending = []
+            s.active.append({**clip, "remaining": self.params.duration})
+        s.pending = []
         return {"out": PartialFrame(self.emb.rest.copy(), np.zeros(self.emb.n_channels, dtype=bool), events),
-                "playing": bool(self.active)}
+                "playing": bool(s.active)}

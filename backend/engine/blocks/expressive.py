@@ -8,77 +8,29 @@ touch, keeping the frame's events. All per-tick work is vectorised over channels
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import Block, BlockParams, DofSelection, Port, PortType, Role, register_block
-from backend.engine.blocks.core import FRAME_IN, FRAME_OUT
+from backend.engine.blocks.base import (
+    FRAME_OUT,
+    BlockParams,
+    DofSelection,
+    Operator,
+    Port,
+    PortType,
+    drivable,
+    register_block,
+)
 from backend.engine.embodiment import Dof, DofType, Embodiment
-from backend.engine.frames import PartialFrame
-from backend.engine.selectors import channel_mask
+from backend.engine.frames import FrameHistory, PartialFrame
+from backend.engine.selectors import channel_mask, find_pairs, pair_channels
 
 # --------------------------------------------------------------------------------------------------
 # Helpers
 # --------------------------------------------------------------------------------------------------
-
-# (left pattern, right pattern) as (prefix, suffix) pairs: *_left/*_right, left_*/right_*, *_l/*_r.
-_SIDE_PATTERNS = ((("", "_left"), ("", "_right")), (("left_", ""), ("right_", "")), (("", "_l"), ("", "_r")))
-
-
-def _width(d: Dof) -> int:
-    return d.channels.stop - d.channels.start
-
-
-def _partner_name(name: str) -> str | None:
-    """The right-side name of a left-side DoF name, or None if the name has no left marker."""
-    for (lp, ls), (rp, rs) in _SIDE_PATTERNS:
-        if name.startswith(lp) and name.endswith(ls) and len(name) > len(lp) + len(ls):
-            core = name[len(lp):len(name) - len(ls)] if ls else name[len(lp):]
-            return f"{rp}{core}{rs}"
-    return None
-
-
-def find_pairs(emb: Embodiment, explicit: list[list[str]] | None = None, auto: bool = True) -> list[tuple[Dof, Dof]]:
-    """Left/right DoF pairs: explicit `[left, right]` pairs first, then pairs found by name.
-
-    Raises ValueError naming the DoF when an explicit pair is unknown or mismatched.
-    """
-    pairs: list[tuple[Dof, Dof]] = []
-    used: set[str] = set()
-    for pair in explicit or []:
-        a, b = pair
-        for name in (a, b):
-            if not emb.has_dof(name):
-                raise ValueError(f"pair {pair}: robot '{emb.name}' has no DoF '{name}'")
-            if name in used:
-                raise ValueError(f"pair {pair}: DoF '{name}' is already in another pair")
-        da, db = emb.dof(a), emb.dof(b)
-        if da.type is not db.type or _width(da) != _width(db):
-            raise ValueError(f"pair {pair}: '{a}' is {da.type.value} and '{b}' is {db.type.value}; "
-                             f"paired DoFs must have the same type")
-        if _width(da) == 0:
-            raise ValueError(f"pair {pair}: event DoFs cannot be paired")
-        pairs.append((da, db))
-        used.update((a, b))
-    if auto:
-        for d in emb.dofs:
-            partner = _partner_name(d.name)
-            if partner is None or d.name in used or partner in used or not emb.has_dof(partner):
-                continue
-            p = emb.dof(partner)
-            if p.type is d.type and _width(d) == _width(p) and _width(d) > 0:
-                pairs.append((d, p))
-                used.update((d.name, partner))
-    return pairs
-
-
-def _pair_channels(pairs: list[tuple[Dof, Dof]]) -> tuple[np.ndarray, np.ndarray]:
-    left = [i for a, _ in pairs for i in range(a.channels.start, a.channels.stop)]
-    right = [i for _, b in pairs for i in range(b.channels.start, b.channels.stop)]
-    return np.array(left, dtype=np.intp), np.array(right, dtype=np.intp)
-
 
 def _continuous_dof(emb: Embodiment, name: str, what: str) -> Dof:
     if not emb.has_dof(name):
@@ -104,36 +56,6 @@ def _check_pairs(v: PairList) -> PairList:
     return v
 
 
-class _History:
-    """Ring-buffer helpers for delay blocks (state lives on the block: hist_v, hist_m, head, primed)."""
-
-    hist_v: np.ndarray
-    hist_m: np.ndarray
-    head: int
-    primed: bool
-
-    def _init_history(self, capacity: int, n_channels: int) -> None:
-        self.hist_v = np.zeros((capacity, n_channels))
-        self.hist_m = np.zeros((capacity, n_channels), dtype=bool)
-        self.head = 0
-        self.primed = False
-
-    def _push_read(self, values: np.ndarray, mask: np.ndarray, lag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Store this tick's frame and read each channel `lag[c]` ticks back (0 = now)."""
-        cap = self.hist_v.shape[0]
-        if not self.primed:  # start as if the first frame had always been there: no jump at start
-            self.hist_v[:] = values
-            self.hist_m[:] = mask
-            self.primed = True
-        self.hist_v[self.head] = values
-        self.hist_m[self.head] = mask
-        rows = (self.head - np.minimum(lag, cap - 1)) % cap
-        cols = np.arange(values.shape[0])
-        out_v, out_m = self.hist_v[rows, cols], self.hist_m[rows, cols]
-        self.head = (self.head + 1) % cap
-        return out_v, out_m
-
-
 # --------------------------------------------------------------------------------------------------
 # Mirror
 # --------------------------------------------------------------------------------------------------
@@ -145,7 +67,8 @@ class MirrorParams(BlockParams):
     auto_pair: bool = Field(True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r")
     negate: DofSelection = Field(default=["*yaw*", "*roll*"],
                                  description="DoFs whose deviation from rest flips sign (yaw/roll turn the other way)")
-    mix: float = Field(1.0, ge=0.0, le=1.0, description="0 = original, 1 = fully mirrored (blend in between)")
+    mix: float = drivable(Field(1.0, ge=0.0, le=1.0, description="0 = original, 1 = fully mirrored (blend in between)"),
+                          "overrides the mix parameter (0..1)", clamp="range")
 
     @model_validator(mode="after")
     def _check(self) -> "MirrorParams":
@@ -154,7 +77,7 @@ class MirrorParams(BlockParams):
 
 
 @register_block
-class Mirror(Block):
+class Mirror(Operator):
     """Mirrors a frame left/right: swaps paired DoFs and flips yaw/roll about the rest pose.
 
     Left/right pairs are found by name (ear_left/ear_right, left_arm/right_arm, eye_l/eye_r) or given
@@ -165,27 +88,20 @@ class Mirror(Block):
 
     type_name = "mirror"
     title = "Mirror left/right"
-    category = "operators"
-    role = Role.operator
     Params = MirrorParams
-    inputs = {**FRAME_IN, "mix": Port(PortType.float, "overrides the mix parameter (0..1)")}
-    outputs = FRAME_OUT
 
     def configure(self) -> None:
         emb = self.emb
         n = emb.n_channels
-        left, right = _pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
+        left, right = pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
         perm = np.arange(n)
         perm[left], perm[right] = right, left
         self.perm = perm
         self.sign = np.where(channel_mask(emb, self.params.negate, continuous_only=True), -1.0, 1.0)
         self.touched = (perm != np.arange(n)) | (self.sign < 0)
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
-        mix = min(max(float(self.signal(inputs, "mix", self.params.mix)), 0.0), 1.0)
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        mix = self.driven(inputs).mix
         rest = self.emb.rest
         eff = np.where(frame.mask, frame.values, rest)
         mirrored = rest + self.sign * (eff - rest)[self.perm]
@@ -209,8 +125,9 @@ class AsymmetryParams(BlockParams):
                                       description="DoF name -> offset added (rad or m), e.g. one ear a bit lower")
     gains: dict[str, float] = Field(default_factory=dict,
                                     description="DoF name -> gain on the deviation from rest (1 = unchanged)")
-    delay: float = Field(0.06, ge=0.0, le=MAX_ASYM_DELAY,
-                         description="lag of the right side of each left/right pair (s)")
+    delay: float = drivable(Field(0.06, ge=0.0, le=MAX_ASYM_DELAY,
+                                  description="lag of the right side of each left/right pair (s)"),
+                            "overrides the delay parameter (s)", clamp="range")
     pairs: PairList = Field(default_factory=list, description="explicit [left, right] DoF pairs")
     auto_pair: bool = Field(True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r")
 
@@ -227,7 +144,7 @@ class AsymmetryParams(BlockParams):
 
 
 @register_block
-class Asymmetry(Block, _History):
+class Asymmetry(Operator):
     """Breaks robotic symmetry: per-DoF offsets and gains, and a small lag on the right side of pairs.
 
     Perfectly mirrored ears or eyelids look mechanical. This operator delays the right DoF of each
@@ -237,17 +154,13 @@ class Asymmetry(Block, _History):
 
     type_name = "asymmetry"
     title = "Asymmetry"
-    category = "operators"
-    role = Role.operator
     Params = AsymmetryParams
-    inputs = {**FRAME_IN, "delay": Port(PortType.float, "overrides the delay parameter (s)")}
-    outputs = FRAME_OUT
-    state_attrs = ("hist_v", "hist_m", "head", "primed")
+    State = FrameHistory
 
     def configure(self) -> None:
         emb = self.emb
         n = emb.n_channels
-        _, right = _pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
+        _, right = pair_channels(find_pairs(emb, self.params.pairs, self.params.auto_pair))
         self.right = np.zeros(n, dtype=bool)
         self.right[right] = True
         self.gain = np.ones(n)
@@ -256,18 +169,14 @@ class Asymmetry(Block, _History):
             self.gain[_continuous_dof(emb, name, f"gains['{name}']").channels] = g
         for name, o in self.params.offsets.items():
             self.offset[_continuous_dof(emb, name, f"offsets['{name}']").channels] = o
-        self.capacity = int(math.ceil(MAX_ASYM_DELAY * self.ctx.rate)) + 2
 
     def reset(self) -> None:
-        self._init_history(self.capacity, self.emb.n_channels)
+        self.state = FrameHistory.for_delay(MAX_ASYM_DELAY, self.ctx.rate, self.emb.n_channels)
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
-        delay = min(max(float(self.signal(inputs, "delay", self.params.delay)), 0.0), MAX_ASYM_DELAY)
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        delay = self.driven(inputs).delay
         lag = np.where(self.right, int(round(delay * self.ctx.rate)), 0)
-        values, mask = self._push_read(frame.values, frame.mask, lag)
+        values, mask = self.state.push_read(frame.values, frame.mask, lag)
         rest, emb = self.emb.rest, self.emb
         shaped = np.clip(rest + self.gain * (values - rest) + self.offset, emb.min, emb.max)
         values = np.where(emb.continuous_mask & mask, shaped, values)
@@ -281,14 +190,16 @@ class Asymmetry(Block, _History):
 
 class ExaggerateParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
-    gain: float = Field(1.5, ge=0.0, le=3.0, description="scale of the deviation from the reference (1 = unchanged)")
+    gain: float = drivable(
+        Field(1.5, ge=0.0, le=3.0, description="scale of the deviation from the reference (1 = unchanged)"),
+        "overrides the gain parameter (0..3)", clamp="range")
     reference: Literal["rest", "moving_average"] = Field(
         "rest", description="deviation from the rest pose, or from a moving average of the input")
     time_constant: float = Field(1.0, ge=0.01, le=30.0, description="moving-average time constant (s)")
 
 
 @register_block
-class Exaggerate(Block):
+class Exaggerate(Operator):
     """Exaggeration: scales each selected DoF's deviation from a reference, clamped to its limits.
 
     With reference `rest` a gain of 2 doubles every gesture's amplitude around the rest pose; with
@@ -299,35 +210,31 @@ class Exaggerate(Block):
 
     type_name = "exaggerate"
     title = "Exaggerate"
-    category = "operators"
-    role = Role.operator
     Params = ExaggerateParams
-    inputs = {**FRAME_IN, "gain": Port(PortType.float, "overrides the gain parameter (0..3)")}
-    outputs = FRAME_OUT
-    state_attrs = ("avg", "primed")
+
+    @dataclass
+    class State:
+        avg: np.ndarray  # the moving average of the input (the reference in `moving_average` mode)
+        primed: bool = False
 
     def configure(self) -> None:
         self.sel = channel_mask(self.emb, self.params.dofs, continuous_only=True)
 
     def reset(self) -> None:
-        self.avg = self.emb.rest.copy()
-        self.primed = False
+        self.state = self.State(avg=self.emb.rest.copy())
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
-        gain = min(max(float(self.signal(inputs, "gain", self.params.gain)), 0.0), 3.0)
-        emb = self.emb
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        gain = self.driven(inputs).gain
+        emb, s = self.emb, self.state
         if self.params.reference == "rest":
             ref = emb.rest
         else:
-            if not self.primed:
-                self.avg = np.where(frame.mask, frame.values, self.avg)
-                self.primed = True
+            if not s.primed:
+                s.avg = np.where(frame.mask, frame.values, s.avg)
+                s.primed = True
             a = _alpha(dt, self.params.time_constant)
-            self.avg = np.where(frame.mask, self.avg + a * (frame.values - self.avg), self.avg)
-            ref = self.avg
+            s.avg = np.where(frame.mask, s.avg + a * (frame.values - s.avg), s.avg)
+            ref = s.avg
         scaled = np.clip(ref + gain * (frame.values - ref), emb.min, emb.max)
         values = np.where(self.sel & frame.mask, scaled, frame.values)
         return {"out": PartialFrame(values, frame.mask.copy(), frame.events)}
@@ -343,7 +250,9 @@ class ArcParams(BlockParams):
                          json_schema_extra={"x-widget": "dof"})
     secondary: str = Field("head_pitch", description="DoF that receives the offset",
                            json_schema_extra={"x-widget": "dof"})
-    gain: float = Field(0.08, ge=-2.0, le=2.0, description="offset on the secondary per primary speed (rad per rad/s)")
+    gain: float = drivable(
+        Field(0.08, ge=-2.0, le=2.0, description="offset on the secondary per primary speed (rad per rad/s)"),
+        "overrides the gain parameter (rad per rad/s)")
     mode: Literal["abs", "signed"] = Field(
         "abs", description="abs: same direction whatever way the primary moves (a dip); signed: follows its sign")
     threshold: float = Field(0.0, ge=0.0, le=10.0, description="primary speed below which nothing is added (rad/s)")
@@ -357,7 +266,7 @@ class ArcParams(BlockParams):
 
 
 @register_block
-class Arc(Block):
+class Arc(Operator):
     """Arcs: couples a secondary DoF to the speed of a primary DoF, so straight moves become curved.
 
     The primary's velocity is estimated from the frame, smoothed, and `gain * speed` is added to the
@@ -367,36 +276,33 @@ class Arc(Block):
 
     type_name = "arc"
     title = "Arc"
-    category = "operators"
-    role = Role.operator
     Params = ArcParams
-    inputs = {**FRAME_IN, "gain": Port(PortType.float, "overrides the gain parameter (rad per rad/s)")}
     outputs = {**FRAME_OUT, "offset": Port(PortType.float, "offset currently added to the secondary (rad)")}
-    state_attrs = ("prev", "vel")
+
+    @dataclass
+    class State:
+        prev: float | None = None  # the primary's last position
+        vel: float = 0.0  # its smoothed velocity
 
     def configure(self) -> None:
         p = _continuous_dof(self.emb, self.params.primary, "primary")
         s = _continuous_dof(self.emb, self.params.secondary, "secondary")
         self.ip, self.is_ = p.channels.start, s.channels.start
 
-    def reset(self) -> None:
-        self.prev: float | None = None
-        self.vel = 0.0
+    def without_input(self) -> dict[str, Any]:
+        return {"out": self.empty(), "offset": 0.0}
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty(), "offset": 0.0}
-        p = self.params
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        p, s = self.params, self.state
         emb = self.emb
-        x = float(frame.values[self.ip]) if frame.mask[self.ip] else (self.prev if self.prev is not None
+        x = float(frame.values[self.ip]) if frame.mask[self.ip] else (s.prev if s.prev is not None
                                                                         else float(emb.rest[self.ip]))
-        raw = 0.0 if self.prev is None or dt <= 0.0 else (x - self.prev) / dt
-        self.prev = x
-        self.vel += _alpha(dt, p.smoothing) * (raw - self.vel)
-        speed = max(abs(self.vel) - p.threshold, 0.0)
-        drive = speed if p.mode == "abs" else math.copysign(speed, self.vel)
-        offset = float(self.signal(inputs, "gain", p.gain)) * drive
+        raw = 0.0 if s.prev is None or dt <= 0.0 else (x - s.prev) / dt
+        s.prev = x
+        s.vel += _alpha(dt, p.smoothing) * (raw - s.vel)
+        speed = max(abs(s.vel) - p.threshold, 0.0)
+        drive = speed if p.mode == "abs" else math.copysign(speed, s.vel)
+        offset = self.driven(inputs).gain * drive
         values, mask = frame.values.copy(), frame.mask.copy()
         if offset != 0.0 or mask[self.is_]:
             base = values[self.is_] if mask[self.is_] else emb.rest[self.is_]
@@ -435,7 +341,7 @@ class FollowThroughParams(BlockParams):
 
 
 @register_block
-class FollowThrough(Block):
+class FollowThrough(Operator):
     """Follow-through: a damped spring on the selected DoFs, so they overshoot and settle after a stop.
 
     Each selected DoF follows its input through an under-damped spring (natural frequency and damping
@@ -447,22 +353,22 @@ class FollowThrough(Block):
 
     type_name = "follow_through"
     title = "Follow-through"
-    category = "operators"
-    role = Role.operator
     Params = FollowThroughParams
-    inputs = FRAME_IN
-    outputs = FRAME_OUT
-    state_attrs = ("x", "v", "target", "primed")
+
+    @dataclass
+    class State:
+        x: np.ndarray  # the spring's position
+        v: np.ndarray  # its velocity
+        target: np.ndarray  # the last input
+        primed: bool = False
 
     def configure(self) -> None:
         self.sel = channel_mask(self.emb, self.params.dofs, continuous_only=True)
         self._matrix_key: tuple | None = None
 
     def reset(self) -> None:
-        self.x = self.emb.rest.copy()
-        self.v = np.zeros(self.emb.n_channels)
-        self.target = self.emb.rest.copy()
-        self.primed = False
+        rest = self.emb.rest
+        self.state = self.State(x=rest.copy(), v=np.zeros(self.emb.n_channels), target=rest.copy())
 
     def _matrix(self, dt: float) -> np.ndarray:
         key = (self.params.frequency, self.params.damping, dt)
@@ -470,31 +376,29 @@ class FollowThrough(Block):
             self._matrix_key, self._m = key, spring_step_matrix(*key)
         return self._m
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
-        u = np.where(frame.mask, frame.values, self.target)
-        if not self.primed:
-            self.x, self.target, self.primed = u.copy(), u.copy(), True
-        u_vel = (u - self.target) / dt if dt > 0 else np.zeros_like(u)
-        self.target = u
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
+        u = np.where(frame.mask, frame.values, s.target)
+        if not s.primed:
+            s.x, s.target, s.primed = u.copy(), u.copy(), True
+        u_vel = (u - s.target) / dt if dt > 0 else np.zeros_like(u)
+        s.target = u
         if not self.params.enabled or dt <= 0:
-            self.x, self.v = u.copy(), u_vel  # track the input, so enabling later never jumps
+            s.x, s.v = u.copy(), u_vel  # track the input, so enabling later never jumps
             return {"out": PartialFrame(frame.values, frame.mask, frame.events)}
         m = self._matrix(dt)
-        e = self.x - u
-        e_new = m[0, 0] * e + m[0, 1] * self.v
-        v_new = m[1, 0] * e + m[1, 1] * self.v
+        e = s.x - u
+        e_new = m[0, 0] * e + m[0, 1] * s.v
+        v_new = m[1, 0] * e + m[1, 1] * s.v
         lim = self.params.max_overshoot
         clipped = np.clip(e_new, -lim, lim)
         v_new = np.where(clipped != e_new, u_vel, v_new)  # held at the bound: move with the input
         emb = self.emb
         x_new = np.clip(u + clipped, emb.min, emb.max)
         v_new = np.where(x_new != u + clipped, 0.0, v_new)  # at a position limit: stop there
-        self.x = np.where(self.sel, x_new, u)
-        self.v = np.where(self.sel, v_new, u_vel)
-        values = np.where(self.sel & frame.mask, self.x, frame.values)
+        s.x = np.where(self.sel, x_new, u)
+        s.v = np.where(self.sel, v_new, u_vel)
+        values = np.where(self.sel & frame.mask, s.x, frame.values)
         return {"out": PartialFrame(values, frame.mask.copy(), frame.events)}
 
 
@@ -520,7 +424,7 @@ class DelayParams(BlockParams):
 
 
 @register_block
-class Delay(Block, _History):
+class Delay(Operator):
     """Delays the selected DoFs by a fixed time, for overlapping action (one part moves after another).
 
     Put it on the layer that drives the ears, say, with 0.15 s: the ears follow the head's motion a
@@ -530,12 +434,8 @@ class Delay(Block, _History):
 
     type_name = "delay"
     title = "Delay / overlap"
-    category = "operators"
-    role = Role.operator
     Params = DelayParams
-    inputs = FRAME_IN
-    outputs = FRAME_OUT
-    state_attrs = ("hist_v", "hist_m", "head", "primed")
+    State = FrameHistory
 
     def configure(self) -> None:
         emb = self.emb
@@ -546,14 +446,10 @@ class Delay(Block, _History):
                 raise ValueError(f"delays: robot '{emb.name}' has no DoF '{name}'")
             seconds[emb.dof(name).channels] = d
         self.lag = np.rint(seconds * self.ctx.rate).astype(np.intp)
-        self.capacity = int(math.ceil(MAX_DELAY * self.ctx.rate)) + 2
 
     def reset(self) -> None:
-        self._init_history(self.capacity, self.emb.n_channels)
+        self.state = FrameHistory.for_delay(MAX_DELAY, self.ctx.rate, self.emb.n_channels)
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
-        values, mask = self._push_read(frame.values, frame.mask, self.lag)
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        values, mask = self.state.push_read(frame.values, frame.mask, self.lag)
         return {"out": PartialFrame(values, mask, frame.events)}

@@ -3,32 +3,19 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import Block, BlockParams, Port, PortType, Role, register_block
-from backend.engine.blocks.core import FRAME_OUT
+from backend.engine.blocks.base import FRAME_OUT, BlockParams, Port, PortType, Source, drivable, register_block
 from backend.engine.embodiment import Dimension, DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for, joint_depths
 
 ARC_SMOOTHING = 0.08  # s, first-order smoothing of the arc dip (no jumps when a turn starts or stops)
 _GAIN_STEP = 1e-4  # rad, finite-difference step for each DoF's effect on the gaze direction
-
-
-def vec3_or_none(value: Any) -> np.ndarray | None:
-    """A finite 3-vector from a vec3 signal, or None when it is missing or not finite."""
-    if value is None:
-        return None
-    try:
-        v = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        return None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        return None
-    return v
 
 
 def yaw_pitch(d: np.ndarray) -> tuple[float, float]:
@@ -41,8 +28,10 @@ def _wrap(a: float) -> float:
 
 
 class GazeParams(BlockParams):
-    target: list[float] = Field([1.0, 0.0, 0.3], min_length=3, max_length=3,
-                                description="point to look at (m, robot base frame); used when `target` is unconnected")
+    target: list[float] = drivable(
+        Field([1.0, 0.0, 0.3], min_length=3, max_length=3,
+              description="point to look at (m, robot base frame); used when `target` is unconnected"),
+        "point to look at (m, robot base frame); overrides the target parameter", port=PortType.vec3)
     yaw_dofs: list[str] | None = Field(
         None, description="DoFs that turn the gaze left/right, leader first (default: the robot's gaze.yaw_joints, "
                           "most distal first)", json_schema_extra={"x-widget": "dofs"})
@@ -63,12 +52,13 @@ class GazeParams(BlockParams):
     arc_dip: float = Field(0.05, ge=0.0, le=1.0,
                            description="pitch dip (rad, + = down) per rad/s of yaw speed: turns follow an arc")
     arc_max: float = Field(0.08, ge=0.0, le=0.5, description="largest arc dip (rad)")
-    strength: float = Field(1.0, ge=0.0, le=1.0, description="0 = rest pose, 1 = full gaze (blend, 0..1)")
+    strength: float = drivable(Field(1.0, ge=0.0, le=1.0, description="0 = rest pose, 1 = full gaze (blend, 0..1)"),
+                               "overrides the strength parameter (0..1)", clamp="range")
     tolerance: float = Field(0.05, gt=0.0, le=1.0, description="`on_target` when the gaze is within this angle (rad)")
 
 
 @register_block
-class Gaze(Block):
+class Gaze(Source):
     """Looks at a 3D target: head leads, body follows, turns follow an arc.
 
     Each tick the block computes, from the eye point (the robot's gaze eye link and offset, posed by forward
@@ -84,15 +74,13 @@ class Gaze(Block):
 
     type_name = "gaze"
     title = "Gaze / look-at"
-    category = "sources"
-    role = Role.source
     Params = GazeParams
-    inputs = {
-        "target": Port(PortType.vec3, "point to look at (m, robot base frame); overrides the target parameter"),
-        "strength": Port(PortType.float, "overrides the strength parameter (0..1)"),
-    }
     outputs = {**FRAME_OUT, "on_target": Port(PortType.bool, "the gaze points at the target (within tolerance)")}
-    state_attrs = ("x", "dip")
+
+    @dataclass
+    class State:
+        x: np.ndarray  # each gaze DoF's angle from rest, without the arc dip (rad)
+        dip: float = 0.0  # the smoothed arc dip (rad)
 
     # --- configuration ----------------------------------------------------------------------------
     def configure(self) -> None:
@@ -133,8 +121,9 @@ class Gaze(Block):
         self.lo, self.hi = emb.min[self.idx] - rest, emb.max[self.idx] - rest
         self.vmax = np.minimum(p.max_speed, p.speed_fraction * emb.vel_limit[self.idx])
         self.gain = self._gains()
-        if not hasattr(self, "x") or self.x.shape != (n,):  # a new DoF set: start from rest (no old state fits)
-            self.x = np.zeros(n)
+        state = getattr(self, "state", None)
+        if state is not None and state.x.shape != (n,):  # a new DoF set: start from rest (no old state fits)
+            state.x = np.zeros(n)
 
     def _dofs(self, given: list[str] | None, default: list[str] | None, label: str) -> list[str]:
         emb = self.emb
@@ -170,25 +159,22 @@ class Gaze(Block):
         return gains
 
     def reset(self) -> None:
-        self.x = np.zeros(len(self.names))
-        self.dip = 0.0
+        self.state = self.State(x=np.zeros(len(self.names)))
 
     # --- run time -----------------------------------------------------------------------------------
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p, emb = self.params, self.emb
-        target = vec3_or_none(inputs.get("target"))
-        if target is None:
-            target = np.asarray(p.target, dtype=float)
-        strength = min(max(float(self.signal(inputs, "strength", p.strength)), 0.0), 1.0)
+        p, emb, s = self.params, self.emb, self.state
+        d = self.driven(inputs)
+        target, strength = d.target, d.strength
         # Where the eyes are and look now (the gaze pose without the arc dip, other joints at rest).
         values = emb.rest.copy()
-        values[self.idx] += self.x
+        values[self.idx] += s.x
         pose = self.chain.fk(self.chain.q_from_channels(values))
         eye = pose[:3, :3] @ self.eye_offset + pose[:3, 3]
         look = pose[:3, 0]
         to_target = target - eye
         dist = float(np.linalg.norm(to_target))
-        x_old = self.x
+        x_old = s.x
         if dist > 1e-6:
             u = to_target / dist
             on_target = bool(math.acos(min(1.0, float(look @ u))) < p.tolerance)
@@ -209,12 +195,12 @@ class Gaze(Block):
             x = self._limit(x_old, np.where(self.leader, lead_goal, x), dt)
         else:
             on_target, x = True, x_old.copy()
-        self.x = x
+        s.x = x
         # Arcs: a pitch dip that follows the (smoothed) yaw speed, outside the gaze feedback loop.
         yaw_speed = abs(float(np.sum(np.where(self.axis == 0, self.gain * (x - x_old), 0.0)))) / max(dt, 1e-9)
         dip_goal = min(p.arc_dip * yaw_speed, p.arc_max)
-        self.dip += (1.0 - math.exp(-dt / ARC_SMOOTHING)) * (dip_goal - self.dip)
-        rel = x + np.where(self.axis == 1, self.share * self.dip / self.gain, 0.0)
+        s.dip += (1.0 - math.exp(-dt / ARC_SMOOTHING)) * (dip_goal - s.dip)
+        rel = x + np.where(self.axis == 1, self.share * s.dip / self.gain, 0.0)
         out = emb.rest.copy()
         out[self.idx] += np.clip(strength * rel, self.lo, self.hi)
         mask = np.zeros(emb.n_channels, dtype=bool)

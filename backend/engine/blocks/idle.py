@@ -9,22 +9,13 @@ from __future__ import annotations
 
 import math
 import zlib
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import (
-    Block,
-    BlockContext,
-    BlockParams,
-    DofSelection,
-    Port,
-    PortType,
-    Role,
-    register_block,
-)
-from backend.engine.blocks.core import FRAME_OUT
+from backend.engine.blocks.base import BlockContext, BlockParams, DofSelection, Source, drivable, register_block
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask
@@ -59,12 +50,14 @@ def per_dof_vector(emb: Embodiment, values: dict[str, float], field_name: str) -
 
 class BreatheParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
-    amplitude: float = Field(0.03, ge=0.0, le=1.0, description="peak deviation from the rest pose (rad or m)")
+    amplitude: float = drivable(Field(0.03, ge=0.0, le=1.0, description="peak deviation from the rest pose (rad or m)"),
+                                "overrides the amplitude parameter (rad or m)", clamp="range")
     amplitudes: dict[str, float] = Field(
         default_factory=dict,
         description="per-DoF peak deviation overriding `amplitude` (DoF name -> rad or m; negative inverts)",
     )
-    frequency: float = Field(0.25, ge=0.0, le=5.0, description="breaths per second (Hz)")
+    frequency: float = drivable(Field(0.25, ge=0.0, le=5.0, description="breaths per second (Hz)"),
+                                "overrides the frequency parameter (Hz)", clamp="range")
     phase_spread: float = Field(0.4, ge=-math.pi, le=math.pi,
                                 description="extra phase lag per selected DoF (rad), so the breath travels")
     phases: dict[str, float] = Field(default_factory=dict,
@@ -74,7 +67,7 @@ class BreatheParams(BlockParams):
 
 
 @register_block
-class Breathe(Block):
+class Breathe(Source):
     """Asymmetric breathing around the rest pose on the selected DoFs.
 
     Each DoF follows a smooth cycle that rises during the inhale (the first `inhale_ratio` of the cycle)
@@ -86,15 +79,11 @@ class Breathe(Block):
 
     type_name = "breathe"
     title = "Breathing"
-    category = "sources"
-    role = Role.source
     Params = BreatheParams
-    inputs = {
-        "amplitude": Port(PortType.float, "overrides the amplitude parameter (rad or m)"),
-        "frequency": Port(PortType.float, "overrides the frequency parameter (Hz)"),
-    }
-    outputs = FRAME_OUT
-    state_attrs = ("phi",)
+
+    @dataclass
+    class State:
+        phi: float = 0.0  # cycles, in [0, 1)
 
     def configure(self) -> None:
         p = self.params
@@ -108,9 +97,6 @@ class Breathe(Block):
         phase = np.where(self.mask, index * p.phase_spread + phase_vec, 0.0)
         self.offset_cycles = -phase / (2 * math.pi)  # a positive phase lags behind
 
-    def reset(self) -> None:
-        self.phi = 0.0  # cycles, in [0, 1)
-
     def wave(self, u: np.ndarray) -> np.ndarray:
         """The breath shape on cycle fraction u in [0, 1): -1 at u=0, +1 at the end of the inhale."""
         r = self.params.inhale_ratio
@@ -118,15 +104,13 @@ class Breathe(Block):
         return -np.cos(2 * math.pi * v)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p = self.params
-        amp = min(max(float(self.signal(inputs, "amplitude", p.amplitude)), 0.0), 1.0)
-        freq = min(max(float(self.signal(inputs, "frequency", p.frequency)), 0.0), 5.0)
-        scale = amp / p.amplitude if p.amplitude > 0 else 1.0
-        amps = np.where(self.amp_override, self.amp_values * scale, amp)
-        u = np.mod(self.phi + self.offset_cycles, 1.0)
+        p, d, s = self.params, self.driven(inputs), self.state
+        scale = d.amplitude / p.amplitude if p.amplitude > 0 else 1.0
+        amps = np.where(self.amp_override, self.amp_values * scale, d.amplitude)
+        u = np.mod(s.phi + self.offset_cycles, 1.0)
         emb = self.emb
         values = np.clip(emb.rest + amps * self.wave(u), emb.min, emb.max)
-        self.phi = (self.phi + freq * dt) % 1.0
+        s.phi = (s.phi + d.frequency * dt) % 1.0
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
 
 
@@ -137,7 +121,9 @@ class Breathe(Block):
 
 class NoiseParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
-    amplitude: float = Field(0.02, ge=0.0, le=1.0, description="standard deviation around the rest pose (rad or m)")
+    amplitude: float = drivable(
+        Field(0.02, ge=0.0, le=1.0, description="standard deviation around the rest pose (rad or m)"),
+        "overrides the amplitude parameter (rad or m)", clamp="range")
     tau: float = Field(1.5, ge=0.05, le=60.0, description="correlation time of the wander (s)")
     smoothing: float = Field(0.3, ge=0.0, le=10.0,
                              description="time constant of the second low-pass stage (s); 0 turns it off")
@@ -145,7 +131,7 @@ class NoiseParams(BlockParams):
 
 
 @register_block
-class Noise(Block):
+class Noise(Source):
     """Smooth mean-reverting random wander (Ornstein-Uhlenbeck) around the rest pose.
 
     Each selected DoF wanders independently, pulled back to rest with correlation time `tau`; a second
@@ -156,12 +142,13 @@ class Noise(Block):
 
     type_name = "noise"
     title = "Smooth noise"
-    category = "sources"
-    role = Role.source
     Params = NoiseParams
-    inputs = {"amplitude": Port(PortType.float, "overrides the amplitude parameter (rad or m)")}
-    outputs = FRAME_OUT
-    state_attrs = ("x", "y", "rng")
+
+    @dataclass
+    class State:
+        x: np.ndarray  # OU state, unit stationary variance
+        y: np.ndarray  # low-passed state
+        rng: np.random.Generator
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
@@ -170,9 +157,7 @@ class Noise(Block):
 
     def reset(self) -> None:
         n = self.emb.n_channels
-        self.x = np.zeros(n)  # OU state, unit stationary variance
-        self.y = np.zeros(n)  # low-passed state
-        self.rng = block_rng(self.ctx, self.params.seed, self.node_id)
+        self.state = self.State(x=np.zeros(n), y=np.zeros(n), rng=block_rng(self.ctx, self.params.seed, self.node_id))
 
     def _transition(self, dt: float) -> None:
         """Exact discretisation of the linear SDE (x, y) over dt: x_{n+1} = a x + L11 e1,
@@ -198,21 +183,21 @@ class Noise(Block):
         self._dt, self._tau_s = dt, (tau, s)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        amp = min(max(float(self.signal(inputs, "amplitude", self.params.amplitude)), 0.0), 1.0)
-        emb = self.emb
+        amp = self.driven(inputs).amplitude
+        emb, st = self.emb, self.state
         if dt > 0:
             self._transition(dt)
             a, b, c, l11, l21, l22, _ = self._coef
-            e = self.rng.standard_normal((2, emb.n_channels))
-            x_new = a * self.x + l11 * e[0]
+            e = st.rng.standard_normal((2, emb.n_channels))
+            x_new = a * st.x + l11 * e[0]
             if self.params.smoothing > 0.0:
-                self.y = c * self.x + b * self.y + l21 * e[0] + l22 * e[1]
+                st.y = c * st.x + b * st.y + l21 * e[0] + l22 * e[1]
             else:
-                self.y = x_new
-            self.x = x_new
+                st.y = x_new
+            st.x = x_new
         tau, s = self.params.tau, self.params.smoothing
         norm = math.sqrt((tau + s) / tau)  # the low-pass stage shrinks the variance by tau / (tau + s)
-        values = np.clip(emb.rest + amp * norm * self.y, emb.min, emb.max)
+        values = np.clip(emb.rest + amp * norm * st.y, emb.min, emb.max)
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
 
 
@@ -238,7 +223,7 @@ class WeightShiftParams(BlockParams):
 
 
 @register_block
-class WeightShift(Block):
+class WeightShift(Source):
     """Slow, asymmetric posture shifts, like a person shifting their weight.
 
     Every random interval between `min_interval` and `max_interval` a new offset within ±`amplitude` is
@@ -249,43 +234,46 @@ class WeightShift(Block):
 
     type_name = "weight_shift"
     title = "Weight shift"
-    category = "sources"
-    role = Role.source
     Params = WeightShiftParams
-    outputs = FRAME_OUT
-    state_attrs = ("offset", "start", "target", "elapsed", "until_next", "rng")
+
+    @dataclass
+    class State:
+        offset: np.ndarray  # the current offset from rest
+        start: np.ndarray  # the offset the running shift started from
+        target: np.ndarray  # the offset it goes to
+        rng: np.random.Generator
+        until_next: float  # s to the next shift
+        elapsed: float = 0.0  # s into the running shift
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
 
     def reset(self) -> None:
         n = self.emb.n_channels
-        self.offset = np.zeros(n)
-        self.start = np.zeros(n)
-        self.target = np.zeros(n)
-        self.elapsed = 0.0
-        self.rng = block_rng(self.ctx, self.params.seed, self.node_id)
-        self.until_next = float(self.rng.uniform(0.25, 1.0)) * self.params.min_interval
+        rng = block_rng(self.ctx, self.params.seed, self.node_id)
+        until_next = float(rng.uniform(0.25, 1.0)) * self.params.min_interval
+        self.state = self.State(offset=np.zeros(n), start=np.zeros(n), target=np.zeros(n), rng=rng,
+                                until_next=until_next)
 
     def _new_target(self) -> np.ndarray:
-        p, emb = self.params, self.emb
-        magnitude = self.rng.uniform(0.4, 1.0)  # how big this shift is overall
-        fractions = self.rng.uniform(-1.0, 1.0, emb.n_channels)  # each DoF its own share and direction
+        p, emb, rng = self.params, self.emb, self.state.rng
+        magnitude = rng.uniform(0.4, 1.0)  # how big this shift is overall
+        fractions = rng.uniform(-1.0, 1.0, emb.n_channels)  # each DoF its own share and direction
         target = p.amplitude * magnitude * fractions
         return np.clip(emb.rest + target, emb.min, emb.max) - emb.rest
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p = self.params
-        self.until_next -= dt
-        if self.until_next <= 0.0:
-            self.start = self.offset.copy()
-            self.target = self._new_target()
-            self.elapsed = 0.0
-            self.until_next = float(self.rng.uniform(p.min_interval, p.max_interval))
-        self.elapsed += dt
-        u = min(self.elapsed / p.shift_duration, 1.0)
+        p, s = self.params, self.state
+        s.until_next -= dt
+        if s.until_next <= 0.0:
+            s.start = s.offset.copy()
+            s.target = self._new_target()
+            s.elapsed = 0.0
+            s.until_next = float(s.rng.uniform(p.min_interval, p.max_interval))
+        s.elapsed += dt
+        u = min(s.elapsed / p.shift_duration, 1.0)
         k = 0.5 - 0.5 * math.cos(math.pi * u)
-        self.offset = self.start + k * (self.target - self.start)
+        s.offset = s.start + k * (s.target - s.start)
         emb = self.emb
-        values = np.clip(emb.rest + self.offset, emb.min, emb.max)
+        values = np.clip(emb.rest + s.offset, emb.min, emb.max)
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import Block, BlockParams, Port, PortType, Role, register_block
-from backend.engine.blocks.core import FRAME_IN, FRAME_OUT
-from backend.engine.blocks.gaze import vec3_or_none
+from backend.engine.blocks.base import BlockParams, Operator, PortType, Role, drivable, register_block
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for
 from backend.engine.selectors import select_dofs
@@ -33,15 +32,19 @@ class IkParams(BlockParams):
     dofs: list[str] | None = Field(
         None, description="DoF selectors the IK may change (default: every joint DoF of the chain); "
                           "symbolic DoFs are never changed", json_schema_extra={"x-widget": "dofs"})
-    target: list[float] | None = Field(None, min_length=3, max_length=3,
-                                       description="target point (m, robot base frame) when `target` is unconnected")
-    weight: float = Field(1.0, ge=0.0, le=1.0, description="blend from the stage-1 pose (0) to the IK solution (1)")
+    target: list[float] | None = drivable(
+        Field(None, min_length=3, max_length=3,
+              description="target point (m, robot base frame) when `target` is unconnected"),
+        "target point (m, robot base frame); overrides the target parameter", port=PortType.vec3)
+    weight: float = drivable(
+        Field(1.0, ge=0.0, le=1.0, description="blend from the stage-1 pose (0) to the IK solution (1)"),
+        "overrides the weight parameter (0..1)", clamp="range")
     damping: float = Field(0.05, ge=0.0, le=1.0, description="damping λ of the damped least squares (rad or m)")
     iterations: int = Field(4, ge=1, le=20, description="solver iterations per tick (warm-started from the last tick)")
 
 
 @register_block
-class InverseKinematics(Block):
+class InverseKinematics(Operator):
     """Points a chain's tip at a target (look-at) or moves it to the target (reach).
 
     A stage-2 post-processor: each tick it starts from the stage-1 pose plus the correction it found last
@@ -57,13 +60,11 @@ class InverseKinematics(Block):
     category = "stage2"
     role = Role.stage2
     Params = IkParams
-    inputs = {
-        **FRAME_IN,
-        "target": Port(PortType.vec3, "target point (m, robot base frame); overrides the target parameter"),
-        "weight": Port(PortType.float, "overrides the weight parameter (0..1)"),
-    }
-    outputs = FRAME_OUT
-    state_attrs = ("held", "delta")
+
+    @dataclass
+    class State:
+        held: np.ndarray  # the last stage-1 value of every channel
+        delta: np.ndarray  # the correction found last tick, per moved joint (warm start)
 
     def configure(self) -> None:
         emb, p = self.emb, self.params
@@ -94,39 +95,34 @@ class InverseKinematics(Block):
         self.dof_lo, self.dof_hi = emb.min[self.var_ch], emb.max[self.var_ch]
         self.mask_add = np.zeros(emb.n_channels, dtype=bool)
         self.mask_add[self.var_ch] = True
-        if not hasattr(self, "delta") or self.delta.shape != self.var.shape:
-            self.delta = np.zeros(len(self.var))
+        state = getattr(self, "state", None)
+        if state is not None and state.delta.shape != self.var.shape:
+            state.delta = np.zeros(len(self.var))
 
     def reset(self) -> None:
-        self.held = self.emb.rest.copy()
-        self.delta = np.zeros(len(self.var))
+        self.state = self.State(held=self.emb.rest.copy(), delta=np.zeros(len(self.var)))
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        frame: PartialFrame | None = inputs.get("in")
-        if frame is None:
-            return {"out": self.empty()}
-        p = self.params
-        self.held = np.where(frame.mask, frame.values, self.held)
-        target = vec3_or_none(inputs.get("target"))
-        if target is None and p.target is not None:
-            target = vec3_or_none(p.target)
-        weight = min(max(float(self.signal(inputs, "weight", p.weight)), 0.0), 1.0)
+    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
+        s.held = np.where(frame.mask, frame.values, s.held)
+        d = self.driven(inputs)
+        target, weight = d.target, d.weight
         if target is None or weight <= 0.0 or len(self.var) == 0:
             if target is None:
-                self.delta = np.zeros(len(self.var))
+                s.delta = np.zeros(len(self.var))
             return {"out": PartialFrame(frame.values.copy(), frame.mask.copy(), list(frame.events))}
-        values = self.held
+        values = s.held
         chain = self.chain
         q0 = np.clip(self.j_rows @ values + self.j_off, chain.lower, chain.upper)
         ch = values[self.var_ch]
         lo = np.maximum(chain.lower[self.var], q0[self.var] + self.dof_lo - ch)
         hi = np.minimum(chain.upper[self.var], q0[self.var] + self.dof_hi - ch)
         q = q0.copy()
-        q[self.var] = np.clip(q0[self.var] + self.delta, lo, hi)
+        q[self.var] = np.clip(q0[self.var] + s.delta, lo, hi)
         self._solve(q, target, lo, hi, q0)
-        self.delta = q[self.var] - q0[self.var]
+        s.delta = q[self.var] - q0[self.var]
         out = frame.values.copy()
-        out[self.var_ch] = ch + weight * self.delta
+        out[self.var_ch] = ch + weight * s.delta
         return {"out": PartialFrame(out, frame.mask | self.mask_add, list(frame.events))}
 
     def _solve(self, q: np.ndarray, target: np.ndarray, lo: np.ndarray, hi: np.ndarray, q0: np.ndarray) -> None:

@@ -3,21 +3,14 @@
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from backend.engine.blend import BlendMode, advance_fades, blend_layers
-from backend.engine.blocks.base import (
-    Block,
-    BlockCommandError,
-    BlockParams,
-    Port,
-    PortType,
-    Role,
-    register_block,
-)
+from backend.engine.blocks.base import Block, BlockCommandError, BlockParams, Port, PortType, Role, register_block
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
 
@@ -79,7 +72,11 @@ class LayerMixer(Block):
     role = Role.mixer
     Params = MixerParams
     outputs = {"out": Port(PortType.frame, "blended frame")}
-    state_attrs = ("fade_level", "fade_target")
+
+    @dataclass
+    class State:
+        fade_level: np.ndarray  # each layer's fade 0..1
+        fade_target: np.ndarray  # 1 for an active layer, 0 for an inactive one
 
     @classmethod
     def ports(cls, params: MixerParams | None = None):  # type: ignore[override]
@@ -114,24 +111,25 @@ class LayerMixer(Block):
 
     def reset(self) -> None:
         active = np.array([1.0 if layer.active else 0.0 for layer in self.params.layers])
-        self.fade_level = active.copy()
-        self.fade_target = active
+        self.state = self.State(fade_level=active.copy(), fade_target=active)
 
     def adopt_state(self, old: Block) -> None:
         # Layers are matched by name, so reordering or adding layers keeps each one's fade.
         if not isinstance(old, LayerMixer):
             return
+        mine, theirs = self.state, old.state
         for i, name in enumerate(self.names):
             if name in old.names:
                 j = old.names.index(name)
-                self.fade_level[i] = old.fade_level[j]
-                self.fade_target[i] = old.fade_target[j]
+                mine.fade_level[i] = theirs.fade_level[j]
+                mine.fade_target[i] = theirs.fade_target[j]
 
     def effective_weights(self) -> np.ndarray:
-        return self.weights * self.fade_level * self.signal_weights
+        return self.weights * self.state.fade_level * self.signal_weights
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        self.fade_level = advance_fades(self.fade_level, self.fade_target, self.fade_time, dt)
+        s = self.state
+        s.fade_level = advance_fades(s.fade_level, s.fade_target, self.fade_time, dt)
         for i, port in enumerate(self.weight_ports):
             w = self.signal(inputs, port, 1.0)
             self.signal_weights[i] = min(max(float(w), 0.0), 1.0)
@@ -162,7 +160,7 @@ class LayerMixer(Block):
             if not 0.0 <= fade <= 30.0:
                 raise BlockCommandError(f"fade must be within [0, 30] s, got {fade}")
             self.fade_time[i] = fade
-        self.fade_target[i] = 1.0 if active else 0.0
+        self.state.fade_target[i] = 1.0 if active else 0.0
 
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         if command in ("activate", "deactivate"):
@@ -178,9 +176,9 @@ class LayerMixer(Block):
         return super().handle(command, args)
 
     def layer_states(self) -> list[dict[str, Any]]:
-        w = self.effective_weights()
+        w, s = self.effective_weights(), self.state
         return [
-            {"name": n, "mode": m.value, "weight": float(self.weights[i]), "fade": float(self.fade_level[i]),
-             "effective": float(w[i]), "active": bool(self.fade_target[i] > 0.5)}
+            {"name": n, "mode": m.value, "weight": float(self.weights[i]), "fade": float(s.fade_level[i]),
+             "effective": float(w[i]), "active": bool(s.fade_target[i] > 0.5)}
             for i, (n, m) in enumerate(zip(self.names, self.modes))
         ]

@@ -7,7 +7,7 @@ J). With the hard limiter V = Vr. `limit_scale` uses a fraction of the limits; `
 `acc_limit`, `jerk_limit` replace the robot's limits for every filtered DoF (same meaning: bounds
 of the output). Parameter changes reach the running filter through `set_params`: its state stays.
 The spec's jerk bound on the output is only guaranteed while one tick's jerk budget J/rate is at least
-0.2 A (see backend/engine/nmf.py); the bundled robot's J = 10 A gives 0.12 at 100 Hz, where the
+0.2 A (see backend/engine/nmf/__init__.py); the bundled robot's J = 10 A gives 0.12 at 100 Hz, where the
 output measured at most 0.62 J on a square wave, but without that guarantee.
 """
 
@@ -18,7 +18,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import Block, BlockParams, DofSelection, Port, PortType, Role, register_block
+from backend.engine.blocks.base import Block, BlockParams, DofSelection, Port, PortType, Role, drivable, register_block
 from backend.engine.embodiment import ChannelKind
 from backend.engine.frames import PartialFrame
 from backend.engine.nmf import MotionFilter, preset
@@ -31,8 +31,12 @@ class FilterParams(BlockParams):
     preset: PresetName = Field("D", description="the paper's character presets (W regular, A slow & smooth, "
                                                 "B slow & vivid, C fast & vivid, D fast & smooth, E fast & very "
                                                 "smooth) or custom σ/ρ")
-    sigma: float | None = Field(None, ge=0.0, le=1.0, description="smoothness σ (0..1); overrides the preset")
-    rho: float | None = Field(None, ge=0.0, le=1.0, description="responsiveness ρ (0..1); overrides the preset")
+    sigma: float | None = drivable(
+        Field(None, ge=0.0, le=1.0, description="smoothness σ (0..1); overrides the preset"), "overrides σ",
+        clamp="range")
+    rho: float | None = drivable(
+        Field(None, ge=0.0, le=1.0, description="responsiveness ρ (0..1); overrides the preset"), "overrides ρ",
+        clamp="range")
     bypass: bool = Field(False, description="bypass H: the regular filter W (limits only, no character)")
     order: Literal[1, 2, 3] = Field(3, description="continuity order: 1 velocity, 2 acceleration, 3 jerk limited")
     limiter: Literal["tanh", "hard"] = Field("tanh", description="tanh (smooth, keeps headroom) or hard clip")
@@ -52,10 +56,8 @@ class MotionFilterParams(FilterParams):
 
 
 class _FilterBlock(Block):
-    inputs = {"in": Port(PortType.frame, "set-points (a stepped, CGI-style frame)", required=True),
-              "sigma": Port(PortType.float, "overrides σ"), "rho": Port(PortType.float, "overrides ρ")}
+    inputs = {"in": Port(PortType.frame, "set-points (a stepped, CGI-style frame)", required=True)}
     outputs = {"out": Port(PortType.frame, "filtered, motor-safe frame")}
-    state_attrs = ("filter",)
 
     def selection(self) -> np.ndarray:
         raise NotImplementedError
@@ -70,9 +72,9 @@ class _FilterBlock(Block):
         s = p.sigma if p.sigma is not None else s
         r = p.rho if p.rho is not None else r
         if sigma is not None:
-            s = min(max(float(sigma), 0.0), 1.0)
+            s = sigma
         if rho is not None:
-            r = min(max(float(rho), 0.0), 1.0)
+            r = rho
         return s, r, bypass
 
     def configure(self) -> None:
@@ -130,9 +132,9 @@ class _FilterBlock(Block):
         frame: PartialFrame | None = inputs.get("in")
         if self.filter is None:
             return {"out": frame if frame is not None else self.empty()}
-        sigma_in, rho_in = inputs.get("sigma"), inputs.get("rho")
-        if sigma_in is not None or rho_in is not None:
-            s, r, _ = self._character(sigma_in, rho_in)
+        wired = self.driven(inputs, sigma=None, rho=None)  # wired values only (clamped to 0..1), else None
+        if wired.sigma is not None or wired.rho is not None:
+            s, r, _ = self._character(wired.sigma, wired.rho)
             if (s, r) != self._sigma_rho:
                 self.filter.set_params(sigma=s, rho=r)
                 self._sigma_rho = (s, r)

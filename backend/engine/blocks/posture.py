@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import Block, BlockCommandError, BlockParams, Port, PortType, Role, register_block
+from backend.engine.blocks.base import BlockCommandError, BlockParams, Port, PortType, Source, register_block
 from backend.engine.blocks.core import pose_vector
 from backend.engine.frames import PartialFrame
 
@@ -44,7 +45,7 @@ class PostureParams(BlockParams):
 
 
 @register_block
-class Posture(Block):
+class Posture(Source):
     """Goes to a named posture of the robot (happy, sad, curious, …) with a duration and an easing.
 
     Run-time command `go {posture, duration?, easing?}` (the API's go_posture) starts a move from where
@@ -54,24 +55,26 @@ class Posture(Block):
 
     type_name = "posture"
     title = "Posture"
-    category = "sources"
-    role = Role.source
     Params = PostureParams
     outputs = {"out": Port(PortType.frame, "the pose"), "moving": Port(PortType.bool, "true while moving")}
-    state_attrs = ("current", "mask", "start", "target", "elapsed", "move", "command_id")
+
+    @dataclass
+    class State:
+        current: np.ndarray  # the pose output now
+        mask: np.ndarray  # the DoFs set by any posture so far
+        start: np.ndarray  # the pose the running move started from
+        target: np.ndarray  # the pose it goes to
+        elapsed: float = 0.0  # s into the move
+        move: dict[str, Any] | None = None  # the running move {posture, duration, easing}
+        command_id: Any = None
 
     def reset(self) -> None:
-        self.current = self.emb.rest.copy()
-        self.mask = np.zeros(self.emb.n_channels, dtype=bool)
-        self.start = self.current.copy()
-        self.target = self.current.copy()
-        self.elapsed = 0.0
-        self.move: dict[str, Any] | None = None
-        self.command_id = None
+        current = self.emb.rest.copy()
+        mask = np.zeros(self.emb.n_channels, dtype=bool)
         if self.params.posture:
             vec, mask = self._pose(self.params.posture)
-            self.current = np.where(mask, vec, self.current)
-            self.target, self.mask = self.current.copy(), mask
+            current = np.where(mask, vec, current)
+        self.state = self.State(current=current, mask=mask, start=current.copy(), target=current.copy())
 
     def _pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         values = None
@@ -103,33 +106,38 @@ class Posture(Block):
             duration = float(args.get("duration") or self.params.duration)
             easing = str(args.get("easing") or self.params.easing)
             ease(easing, 0.5)  # validates the name
-            if self.move is not None:
-                self.ctx.notify(self.node_id, "cancelled", command_id=self.command_id, posture=self.move["posture"])
-            self.start = self.current.copy()
-            self.target = np.where(mask, vec, self.current)
-            self.mask = self.mask | mask
-            self.elapsed = 0.0
-            self.move = {"posture": name, "duration": duration, "easing": easing}
-            self.command_id = args.get("command_id")
-            self.ctx.notify(self.node_id, "started", command_id=self.command_id, posture=name)
+            s = self.state
+            self._cancel_move()
+            s.start = s.current.copy()
+            s.target = np.where(mask, vec, s.current)
+            s.mask = s.mask | mask
+            s.elapsed = 0.0
+            s.move = {"posture": name, "duration": duration, "easing": easing}
+            s.command_id = args.get("command_id")
+            self.ctx.notify(self.node_id, "started", command_id=s.command_id, posture=name)
             return {"posture": name, "duration": duration}
         if command in ("stop", "cancel"):
-            if self.move is not None:
-                self.ctx.notify(self.node_id, "cancelled", command_id=self.command_id, posture=self.move["posture"])
-            self.move = None
-            self.target = self.current.copy()
+            self._cancel_move()
+            self.state.move = None
+            self.state.target = self.state.current.copy()
             return {"stopped": True}
         return super().handle(command, args)
 
+    def _cancel_move(self) -> None:
+        s = self.state
+        if s.move is not None:
+            self.ctx.notify(self.node_id, "cancelled", command_id=s.command_id, posture=s.move["posture"])
+
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        if self.move is not None:
-            self.elapsed += dt
-            u = self.elapsed / self.move["duration"]
-            k = ease(self.move["easing"], u)
-            cont = self.start + k * (self.target - self.start)
-            self.current = np.where(self.emb.enum_mask, np.where(u >= 0.5, self.target, self.start), cont)
+        s = self.state
+        if s.move is not None:
+            s.elapsed += dt
+            u = s.elapsed / s.move["duration"]
+            k = ease(s.move["easing"], u)
+            cont = s.start + k * (s.target - s.start)
+            s.current = np.where(self.emb.enum_mask, np.where(u >= 0.5, s.target, s.start), cont)
             if u >= 1.0:
-                self.current = self.target.copy()
-                self.ctx.notify(self.node_id, "completed", command_id=self.command_id, posture=self.move["posture"])
-                self.move = None
-        return {"out": PartialFrame(self.current.copy(), self.mask.copy(), []), "moving": self.move is not None}
+                s.current = s.target.copy()
+                self.ctx.notify(self.node_id, "completed", command_id=s.command_id, posture=s.move["posture"])
+                s.move = None
+        return {"out": PartialFrame(s.current.copy(), s.mask.copy(), []), "moving": s.move is not None}

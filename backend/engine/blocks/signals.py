@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import math
 import random
+from dataclasses import dataclass
 from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import Block, BlockParams, Port, PortType, Role, register_block
+from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock, drivable, register_block
 
 # --------------------------------------------------------------------------------------------------
 # Math
@@ -21,8 +22,10 @@ MathOp = Literal["add", "subtract", "multiply", "divide", "min", "max", "map_ran
 class MathParams(BlockParams):
     op: MathOp = Field("add", description="operation on a (and b): add, subtract, multiply, divide, min, max, "
                                           "map_range, clamp, abs, smoothstep")
-    a: float = Field(0.0, description="value of a when its input is not connected")
-    b: float = Field(0.0, description="value of b when its input is not connected")
+    a: float = drivable(Field(0.0, description="value of a when its input is not connected"),
+                        "first operand (overrides parameter a)")
+    b: float = drivable(Field(0.0, description="value of b when its input is not connected"),
+                        "second operand (overrides parameter b)")
     in_min: float = Field(0.0, description="map_range/smoothstep: input value mapped to out_min (lower edge)")
     in_max: float = Field(1.0, description="map_range/smoothstep: input value mapped to out_max (upper edge)")
     out_min: float = Field(0.0, description="map_range: output at in_min")
@@ -41,7 +44,7 @@ class MathParams(BlockParams):
 
 
 @register_block
-class Math(Block):
+class Math(SignalBlock):
     """Scalar math on signals: arithmetic, min/max, map range, clamp, abs and smoothstep.
 
     Inputs `a` and `b` override the parameters of the same name. Unary operations (map_range, clamp,
@@ -51,16 +54,12 @@ class Math(Block):
 
     type_name = "math"
     title = "Math"
-    category = "signals"
-    role = Role.signal
     Params = MathParams
-    inputs = {"a": Port(PortType.float, "first operand (overrides parameter a)"),
-              "b": Port(PortType.float, "second operand (overrides parameter b)")}
     outputs = {"value": Port(PortType.float, "result")}
-    state_attrs = ("last",)
 
-    def reset(self) -> None:
-        self.last = 0.0
+    @dataclass
+    class State:
+        last: float = 0.0  # the last finite output
 
     def compute(self, a: float, b: float) -> float:
         p = self.params
@@ -92,14 +91,13 @@ class Math(Block):
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         try:
-            a = float(self.signal(inputs, "a", self.params.a))
-            b = float(self.signal(inputs, "b", self.params.b))
-            value = self.compute(a, b)
+            d = self.driven(inputs)
+            value = self.compute(d.a, d.b)
         except (OverflowError, TypeError, ValueError):
             value = math.nan
         if math.isfinite(value):
-            self.last = float(value)
-        return {"value": self.last}
+            self.state.last = float(value)
+        return {"value": self.state.last}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -125,14 +123,16 @@ def waveform(shape: str, u: float, knots: tuple[float, float] = (0.0, 0.0)) -> f
 
 class LfoParams(BlockParams):
     waveform: Waveform = Field("sine", description="sine, triangle, square, saw or random_smooth (smooth noise)")
-    frequency: float = Field(0.5, ge=0.0, le=50.0, description="cycles per second (Hz)")
-    amplitude: float = Field(1.0, ge=0.0, le=100.0, description="peak deviation from the offset")
-    offset: float = Field(0.0, ge=-100.0, le=100.0, description="centre value")
+    frequency: float = drivable(Field(0.5, ge=0.0, le=50.0, description="cycles per second (Hz)"),
+                                "overrides the frequency (Hz)", clamp="floor")
+    amplitude: float = drivable(Field(1.0, ge=0.0, le=100.0, description="peak deviation from the offset"),
+                                "overrides the amplitude")
+    offset: float = drivable(Field(0.0, ge=-100.0, le=100.0, description="centre value"), "overrides the offset")
     phase: float = Field(0.0, ge=0.0, le=1.0, description="phase at start (cycles, 0..1)")
 
 
 @register_block
-class Lfo(Block):
+class Lfo(SignalBlock):
     """A low-frequency oscillator: `offset + amplitude * wave(phase)` as a signal.
 
     Waveforms sine, triangle, square, saw, or random_smooth (a new random level every cycle, eased
@@ -142,33 +142,30 @@ class Lfo(Block):
 
     type_name = "lfo"
     title = "LFO"
-    category = "signals"
-    role = Role.signal
     Params = LfoParams
-    inputs = {"frequency": Port(PortType.float, "overrides the frequency (Hz)"),
-              "amplitude": Port(PortType.float, "overrides the amplitude"),
-              "offset": Port(PortType.float, "overrides the offset")}
     outputs = {"value": Port(PortType.float, "current value")}
-    state_attrs = ("cycles", "knots", "rng")
+
+    @dataclass
+    class State:
+        cycles: float  # phase (cycles)
+        knots: tuple[float, float]  # random_smooth: the levels this cycle eases between
+        rng: random.Random
 
     def reset(self) -> None:
-        self.cycles = float(self.params.phase)
-        self.rng = random.Random(f"{self.ctx.seed}:{self.node_id}")
-        self.knots = (self.rng.uniform(-1, 1), self.rng.uniform(-1, 1))
+        rng = random.Random(f"{self.ctx.seed}:{self.node_id}")
+        knots = (rng.uniform(-1, 1), rng.uniform(-1, 1))
+        self.state = self.State(cycles=float(self.params.phase), knots=knots, rng=rng)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p = self.params
-        freq = max(float(self.signal(inputs, "frequency", p.frequency)), 0.0)
-        amp = float(self.signal(inputs, "amplitude", p.amplitude))
-        off = float(self.signal(inputs, "offset", p.offset))
-        u = self.cycles % 1.0
-        value = off + amp * waveform(p.waveform, u, self.knots)
-        advanced = self.cycles + freq * dt
-        for _ in range(min(int(advanced) - int(self.cycles), 2)):  # a new cycle: a new random knot
-            self.knots = (self.knots[1], self.rng.uniform(-1, 1))
-        self.cycles = advanced % 1.0
+        d, s = self.driven(inputs), self.state
+        u = s.cycles % 1.0
+        value = d.offset + d.amplitude * waveform(self.params.waveform, u, s.knots)
+        advanced = s.cycles + d.frequency * dt
+        for _ in range(min(int(advanced) - int(s.cycles), 2)):  # a new cycle: a new random knot
+            s.knots = (s.knots[1], s.rng.uniform(-1, 1))
+        s.cycles = advanced % 1.0
         if not math.isfinite(value):
-            value = off
+            value = d.offset
         return {"value": value}
 
 
@@ -186,8 +183,11 @@ DEFAULT_POSTURES: dict[str, tuple[float, float]] = {
 
 
 class EmotionParams(BlockParams):
-    valence: float = Field(0.0, ge=-1.0, le=1.0, description="unpleasant (-1) to pleasant (+1), when not connected")
-    arousal: float = Field(0.0, ge=-1.0, le=1.0, description="calm (-1) to excited (+1), when not connected")
+    valence: float = drivable(
+        Field(0.0, ge=-1.0, le=1.0, description="unpleasant (-1) to pleasant (+1), when not connected"),
+        "valence -1..1 (overrides the parameter)", clamp="range")
+    arousal: float = drivable(Field(0.0, ge=-1.0, le=1.0, description="calm (-1) to excited (+1), when not connected"),
+                              "arousal -1..1 (overrides the parameter)", clamp="range")
     speed_min: float = Field(0.6, gt=0.0, le=1.0, description="speed multiplier at arousal -1 (1 at arousal 0)")
     speed_max: float = Field(1.6, ge=1.0, le=4.0, description="speed multiplier at arousal +1")
     amplitude_min: float = Field(0.5, ge=0.0, le=1.0, description="amplitude gain at arousal -1 (1 at arousal 0)")
@@ -211,7 +211,7 @@ class EmotionParams(BlockParams):
 
 
 @register_block
-class Emotion(Block):
+class Emotion(SignalBlock):
     """Maps valence and arousal to animation parameters: speed, amplitude, posture offset and posture.
 
     Arousal changes timing (speed multiplier from `speed_min` to `speed_max`) and, with the strength
@@ -223,11 +223,7 @@ class Emotion(Block):
 
     type_name = "emotion"
     title = "Emotion"
-    category = "signals"
-    role = Role.signal
     Params = EmotionParams
-    inputs = {"valence": Port(PortType.float, "valence -1..1 (overrides the parameter)"),
-              "arousal": Port(PortType.float, "arousal -1..1 (overrides the parameter)")}
     outputs = {
         "speed": Port(PortType.float, "timing multiplier (1 = neutral)"),
         "amplitude": Port(PortType.float, "gain for idle motion and gestures (1 = neutral)"),
@@ -236,20 +232,20 @@ class Emotion(Block):
         "valence": Port(PortType.float, "smoothed valence"),
         "arousal": Port(PortType.float, "smoothed arousal"),
     }
-    state_attrs = ("v", "a", "posture", "primed")
 
-    def reset(self) -> None:
-        self.v = 0.0
-        self.a = 0.0
-        self.posture = ""
-        self.primed = False
+    @dataclass
+    class State:
+        v: float = 0.0  # smoothed valence
+        a: float = 0.0  # smoothed arousal
+        posture: str = ""  # the posture output last
+        primed: bool = False
 
     def _nearest(self, v: float, a: float) -> str:
         dist = {n: math.hypot(v - pv, a - pa) for n, (pv, pa) in self.params.postures.items()}
         best = min(dist, key=dist.get)  # type: ignore[arg-type]
-        current = dist.get(self.posture)
+        current = dist.get(self.state.posture)
         if current is not None and dist[best] > current - self.params.hysteresis:
-            return self.posture
+            return self.state.posture
         return best
 
     def outputs_for(self, v: float, a: float) -> dict[str, Any]:
@@ -261,14 +257,12 @@ class Emotion(Block):
         return {"speed": speed, "amplitude": amplitude, "posture_offset": offset, "valence": v, "arousal": a}
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p = self.params
-        tv = min(max(float(self.signal(inputs, "valence", p.valence)), -1.0), 1.0)
-        ta = min(max(float(self.signal(inputs, "arousal", p.arousal)), -1.0), 1.0)
-        if not self.primed:
-            self.v, self.a, self.primed = tv, ta, True
+        p, d, s = self.params, self.driven(inputs), self.state
+        if not s.primed:
+            s.v, s.a, s.primed = d.valence, d.arousal, True
         else:
             k = 1.0 if p.smoothing <= 0.0 else 1.0 - math.exp(-dt / p.smoothing)
-            self.v += k * (tv - self.v)
-            self.a += k * (ta - self.a)
-        self.posture = self._nearest(self.v, self.a)
-        return {**self.outputs_for(self.v, self.a), "posture": self.posture}
+            s.v += k * (d.valence - s.v)
+            s.a += k * (d.arousal - s.a)
+        s.posture = self._nearest(s.v, s.a)
+        return {**self.outputs_for(s.v, s.a), "posture": s.posture}

@@ -1,0 +1,451 @@
+"""The NMF's compiled kernels (numba): one filter step over a structure-of-arrays buffer, and a loop
+over a whole trajectory.
+
+- A one-pass loop for a few DoFs (`_step_one_pass`), and for more DoFs simple passes over the DoFs that
+  the compiler turns into SIMD code (`_step_passes`, which also handles coupled groups).
+- `tanh` and H's power are our own branch-free implementations (`_tanh` within 4 ulp of libm's; `_pow`
+  within 2e-13 relative; see tests) because libm's cannot be vectorised; their numpy twins in
+  `reference.py` perform the same operations with the same constants (defined here). Ω's power (only
+  near position limits) stays libm's.
+- Divisions by constants are multiplications by their inverses computed once in
+  `params.stage_params` (1/dt = rate, 2/k, 1/(1-rho), 1/alpha).
+- `_entry_points` gives the compiled steps without the dispatcher's type resolution.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from backend.engine.nmf.params import (  # the buffer's rows and the overflow caps
+    _ACC, _BYPASS, _CENTER, _EXPO, _GID, _HASPOS, _HI, _HMIX, _IALPHA, _IHA, _IHJ, _IHV, _INIT, _IOMR, _JERK,
+    _KA, _KJ, _KV, _LO, _MEMBER, _SP, _TWOB, _VEL, _WG1, _WG2, _WN, _WT, _WU, _WV, _X, H_BASE_MAX, V_CLAMP,
+)
+
+try:  # numba is a hard dependency in pyproject; the fallback keeps the filter usable without it
+    from numba import njit
+
+    from numba import types as _nt
+    from numba.core.extending import intrinsic
+
+    HAVE_NUMBA = True
+
+    # Bit casts between float64 and int64 (free in machine code, and vectorisable): they build 2**k
+    # from k's bits inside _tanh.
+    @intrinsic
+    def _f2i(typingctx, x):
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(_nt.int64))
+
+        return _nt.int64(_nt.float64), codegen
+
+    @intrinsic
+    def _i2f(typingctx, x):
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(_nt.float64))
+
+        return _nt.float64(_nt.int64), codegen
+
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    HAVE_NUMBA = False
+
+    def njit(*_args: Any, **_kw: Any):  # type: ignore[no-redef]
+        return lambda fn: fn
+
+
+# ------------------------------------------------------------------------------------------------
+# tanh and pow for the compiled kernels (their numpy twins, tanh_np and pow_np, are in reference.py)
+# ------------------------------------------------------------------------------------------------
+# tanh(a) = expm1(2a) / (expm1(2a) + 2), with expm1 by Cody-Waite reduction 2a = k ln2 + r,
+# |r| <= ln2/2, and a degree-13 Taylor polynomial for expm1(r) (truncation < 1e-17 relative).
+# For |a| >= 20 the result rounds to exactly 1, so the argument is capped there (k <= 58).
+_LN2_HI = 6.93147180369123816490e-01  # ln 2 with trailing zero bits: k * _LN2_HI is exact
+_LN2_LO = 1.90821492927058770002e-10
+_INV_LN2 = 1.44269504088896338700e+00
+_TANH_CAP = 20.0
+_ROUND = 6755399441055744.0  # 1.5 * 2**52: adding it rounds to an integer held in the low bits
+_ROUND_BITS = int(np.float64(_ROUND).view(np.int64))
+_C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13 = (1.0 / math.factorial(k) for k in range(2, 14))
+
+
+@njit(cache=True, error_model="numpy")
+def _tanh(x):
+    a = min(abs(x), _TANH_CAP)
+    y = a + a
+    kr = y * _INV_LN2 + _ROUND  # round to nearest without a call: vectorisable
+    k = kr - _ROUND
+    r = (y - k * _LN2_HI) - k * _LN2_LO
+    p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
+        _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+    s = _i2f(((_f2i(kr) - _ROUND_BITS) + 1023) << 52)  # 2**k (0 <= k <= 58) from k's bits, exact
+    em1 = s * p + (s - 1.0)
+    t = em1 / (em1 + 2.0)
+    return t if x >= 0.0 else -t
+
+# b**e for 0 <= b <= H_BASE_MAX and 0 < e < 1 (H's power), vectorisable: exp(e ln b) with ln b from
+# b = m 2**E, m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh((m-1)/(m+1)) (series to f**23), and exp by the
+# same reduction as in tanh. Relative error below 2e-13 (tested against libm's pow); H only uses the
+# result inside tanh(p - pi), where that is far below the gain's own rounding.
+_SQRT2 = 1.4142135623730951
+_TWO600 = 2.0 ** 600
+_TINY = 2.0 ** -500  # smaller b are scaled up by 2**600 first (exact) to read their exponent
+_L3, _L5, _L7, _L9, _L11, _L13, _L15, _L17, _L19, _L21, _L23 = (1.0 / k for k in range(3, 24, 2))
+_EXP_LO, _EXP_HI = -700.0, 28.0  # e ln b lies in [-inf, ln 1e12 = 27.6]; below -700, b**e < 1e-304
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _pow(b, e):
+    small = b < _TINY
+    bs = b * _TWO600 if small else b
+    bits = _f2i(bs)
+    ebits = (bits & 0x7FF0000000000000) >> 52  # masked first: a non-negative shift, which SIMD has
+    m = _i2f((bits & 0x000FFFFFFFFFFFFF) | 0x3FF0000000000000)  # mantissa in [1, 2)
+    ex = (_i2f(ebits | _ROUND_BITS) - _ROUND) - 1023.0  # the exponent, as a float
+    big = m > _SQRT2
+    m = m * 0.5 if big else m
+    ex = ex + (1.0 if big else 0.0) - (600.0 if small else 0.0)
+    f = (m - 1.0) / (m + 1.0)
+    f2 = f * f
+    q = f2 * (_L3 + f2 * (_L5 + f2 * (_L7 + f2 * (_L9 + f2 * (_L11 + f2 * (_L13 + f2 * (
+        _L15 + f2 * (_L17 + f2 * (_L19 + f2 * (_L21 + f2 * _L23))))))))))
+    lnb = ex * _LN2_HI + (ex * _LN2_LO + (f + f) * (1.0 + q))
+    y = min(max(e * lnb, _EXP_LO), _EXP_HI)
+    kr = y * _INV_LN2 + _ROUND
+    k = kr - _ROUND
+    r = (y - k * _LN2_HI) - k * _LN2_LO
+    p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
+        _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+    s = _i2f(((_f2i(kr) - _ROUND_BITS) + 1023) << 52)
+    out = s * p + s
+    return out if b > 0.0 else 0.0
+
+# ------------------------------------------------------------------------------------------------
+# Compiled kernels (numba). Scalar helpers are inlined; loops run over DoFs inside compiled code.
+# error_model="numpy": a division by zero gives inf instead of raising, which lets loops vectorise
+# (no division here can be by zero: dt > 0, k/2 > 0, 1 - rho >= 0.001, alpha > 0, m > 0 checked).
+# ------------------------------------------------------------------------------------------------
+
+
+@njit(cache=True, error_model="numpy")
+def _lim(u, k, inv_h, hard):
+    """lam for one value: the tanh limiter (headroom k/2; inv_h = 2/k) or the hard clip at k."""
+    if hard:
+        return min(max(u, -k), k)
+    return (0.5 * k) * _tanh(u * inv_h)
+
+
+@njit(cache=True, error_model="numpy")
+def _induced(s, x, rate):
+    """(s - x)/dt, capped at +-V_CLAMP (only ever reached when s - x overflows the float range)."""
+    return min(max((s - x) * rate, -V_CLAMP), V_CLAMP)
+
+
+@njit(cache=True, error_model="numpy")
+def _omega1(v, x, center, inv_alpha, twob):
+    if (x > center and v > 0.0) or (x < center and v < 0.0):
+        r = min(abs(x - center) * inv_alpha, 1.0)
+        return v * (1.0 - r ** twob)
+    return v
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _h_arg(speed, inv_omr, expo):
+    """(min(|v|/(1-rho), cap))^(1-sigma) - pi: the argument of H's tanh (exponents 0 and 1 exact)."""
+    b = min(speed * inv_omr, H_BASE_MAX)
+    pw = _pow(b, expo)  # computed always and selected: branch-free, so the loop vectorises
+    p = 1.0 if expo == 0.0 else (b if expo == 1.0 else pw)
+    return p - math.pi
+
+
+@njit(cache=True, error_model="numpy")
+def _advance(u, x, vel, acc, i, buf, dt, rate, order, hard):
+    """Limiters and integration for DoF i with target velocity u: (x', vel', acc', reported jerk)."""
+    if order == 1:
+        w = _lim(u, buf[_KV, i], buf[_IHV, i], hard)
+        a = (w - vel) * rate
+    elif order == 2:
+        a = _lim((u - vel) * rate, buf[_KA, i], buf[_IHA, i], hard)
+        w = _lim(vel + a * dt, buf[_KV, i], buf[_IHV, i], hard)
+        a = (w - vel) * rate
+    else:
+        j = _lim(((u - vel) * rate - acc) * rate, buf[_KJ, i], buf[_IHJ, i], hard)
+        a = _lim(acc + j * dt, buf[_KA, i], buf[_IHA, i], hard)
+        w = _lim(vel + a * dt, buf[_KV, i], buf[_IHV, i], hard)
+    lo = buf[_LO, i]
+    hi = buf[_HI, i]
+    xn = x + w * dt
+    # Leaving [lo, hi] clips x' and zeroes vel', acc'; lo/hi are -inf/+inf without position limits.
+    inside = lo <= xn and xn <= hi
+    xn = min(max(xn, lo), hi)
+    w = w if inside else 0.0
+    a = a if inside else 0.0
+    return xn, w, a, (a - acc) * rate
+
+
+@njit(cache=True, error_model="numpy")
+def _advance_all(buf, n, dt, rate, order, hard):
+    """`_advance` over all uncoupled DoFs, as passes that each write one array (the compiler
+    vectorises a loop only when few arrays may alias), with branch-free selects. Called with literal
+    order/hard so each instance is specialised. The same operations as `_advance`."""
+    u = buf[_WV]
+    x = buf[_X]
+    vel = buf[_VEL]
+    acc = buf[_ACC]
+    jerk = buf[_JERK]
+    w = buf[_WU]
+    a = buf[_WT]
+    kv = buf[_KV]
+    ka = buf[_KA]
+    kj = buf[_KJ]
+    ihv = buf[_IHV]
+    iha = buf[_IHA]
+    ihj = buf[_IHJ]
+    lo = buf[_LO]
+    hi = buf[_HI]
+    if order == 1:
+        for i in range(n):
+            w[i] = _lim(u[i], kv[i], ihv[i], hard)
+        for i in range(n):
+            a[i] = (w[i] - vel[i]) * rate
+    elif order == 2:
+        for i in range(n):
+            a[i] = _lim((u[i] - vel[i]) * rate, ka[i], iha[i], hard)
+        for i in range(n):
+            w[i] = _lim(vel[i] + a[i] * dt, kv[i], ihv[i], hard)
+        for i in range(n):
+            a[i] = (w[i] - vel[i]) * rate
+    else:
+        for i in range(n):
+            j = _lim(((u[i] - vel[i]) * rate - acc[i]) * rate, kj[i], ihj[i], hard)
+            a[i] = _lim(acc[i] + j * dt, ka[i], iha[i], hard)
+        for i in range(n):
+            w[i] = _lim(vel[i] + a[i] * dt, kv[i], ihv[i], hard)
+    for i in range(n):
+        jerk[i] = ((a[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0) - acc[i]) * rate
+    for i in range(n):
+        acc[i] = a[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0
+    for i in range(n):
+        vel[i] = w[i] if lo[i] <= x[i] + w[i] * dt <= hi[i] else 0.0
+    for i in range(n):
+        x[i] = min(max(x[i] + w[i] * dt, lo[i]), hi[i])
+
+
+@njit(cache=True, error_model="numpy")
+def _ingest(sp_in, buf, n):
+    """Store new set-points (NaN = hold); a DoF's first set-point initialises its position."""
+    for i in range(n):
+        s = sp_in[i]
+        if s == s:
+            buf[_SP, i] = s
+            if buf[_INIT, i] == 0.0:
+                buf[_X, i] = s
+                buf[_INIT, i] = 1.0
+
+
+@njit(cache=True, error_model="numpy")
+def _step_one_pass(sp_in, buf, cfg):
+    """The step for a few uncoupled DoFs, one DoF at a time (the least overhead at 1 DoF)."""
+    dt = cfg[0]
+    order = int(cfg[1])
+    hard = cfg[2] != 0.0
+    rate = cfg[7]
+    n = sp_in.shape[0]
+    _ingest(sp_in, buf, n)
+    for i in range(n):
+        x = buf[_X, i]
+        v = _induced(buf[_SP, i], x, rate)
+        if buf[_HASPOS, i] != 0.0:
+            v = _omega1(v, x, buf[_CENTER, i], buf[_IALPHA, i], buf[_TWOB, i])
+        if buf[_BYPASS, i] == 0.0:  # (v * (g * 1 + 0) here; bypassed: v * (g * 0 + 1) = v, as in the passes)
+            t = _h_arg(abs(v), buf[_IOMR, i], buf[_EXPO, i])
+            v = v * ((0.5 * (_tanh(t) + 1.0)) * buf[_HMIX, i] + buf[_BYPASS, i])
+        xn, w, a, j = _advance(v, x, buf[_VEL, i], buf[_ACC, i], i, buf, dt, rate, order, hard)
+        buf[_X, i] = xn
+        buf[_VEL, i] = w
+        buf[_ACC, i] = a
+        buf[_JERK, i] = j
+
+
+@njit(cache=True, error_model="numpy")
+def _norms(vec, buf, n, n_groups):
+    """|vec_i|, or for members of a coupled group the group's Euclidean norm (scaled: no overflow),
+    into the scratch row _WN."""
+    nrm = buf[_WN]
+    gmax = buf[_WG1]
+    gsum = buf[_WG2]
+    gid = buf[_GID]
+    member = buf[_MEMBER]
+    for g in range(n_groups):
+        gmax[g] = 0.0
+        gsum[g] = 0.0
+    for i in range(n):
+        if member[i] != 0.0:
+            g = int(gid[i])
+            gmax[g] = max(gmax[g], abs(vec[i]))
+    for i in range(n):
+        if member[i] != 0.0:
+            g = int(gid[i])
+            if gmax[g] > 0.0:
+                q = vec[i] / gmax[g]
+                gsum[g] += q * q
+    for i in range(n):
+        if member[i] != 0.0:
+            g = int(gid[i])
+            nrm[i] = gmax[g] * math.sqrt(gsum[g])
+        else:
+            nrm[i] = abs(vec[i])
+
+
+@njit(cache=True, error_model="numpy")
+def _limit_groups(vec, krow, ihrow, hard, buf, n, n_groups):
+    """lam in place: per DoF, or on each coupled group's norm with the vector scaled proportionally."""
+    _norms(vec, buf, n, n_groups)
+    nrm = buf[_WN]
+    member = buf[_MEMBER]
+    for i in range(n):
+        if member[i] != 0.0:
+            m = nrm[i]
+            if m > 0.0:
+                vec[i] = vec[i] * (_lim(m, krow[i], ihrow[i], hard) / m)
+        else:
+            vec[i] = _lim(vec[i], krow[i], ihrow[i], hard)
+
+
+@njit(cache=True, error_model="numpy")
+def _step_passes(sp_in, buf, cfg):
+    """The step in passes over all DoFs (vectorised by the compiler); handles coupled groups."""
+    dt = cfg[0]
+    order = int(cfg[1])
+    hard = cfg[2] != 0.0
+    n_groups = int(cfg[3])
+    grouped = cfg[4] != 0.0
+    any_pos = cfg[5] != 0.0
+    all_bypass = cfg[6] != 0.0
+    rate = cfg[7]
+    n = sp_in.shape[0]
+    x = buf[_X]
+    vel = buf[_VEL]
+    acc = buf[_ACC]
+    jerk = buf[_JERK]
+    sp = buf[_SP]
+    v = buf[_WV]
+    t = buf[_WT]
+    _ingest(sp_in, buf, n)
+    for i in range(n):
+        v[i] = _induced(sp[i], x[i], rate)
+    if any_pos:
+        haspos = buf[_HASPOS]
+        center = buf[_CENTER]
+        ialpha = buf[_IALPHA]
+        twob = buf[_TWOB]
+        for i in range(n):
+            if haspos[i] != 0.0:
+                v[i] = _omega1(v[i], x[i], center[i], ialpha[i], twob[i])
+    if not all_bypass:
+        iomr = buf[_IOMR]
+        expo = buf[_EXPO]
+        bypass = buf[_BYPASS]  # 1.0 or 0.0
+        hmix = buf[_HMIX]  # 1 - bypass
+        if grouped:
+            _norms(v, buf, n, n_groups)
+            nrm = buf[_WN]
+            for i in range(n):
+                t[i] = _h_arg(nrm[i], iomr[i], expo[i])
+        else:
+            for i in range(n):
+                t[i] = _h_arg(abs(v[i]), iomr[i], expo[i])
+        for i in range(n):  # branch-free: u = v g, or v where bypassed (v (g 0 + 1) = v exactly)
+            v[i] = v[i] * ((0.5 * (_tanh(t[i]) + 1.0)) * hmix[i] + bypass[i])
+    if not grouped:
+        if hard:
+            if order == 1:
+                _advance_all(buf, n, dt, rate, 1, True)
+            elif order == 2:
+                _advance_all(buf, n, dt, rate, 2, True)
+            else:
+                _advance_all(buf, n, dt, rate, 3, True)
+        else:
+            if order == 1:
+                _advance_all(buf, n, dt, rate, 1, False)
+            elif order == 2:
+                _advance_all(buf, n, dt, rate, 2, False)
+            else:
+                _advance_all(buf, n, dt, rate, 3, False)
+        return
+    # Coupled groups: every lam acts on group norms, so each stage is a pass over all DoFs.
+    kv = buf[_KV]
+    ka = buf[_KA]
+    kj = buf[_KJ]
+    ihv = buf[_IHV]
+    iha = buf[_IHA]
+    ihj = buf[_IHJ]
+    lo = buf[_LO]
+    hi = buf[_HI]
+    w = buf[_WU]
+    a = t
+    if order == 1:
+        for i in range(n):
+            w[i] = v[i]
+        _limit_groups(w, kv, ihv, hard, buf, n, n_groups)
+        for i in range(n):
+            a[i] = (w[i] - vel[i]) * rate
+    elif order == 2:
+        for i in range(n):
+            a[i] = (v[i] - vel[i]) * rate
+        _limit_groups(a, ka, iha, hard, buf, n, n_groups)
+        for i in range(n):
+            w[i] = vel[i] + a[i] * dt
+        _limit_groups(w, kv, ihv, hard, buf, n, n_groups)
+        for i in range(n):
+            a[i] = (w[i] - vel[i]) * rate
+    else:
+        for i in range(n):
+            a[i] = ((v[i] - vel[i]) * rate - acc[i]) * rate
+        _limit_groups(a, kj, ihj, hard, buf, n, n_groups)
+        for i in range(n):
+            a[i] = acc[i] + a[i] * dt
+        _limit_groups(a, ka, iha, hard, buf, n, n_groups)
+        for i in range(n):
+            w[i] = vel[i] + a[i] * dt
+        _limit_groups(w, kv, ihv, hard, buf, n, n_groups)
+    for i in range(n):
+        xn = x[i] + w[i] * dt
+        inside = lo[i] <= xn and xn <= hi[i]
+        xn = min(max(xn, lo[i]), hi[i])
+        wi = w[i] if inside else 0.0
+        ai = a[i] if inside else 0.0
+        jerk[i] = (ai - acc[i]) * rate
+        x[i] = xn
+        vel[i] = wi
+        acc[i] = ai
+
+
+@njit(cache=True, error_model="numpy")
+def _run_compiled(sps, buf, cfg, one_pass, out):
+    """Filter a whole trajectory: sps (T, n); out (4, T, n) position, velocity, acceleration, jerk."""
+    n = sps.shape[1]
+    for k in range(sps.shape[0]):
+        if one_pass:
+            _step_one_pass(sps[k], buf, cfg)
+        else:
+            _step_passes(sps[k], buf, cfg)
+        for i in range(n):
+            out[0, k, i] = buf[_X, i]
+            out[1, k, i] = buf[_VEL, i]
+            out[2, k, i] = buf[_ACC, i]
+            out[3, k, i] = buf[_JERK, i]
+
+
+def _entry_points() -> tuple[Any, Any]:
+    """The compiled steps for C-contiguous float64 arrays, callable without the dispatcher's type
+    resolution (which is most of the cost of a 1-DoF step)."""
+    from numba import types as nt
+
+    sig = (nt.float64[::1], nt.float64[:, ::1], nt.float64[::1])
+    out = []
+    for disp in (_step_passes, _step_one_pass):
+        disp.compile(sig)
+        out.append(disp.overloads[sig].entry_point)
+    return out[0], out[1]
