@@ -92,8 +92,9 @@ def test_reset_restores_the_program_and_commands_work_after_it(desk):
     session.execute({"type": "reset", "fade": 0.5})
     frames = list(session.run_headless(300))
     mixer = next(s.block for s in session.engine.apu.steps if s.block.type_name == "layer_mixer")
-    assert all(mixer.fade_level[k] == (1.0 if layer.get("active", True) else 0.0)
-               for k, layer in enumerate(mixer.params.model_dump()["layers"]))
+    declared = mixer.params.model_dump()["layers"]
+    assert [s["fade"] for s in mixer.layer_states()] == [1.0 if layer.get("active", True) else 0.0
+                                                       for layer in declared]
     assert session.inputs()["gaze_target"] == session.program.input("gaze_target").coerce(
         session.program.input("gaze_target").default)
     yaw = desk.channel_index["body_yaw"]
