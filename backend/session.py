@@ -101,22 +101,25 @@ class EngineSession:
         return BlockContext(embodiment=self.embodiment, rate=self.engine.rate,
                             inputs=dict(self.engine.ctx.inputs), resources=self.library)
 
+    def _compile_live(self, source: Any, refusal: str):
+        """Compile `source` for this engine (raises SessionError with the report if it is invalid); the
+        blocks, built against a scratch context, are pointed at the engine's live one."""
+        result = compile_program(source, self.embodiment, max_level=self.engine.max_level, ctx=self._scratch_ctx(),
+                                 rate=self.engine.rate)
+        if not result.ok:
+            raise SessionError(f"{refusal} ({len(result.report.errors)} error(s))", result.report)
+        for step in result.apu.steps:
+            step.block.ctx = self.engine.ctx
+        return result
+
     def load_program(self, source: Any) -> tuple[ValidationReport, list[str]]:
         """Validate and hot-swap a program at the next tick boundary (atomic: all or nothing).
 
         Returns the report and the ids of blocks that kept their state. Raises SessionError.
         """
         with self._lock:
-            scratch = self._scratch_ctx()
-            result = compile_program(source, self.embodiment, max_level=self.engine.max_level, ctx=scratch,
-                                     rate=self.engine.rate)
-            if not result.ok:
-                raise SessionError(f"program is invalid ({len(result.report.errors)} error(s))", result.report)
+            result = self._compile_live(source, "program is invalid")
             apu = result.apu
-            assert apu is not None  # ok implies an APU; typing aid only
-            # Blocks were built against a scratch context; point them at the engine's live one.
-            for step in apu.steps:
-                step.block.ctx = self.engine.ctx
             declared = {i.name: i for i in result.program.inputs}  # type: ignore[union-attr]
 
             def install_inputs() -> None:
@@ -159,13 +162,8 @@ class EngineSession:
             if self.program is None:
                 self.engine.load(None, adopt=False, transition=fade, also=self.engine.clear_overrides)
                 return
-            result = compile_program(self.program, self.embodiment, max_level=self.engine.max_level,
-                                     ctx=self._scratch_ctx(), rate=self.engine.rate)
-            if not result.ok:  # the running program compiled before; only its resources can have gone
-                raise SessionError(f"the running program no longer compiles ({len(result.report.errors)} error(s))",
-                                   result.report)
-            for step in result.apu.steps:
-                step.block.ctx = self.engine.ctx
+            # The running program compiled before; only its resources (clips, postures) can have gone.
+            result = self._compile_live(self.program, "the running program no longer compiles")
             defaults = {i.name: i.coerce(i.default) for i in self.program.inputs}
 
             def fresh_start() -> None:

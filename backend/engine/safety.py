@@ -126,6 +126,28 @@ def _succ(p: float, v: float, a: float, j: float, h: float) -> tuple:
 
 
 @njit(cache=True)
+def _largest_viable_jerk(p, v, a, hi, V, A, J, h, j_min, j_max) -> float:
+    """The largest jerk in [j_min, j_max] whose next state can still stop rising before `hi` (upper
+    viability is lost as the jerk grows); j_min, the hardest braking, when none can."""
+    if j_max < j_min:
+        return j_min
+    p1, v1, a1 = _succ(p, v, a, j_max, h)
+    if _viable_up(p1, v1, a1, hi, V, A, J, h):
+        return j_max
+    p1, v1, a1 = _succ(p, v, a, j_min, h)
+    if not _viable_up(p1, v1, a1, hi, V, A, J, h):
+        return j_min
+    for _ in range(_BISECT):
+        mid = 0.5 * (j_min + j_max)
+        p1, v1, a1 = _succ(p, v, a, mid, h)
+        if _viable_up(p1, v1, a1, hi, V, A, J, h):
+            j_min = mid
+        else:
+            j_max = mid
+    return j_min
+
+
+@njit(cache=True)
 def _jerk_interval(p, v, a, lo, hi, V, A, J, h) -> tuple:
     """The jerks allowed next: within ±J and keeping |a| <= A always (hard), and within those, the ones
     whose next state keeps |v| <= V, lo <= p <= hi and stays viable. Returns (j_lo, j_hi); when the
@@ -134,42 +156,9 @@ def _jerk_interval(p, v, a, lo, hi, V, A, J, h) -> tuple:
     dn_hard = max(-J, (-A - a) / h)
     up = min(up_hard, ((V - v) / h - a) / h, (((hi - p) / h - v) / h - a) / h)
     dn = max(dn_hard, ((-V - v) / h - a) / h, (((lo - p) / h - v) / h - a) / h)
-    # Upper viability is lost as j grows: the largest j in [dn_hard, up] that keeps it.
-    j_hi = dn_hard
-    if up >= dn_hard:
-        p1, v1, a1 = _succ(p, v, a, up, h)
-        if _viable_up(p1, v1, a1, hi, V, A, J, h):
-            j_hi = up
-        else:
-            lo_j, hi_j = dn_hard, up
-            p1, v1, a1 = _succ(p, v, a, lo_j, h)
-            if _viable_up(p1, v1, a1, hi, V, A, J, h):
-                for _ in range(_BISECT):
-                    mid = 0.5 * (lo_j + hi_j)
-                    p1, v1, a1 = _succ(p, v, a, mid, h)
-                    if _viable_up(p1, v1, a1, hi, V, A, J, h):
-                        lo_j = mid
-                    else:
-                        hi_j = mid
-                j_hi = lo_j
-    # Lower viability, mirrored: the smallest j in [dn, up_hard] that keeps it.
-    j_lo = up_hard
-    if dn <= up_hard:
-        p1, v1, a1 = _succ(p, v, a, dn, h)
-        if _viable_up(-p1, -v1, -a1, -lo, V, A, J, h):
-            j_lo = dn
-        else:
-            lo_j, hi_j = dn, up_hard
-            p1, v1, a1 = _succ(p, v, a, hi_j, h)
-            if _viable_up(-p1, -v1, -a1, -lo, V, A, J, h):
-                for _ in range(_BISECT):
-                    mid = 0.5 * (lo_j + hi_j)
-                    p1, v1, a1 = _succ(p, v, a, mid, h)
-                    if _viable_up(-p1, -v1, -a1, -lo, V, A, J, h):
-                        hi_j = mid
-                    else:
-                        lo_j = mid
-                j_lo = hi_j
+    j_hi = _largest_viable_jerk(p, v, a, hi, V, A, J, h, dn_hard, up)
+    # The lower side is the upper one mirrored (negation is exact, so the bisection is the same).
+    j_lo = -_largest_viable_jerk(-p, -v, -a, -lo, V, A, J, h, -up_hard, -dn)
     if j_lo > j_hi:  # the two sides conflict (a range narrower than the braking allows): split
         mid = min(max(0.5 * (j_lo + j_hi), dn_hard), up_hard)
         return mid, mid
@@ -399,11 +388,6 @@ class SafetyNet:
                 self.corrected_ticks += 1
                 self.corrected_any = True
         return out
-
-    @property
-    def settled(self) -> bool:
-        """Whether every governed channel is at rest (zero velocity and acceleration)."""
-        return not (np.any(self.v) or np.any(self.a))
 
     def stats(self) -> dict:
         names = self.emb.channel_names
