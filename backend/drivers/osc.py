@@ -8,9 +8,11 @@ from __future__ import annotations
 
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import AnimationFrame
+from backend.drivers.registry import driver_option, host_port
 from backend.engine.runtime import Sink
 
 
+@driver_option("osc", metavar="HOST:PORT", parse=host_port, help="also send every frame as OSC to HOST:PORT")
 class OscDriver(Sink):
     def __init__(self, embodiment: Embodiment, host: str = "127.0.0.1", port: int = 9000, prefix: str = "/nutty",
                  decimate: int = 1):
@@ -22,6 +24,11 @@ class OscDriver(Sink):
         self.prefix = prefix.rstrip("/")
         self.client = SimpleUDPClient(host, port)
         super().__init__(f"osc:{host}:{port}", max_queue=4, decimate=decimate)
+
+    @classmethod
+    def from_option(cls, embodiment: Embodiment, address: tuple[str, int]) -> "OscDriver":
+        host, port = address
+        return cls(embodiment, host, port)
 
     def consume(self, frame: AnimationFrame) -> None:
         from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder

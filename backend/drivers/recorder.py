@@ -13,9 +13,11 @@ import numpy as np
 
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
+from backend.drivers.registry import driver_option
 from backend.engine.runtime import Sink
 
 
+@driver_option("record", metavar="FILE.jsonl", help="record every frame to a JSONL file")
 class FrameRecorder(Sink):
     def __init__(self, embodiment: Embodiment, path: str | Path, decimate: int = 1):
         self.emb = embodiment
@@ -23,6 +25,10 @@ class FrameRecorder(Sink):
         self._fh = self.path.open("w")
         self.frames = 0
         super().__init__(f"recorder:{self.path.name}", max_queue=1024, decimate=decimate)
+
+    @classmethod
+    def from_option(cls, embodiment: Embodiment, path: str) -> "FrameRecorder":
+        return cls(embodiment, path)
 
     def consume(self, frame: AnimationFrame) -> None:
         self._fh.write(json.dumps(frame.to_dict(self.emb)) + "\n")

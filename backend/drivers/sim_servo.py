@@ -16,9 +16,12 @@ import numpy as np
 
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
+from backend.drivers.registry import driver_option, positive_or_off
 from backend.engine.runtime import Sink
 
 
+@driver_option("sim-servo", metavar="HZ", parse=positive_or_off, default=8.0,
+               help="bandwidth of the simulated servos whose tracking error /api/status reports (0 = off)")
 class SimulatedServos(Sink):
     def __init__(self, embodiment: Embodiment, bandwidth_hz: float = 8.0, decimate: int = 1):
         if not bandwidth_hz > 0:
@@ -40,6 +43,10 @@ class SimulatedServos(Sink):
         self._last_t: float | None = None
         # A simulation wants every frame: a deep queue (live it keeps up easily; headless it catches up).
         super().__init__("sim-servo", max_queue=4096, decimate=decimate)
+
+    @classmethod
+    def from_option(cls, embodiment: Embodiment, bandwidth_hz: float) -> "SimulatedServos":
+        return cls(embodiment, bandwidth_hz=bandwidth_hz)
 
     def consume(self, frame: AnimationFrame) -> None:
         # Integrate over the real time since the last frame this servo saw (frames may be dropped).
