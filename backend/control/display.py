@@ -95,7 +95,8 @@ class PlaySound(_Audible):
 
 class _Display(BaseCommand):
     """Shown by the program's block driving the DoF when there is exactly one; otherwise held as an
-    engine override on the DoF (cleared by `reset` and `stop_all`)."""
+    engine override on the DoF (cleared by `reset` and `stop_all`). Subclasses declare the field
+    `dof` (the DoF to set, None for the robot's first of `dof_type`) and the value's field."""
 
     dof_type: ClassVar[str]  # the DofType (value) of the DoFs it can set
     value_field: ClassVar[str]  # the field holding the value, named in errors
