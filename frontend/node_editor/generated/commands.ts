@@ -9,11 +9,11 @@ export type Command =
   | SetInput
   | SetInputs
   | SetLayer
+  | SetEmotion
   | Say
   | PlaySound
   | SetLed
   | SetFace
-  | SetEmotion
   | Reset
   | StopAll
   | Cancel;
@@ -129,10 +129,17 @@ export type Layer4 = string;
  */
 export type Mixer = string | null;
 export type Type7 = "set_layer";
+export type Arousal = number;
 /**
  * client-chosen id (echoed in acks and events)
  */
 export type Id8 = string | null;
+export type Type8 = "set_emotion";
+export type Valence = number;
+/**
+ * client-chosen id (echoed in acks and events)
+ */
+export type Id9 = string | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -142,11 +149,11 @@ export type Layer5 = string | null;
  */
 export type Node4 = string | null;
 export type Text = string;
-export type Type8 = "say";
+export type Type9 = "say";
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id9 = string | null;
+export type Id10 = string | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -156,7 +163,7 @@ export type Layer6 = string | null;
  */
 export type Node5 = string | null;
 export type Sound = string;
-export type Type9 = "play_sound";
+export type Type10 = "play_sound";
 /**
  * @minItems 3
  * @maxItems 3
@@ -169,22 +176,15 @@ export type Dof = string | null;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id10 = string | null;
-export type Type10 = "set_led";
+export type Id11 = string | null;
+export type Type11 = "set_led";
 export type Dof1 = string | null;
 export type Expression = string;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id11 = string | null;
-export type Type11 = "set_face";
-export type Arousal = number;
-/**
- * client-chosen id (echoed in acks and events)
- */
 export type Id12 = string | null;
-export type Type12 = "set_emotion";
-export type Valence = number;
+export type Type12 = "set_face";
 export type Fade2 = number;
 /**
  * client-chosen id (echoed in acks and events)
@@ -217,6 +217,9 @@ export interface PlayClip {
   speed?: Speed;
   type?: Type;
 }
+/**
+ * Stop the clip a clip player plays, fading out over `fade` seconds (default: the block's).
+ */
 export interface StopClip {
   fade?: Fade;
   id?: Id1;
@@ -224,6 +227,9 @@ export interface StopClip {
   node?: Node1;
   type?: Type1;
 }
+/**
+ * Jump the playing clip of a clip player to time `t`.
+ */
 export interface SeekClip {
   id?: Id2;
   layer?: Layer2;
@@ -285,19 +291,34 @@ export interface SetLayer {
   mixer?: Mixer;
   type?: Type7;
 }
-export interface Say {
+/**
+ * Set the program's `valence` and `arousal` inputs (-1..1).
+ */
+export interface SetEmotion {
+  arousal: Arousal;
   id?: Id8;
+  type?: Type8;
+  valence: Valence;
+}
+/**
+ * Say a text: through the program's say block (lip flap, started/completed), else as a speech event.
+ */
+export interface Say {
+  id?: Id9;
   layer?: Layer5;
   node?: Node4;
   text: Text;
-  type?: Type8;
+  type?: Type9;
 }
+/**
+ * Play a sound clip: through the program's play_sound block, else as a sound event.
+ */
 export interface PlaySound {
-  id?: Id9;
+  id?: Id10;
   layer?: Layer6;
   node?: Node5;
   sound: Sound;
-  type?: Type9;
+  type?: Type10;
 }
 /**
  * Set a colour DoF (an LED or LED group) to an RGB colour in [0, 1].
@@ -305,8 +326,8 @@ export interface PlaySound {
 export interface SetLed {
   colour: Colour;
   dof?: Dof;
-  id?: Id10;
-  type?: Type10;
+  id?: Id11;
+  type?: Type11;
 }
 /**
  * Show a face/screen expression (an option of an enum display DoF).
@@ -314,17 +335,8 @@ export interface SetLed {
 export interface SetFace {
   dof?: Dof1;
   expression: Expression;
-  id?: Id11;
-  type?: Type11;
-}
-/**
- * Set the program's `valence` and `arousal` inputs (-1..1).
- */
-export interface SetEmotion {
-  arousal: Arousal;
   id?: Id12;
   type?: Type12;
-  valence: Valence;
 }
 /**
  * Start the running program afresh: long actions are cancelled, every block, layer and exposed

@@ -1,0 +1,65 @@
+"""The whole program at once: start it afresh, stop everything, cancel one command by id."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field
+
+from backend.control.base import REGISTRY, BaseCommand, CommandContext, Target
+from backend.control.errors import CommandError
+from backend.control.targets import blocks_of, set_inputs, tell
+
+
+class Reset(BaseCommand):
+    """Start the running program afresh: long actions are cancelled, every block, layer and exposed
+    input is as the program declares it, display overrides are cleared; the robot blends there over
+    `fade` seconds (longer if its limits need it)."""
+
+    acts_on = Target(role="engine", what="running program")
+    type: Literal["reset"] = "reset"
+    fade: float = Field(1.0, ge=0.0, le=30.0)
+
+    def run(self, ctx: CommandContext) -> Any:
+        # Long actions end as cancelled (their blocks are about to be replaced), then the program
+        # starts afresh as it declares itself: layers, inputs, no overrides.
+        busy = tuple({name for cls in REGISTRY.classes() if cls.long_action for name in cls.acts_on.blocks})
+        for block in blocks_of(ctx.session, busy):
+            try:
+                tell(ctx.session, block, "stop", {"fade": 0.0})
+            except CommandError:  # a block with nothing to stop
+                pass
+        ctx.session.reset(fade=self.fade)
+        return {"reset": True}
+
+
+class StopAll(BaseCommand):
+    """Stop everything now: clips, pending actions, overrides; exposed inputs back to their defaults."""
+
+    acts_on = Target(blocks=("clip_player",), role="engine", what="running program")
+    type: Literal["stop_all"] = "stop_all"
+
+    def run(self, ctx: CommandContext) -> Any:
+        session = ctx.session
+        for block in blocks_of(session, self.acts_on.blocks):
+            tell(session, block, "stop", {"fade": 0.0})
+        session.engine.call(session.engine.clear_overrides)
+        if session.program is not None:
+            defaults = {i.name: i.default for i in session.program.inputs}
+            if defaults:
+                set_inputs(session, defaults)
+        return {"stopped": True}
+
+
+class Cancel(BaseCommand):
+    """Cancel a long action by the id it was given."""
+
+    acts_on = Target(role="command", what="command")
+    type: Literal["cancel"] = "cancel"
+    target: str
+
+    def run(self, ctx: CommandContext) -> Any:
+        if ctx.cancel is None:
+            raise CommandError(f"no command with id '{self.target}' (only a server keeps commands by id)",
+                               field="target", code="unknown_command")
+        return ctx.cancel(self.target)

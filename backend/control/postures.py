@@ -1,0 +1,46 @@
+"""Where the robot is and looks: go to a named posture, look at a point."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field
+
+from backend.control.base import BaseCommand, BlockCommand, CommandContext, Target
+from backend.control.errors import CommandError
+from backend.control.targets import declares_input, set_inputs
+
+Vec3 = tuple[float, float, float]
+
+
+class GoPosture(BlockCommand):
+    """Go to a named posture of the robot's pose library."""
+
+    acts_on = Target(blocks=("posture",), what="posture block")
+    long_action = True
+    type: Literal["go_posture"] = "go_posture"
+    posture: str = Field(..., min_length=1, max_length=80)
+    duration: float | None = Field(None, gt=0.0, le=30.0, description="s")
+    easing: str | None = None
+
+    def run(self, ctx: CommandContext) -> Any:
+        return self.tell(ctx, self.block(ctx.session), "go", self.args())
+
+    @classmethod
+    def stop_owned(cls, block: Any, command_id: str) -> None:
+        s = block.state
+        if s.command_id == command_id and s.move is not None:
+            block.handle("stop", {"command_id": command_id})
+
+
+class SetGaze(BaseCommand):
+    """Look at a point (m, robot base frame): sets the program's `gaze_target` input."""
+
+    acts_on = Target(role="input", what="gaze_target input")
+    type: Literal["set_gaze"] = "set_gaze"
+    target: Vec3
+
+    def run(self, ctx: CommandContext) -> Any:
+        if not declares_input(ctx.session, "gaze_target"):
+            raise CommandError("the running program declares no 'gaze_target' input", code="no_target")
+        return set_inputs(ctx.session, {"gaze_target": list(self.target)})

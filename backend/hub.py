@@ -1,0 +1,204 @@
+"""The server's state around one EngineSession: the command log, connected clients, and the event
+fan-out to every /ws/control client.
+
+Commands from REST and /ws/control both go through `Hub.run_command` (validate, log, execute, ack)
+and `Hub.cancel`; their events reach clients in one shape (docs/api-contract.md): every command gets
+at most one `started` and one terminal event (`completed`, `cancelled` or `failed`), all under its id.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+import uuid
+from collections import deque
+from typing import Any
+
+from backend import control
+from backend.routes.errors import api_error
+from backend.session import EngineSession
+
+TERMINAL = ("completed", "cancelled", "failed")
+
+
+def jsonable(v: Any) -> bool:
+    """Whether `v` is a JSON value as it stands (no conversion needed)."""
+    return isinstance(v, (str, int, float, bool, type(None), list, dict))
+
+
+def put_drop_oldest(q: asyncio.Queue, item: Any) -> None:
+    """Queue `item`, dropping the oldest one when full: a slow client loses messages, never blocks."""
+    if q.full():
+        try:
+            q.get_nowait()
+        except asyncio.QueueEmpty:
+            pass
+    q.put_nowait(item)
+
+
+class CommandLog:
+    """Commands by id with their status, for GET /api/commands/{id}, cancellation and the event
+    stream: each command gets at most one `started` and one terminal event (completed, cancelled
+    or failed), and nothing after its terminal event."""
+
+    def __init__(self, size: int = 500):
+        self._items: dict[str, dict[str, Any]] = {}
+        self._flags: dict[str, list[bool]] = {}  # id -> [started sent, terminal sent]
+        self._order: deque[str] = deque()
+        self._size = size
+        self._lock = threading.Lock()
+
+    def add(self, cid: str, command: Any) -> dict[str, Any]:
+        """Log a new command; a live command with the same id is a conflict (409)."""
+        entry = {"id": cid, "type": command.type, "status": "accepted", "created": time.time(), "result": None}
+        with self._lock:
+            old = self._items.get(cid)
+            if old is not None and old["status"] not in TERMINAL:
+                raise api_error(409, "duplicate_id", f"command '{cid}' is still {old['status']}: choose another id",
+                                field="id", id=cid)
+            if old is not None:
+                self._order.remove(cid)
+            self._items[cid] = entry
+            self._flags[cid] = [False, False]
+            self._order.append(cid)
+            while len(self._order) > self._size:
+                gone = self._order.popleft()
+                self._items.pop(gone, None)
+                self._flags.pop(gone, None)
+        return entry
+
+    def get(self, cid: Any) -> dict[str, Any] | None:
+        return self._items.get(cid) if isinstance(cid, str) else None
+
+    def update(self, cid: str | None, **fields: Any) -> None:
+        with self._lock:
+            if cid and cid in self._items:
+                self._items[cid].update(fields)
+
+    def handed_over(self, cid: str) -> None:
+        """The command went to a block, which reports its events itself: it counts as started."""
+        with self._lock:
+            entry = self._items.get(cid)
+            if entry is not None and entry["status"] == "accepted":
+                entry["status"] = "started"
+
+    def transition(self, cid: str | None, event: str | None) -> tuple[bool, str | None]:
+        """Whether an event for command `cid` may go out, and the command's type (None if unknown)."""
+        with self._lock:
+            entry = self._items.get(cid) if cid else None
+            if entry is None:
+                return True, None
+            flags = self._flags[cid]
+            if event == "started":
+                if flags[0] or flags[1]:
+                    return False, entry["type"]
+                flags[0] = True
+                if entry["status"] == "accepted":
+                    entry["status"] = "started"
+                return True, entry["type"]
+            if event in TERMINAL:
+                if flags[1]:
+                    return False, entry["type"]
+                flags[1] = True
+                entry["status"] = event
+                return True, entry["type"]
+            return not flags[1], entry["type"]
+
+
+class Hub:
+    """Shared server state: the session, connected clients, the event fan-out to /ws/control."""
+
+    def __init__(self, session: EngineSession, token: str | None, previz: Any = None):
+        self.session = session
+        self.token = token
+        self.previz = previz
+        self.commands = CommandLog()
+        self.clients = {"control": 0, "telemetry": 0, "frames": 0, "previz": 0}
+        self.control_queues: set[asyncio.Queue] = set()  # one per /ws/control client
+        self.loop: asyncio.AbstractEventLoop | None = None
+        self.stopping: asyncio.Event | None = None  # set when the app shuts down (lifespan)
+        session.on_note(self._on_note)
+
+    def shutdown(self) -> None:
+        """Tell every WebSocket handler to finish (thread-safe)."""
+        loop, ev = self.loop, self.stopping
+        if loop is not None and ev is not None and not loop.is_closed():
+            loop.call_soon_threadsafe(ev.set)
+
+    def _on_note(self, note: dict[str, Any]) -> None:
+        """Block notifications arrive on the clock thread: record them and hand them to the event loop."""
+        cid = note.get("command_id")
+        event = note.get("event")
+        ok, ctype = self.commands.transition(cid, event)
+        if not ok:
+            return
+        details = {k: v for k, v in note.items() if k not in ("command_id", "event", "id", "type") and jsonable(v)}
+        message = {"type": "event", "event": event, "id": cid, **details}
+        if ctype is not None:
+            message["command"] = ctype
+        self.broadcast(message)
+
+    def _emit(self, cid: str, event: str, **details: Any) -> None:
+        ok, ctype = self.commands.transition(cid, event)
+        if ok:
+            self.broadcast({"type": "event", "event": event, "id": cid, "command": ctype, **details})
+
+    def broadcast(self, message: dict[str, Any]) -> None:
+        loop = self.loop
+        if loop is None or loop.is_closed():
+            return
+        for q in list(self.control_queues):
+            try:
+                loop.call_soon_threadsafe(put_drop_oldest, q, message)
+            except RuntimeError:  # the loop closed meanwhile
+                return
+
+    def run_command(self, data: Any) -> dict[str, Any]:
+        """Validate, log and execute one command (a JSON object); returns the ack.
+
+        Raises HTTPException (4xx) on error: 422 for a malformed or rejected command, 404 when its
+        target is not there, 409 for the id of a command still running.
+        """
+        try:
+            cmd = control.parse_command(data)
+        except control.CommandError as exc:
+            raise api_error(422, exc.code, str(exc), field=exc.field) from exc
+        cid = cmd.id or uuid.uuid4().hex[:12]
+        entry = self.commands.add(cid, cmd)
+        try:
+            result = control.execute(self.session, cmd, cid, cancel=self._cancel_target)
+        except control.CommandError as exc:
+            self._fail(cid, exc)
+            raise api_error(404 if exc.not_found else 422, exc.code, str(exc), field=exc.field, id=cid) from exc
+        except (ValueError, TypeError, KeyError, TimeoutError) as exc:
+            self._fail(cid, exc)
+            raise api_error(422, "rejected", str(exc), id=cid) from exc
+        done = isinstance(result, dict) and result.get("done")
+        self.commands.update(cid, result=result if jsonable(result) else None)
+        if cmd.long_action and not done:
+            self.commands.handed_over(cid)  # its block reports started/completed/cancelled (see _on_note)
+        else:
+            self._emit(cid, "completed")
+        return {"id": cid, "status": entry["status"], "result": entry["result"]}
+
+    def _fail(self, cid: str, exc: Exception) -> None:
+        self.commands.update(cid, result=str(exc))
+        self.commands.transition(cid, "failed")
+
+    def _cancel_target(self, target: str) -> dict[str, Any]:
+        """The `cancel` command's work: the target gets its `cancelled` event (the cancel is acked)."""
+        if self.commands.get(target) is None:
+            raise control.CommandError(f"no command with id '{target}'", field="target", code="unknown_command")
+        return {"target": target, "status": self.cancel(target)["status"]}
+
+    def cancel(self, cid: str) -> dict[str, Any]:
+        """Cancel a long action by id (DELETE /api/commands/{id}); a finished one keeps its status."""
+        entry = self.commands.get(cid)
+        if entry is None:
+            raise api_error(404, "unknown_command", f"no command with id '{cid}'")
+        if entry["status"] in TERMINAL:
+            return {"id": cid, "status": entry["status"]}
+        control.cancel_command(self.session, entry["type"], cid)
+        self._emit(cid, "cancelled")
+        return {"id": cid, "status": self.commands.get(cid)["status"] if self.commands.get(cid) else "cancelled"}

@@ -1,0 +1,55 @@
+"""The JSON bodies the API takes, as pydantic types, so OpenAPI (/docs) describes every one.
+
+Two kinds:
+- Small bodies validated by their model: one that does not fit is a 422 `invalid_body` naming the
+  field (`InputValue`, `GhostToggle`, `PortsRequest`).
+- Documents with a checker of their own that names the node, field or key at fault (programs,
+  clips, postures, commands, parameter values): documented by their model but handed to the route
+  as parsed (`SkipValidation`), so that checker, and its specific errors, stay the only judge.
+Either way the body was JSON-safe before (backend.routes.json_body).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, RootModel, SkipValidation
+
+from backend import control
+from backend.engine.clips import Clip
+from backend.engine.library import Posture
+from backend.graph.schema import Program
+
+
+class InputValue(BaseModel):
+    """Body of PUT /api/inputs/{name}."""
+
+    value: Any = Field(..., description="the new value, checked against the input's declaration (type, range, options)")
+
+
+class GhostToggle(BaseModel):
+    """Body of PUT /api/previz/ghost."""
+
+    visible: bool = Field(..., description="show (true) or hide the ghost, the stage-1 pose")
+
+
+class PortsRequest(BaseModel):
+    """Body of POST /api/blocks/{type}/ports."""
+
+    params: SkipValidation[dict[str, Any]] = Field(
+        default_factory=dict, description="the block's parameters, checked against its params schema (invalid_param)")
+
+
+class CommandBody(RootModel[control.Command]):
+    """One command of the union (see GET /api/schema/commands)."""
+
+    model_config = ConfigDict(title="Command")
+
+
+# Checked by their own checkers (commands: control.parse_command; programs: the compiler's report;
+# clips and postures: the library's validators; parameter values: the block's Params).
+CommandDoc = SkipValidation[CommandBody]
+ProgramDoc = SkipValidation[Program]
+ClipDoc = SkipValidation[Clip]
+PostureDoc = SkipValidation[Posture]
+ParamValues = SkipValidation[dict[str, Any]]

@@ -1,0 +1,26 @@
+"""The robot: its embodiment (kinematronics table) and its URDF."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter
+from fastapi.responses import PlainTextResponse
+
+from backend.routes.errors import api_error
+from backend.routes.json_body import SafeJsonRoute
+from backend.routes.state import SessionDep
+
+router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["robot"])
+
+
+@router.get("/robot", summary="The robot's embodiment and kinematronics table")
+def robot(session: SessionDep) -> dict[str, Any]:
+    return {**session.embodiment.to_dict(), "urdf": "/api/robot/urdf"}
+
+
+@router.get("/robot/urdf", response_class=PlainTextResponse, summary="The robot's URDF")
+def robot_urdf(session: SessionDep) -> str:
+    if session.embodiment.urdf_path is None:
+        raise api_error(404, "no_urdf", "this robot has no URDF file")
+    return session.embodiment.urdf_path.read_text()

@@ -1,0 +1,94 @@
+"""How the server is doing, and the 3D Pre-Viz: status, where the Pre-Viz is, the ghost toggle, and
+the Pre-Viz itself proxied at /previz/ behind the same guard and token as the API."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, HTTPException, Request, WebSocket
+from fastapi.responses import RedirectResponse, Response
+
+from backend import security
+from backend.hub import Hub
+from backend.routes.bodies import GhostToggle
+from backend.routes.errors import api_error
+from backend.routes.json_body import SafeJsonRoute
+from backend.routes.state import HubDep
+
+router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["status"])
+previz_proxy = APIRouter(include_in_schema=False)
+
+
+def _previz_urls(hub: Hub, request: Request) -> dict[str, Any]:
+    base = str(request.base_url).rstrip("/")
+    return {"url": f"{base}/previz/", "direct": hub.previz.url("127.0.0.1"), "token_required": hub.token is not None}
+
+
+def _no_previz() -> HTTPException:
+    return api_error(404, "no_previz", "this server runs without a Pre-Viz")
+
+
+@router.get("/status", summary="Tick statistics, APU level, drivers with drop counts, clients")
+def status(request: Request, hub: HubDep) -> dict[str, Any]:
+    session = hub.session
+    stats = session.engine.stats()
+    stats["clients"] = dict(hub.clients)
+    stats["program"] = session.program.name if session.program else None
+    stats["previz"] = {**_previz_urls(hub, request), "frames_shown": hub.previz.frames_shown,
+                       "ghost": hub.previz.ghost_visible} if hub.previz else None
+    return stats
+
+
+@router.get("/previz", summary="Where the 3D Pre-Viz is served (the URL a client should open)")
+def previz_info(request: Request, hub: HubDep) -> dict[str, Any]:
+    if hub.previz is None:
+        return {"url": None, "direct": None, "token_required": hub.token is not None, "ghost": None}
+    return {**_previz_urls(hub, request), "ghost": hub.previz.ghost_visible}
+
+
+@router.put("/previz/ghost", summary="Show or hide the ghost (stage-1 pose)")
+async def previz_ghost(body: GhostToggle, hub: HubDep) -> dict[str, Any]:
+    if hub.previz is None:
+        raise _no_previz()
+    hub.previz.set_ghost(body.visible)
+    return {"ghost": body.visible}
+
+
+@previz_proxy.get("/previz")
+def previz_redirect(request: Request) -> Response:
+    query = request.url.query
+    return RedirectResponse(f"/previz/{'?' + query if query else ''}", status_code=307)
+
+
+@previz_proxy.get("/previz/{path:path}")
+async def previz_page(path: str, request: Request, hub: HubDep) -> Response:
+    if hub.previz is None:
+        raise _no_previz()
+    from backend.previz import fetch_page
+
+    try:
+        status_code, headers, body = await fetch_page(hub.previz.port, path, request.headers.get("accept-encoding", ""))
+    except Exception as exc:  # refused, reset, truncated, timed out, malformed: the same to the client
+        raise api_error(502, "previz_unavailable", f"the Pre-Viz did not answer: {type(exc).__name__}") from exc
+    response = Response(body, status_code=status_code, headers=headers)
+    if hub.token is not None:  # the page's WebSocket (same path, no query) then carries the cookie
+        response.set_cookie(security.PREVIZ_COOKIE, security.previz_cookie_value(hub.token), path="/previz",
+                            httponly=True, samesite="strict")
+    return response
+
+
+async def previz_socket(ws: WebSocket, hub: HubDep) -> None:
+    if hub.previz is None:
+        await ws.close(code=4404, reason="this server runs without a Pre-Viz")
+        return
+    from backend.previz import relay_socket
+
+    hub.clients["previz"] += 1
+    try:
+        await relay_socket(ws, hub.previz, hub.stopping)
+    finally:
+        hub.clients["previz"] -= 1
+
+
+previz_proxy.add_api_websocket_route("/previz", previz_socket)
+previz_proxy.add_api_websocket_route("/previz/", previz_socket)
