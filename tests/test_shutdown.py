@@ -86,7 +86,7 @@ def abort(s: socket.socket) -> None:
 
 async def scenario(srv, rest: dict[str, float], sig: int, *, zombies: bool, extra_signals: tuple[int, ...] = (),
                    timeout: float = SHUTDOWN_TIMEOUT) -> dict:
-    """Turn the gaze with a driver on /ws/frames, add misbehaving clients, signal, time the exit."""
+    """Turn the gaze with a driver on /ws/frames, add misbehaving clients, signal, wait for the exit."""
     frames: list[dict] = []
     moved = asyncio.Event()
 
@@ -120,8 +120,8 @@ async def scenario(srv, rest: dict[str, float], sig: int, *, zombies: bool, extr
     for extra in extra_signals:
         await asyncio.sleep(0.3)
         srv.signal(extra)
-    took = await asyncio.to_thread(srv.wait_exit, timeout + EXIT_SLACK)
-    if took is None:
+    exited = await asyncio.to_thread(srv.wait_exit, timeout + EXIT_SLACK)
+    if not exited:
         srv.kill()
     try:
         await asyncio.wait_for(reader, 10)
@@ -130,7 +130,7 @@ async def scenario(srv, rest: dict[str, float], sig: int, *, zombies: bool, extr
     for h in held:
         if isinstance(h, socket.socket):
             h.close()
-    return {"took": took, "frames": frames}
+    return {"exited": exited, "frames": frames}
 
 
 def run_shutdown(tmp_path, rest, sig, *, zombies=True, extra_signals=(), timeout=SHUTDOWN_TIMEOUT,
@@ -151,8 +151,7 @@ def test_signal_parks_the_robot_at_rest_despite_zombie_clients(tmp_path, rest, s
     out, proc, (record, output) = run_shutdown(tmp_path, rest, sig)
     # Independent of park(): the signal is handled (no re-raise before the fade), hung clients
     # cannot hold the process, the drivers were closed in order.
-    assert out["took"] is not None, f"still running {SHUTDOWN_TIMEOUT + EXIT_SLACK:g} s after the signal:\n{output}"
-    assert out["took"] <= SHUTDOWN_TIMEOUT + EXIT_SLACK
+    assert out["exited"], f"still running {SHUTDOWN_TIMEOUT + EXIT_SLACK:g} s after the signal:\n{output}"
     assert proc.returncode in (0, 1), output  # not killed by the re-raised signal (-15 / -2)
     assert "taking the robot to rest" in output and "drivers closed" in output, output
     # Depends on EngineSession.park(): the exact rest pose, zero velocity, in the recording ...
@@ -168,7 +167,7 @@ def test_signal_parks_the_robot_at_rest_despite_zombie_clients(tmp_path, rest, s
 def test_second_signal_hurries_but_still_reaches_rest(tmp_path, rest):
     out, proc, (record, output) = run_shutdown(tmp_path, rest, signal.SIGINT, zombies=True, timeout=2.0,
                                                extra_signals=(signal.SIGINT, signal.SIGTERM))
-    assert out["took"] is not None and out["took"] <= 2.0 + EXIT_SLACK, output
+    assert out["exited"], output
     assert proc.returncode in (0, 1), output
     assert "hurrying" in output and "already stopping" in output, output
     # Depends on EngineSession.park(): hurrying never skips the rest.
@@ -180,7 +179,7 @@ def test_second_signal_hurries_but_still_reaches_rest(tmp_path, rest):
 def test_sigterm_with_previz_closes_everything(tmp_path, rest):
     pytest.importorskip("viser")
     out, proc, (record, output) = run_shutdown(tmp_path, rest, signal.SIGTERM, zombies=False, previz=True)
-    assert out["took"] is not None and out["took"] <= SHUTDOWN_TIMEOUT + EXIT_SLACK, output
+    assert out["exited"], output
     assert proc.returncode in (0, 1), output
     assert off_rest(last_recorded(record), rest) == {}, output  # depends on EngineSession.park()
 
@@ -301,10 +300,8 @@ def test_park_that_fails_or_hangs_is_reported_and_bounded(monkeypatch):
     monkeypatch.setattr(serve, "PARK_SLACK", 0.2)
     session = FakeSession(hang=True)
     sd = serve.Shutdown(session, timeout=0.3, watchdog=False)
-    t0 = time.monotonic()
     sd.request("SIGTERM")
-    assert sd.parked.wait(5)
-    assert time.monotonic() - t0 < 2.0
+    assert sd.parked.wait(5)  # the park hangs for an hour: the shutdown stopped waiting for it
     assert sd.result["reached_rest"] is False and "did not return" in sd.result["error"]
     assert sd.finish() == 1
 
