@@ -54,6 +54,7 @@ bench: deps-python
 	$(PY) benchmarks/bench_engine.py
 	$(PY) benchmarks/bench_nmf.py
 	$(PY) benchmarks/bench_safety.py
+	$(PY) benchmarks/bench_clock.py
 
 # Optional, not part of bench: `nutty serve` at 100 Hz under churning clients, then a SIGTERM.
 SOAK_MINUTES ?= 1

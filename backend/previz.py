@@ -98,6 +98,7 @@ class PreViz:
                                                              disable_rotations=True)
         self.server.scene.add_icosphere("/gaze_target/ball", radius=0.02, color=(255, 200, 40))
         self.gaze.on_update(lambda event: self._on_gaze_drag(event))
+        self._cfg_now: np.ndarray | None = None  # the joint configuration last shown
         self._sink: Sink | None = None
         self.frames_shown = 0
         self._lock = threading.Lock()
@@ -149,7 +150,7 @@ class PreViz:
             return None
         return _viser_name_from_frame(scene, link, f"{root}/visual")
 
-    def _add_leds(self) -> list[tuple[slice, list[Any]]]:
+    def _add_leds(self) -> list[tuple[str, slice, list[Any]]]:
         leds = []
         for d in self.emb.dofs:
             if d.type is not DofType.colour:
@@ -163,7 +164,7 @@ class PreViz:
                                                                color=(255, 255, 255), material="toon3",
                                                                cast_shadow=False))
             if handles:
-                leds.append((d.channels, handles))
+                leds.append((d.name, d.channels, handles))
         return leds
 
     def _add_face_label(self) -> tuple[slice, tuple[str, ...], Any] | None:
@@ -192,26 +193,61 @@ class PreViz:
     def ghost_visible(self) -> bool:
         return bool(self.ghost_base.visible)
 
-    def _on_gaze_drag(self, event: Any = None) -> None:
-        """The gizmo moved: set `gaze_target`. From a viser client, only a trusted one counts."""
-        if event is not None and getattr(event, "client_id", None) not in self._trusted:
-            return
+    @property
+    def trusted_clients(self) -> frozenset[int]:
+        """Ids of the viser clients connected now whose gaze drags count (passed the Origin/Host
+        checks or came through the API's proxy)."""
+        return frozenset(self._trusted)
+
+    def drag_gaze(self, position: Any, client_id: int | None = None) -> bool:
+        """Move the gaze gizmo to `position` (x, y, z in metres, robot frame) as a drag would, and set
+        the program's `gaze_target` input. A drag by viser client `client_id` counts only when that
+        client is trusted; None is this process, which always counts. Returns whether the input was
+        set (False also when the program declares no `gaze_target`)."""
+        if client_id is not None and client_id not in self._trusted:
+            return False
+        target = [float(v) for v in position]
+        if not np.allclose(self.gaze.position, target):  # a client's own drag is already there
+            self.gaze.position = tuple(target)
         prog = self.session.program
         if prog is None or prog.input("gaze_target") is None:
-            return
+            return False
         try:
-            self.session.set_input("gaze_target", [float(v) for v in self.gaze.position])
+            self.session.set_input("gaze_target", target)
         except ValueError:
-            pass
+            return False
+        return True
+
+    def _on_gaze_drag(self, event: Any) -> None:
+        """viser's gizmo callback. A drag that names no client is nobody's and never counts."""
+        client_id = getattr(event, "client_id", None)
+        if client_id is not None:
+            self.drag_gaze(self.gaze.position, client_id)
 
     def _cfg(self, values: np.ndarray) -> np.ndarray:
         q = self.emb.joint_positions(values)
         return q[self._order] if self._order is not None else q
 
+    def shown(self) -> dict[str, Any]:
+        """What the Pre-Viz displays now, read back from its scene: {"joints": {joint: position (rad
+        or m)} of the solid robot, "leds": {colour DoF: (r, g, b), 0..255}, "face": the expression
+        label or None, "caption": the caption text ("" when none), "ghost": whether the ghost shows}."""
+        with self._lock:
+            cfg = self._cfg_now
+            names = self.robot.get_actuated_joint_names()
+            return {
+                "joints": {} if cfg is None else {n: float(q) for n, q in zip(names, cfg)},
+                "leds": {name: tuple(handles[0].color) for name, _, handles in self._leds},
+                "face": self._face[2].text if self._face is not None else None,
+                "caption": self._caption.text,
+                "ghost": self.ghost_visible,
+            }
+
     def show(self, frame: AnimationFrame) -> None:
         """Pose both robots and the displays from one frame (called on the sink thread)."""
         with self._lock, self.server.atomic():
-            self.robot.update_cfg(self._cfg(frame.position))
+            self._cfg_now = self._cfg(frame.position)
+            self.robot.update_cfg(self._cfg_now)
             base = self.emb.base_pose(frame.position)
             self.base.position = (base["x"], base["y"], base["z"])
             self.base.wxyz = _yaw_pitch_roll_to_wxyz(base["yaw"], base["pitch"], base["roll"])
@@ -219,7 +255,7 @@ class PreViz:
                 self.ghost.update_cfg(self._cfg(frame.stage1))
                 gb = self.emb.base_pose(frame.stage1)
                 self.ghost_base.position = (gb["x"], gb["y"], gb["z"])
-            for channels, handles in self._leds:
+            for _, channels, handles in self._leds:
                 rgb = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in frame.position[channels])
                 for h in handles:
                     h.color = rgb

@@ -34,21 +34,20 @@ def test_frames_pose_robot_leds_face_and_captions(previz, desk):
     frame.position[desk.dof("mouth").channels] = 1
     frame.events = [FrameEvent("speech", "say", {"text": "hello there"})]
     previz.show(frame)
-    cfg = previz._cfg(frame.position)
-    names = previz.robot.get_actuated_joint_names()
-    assert cfg[names.index("head_yaw")] == pytest.approx(frame.position[desk.channel_index["head_yaw"]])
-    assert all(h.color == (255, 0, 128) for h in previz._leds[0][1])
-    assert previz._face[2].text == "smile"
-    assert "hello there" in previz._caption.text
+    shown = previz.shown()
+    assert shown["joints"]["head_yaw"] == pytest.approx(frame.position[desk.channel_index["head_yaw"]])
+    assert shown["leds"]["eye_leds"] == (255, 0, 128)
+    assert shown["face"] == "smile"
+    assert "hello there" in shown["caption"]
 
 
 def test_ghost_toggle_and_sink_decimation(previz):
     previz.set_ghost(False)
-    assert not previz.ghost_visible and previz.ghost_toggle.value is False
+    assert not previz.ghost_visible and previz.ghost_toggle.value is False and not previz.shown()["ghost"]
     previz.set_ghost(True)
     assert previz.ghost_visible
     previz.start()
-    sink = previz._sink
+    sink = next(s for s in previz.session.engine.sinks if s.name == "previz")
     assert sink.decimate == 2  # 100 Hz engine -> at most 60 Hz to viser
     previz.session.engine.run_ticks(40)
     previz.session.engine.close()
@@ -56,10 +55,10 @@ def test_ghost_toggle_and_sink_decimation(previz):
 
 
 def test_dragging_the_gaze_target_sets_the_input(previz):
-    previz.gaze.position = np.array([0.5, 0.2, 0.4])
-    previz._on_gaze_drag()
+    assert previz.drag_gaze([0.5, 0.2, 0.4])  # from this process: always counts
     previz.session.engine.tick()
     assert previz.session.inputs()["gaze_target"] == pytest.approx([0.5, 0.2, 0.4])
+    assert np.allclose(previz.gaze.position, [0.5, 0.2, 0.4])  # the gizmo moved with it
 
 
 def test_previz_listens_on_loopback_only(desk):
@@ -72,14 +71,18 @@ def test_previz_listens_on_loopback_only(desk):
 
 
 def test_gaze_drags_count_only_from_trusted_clients(previz):
-    from types import SimpleNamespace
+    import viser
+    from websockets.sync.client import connect
 
-    previz.gaze.position = np.array([0.4, -0.2, 0.3])
-    previz._on_gaze_drag(SimpleNamespace(client_id=12345))  # a client that never passed the checks
+    assert not previz.drag_gaze([0.4, -0.2, 0.3], client_id=12345)  # a client that never passed the checks
     previz.session.engine.tick()
     assert previz.session.inputs()["gaze_target"] == pytest.approx([1.0, 0.0, 0.3])
-    previz._trusted.add(12345)
-    previz._on_gaze_drag(SimpleNamespace(client_id=12345))
+    url = f"ws://127.0.0.1:{previz.port}"
+    with connect(url, subprotocols=[f"viser-v{viser.__version__}"], origin=f"http://localhost:{previz.port}",
+                 max_size=None, open_timeout=30) as ws:
+        ws.recv(timeout=30)  # connected and checked: its drags count
+        (client_id,) = previz.trusted_clients
+        assert previz.drag_gaze([0.4, -0.2, 0.3], client_id=client_id)
     previz.session.engine.tick()
     assert previz.session.inputs()["gaze_target"] == pytest.approx([0.4, -0.2, 0.3])
 
@@ -96,11 +99,11 @@ def test_viser_port_refuses_foreign_pages_and_trusts_its_own(previz):
             while True:
                 ws.recv(timeout=30)
         assert closed.value.rcvd.code == 4403
-    assert not previz._trusted
+    assert not previz.trusted_clients
     for origin in (f"http://localhost:{previz.port}", None):  # its own page, or a local non-browser client
         with connect(url, subprotocols=sub, origin=origin, max_size=None, open_timeout=30) as ws:
             assert isinstance(ws.recv(timeout=30), bytes)
-            assert previz._trusted  # its gaze drags count
+            assert previz.trusted_clients  # its gaze drags count
 
 
 def test_the_proxy_fetches_viser_pages(previz):

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import threading
-import time
 
 import numpy as np
 import pytest
 
 from backend.engine.apu import LevelError
-from backend.engine.runtime import Engine, Sink
+from backend.engine.runtime import Engine, Sink, WallClock
 from backend.graph.builder import ProgramBuilder
 from backend.graph.compiler import compile_or_raise
 from backend.session import EngineSession
@@ -167,34 +166,88 @@ def test_call_soon_applies_at_tick_boundary_from_other_threads(desk):
         eng.close()
 
 
-def test_clock_is_steady(desk):
-    """Tolerant bounds: the clock emits at the configured rate on a busy 2-core machine."""
-    eng = Engine(desk, rate=200)
-    eng.load(compile_or_raise(level3().build(), desk).apu)
+class SimulatedClock:
+    """A clock for the engine's loop that never sleeps: each wait returns at its deadline at once
+    (later by `late[k]` seconds on the k-th wait, a scheduler waking the thread late), and the loop
+    ends itself after `ticks` waits. `wakes` lists the time of every wake-up."""
+
+    def __init__(self, ticks: int, late: dict[int, float] | None = None):
+        self.t = 0.0
+        self.ticks = ticks
+        self.late = late or {}
+        self.wakes: list[float] = []
+        self.done = threading.Event()
+
+    def now(self) -> float:
+        return self.t
+
+    def wait_until(self, deadline: float, stop: threading.Event) -> bool:
+        if len(self.wakes) == self.ticks or stop.is_set():
+            self.done.set()
+            return False
+        self.t = max(self.t, deadline) + self.late.get(len(self.wakes), 0.0)
+        self.wakes.append(self.t)
+        return True
+
+
+def run_clock(eng: Engine, clock: SimulatedClock) -> None:
     eng.start()
-    time.sleep(1.0)
+    assert clock.done.wait(60), "the simulated clock did not finish"
     eng.stop()
+
+
+def test_clock_ticks_once_per_period(desk):
+    clock = SimulatedClock(ticks=200)
+    eng = Engine(desk, rate=200, clock=clock)
+    eng.load(compile_or_raise(level3().build(), desk).apu)
+    frames = []
+    eng.add_sink(Sink("all", frames.append, max_queue=1000))
+    run_clock(eng, clock)
+    eng.close()
     stats = eng.stats()
-    assert 140 <= stats["ticks"] <= 230
-    assert 3.0 <= stats["period"]["p50_ms"] <= 7.0  # 5 ms nominal
+    assert stats["ticks"] == 200 and stats["lost_ticks"] == 0 and stats["overruns"] == 0
+    np.testing.assert_allclose(np.diff(clock.wakes), 0.005)  # one tick every 5 ms
+    assert stats["period"]["p50_ms"] == pytest.approx(5.0) and stats["jitter"]["max_ms"] == pytest.approx(0.0)
+    assert [f.seq for f in frames] == list(range(200)) and eng.t == pytest.approx(1.0)
+
+
+def test_a_late_clock_stretches_time_and_counts_lost_ticks(desk):
+    """Woken 3.5 periods late, the clock skips the ticks it missed (counted as lost) rather than
+    bursting to catch up, and the program's time goes on one period per tick."""
+    clock = SimulatedClock(ticks=100, late={50: 3.5 * 0.01})
+    eng = Engine(desk, rate=100, clock=clock)
+    eng.load(compile_or_raise(level2().build(), desk).apu)
+    run_clock(eng, clock)
+    stats = eng.stats()
+    assert stats["ticks"] == 100 and stats["overruns"] == 1 and stats["lost_ticks"] == 2
+    slots = np.delete(np.array(clock.wakes), 50) / 0.01
+    np.testing.assert_allclose(slots, np.round(slots), atol=1e-6)  # every other tick on the 10 ms grid ...
+    assert len(set(np.round(slots))) == 99  # ... one per slot: no burst to catch up
+    assert clock.wakes[51] - clock.wakes[50] == pytest.approx(0.005)  # back on the grid at the next slot
+    assert eng.t == pytest.approx(1.0) and eng.last_frame.seq == 99  # time stretched, nothing skipped
 
 
 def test_slow_sink_does_not_stall_the_clock(desk):
-    eng = Engine(desk, rate=200)
+    clock = SimulatedClock(ticks=200)
+    eng = Engine(desk, rate=200, clock=clock)
     eng.load(compile_or_raise(level2().build(), desk).apu)
-    slow = eng.add_sink(Sink("slow", lambda f: time.sleep(0.05), max_queue=4))
+    release = threading.Event()
+    slow = eng.add_sink(Sink("slow", lambda f: release.wait(60), max_queue=4))  # stuck until released
     fast_frames = []
-    eng.add_sink(Sink("fast", fast_frames.append, max_queue=64))
-    eng.start()
-    time.sleep(1.0)
-    eng.stop()
-    ticks = eng.ticks
+    eng.add_sink(Sink("fast", fast_frames.append, max_queue=1000))
+    run_clock(eng, clock)  # all 200 ticks ran while the slow sink sat on its first frame
+    assert eng.ticks == 200 and slow.delivered == 0 and slow.dropped >= 200 - 4 - 1
+    release.set()
     eng.close()
-    assert ticks >= 140  # the clock kept its rate although one sink needs 50 ms per frame
-    assert slow.dropped > 50 and slow.delivered < 40
-    assert len(fast_frames) >= ticks - 70  # the fast sink got (nearly) everything
-    seqs = [f.seq for f in fast_frames]
-    assert seqs == sorted(seqs)
+    assert slow.delivered + slow.dropped == 200 and slow.delivered <= 5
+    assert [f.seq for f in fast_frames] == list(range(200))  # the fast sink got everything, in order
+
+
+def test_wall_clock_waits_end_at_the_deadline_or_when_stopped():
+    clock, stop = WallClock(), threading.Event()
+    assert clock.wait_until(clock.now() - 1.0, stop) is True  # a deadline already past: at once
+    stop.set()
+    assert clock.wait_until(clock.now() + 3600.0, stop) is False  # stopped: no hour-long wait
 
 
 def test_sink_decimation_and_errors(desk):

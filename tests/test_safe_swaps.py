@@ -135,16 +135,25 @@ def test_park_with_the_clock_running(desk):
     assert_smooth(desk, np.array([f.position for f in seen]), 100.0)
 
 
+def wait_for_ticks(client, n: int, timeout: float = 60.0) -> None:
+    """Poll the server until its clock has ticked `n` more times (the timeout only bounds a hang)."""
+    target = client.status()["ticks"] + n
+    deadline = time.monotonic() + timeout
+    while client.status()["ticks"] < target:
+        assert time.monotonic() < deadline, "the server's clock stopped ticking"
+        time.sleep(0.05)
+
+
 def test_swaps_through_the_real_server_stay_within_limits(tmp_path):
     """PUT /api/program back and forth on a real `nutty serve`, the frames recorded by its driver."""
     record = tmp_path / "frames.jsonl"
     with running_server("--no-previz", "--record", str(record)) as (url, _port, client):
         client.look_at(0.4, 0.6, 0.3)
-        time.sleep(2.5)
+        wait_for_ticks(client, 250)  # 2.5 s of the robot's time: the gaze has turned
         for name in ("idle", "interactive", "idle", "greet", "interactive"):
             r = httpx.put(f"{url}/api/program", json=program(name), timeout=10.0)
             assert r.status_code == 200, r.text
-            time.sleep(0.6)
+            wait_for_ticks(client, 60)
         status = client.status()
     assert status["safety"]["enabled"] is True
     from backend.engine.embodiment import load_embodiment

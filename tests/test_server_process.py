@@ -1,5 +1,5 @@
-"""A real `nutty serve` process on free ports: a driver client receives frames at the configured rate
-while 20 telemetry clients come and go and a deliberately slow client lags; the Python client works."""
+"""A real `nutty serve` process on free ports: a driver client receives its frames in order while 20
+telemetry clients come and go and another frames client stalls; the Python client works."""
 
 from __future__ import annotations
 
@@ -23,15 +23,21 @@ def server(tmp_path_factory):
         yield {"url": url, "port": port, "client": client, "record": record}
 
 
-def test_driver_client_gets_frames_at_rate_while_others_churn(server):
+DRIVER_FRAMES = 300  # 3 s of the configured 100 Hz
+
+
+def test_driver_client_gets_frames_while_others_churn_and_one_stalls(server):
+    """Behaviour, not timing (the rate, jitter and frames lost under load are the benchmarks'):
+    the driver gets its frames in order while telemetry clients come and go and another frames
+    client reads nothing at all - nobody waits for that one."""
     port = server["port"]
 
-    async def driver() -> list[int]:
+    async def driver(done: asyncio.Event) -> list[int]:
         seqs = []
         async with websockets.connect(f"ws://127.0.0.1:{port}/ws/frames?format=json") as ws:
-            t_end = time.monotonic() + 3.0
-            while time.monotonic() < t_end:
+            while len(seqs) < DRIVER_FRAMES:
                 seqs.append(json.loads(await ws.recv())["seq"])
+        done.set()
         return seqs
 
     async def churn(k: int) -> int:
@@ -45,27 +51,22 @@ def test_driver_client_gets_frames_at_rate_while_others_churn(server):
                     got += 1
         return got
 
-    async def slow() -> int:
+    async def stalled(done: asyncio.Event) -> list[int]:  # one frame, then nothing until the driver is done
         async with websockets.connect(f"ws://127.0.0.1:{port}/ws/frames", max_queue=1) as ws:
-            n = 0
-            t_end = time.monotonic() + 3.0
-            while time.monotonic() < t_end:
-                await ws.recv()
-                n += 1
-                await asyncio.sleep(0.25)  # reads 4 frames a second
-            return n
+            seqs = [json.loads(await ws.recv())["seq"]]
+            await done.wait()
+            seqs.append(json.loads(await ws.recv())["seq"])
+            return seqs
 
     async def main():
-        return await asyncio.gather(driver(), slow(), *(churn(k) for k in range(20)))
+        done = asyncio.Event()
+        return await asyncio.wait_for(asyncio.gather(driver(done), stalled(done), *(churn(k) for k in range(20))),
+                                      120)  # bounds a hang only
 
-    seqs, slow_n, *churned = asyncio.run(main())
-    # Behaviour, not timing (the clock's rate and jitter under load are benchmarks/soak.py's): the
-    # driver saw the engine's frames in order with few gaps, whatever the other clients did.
-    assert len(seqs) > 50 and seqs == sorted(seqs)
-    gaps = [b - a for a, b in zip(seqs, seqs[1:])]
-    assert sum(gaps) - len(gaps) <= 0.2 * len(seqs)  # few frames lost to the driver
+    seqs, stalled_seqs, *churned = asyncio.run(main())
+    assert len(seqs) == DRIVER_FRAMES and all(a < b for a, b in zip(seqs, seqs[1:]))  # in order, no repeats
     assert all(n == 15 for n in churned)
-    assert slow_n <= 14  # the slow client really was slow, and nobody waited for it
+    assert stalled_seqs[0] < stalled_seqs[1]  # the stalled client still gets newer frames once it reads
     deadline = time.monotonic() + 10.0  # the server notices closed sockets within a few ticks
     while (status := server["client"].status())["clients"]["frames"] and time.monotonic() < deadline:
         time.sleep(0.1)

@@ -1,7 +1,7 @@
 """Live hot swap: programs replaced 100 times while the engine's clock ticks.
 
 Blocks whose id and type survive a swap keep their state, so their output continues without a
-jump; the clock keeps its rate; invalid programs are rejected and change nothing; a parameter-only
+jump; the clock keeps ticking; invalid programs are rejected and change nothing; a parameter-only
 change (`update_params`) rebuilds nothing.
 """
 
@@ -62,6 +62,15 @@ def broken(k: int) -> dict:
     return doc
 
 
+def wait_for_ticks(engine, n: int, timeout: float = 30.0) -> None:
+    """Poll until the running clock has ticked `n` more times (the timeout only bounds a hang)."""
+    target = engine.ticks + n
+    deadline = time.monotonic() + timeout
+    while engine.ticks < target:
+        assert time.monotonic() < deadline, "the clock stopped ticking"
+        time.sleep(0.002)
+
+
 def jumps(values: np.ndarray, limit: float) -> np.ndarray:
     """Indices where consecutive samples differ by more than `limit` (with a little slack)."""
     return np.flatnonzero(np.abs(np.diff(values)) > limit * 1.05 + 1e-9)
@@ -79,7 +88,6 @@ def test_hundred_swaps_into_a_ticking_engine(desk):
             frames.append((frame.seq, float(frame.program[col])))
 
     sink = engine.add_sink(Sink("recorder", record, max_queue=1_000_000))
-    latencies = []
     rejected = 0
     engine.start()
     try:
@@ -91,15 +99,13 @@ def test_hundred_swaps_into_a_ticking_engine(desk):
                 assert {e.code for e in exc.value.report.errors} == {"unknown_dof", "unknown_node"}
                 assert engine.apu is apu and engine.swaps == swaps and session.program is program
                 rejected += 1
-            t0 = time.perf_counter()
             _, kept = session.load_program(variant(k))
-            latencies.append(time.perf_counter() - t0)
             assert {"rest", "breath", "mixer", "limit", "output"} <= set(kept)
             # Nodes present in both variants keep state; look/wiggle alternate so they never persist.
             assert ("wiggle" in kept) is False and ("look" in kept) is False
             assert session.program.name == f"variant {k}"
             assert engine.apu.source is session.program
-            time.sleep(0.01)
+            wait_for_ticks(engine, 2)  # the new program runs a while before the next swap
         ticks_during = engine.ticks
     finally:
         engine.stop()
@@ -114,8 +120,8 @@ def test_hundred_swaps_into_a_ticking_engine(desk):
     head_pitch = np.array([v for _, v in frames])
     assert not len(jumps(head_pitch, MAX_STEP)), f"jumps at frames {jumps(head_pitch, MAX_STEP)[:10]}"
     assert np.ptp(head_pitch) > AMP  # ... and it really moved (more than half its swing)
-    # The clock ticked through every swap (its timing under load is a benchmark's, not a test's).
-    assert ticks_during >= 100 and len(latencies) == 100
+    # The clock ticked through every swap (its timing under load is benchmarks/bench_clock.py's).
+    assert ticks_during >= 200 and len(seqs) >= ticks_during
 
 
 def test_the_continuity_check_catches_a_reset_phase(desk):
@@ -150,7 +156,7 @@ def test_update_params_rebuilds_nothing(desk):
     engine.start()
     try:
         params = session.update_params("breath", {"frequency": FREQ * 1.2})
-        time.sleep(0.05)
+        wait_for_ticks(engine, 5)
     finally:
         engine.stop()
     assert params["frequency"] == pytest.approx(FREQ * 1.2) and params["amplitude"] == AMP

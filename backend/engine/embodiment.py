@@ -13,218 +13,27 @@ The paper describes a robot's expressive channels in four dimensions:
 At run time the engine works on *channels*: a flat float vector over all DoFs (one channel per
 continuous or enum DoF, three per colour DoF, none per event DoF). Every per-channel property
 (limits, rest value, kind) is a numpy array, so the hot path is vectorised over DoFs.
+
+The DoF types live in `backend.engine.dofs`, the `embodiment.yaml` schema and the rules that turn
+it into DoFs in `backend.engine.kinematronics`; their public names are importable from here too.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from enum import Enum
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import ValidationError
 
-# Documented defaults used when a URDF (or embodiment.yaml) gives no acceleration/jerk limit:
-#   acceleration = ACC_PER_VEL * velocity limit   [1/s]
-#   jerk         = JERK_PER_ACC * acceleration limit [1/s]
-ACC_PER_VEL = 4.0
-JERK_PER_ACC = 10.0
-# Velocity used when a URDF joint declares none (rad/s for revolute, m/s for prismatic).
-DEFAULT_VELOCITY = {"revolute": 2.0, "continuous": 2.0, "prismatic": 0.5}
-# Limits of display channels: colours live in [0, 1]; changes are allowed to be fast but finite.
-COLOUR_VELOCITY, COLOUR_ACCELERATION, COLOUR_JERK = 20.0, 400.0, 20000.0
-
-
-class Dimension(str, Enum):
-    stationary = "stationary"
-    spatial = "spatial"
-    display = "display"
-    audible = "audible"
-
-
-class DofType(str, Enum):
-    continuous = "continuous"  # one float channel: a position (rad, m, or unitless for display)
-    enum = "enum"  # one channel holding an index into `options`
-    colour = "colour"  # three channels r, g, b in [0, 1]
-    event = "event"  # no channel; carries payloads (speech text, sound clip names)
-
-
-class ChannelKind(int, Enum):
-    continuous = 0
-    enum = 1
-    colour = 2
-
-
-SPATIAL_AXES = ("x", "y", "z", "yaw", "pitch", "roll")
-
-
-class EmbodimentError(ValueError):
-    """An embodiment (URDF or embodiment.yaml) is inconsistent; the message says where and why."""
-
-
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class DofLimits(_Model):
-    """Optional limit overrides. Units: rad (or m) for positions, per s, per s², per s³."""
-
-    min: float | None = None
-    max: float | None = None
-    velocity: float | None = Field(None, gt=0)
-    acceleration: float | None = Field(None, gt=0)
-    jerk: float | None = Field(None, gt=0)
-    rest: float | None = None
-
-
-class StationaryDofConfig(DofLimits):
-    """A stationary DoF: a URDF joint (`joint`, default: the DoF's name) or a symbolic DoF (`drives`)."""
-
-    name: str
-    joint: str | None = None
-    drives: dict[str, float] | None = Field(
-        None, description="symbolic DoF: URDF joint name -> coefficient (joint += coefficient * value)"
-    )
-    group: str | None = None
-    description: str = ""
-
-
-class SpatialDofConfig(DofLimits):
-    """One axis of the base: x, y, z in m; yaw, pitch, roll in rad."""
-
-    name: str
-    axis: Literal["x", "y", "z", "yaw", "pitch", "roll"]
-    group: str | None = Field(None, description="DoFs sharing a group are limited by their vector norm")
-    description: str = ""
-
-
-class DisplayDofConfig(DofLimits):
-    """An LED or LED group (`colour`), a face/screen expression (`enum`) or a face parameter (`continuous`)."""
-
-    name: str
-    type: Literal["colour", "enum", "continuous"]
-    links: list[str] = Field(default_factory=list, description="URDF links where the display is shown")
-    options: list[str] | None = None
-    rest_colour: tuple[float, float, float] | None = None
-    rest_option: str | None = None
-    description: str = ""
-
-    @model_validator(mode="after")
-    def _check(self) -> "DisplayDofConfig":
-        if self.type == "enum" and not self.options:
-            raise ValueError(f"display DoF '{self.name}' of type enum needs a non-empty 'options' list")
-        if self.rest_option is not None and (not self.options or self.rest_option not in self.options):
-            raise ValueError(f"display DoF '{self.name}': rest_option '{self.rest_option}' is not one of its options")
-        if self.rest_colour is not None and not all(0.0 <= c <= 1.0 for c in self.rest_colour):
-            raise ValueError(f"display DoF '{self.name}': rest_colour components must be in [0, 1]")
-        return self
-
-
-class AudibleDofConfig(_Model):
-    """A speech (TTS) channel or a sound player: carries events, not curves."""
-
-    name: str
-    kind: Literal["speech", "sound"]
-    sounds: list[str] = Field(default_factory=list, description="sound clips this player knows (sound only)")
-    description: str = ""
-
-
-class EmbodimentConfig(_Model):
-    """The schema of `embodiment.yaml`."""
-
-    name: str
-    urdf: str = "robot.urdf"
-    description: str = ""
-    stationary: list[StationaryDofConfig] = Field(default_factory=list)
-    spatial: list[SpatialDofConfig] = Field(default_factory=list)
-    display: list[DisplayDofConfig] = Field(default_factory=list)
-    audible: list[AudibleDofConfig] = Field(default_factory=list)
-    postures: dict[str, dict[str, Any]] = Field(
-        default_factory=dict, description="named poses: DoF name -> value (float, colour list or option name)"
-    )
-    gaze: dict[str, Any] = Field(default_factory=dict, description="gaze chain description for look-at blocks")
-
-
-@dataclass(frozen=True)
-class Dof:
-    """One DoF of the embodiment, as resolved from the URDF and embodiment.yaml."""
-
-    name: str
-    dimension: Dimension
-    type: DofType
-    channels: slice  # channels of this DoF in frame vectors (empty for events)
-    min: float
-    max: float
-    velocity: float
-    acceleration: float
-    jerk: float
-    rest: float | tuple[float, ...]
-    joint: str | None = None  # real URDF joint (stationary)
-    drives: dict[str, float] | None = None  # symbolic DoF: joint -> coefficient
-    axis: str | None = None  # spatial axis
-    group: str | None = None
-    options: tuple[str, ...] | None = None
-    links: tuple[str, ...] = ()
-    kind: str | None = None  # audible: speech | sound
-    sounds: tuple[str, ...] = ()
-    description: str = ""
-
-    @property
-    def symbolic(self) -> bool:
-        return self.drives is not None
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly description (used by `nutty embodiment --json` and the API)."""
-        d: dict[str, Any] = {
-            "name": self.name,
-            "dimension": self.dimension.value,
-            "type": self.type.value,
-            "min": _json_float(self.min),
-            "max": _json_float(self.max),
-            "velocity": _json_float(self.velocity),
-            "acceleration": _json_float(self.acceleration),
-            "jerk": _json_float(self.jerk),
-            "rest": list(self.rest) if isinstance(self.rest, tuple) else _json_float(self.rest),
-            "channels": [self.channels.start, self.channels.stop],
-        }
-        if self.joint is not None:
-            d["joint"] = self.joint
-        if self.drives is not None:
-            d["drives"] = dict(self.drives)
-        if self.axis is not None:
-            d["axis"] = self.axis
-        if self.group is not None:
-            d["group"] = self.group
-        if self.options is not None:
-            d["options"] = list(self.options)
-        if self.links:
-            d["links"] = list(self.links)
-        if self.kind is not None:
-            d["kind"] = self.kind
-        if self.sounds:
-            d["sounds"] = list(self.sounds)
-        if self.description:
-            d["description"] = self.description
-        return d
-
-
-def _json_float(x: float) -> float | None:
-    return None if x is None or not math.isfinite(x) else float(x)
-
-
-@dataclass
-class UrdfJoint:
-    """What the engine needs of one actuated URDF joint."""
-
-    name: str
-    type: str
-    lower: float
-    upper: float
-    velocity: float
-    child: str = ""
+from backend.engine.dofs import (  # noqa: F401
+    ACC_PER_VEL, COLOUR_ACCELERATION, COLOUR_JERK, COLOUR_VELOCITY, DEFAULT_VELOCITY, JERK_PER_ACC, SPATIAL_AXES,
+    ChannelKind, Dimension, Dof, DofType, EmbodimentError, UrdfJoint)
+from backend.engine.kinematronics import (  # noqa: F401
+    AudibleDofConfig, DisplayDofConfig, DofLimits, EmbodimentConfig, SpatialDofConfig, StationaryDofConfig,
+    dofs_from_config, dofs_from_urdf, read_urdf_joints)
 
 
 @dataclass(eq=False)  # identity semantics: embodiments are shared, hashed by identity
@@ -386,61 +195,6 @@ class Embodiment:
 # ------------------------------------------------------------------------------------------------
 
 
-def _read_urdf_joints(urdf_path: Path) -> tuple[list[UrdfJoint], dict[str, Any]]:
-    """Actuated joints (non-fixed, not mimic) of a URDF, with their limits; plus the mimic table."""
-    import yourdfpy  # local import: loading yourdfpy is only needed when a robot is loaded
-
-    try:
-        urdf = yourdfpy.URDF.load(
-            str(urdf_path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False
-        )
-    except Exception as exc:  # yourdfpy raises many types for malformed files
-        raise EmbodimentError(f"cannot read URDF '{urdf_path}': {exc}") from exc
-    joints: list[UrdfJoint] = []
-    mimics: dict[str, Any] = {}
-    for j in urdf.robot.joints:
-        if j.type == "fixed" or j.type == "floating" or j.type == "planar":
-            continue
-        if j.mimic is not None:
-            mimics[j.name] = {"joint": j.mimic.joint, "multiplier": j.mimic.multiplier, "offset": j.mimic.offset}
-            continue
-        lim = j.limit
-        lower = lim.lower if lim is not None and lim.lower is not None else None
-        upper = lim.upper if lim is not None and lim.upper is not None else None
-        if j.type == "continuous" or lower is None or upper is None or not lower < upper:
-            lower, upper = -2 * math.pi, 2 * math.pi
-        velocity = lim.velocity if lim is not None and lim.velocity else DEFAULT_VELOCITY.get(j.type, 2.0)
-        joints.append(UrdfJoint(j.name, j.type, float(lower), float(upper), float(velocity), j.child))
-    return joints, mimics
-
-
-def _limit(value: float | None, default: float) -> float:
-    return float(default if value is None else value)
-
-
-def _stationary_from_joint(j: UrdfJoint, cfg: StationaryDofConfig | None, start: int) -> Dof:
-    cfg = cfg or StationaryDofConfig(name=j.name)
-    vel = _limit(cfg.velocity, j.velocity)
-    acc = _limit(cfg.acceleration, ACC_PER_VEL * vel)
-    lo, hi = _limit(cfg.min, j.lower), _limit(cfg.max, j.upper)
-    rest = _limit(cfg.rest, min(max(0.0, lo), hi))
-    return Dof(
-        name=cfg.name,
-        dimension=Dimension.stationary,
-        type=DofType.continuous,
-        channels=slice(start, start + 1),
-        min=lo,
-        max=hi,
-        velocity=vel,
-        acceleration=acc,
-        jerk=_limit(cfg.jerk, JERK_PER_ACC * acc),
-        rest=rest,
-        joint=j.name,
-        group=cfg.group,
-        description=cfg.description,
-    )
-
-
 def load_embodiment(source: str | Path) -> Embodiment:
     """Load a robot from a folder (`robot.urdf` + `embodiment.yaml`) or from a bare URDF file.
 
@@ -501,199 +255,18 @@ def default_robot_path() -> Path:
 
 
 def _from_urdf(urdf_path: Path) -> Embodiment:
-    joints, _ = _read_urdf_joints(urdf_path)
-    dofs = [_stationary_from_joint(j, None, i) for i, j in enumerate(joints)]
-    return Embodiment(name=urdf_path.stem, dofs=dofs, urdf_path=urdf_path, joints=joints)
+    joints, _ = read_urdf_joints(urdf_path)
+    return Embodiment(name=urdf_path.stem, dofs=dofs_from_urdf(joints), urdf_path=urdf_path, joints=joints)
 
 
 def _from_config(cfg: EmbodimentConfig, folder: Path) -> Embodiment:
     urdf_path = folder / cfg.urdf
     if not urdf_path.exists():
         raise EmbodimentError(f"{folder / 'embodiment.yaml'}: urdf '{cfg.urdf}' not found")
-    joints, mimics = _read_urdf_joints(urdf_path)
-    joint_by_name = {j.name: j for j in joints}
-    dofs: list[Dof] = []
-    seen: set[str] = set()
-    cursor = 0
-
-    def claim(name: str, where: str) -> None:
-        if name in seen:
-            raise EmbodimentError(f"{where}: DoF name '{name}' is declared twice")
-        seen.add(name)
-
-    for i, s in enumerate(cfg.stationary):
-        where = f"stationary[{i}] '{s.name}'"
-        claim(s.name, where)
-        if s.drives:
-            for joint in s.drives:
-                if joint not in joint_by_name:
-                    hint = " (it is a mimic joint; drive its leader)" if joint in mimics else ""
-                    raise EmbodimentError(f"{where}: drives unknown actuated joint '{joint}'{hint}")
-            # A symbolic DoF's range is what its joints allow for its coefficients.
-            lo, hi = -math.inf, math.inf
-            vel_bound = math.inf
-            for joint, coef in s.drives.items():
-                j = joint_by_name[joint]
-                if coef == 0:
-                    continue
-                a, b = sorted((j.lower / coef, j.upper / coef))
-                lo, hi = max(lo, a), min(hi, b)
-                vel_bound = min(vel_bound, j.velocity / abs(coef))
-            lo = _limit(s.min, lo if math.isfinite(lo) else -1.0)
-            hi = _limit(s.max, hi if math.isfinite(hi) else 1.0)
-            if not lo < hi:
-                raise EmbodimentError(f"{where}: min {lo} must be below max {hi}")
-            vel = _limit(s.velocity, vel_bound if math.isfinite(vel_bound) else 2.0)
-            acc = _limit(s.acceleration, ACC_PER_VEL * vel)
-            dofs.append(
-                Dof(
-                    name=s.name,
-                    dimension=Dimension.stationary,
-                    type=DofType.continuous,
-                    channels=slice(cursor, cursor + 1),
-                    min=lo,
-                    max=hi,
-                    velocity=vel,
-                    acceleration=acc,
-                    jerk=_limit(s.jerk, JERK_PER_ACC * acc),
-                    rest=_limit(s.rest, min(max(0.0, lo), hi)),
-                    drives=dict(s.drives),
-                    group=s.group,
-                    description=s.description,
-                )
-            )
-        else:
-            joint = s.joint or s.name
-            if joint not in joint_by_name:
-                hint = " (it is a mimic joint; it follows its leader)" if joint in mimics else ""
-                raise EmbodimentError(f"{where}: URDF has no actuated joint '{joint}'{hint}")
-            d = _stationary_from_joint(joint_by_name[joint], s, cursor)
-            if not d.min < d.max:
-                raise EmbodimentError(f"{where}: min {d.min} must be below max {d.max}")
-            if not d.min <= d.rest <= d.max:  # type: ignore[operator]
-                raise EmbodimentError(f"{where}: rest {d.rest} is outside [{d.min}, {d.max}]")
-            dofs.append(d)
-        cursor += 1
-
-    axes_seen: set[str] = set()
-    for i, s in enumerate(cfg.spatial):
-        where = f"spatial[{i}] '{s.name}'"
-        claim(s.name, where)
-        if s.axis in axes_seen:
-            raise EmbodimentError(f"{where}: axis '{s.axis}' is already declared")
-        axes_seen.add(s.axis)
-        linear = s.axis in ("x", "y", "z")
-        vel = _limit(s.velocity, 0.3 if linear else 1.0)
-        acc = _limit(s.acceleration, ACC_PER_VEL * vel)
-        lo = _limit(s.min, -1.0 if linear else -math.pi)
-        hi = _limit(s.max, 1.0 if linear else math.pi)
-        if not lo < hi:
-            raise EmbodimentError(f"{where}: min {lo} must be below max {hi}")
-        dofs.append(
-            Dof(
-                name=s.name,
-                dimension=Dimension.spatial,
-                type=DofType.continuous,
-                channels=slice(cursor, cursor + 1),
-                min=lo,
-                max=hi,
-                velocity=vel,
-                acceleration=acc,
-                jerk=_limit(s.jerk, JERK_PER_ACC * acc),
-                rest=_limit(s.rest, min(max(0.0, lo), hi)),
-                axis=s.axis,
-                group=s.group,
-                description=s.description,
-            )
-        )
-        cursor += 1
-    if len(cfg.spatial) > 6:
-        raise EmbodimentError("spatial: a base has at most 6 axes")
-
-    for i, s in enumerate(cfg.display):
-        where = f"display[{i}] '{s.name}'"
-        claim(s.name, where)
-        if s.type == "colour":
-            rest: float | tuple[float, ...] = tuple(s.rest_colour or (0.0, 0.0, 0.0))
-            d = Dof(
-                name=s.name,
-                dimension=Dimension.display,
-                type=DofType.colour,
-                channels=slice(cursor, cursor + 3),
-                min=0.0,
-                max=1.0,
-                velocity=_limit(s.velocity, COLOUR_VELOCITY),
-                acceleration=_limit(s.acceleration, COLOUR_ACCELERATION),
-                jerk=_limit(s.jerk, COLOUR_JERK),
-                rest=rest,
-                links=tuple(s.links),
-                description=s.description,
-            )
-            cursor += 3
-        elif s.type == "enum":
-            options = tuple(s.options or ())
-            d = Dof(
-                name=s.name,
-                dimension=Dimension.display,
-                type=DofType.enum,
-                channels=slice(cursor, cursor + 1),
-                min=0.0,
-                max=float(len(options) - 1),
-                velocity=math.inf,
-                acceleration=math.inf,
-                jerk=math.inf,
-                rest=float(options.index(s.rest_option) if s.rest_option else 0),
-                options=options,
-                links=tuple(s.links),
-                description=s.description,
-            )
-            cursor += 1
-        else:
-            lo, hi = _limit(s.min, 0.0), _limit(s.max, 1.0)
-            if not lo < hi:
-                raise EmbodimentError(f"{where}: min {lo} must be below max {hi}")
-            vel = _limit(s.velocity, 4.0 * (hi - lo))
-            acc = _limit(s.acceleration, ACC_PER_VEL * vel)
-            d = Dof(
-                name=s.name,
-                dimension=Dimension.display,
-                type=DofType.continuous,
-                channels=slice(cursor, cursor + 1),
-                min=lo,
-                max=hi,
-                velocity=vel,
-                acceleration=acc,
-                jerk=_limit(s.jerk, JERK_PER_ACC * acc),
-                rest=_limit(s.rest, lo),
-                links=tuple(s.links),
-                description=s.description,
-            )
-            cursor += 1
-        dofs.append(d)
-
-    for i, s in enumerate(cfg.audible):
-        claim(s.name, f"audible[{i}] '{s.name}'")
-        dofs.append(
-            Dof(
-                name=s.name,
-                dimension=Dimension.audible,
-                type=DofType.event,
-                channels=slice(cursor, cursor),
-                min=math.nan,
-                max=math.nan,
-                velocity=math.nan,
-                acceleration=math.nan,
-                jerk=math.nan,
-                rest=math.nan,
-                kind=s.kind,
-                sounds=tuple(s.sounds),
-                description=s.description,
-            )
-        )
-
+    joints, mimics = read_urdf_joints(urdf_path)
     emb = Embodiment(
         name=cfg.name,
-        dofs=dofs,
+        dofs=dofs_from_config(cfg, joints, mimics),
         urdf_path=urdf_path,
         joints=joints,
         postures=cfg.postures,

@@ -11,6 +11,8 @@
   blends the jump between the last output and the new program's out over a short transition.
 - Under CPU contention the clock *stretches* time rather than bursting to catch up: frames come
   late, so the robot moves slower, never faster. Ticks that should have run are counted as lost.
+- The clock loop reads time and waits through a `Clock` (default `WallClock`); another clock, e.g.
+  a simulated one in tests, drives the same loop without real sleeps.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from collections import deque
 from concurrent.futures import Future
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
-from typing import Any, Callable
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
@@ -119,6 +121,35 @@ class Sink:
                 "decimate": self.decimate}
 
 
+class Clock(Protocol):
+    """What the engine's clock loop needs from time: a reading and a wait."""
+
+    def now(self) -> float:
+        """Seconds on a monotonic scale (any origin)."""
+
+    def wait_until(self, deadline: float, stop: threading.Event) -> bool:
+        """Return at `deadline` (a `now()` reading) with True, or with False once `stop` is set."""
+
+
+class WallClock:
+    """The real clock: `time.perf_counter`; a wait sleeps, then spins the last `spin` seconds
+    (sleep alone is too coarse for a 1 kHz loop)."""
+
+    def __init__(self, spin: float = 0.0003):
+        self.spin = spin
+
+    def now(self) -> float:
+        return time.perf_counter()
+
+    def wait_until(self, deadline: float, stop: threading.Event) -> bool:
+        wait = deadline - time.perf_counter()
+        if wait > self.spin and stop.wait(wait - self.spin):
+            return False
+        while time.perf_counter() < deadline:
+            pass
+        return not stop.is_set()
+
+
 @dataclass
 class _Pending:
     fn: Callable[[], Any]
@@ -129,10 +160,11 @@ class Engine:
     """Runs an APU on an embodiment at a fixed rate and emits Animation Frames.
 
     rate: ticks per second, 30..1000. max_level: the highest APU level accepted (0..3).
+    clock: what the running clock (`start()`) reads time from and waits on (default: a `WallClock`).
     """
 
     def __init__(self, embodiment: Embodiment, rate: float = 100.0, max_level: int = MAX_LEVEL,
-                 resources: Any = None, seed: int = 0, safety: bool = True):
+                 resources: Any = None, seed: int = 0, safety: bool = True, clock: Clock | None = None):
         if not (isinstance(rate, (int, float)) and MIN_RATE <= rate <= MAX_RATE):
             raise ValueError(f"rate must be within [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate}")
         if max_level not in (0, 1, 2, 3):
@@ -141,6 +173,7 @@ class Engine:
         self.rate = float(rate)
         self.dt = 1.0 / self.rate
         self.max_level = max_level
+        self.clock: Clock = clock if clock is not None else WallClock(spin=min(0.0003, self.dt / 10))
         self.ctx = BlockContext(embodiment=embodiment, rate=self.rate, resources=resources, seed=seed)
         self.apu: APU | None = None
         self.seq = 0
@@ -383,31 +416,25 @@ class Engine:
             sink.close()
 
     def _clock(self) -> None:
-        period = self.dt
-        deadline = time.perf_counter()
+        clock, period = self.clock, self.dt
+        deadline = clock.now()
         last_start: float | None = None
-        spin = min(0.0003, period / 10)  # spin the last fraction of a ms: sleep() alone is too coarse
-        while not self._stop.is_set():
-            now = time.perf_counter()
-            wait = deadline - now
-            if wait > spin:
-                self._stop.wait(wait - spin)
-            while time.perf_counter() < deadline:
-                pass
-            start = time.perf_counter()
+        while not self._stop.is_set() and clock.wait_until(deadline, self._stop):
+            start = clock.now()
             if last_start is not None:
                 self.period.add(start - last_start)
             self.lateness.add(start - deadline)
             last_start = start
             self.tick()
             deadline += period
-            behind = time.perf_counter() - deadline
+            now = clock.now()
+            behind = now - deadline
             if behind > period:
                 # More than a whole tick late: count it and re-anchor rather than bursting to catch up
                 # (time stretches: the robot moves slower, never faster); the skipped ticks are lost.
                 self.overruns += 1
                 self.lost_ticks += int(behind // period)
-                deadline = time.perf_counter() + period - math.fmod(behind, period)
+                deadline = now + period - math.fmod(behind, period)
 
     def stats(self) -> dict[str, Any]:
         return {

@@ -23,6 +23,7 @@ not a number or not finite. With `fill="hold"|"linear"`, gaps of non-finite valu
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,36 +36,73 @@ _CHANNELS = ("xposition", "yposition", "zposition", "xrotation", "yrotation", "z
 FILL_MODES = ("hold", "linear")
 
 
+@dataclass
+class _Tokens:
+    """The file's whitespace-separated words, read front to back."""
+
+    words: list[str]
+    where: str
+    pos: int = 0
+
+    def take(self) -> str:
+        if self.pos >= len(self.words):
+            raise ClipImportError(f"{self.where}: unexpected end of file")
+        self.pos += 1
+        return self.words[self.pos - 1]
+
+    def expect(self, word: str) -> None:
+        got = self.take()
+        if got.upper() != word.upper():
+            raise ClipImportError(f"{self.where}: expected '{word}', got '{got[:40]}'")
+
+
+@dataclass
+class _Hierarchy:
+    """Joints in file order: names, parent index (-1: the root), channel names, OFFSETs."""
+
+    names: list[str] = field(default_factory=list)
+    parents: list[int] = field(default_factory=list)
+    chans_of: list[list[str]] = field(default_factory=list)
+    offsets: list[np.ndarray] = field(default_factory=list)
+
+    def columns(self) -> list[str]:
+        """The MOTION columns: `joint.Channel` in file order."""
+        return [f"{self.names[j]}.{c}" for j in range(len(self.names)) for c in self.chans_of[j]]
+
+
 def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | None = None,
              max_gap: int = 10) -> tuple[list[SourceChannel], dict, list[str]]:
+    """(channels, info, notes) of a BVH file; see the module's docstring."""
     path = Path(path)
     where = f"BVH '{path.name}'"
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
         raise ClipImportError(f"cannot read BVH file '{path}': {exc}") from exc
-    tokens = text.split()
-    pos = 0
+    tokens = _Tokens(text.split(), where)
+    hier = _read_hierarchy(tokens)
+    data, dt, notes = _read_motion(tokens, hier)
+    n_frames = len(data)
+    filled = _repair(data, hier.columns(), dt, where, fill, max_gap)
+    if filled:
+        per = ", ".join(f"{k} {v}" for k, v in filled.items())
+        notes.append(f"--fill {fill}: filled {sum(filled.values())} sample(s) ({per})")
+    if rest_frame is not None and not 0 <= rest_frame < n_frames:
+        raise ClipImportError(f"{where}: --rest-frame {rest_frame} is not a frame of the file (0..{n_frames - 1})")
+    rest_note = "the OFFSET pose" if rest_frame is None else f"frame {rest_frame}"
+    channels = _source_channels(hier, data, np.arange(n_frames) * dt, rest_frame, rest_note)
+    info = {"frames": n_frames, "frame_time": dt, "joints": len(hier.names), "rest": rest_note}
+    return channels, info, notes
 
-    def take() -> str:
-        nonlocal pos
-        if pos >= len(tokens):
-            raise ClipImportError(f"{where}: unexpected end of file")
-        pos += 1
-        return tokens[pos - 1]
 
-    def expect(word: str) -> None:
-        got = take()
-        if got.upper() != word.upper():
-            raise ClipImportError(f"{where}: expected '{word}', got '{got[:40]}'")
-
-    expect("HIERARCHY")
-    names: list[str] = []
-    parents: list[int] = []
-    chans_of: list[list[str]] = []
-    offsets: list[np.ndarray] = []
+def _read_hierarchy(tok: _Tokens) -> _Hierarchy:
+    """HIERARCHY up to the root's closing brace."""
+    where = tok.where
+    tok.expect("HIERARCHY")
+    hier = _Hierarchy()
+    names = hier.names
     stack: list[int] = []  # joint indices; -1 for an End Site
-    word = take()
+    word = tok.take()
     if word.upper() != "ROOT":
         raise ClipImportError(f"{where}: expected 'ROOT', got '{word[:40]}'")
     while True:
@@ -72,64 +110,83 @@ def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | Non
         if up in ("ROOT", "JOINT"):
             if up == "ROOT" and stack:
                 raise ClipImportError(f"{where}: ROOT inside joint '{names[stack[-1]]}'")
-            name = take()
-            expect("{")
-            parent = next((i for i in reversed(stack) if i >= 0), -1)
+            name = tok.take()
+            tok.expect("{")
+            hier.parents.append(next((i for i in reversed(stack) if i >= 0), -1))
             names.append(name)
-            parents.append(parent)
-            chans_of.append([])
-            offsets.append(np.zeros(3))
+            hier.chans_of.append([])
+            hier.offsets.append(np.zeros(3))
             stack.append(len(names) - 1)
         elif up == "END":
-            expect("Site")
-            expect("{")
+            tok.expect("Site")
+            tok.expect("{")
             stack.append(-1)
         elif up == "OFFSET":
             owner = stack[-1] if stack else -1
             label = f"joint '{names[owner]}'" if owner >= 0 else "an End Site"
-            vals = [_number(take(), f"{where}: {label}: OFFSET") for _ in range(3)]
+            vals = [_number(tok.take(), f"{where}: {label}: OFFSET") for _ in range(3)]
             if owner >= 0:
-                offsets[owner] = np.array(vals)
+                hier.offsets[owner] = np.array(vals)
         elif up == "CHANNELS":
             if not stack or stack[-1] < 0:
                 raise ClipImportError(f"{where}: an End Site cannot have channels")
-            cur = stack[-1]
-            n = _count(take(), f"{where}: joint '{names[cur]}': CHANNELS")
-            chans = [take() for _ in range(n)]
-            for c in chans:
-                if c.lower() not in _CHANNELS:
-                    raise ClipImportError(f"{where}: joint '{names[cur]}': unknown channel '{c[:40]}'")
-            chans_of[cur].extend(chans)
+            hier.chans_of[stack[-1]].extend(_read_channel_names(tok, names[stack[-1]]))
         elif word == "}":
             if not stack:
                 raise ClipImportError(f"{where}: unbalanced '}}'")
             stack.pop()
             if not stack:
-                break
+                return hier
         else:
             raise ClipImportError(f"{where}: unexpected '{word[:40]}' in HIERARCHY")
-        word = take()
-    expect("MOTION")
-    expect("Frames:")
-    n_frames = _count(take(), f"{where}: Frames:")
+        word = tok.take()
+
+
+def _read_channel_names(tok: _Tokens, joint: str) -> list[str]:
+    """`CHANNELS n <ch>...` after the keyword: the n channel names, each a known one."""
+    n = _count(tok.take(), f"{tok.where}: joint '{joint}': CHANNELS")
+    chans = [tok.take() for _ in range(n)]
+    for c in chans:
+        if c.lower() not in _CHANNELS:
+            raise ClipImportError(f"{tok.where}: joint '{joint}': unknown channel '{c[:40]}'")
+    return chans
+
+
+def _read_motion(tok: _Tokens, hier: _Hierarchy) -> tuple[np.ndarray, float, list[str]]:
+    """MOTION: (frames x columns values, frame time s, notes). Non-finite values are left to `_repair`."""
+    where = tok.where
+    tok.expect("MOTION")
+    tok.expect("Frames:")
+    n_frames = _count(tok.take(), f"{where}: Frames:")
     if n_frames < 1:
         raise ClipImportError(f"{where}: Frames: must be at least 1, got {n_frames}")
-    expect("Frame")
-    expect("Time:")
-    dt = _number(take(), f"{where}: Frame Time:")
+    tok.expect("Frame")
+    tok.expect("Time:")
+    dt = _number(tok.take(), f"{where}: Frame Time:")
     if dt <= 0:
         raise ClipImportError(f"{where}: Frame Time: must be > 0 s, got {dt:g}")
-    columns = [f"{names[j]}.{c}" for j in range(len(names)) for c in chans_of[j]]
+    columns = hier.columns()
     n_ch = len(columns)
     if n_ch == 0:
         raise ClipImportError(f"{where}: no joint has CHANNELS")
-    values = tokens[pos:pos + n_frames * n_ch]
+    values = tok.words[tok.pos:tok.pos + n_frames * n_ch]
     if len(values) < n_frames * n_ch:
         got = len(values) // n_ch
         raise ClipImportError(f"{where}: 'Frames: {n_frames}' but only {got} complete frame(s) of {n_ch} values "
                               f"follow ({len(values)} values)")
+    data = _frames(values, n_frames, columns, dt, where)
+    notes: list[str] = []
+    extra = len(tok.words) - tok.pos - n_frames * n_ch
+    if extra > 0:
+        notes.append(f"{extra} value(s) after the {n_frames} frames announced by 'Frames:' were ignored")
+    return data, dt, notes
+
+
+def _frames(values: list[str], n_frames: int, columns: list[str], dt: float, where: str) -> np.ndarray:
+    """The frame values as numbers; a word that is not one is an error naming its frame and column."""
+    n_ch = len(columns)
     try:
-        data = np.array(values, dtype=float).reshape(n_frames, n_ch)
+        return np.array(values, dtype=float).reshape(n_frames, n_ch)
     except ValueError:
         for i, tok in enumerate(values):
             try:
@@ -139,28 +196,22 @@ def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | Non
                 raise ClipImportError(f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is "
                                       f"'{tok[:40]}', not a number") from None
         raise
-    notes: list[str] = []
-    extra = len(tokens) - pos - n_frames * n_ch
-    if extra > 0:
-        notes.append(f"{extra} value(s) after the {n_frames} frames announced by 'Frames:' were ignored")
-    filled = _repair(data, columns, dt, where, fill, max_gap)
-    if filled:
-        per = ", ".join(f"{k} {v}" for k, v in filled.items())
-        notes.append(f"--fill {fill}: filled {sum(filled.values())} sample(s) ({per})")
-    if rest_frame is not None and not 0 <= rest_frame < n_frames:
-        raise ClipImportError(f"{where}: --rest-frame {rest_frame} is not a frame of the file (0..{n_frames - 1})")
 
-    times = np.arange(n_frames) * dt
+
+def _joint_motion(hier: _Hierarchy, data: np.ndarray) -> tuple[list, list, list[str]]:
+    """Per joint: local rotation quaternions per frame (None without rotation channels), positions
+    per frame (None without position channels), and the rotation channels' order (e.g. "ZXY")."""
+    n_frames = len(data)
     local: list[np.ndarray | None] = []
     positions: list[np.ndarray | None] = []
     orders: list[str] = []
     col = 0
-    for j in range(len(names)):
+    for chans in hier.chans_of:
         q = np.tile(IDENTITY, (n_frames, 1))
         p = np.zeros((n_frames, 3))
         has_rot = has_pos = False
         order = ""
-        for c in chans_of[j]:
+        for c in chans:
             letter = c[0].lower()
             if c.lower().endswith("rotation"):
                 q = quat_mul(q, quat_axis_angle(_AXIS[letter], np.radians(data[:, col])))
@@ -173,13 +224,21 @@ def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | Non
         local.append(quat_normalise(q) if has_rot else None)
         positions.append(p if has_pos else None)
         orders.append(order)
+    return local, positions, orders
+
+
+def _source_channels(hier: _Hierarchy, data: np.ndarray, times: np.ndarray, rest_frame: int | None,
+                     rest_note: str) -> list[SourceChannel]:
+    """A rotation channel per joint with rotation channels, a translation channel per joint with
+    position channels, each carrying its rest pose (the OFFSET pose or frame `rest_frame`)."""
+    names, parents = hier.names, hier.parents
+    local, positions, orders = _joint_motion(hier, data)
     # rest: the OFFSET pose (identity rotations) or frame N
     rest_local = [IDENTITY if (rest_frame is None or q is None) else q[rest_frame] for q in local]
     rest_world: list[np.ndarray] = []
     for j in range(len(names)):
         base = rest_world[parents[j]] if parents[j] >= 0 else IDENTITY
         rest_world.append(quat_normalise(quat_mul(base, rest_local[j])))
-    rest_note = "the OFFSET pose" if rest_frame is None else f"frame {rest_frame}"
     channels: list[SourceChannel] = []
     for j, name in enumerate(names):
         pre = rest_world[parents[j]] if parents[j] >= 0 else IDENTITY
@@ -192,8 +251,7 @@ def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | Non
             channels.append(SourceChannel(name, "translation", times, positions[j], "LINEAR", path="translation",
                                           decimate=True, pre=pre, rest=rest, unit="frame",
                                           rest_note="first frame" if rest is None else rest_note))
-    info = {"frames": n_frames, "frame_time": dt, "joints": len(names), "rest": rest_note}
-    return channels, info, notes
+    return channels
 
 
 def _repair(data: np.ndarray, columns: list[str], dt: float, where: str, fill: str | None,

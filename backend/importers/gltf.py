@@ -16,6 +16,7 @@ inverse of the node's rest world rotation), so its change from rest in world axe
 from __future__ import annotations
 
 import base64
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 from urllib.parse import unquote
@@ -123,6 +124,18 @@ def _load(path: Path) -> Any:
         raise ClipImportError(f"cannot read glTF file '{path}': {exc}") from exc
 
 
+@dataclass
+class _Scene:
+    """The node tree: unique node names, parent of each child node, and each node's rest pose (world
+    rotation, local translation, where the rotation came from)."""
+
+    names: list[str]
+    parents: dict[int, int]
+    rest_world: list[np.ndarray]
+    rest_local: list[np.ndarray]
+    rest_from: dict[int, str]
+
+
 def read_gltf(path: str | Path, animation: str | int | None = None
               ) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
     """Channels of one animation of a glTF/GLB file; plus (source info, notes)."""
@@ -132,18 +145,7 @@ def read_gltf(path: str | Path, animation: str | int | None = None
     if not anims:
         raise ClipImportError(f"'{path}' has no animations")
     names = [a.name or f"animation{i}" for i, a in enumerate(anims)]
-    if animation is None or animation == "":
-        index = 0
-    elif isinstance(animation, int) or (isinstance(animation, str) and animation.lstrip("-").isdigit()
-                                        and animation not in names):
-        index = int(animation)
-        if not 0 <= index < len(anims):
-            raise ClipImportError(f"'{path}' has {len(anims)} animation(s); index {index} is out of range "
-                                  f"(animations: {names})")
-    else:
-        if animation not in names:
-            raise ClipImportError(f"'{path}' has no animation '{animation}' (animations: {names})")
-        index = names.index(animation)
+    index = _animation_index(path, names, animation)
     notes: list[str] = []
     if len(anims) > 1:
         notes.append(f"file has {len(anims)} animations {names}; imported #{index} '{names[index]}' "
@@ -154,78 +156,112 @@ def read_gltf(path: str | Path, animation: str | int | None = None
     node_names = _unique_names([n.name or f"node{i}" for i, n in enumerate(nodes)])
     rest_world, rest_local, rest_from = _rest_pose(gltf, reader, node_names)
     parents = {c: i for i, n in enumerate(nodes) for c in (n.children or []) if isinstance(c, int)}
+    scene = _Scene(node_names, parents, rest_world, rest_local, rest_from)
     if any(v.startswith("skin") for v in rest_from.values()):
         notes.append("rest pose: the skin's inverse bind matrices (joints), the nodes' rest transforms (others)")
     channels: list[SourceChannel] = []
     for ci, ch in enumerate(anim.channels or []):
-        target = ch.target
-        if target is None or target.node is None:
-            notes.append(f"channel {ci} has no target node; skipped")
-            continue
-        if not 0 <= target.node < len(nodes):
-            raise ClipImportError(f"glTF: channel {ci} targets node {target.node}, which does not exist")
-        sampler = _item(anim.samplers, ch.sampler, f"channel {ci}: sampler")
-        node = node_names[target.node]
-        # float32 times read back as the decimal they were written from (1.2, not 1.2000000476837158)
-        raw_t = reader.accessor(sampler.input)[:, 0]
-        bad = np.flatnonzero(~np.isfinite(raw_t))
-        if bad.size:
-            k = int(bad[0])
-            raise ClipImportError(f"glTF: {node}.{target.path}: key {k} has time {float(raw_t[k])}, not a finite "
-                                  f"number (input accessor {sampler.input})")
-        times = np.array([float(str(x)) for x in raw_t.astype(np.float32)])
-        out = reader.accessor(sampler.output)
-        interp = (sampler.interpolation or "LINEAR").upper()
-        if interp not in ("STEP", "LINEAR", "CUBICSPLINE"):
-            raise ClipImportError(f"glTF: sampler {ch.sampler}: unknown interpolation '{interp}'")
-        n = len(times)
-        triplet = 3 if interp == "CUBICSPLINE" else 1
-        if target.path in ("rotation", "translation", "scale"):
-            if out.shape[0] != n * triplet:
-                raise ClipImportError(f"glTF: channel {ci} ({node}.{target.path}): {n} times but "
-                                      f"{out.shape[0]} output values")
-            series = [(target.path, out)]
-        elif target.path == "weights":
-            if n == 0 or out.shape[0] % (n * triplet):
-                raise ClipImportError(f"glTF: channel {ci} ({node}.weights): output count does not "
-                                      "divide by the key count")
-            m = out.shape[0] // (n * triplet)
-            flat = out[:, 0].reshape(n * triplet, m)
-            tnames = _target_names(gltf, nodes[target.node], m)
-            series = [(f"weights[{tnames[k]}]", flat[:, k:k + 1]) for k in range(m)]
-        else:
-            notes.append(f"channel {ci} ({node}) animates unknown path '{target.path}'; skipped")
-            continue
-        for label, vals in series:
-            kind = {"rotation": "rotation", "translation": "translation"}.get(label, "scalar")
-            if label == "scale":
-                kind = "scale"
-            if interp == "CUBICSPLINE":
-                v3 = vals.reshape(n, 3, vals.shape[1])
-                in_t, value, out_t = v3[:, 0], v3[:, 1], v3[:, 2]
-            else:
-                in_t = out_t = None
-                value = vals
-            if kind == "scalar":
-                value = value[:, 0]
-                in_t = None if in_t is None else in_t[:, 0]
-                out_t = None if out_t is None else out_t[:, 0]
-            sc = SourceChannel(node, kind, np.asarray(times, dtype=float), value, interp,
-                               in_t, out_t, path=label, unit="key")
-            n_idx = target.node
-            p_idx = parents.get(n_idx)
-            parent_world = rest_world[p_idx] if p_idx is not None else IDENTITY
-            if kind == "rotation":
-                sc.pre = parent_world
-                sc.post = quat_conj(rest_world[n_idx])
-                sc.rest_note = rest_from[n_idx]
-            elif kind == "translation":
-                sc.pre = parent_world
-                sc.rest = rest_local[n_idx]
-                sc.rest_note = "node rest translation"
-            channels.append(sc)
+        channels.extend(_read_channel(gltf, reader, anim, ci, ch, scene, notes))
     info = {"animation": names[index], "animation_index": index}
     return channels, info, notes
+
+
+def _animation_index(path: Path, names: list[str], animation: str | int | None) -> int:
+    """The animation chosen by name or index (default the first)."""
+    if animation is None or animation == "":
+        return 0
+    if isinstance(animation, int) or (isinstance(animation, str) and animation.lstrip("-").isdigit()
+                                      and animation not in names):
+        index = int(animation)
+        if not 0 <= index < len(names):
+            raise ClipImportError(f"'{path}' has {len(names)} animation(s); index {index} is out of range "
+                                  f"(animations: {names})")
+        return index
+    if animation not in names:
+        raise ClipImportError(f"'{path}' has no animation '{animation}' (animations: {names})")
+    return names.index(animation)
+
+
+def _read_channel(gltf: Any, reader: _Reader, anim: Any, ci: int, ch: Any, scene: _Scene,
+                  notes: list[str]) -> list[SourceChannel]:
+    """The source channels of animation channel `ci`: one, or one per morph target for `weights`;
+    none (with a note) for a channel without target or with an unknown path."""
+    target = ch.target
+    if target is None or target.node is None:
+        notes.append(f"channel {ci} has no target node; skipped")
+        return []
+    if not 0 <= target.node < len(scene.names):
+        raise ClipImportError(f"glTF: channel {ci} targets node {target.node}, which does not exist")
+    sampler = _item(anim.samplers, ch.sampler, f"channel {ci}: sampler")
+    node = scene.names[target.node]
+    times = _key_times(reader, sampler, f"{node}.{target.path}")
+    out = reader.accessor(sampler.output)
+    interp = (sampler.interpolation or "LINEAR").upper()
+    if interp not in ("STEP", "LINEAR", "CUBICSPLINE"):
+        raise ClipImportError(f"glTF: sampler {ch.sampler}: unknown interpolation '{interp}'")
+    n = len(times)
+    triplet = 3 if interp == "CUBICSPLINE" else 1
+    if target.path in ("rotation", "translation", "scale"):
+        if out.shape[0] != n * triplet:
+            raise ClipImportError(f"glTF: channel {ci} ({node}.{target.path}): {n} times but "
+                                  f"{out.shape[0]} output values")
+        series = [(target.path, out)]
+    elif target.path == "weights":
+        if n == 0 or out.shape[0] % (n * triplet):
+            raise ClipImportError(f"glTF: channel {ci} ({node}.weights): output count does not "
+                                  "divide by the key count")
+        m = out.shape[0] // (n * triplet)
+        flat = out[:, 0].reshape(n * triplet, m)
+        tnames = _target_names(gltf, gltf.nodes[target.node], m)
+        series = [(f"weights[{tnames[k]}]", flat[:, k:k + 1]) for k in range(m)]
+    else:
+        notes.append(f"channel {ci} ({node}) animates unknown path '{target.path}'; skipped")
+        return []
+    return [_source_channel(label, vals, times, interp, target.node, scene) for label, vals in series]
+
+
+def _key_times(reader: _Reader, sampler: Any, label: str) -> np.ndarray:
+    """A sampler's key times (s), which must be finite."""
+    raw_t = reader.accessor(sampler.input)[:, 0]
+    bad = np.flatnonzero(~np.isfinite(raw_t))
+    if bad.size:
+        k = int(bad[0])
+        raise ClipImportError(f"glTF: {label}: key {k} has time {float(raw_t[k])}, not a finite "
+                              f"number (input accessor {sampler.input})")
+    # float32 times read back as the decimal they were written from (1.2, not 1.2000000476837158)
+    return np.array([float(str(x)) for x in raw_t.astype(np.float32)])
+
+
+def _source_channel(label: str, vals: np.ndarray, times: np.ndarray, interp: str, node_index: int,
+                    scene: _Scene) -> SourceChannel:
+    """One series of keys (CUBICSPLINE: in-tangent, value, out-tangent per key) with its rest pose."""
+    n = len(times)
+    kind = {"rotation": "rotation", "translation": "translation"}.get(label, "scalar")
+    if label == "scale":
+        kind = "scale"
+    if interp == "CUBICSPLINE":
+        v3 = vals.reshape(n, 3, vals.shape[1])
+        in_t, value, out_t = v3[:, 0], v3[:, 1], v3[:, 2]
+    else:
+        in_t = out_t = None
+        value = vals
+    if kind == "scalar":
+        value = value[:, 0]
+        in_t = None if in_t is None else in_t[:, 0]
+        out_t = None if out_t is None else out_t[:, 0]
+    sc = SourceChannel(scene.names[node_index], kind, np.asarray(times, dtype=float), value, interp,
+                       in_t, out_t, path=label, unit="key")
+    p_idx = scene.parents.get(node_index)
+    parent_world = scene.rest_world[p_idx] if p_idx is not None else IDENTITY
+    if kind == "rotation":
+        sc.pre = parent_world
+        sc.post = quat_conj(scene.rest_world[node_index])
+        sc.rest_note = scene.rest_from[node_index]
+    elif kind == "translation":
+        sc.pre = parent_world
+        sc.rest = scene.rest_local[node_index]
+        sc.rest_note = "node rest translation"
+    return sc
 
 
 def _item(items: Any, index: Any, what: str) -> Any:
