@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from backend.commands._common import fail, warn_unsafe
+from backend.drivers import add_driver_options, build_drivers
 from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embodiment, resolve_robot_path
 # The shutdown machinery lives in backend.shutdown; its public names stay importable from here.
 from backend.shutdown import (  # noqa: F401
@@ -29,10 +30,7 @@ def register(sub) -> None:
     p.add_argument("--previz-port", type=int, default=8080, help="Pre-Viz (viser) port (default 8080)")
     p.add_argument("--no-previz", action="store_true", help="run without the 3D Pre-Viz")
     p.add_argument("--rate", type=float, default=100.0, help="tick rate in Hz, 30..1000 (default 100)")
-    p.add_argument("--osc", default=None, metavar="HOST:PORT", help="also send every frame as OSC to HOST:PORT")
-    p.add_argument("--record", default=None, metavar="FILE.jsonl", help="record every frame to a JSONL file")
-    p.add_argument("--sim-servo", type=float, default=8.0, metavar="HZ",
-                   help="bandwidth of the simulated servos whose tracking error /api/status reports (0 = off)")
+    add_driver_options(p)  # --osc, --record, --sim-servo and every other driver in backend/drivers
     p.add_argument("--token", default=None, help="require 'Authorization: Bearer TOKEN' on mutating routes and WebSockets")
     p.add_argument("--allowed-origin", action="append", default=[], type=_origin, metavar="ORIGIN",
                    help="also let pages from ORIGIN (scheme://host[:port]) change the robot (repeatable; "
@@ -161,16 +159,6 @@ def run(args) -> int:
 
 
 def attach_drivers(session, args) -> None:
-    """Drivers from the command line: OSC, a recorder, simulated servos (see backend/drivers)."""
-    from backend.drivers import FrameRecorder, OscDriver, SimulatedServos
-
-    emb = session.embodiment
-    if args.osc:
-        host, _, port = args.osc.rpartition(":")
-        if not host or not port.isdigit():
-            raise ValueError(f"--osc expects HOST:PORT, got '{args.osc}'")
-        session.engine.add_sink(OscDriver(emb, host, int(port)))
-    if args.record:
-        session.engine.add_sink(FrameRecorder(emb, args.record))
-    if args.sim_servo and args.sim_servo > 0:
-        session.engine.add_sink(SimulatedServos(emb, bandwidth_hz=args.sim_servo))
+    """The drivers the command line asks for (each driver declares its own option: backend/drivers)."""
+    for sink in build_drivers(session.embodiment, args):
+        session.engine.add_sink(sink)
