@@ -3,6 +3,8 @@
 // then compiles the program, command and API schemas to TypeScript.
 // The backend is run with the repository's .venv python (or $NUTTY_PYTHON), from the repository root,
 // so a git worktree generates from its own backend.
+// `--check`: write nothing; exit 1 naming the TypeScript files that differ from what the committed
+// schemas compile to (tests/test_editor_types.py checks the schemas against the backend).
 import { execFileSync } from "node:child_process";
 import { existsSync, readFileSync, writeFileSync } from "node:fs";
 import { compile } from "json-schema-to-typescript";
@@ -11,9 +13,12 @@ const root = new URL("../../", import.meta.url).pathname;
 const out = new URL("../node_editor/generated/", import.meta.url).pathname;
 const venvPython = root + ".venv/bin/python";
 const python = process.env.NUTTY_PYTHON ?? (existsSync(venvPython) ? venvPython : "python3");
-execFileSync(python, ["-m", "backend.cli", "schema", out], {
-  stdio: "inherit", cwd: root, env: { ...process.env, PYTHONPATH: root },
-});
+const check = process.argv.includes("--check");
+if (!check) {
+  execFileSync(python, ["-m", "backend.cli", "schema", out], {
+    stdio: "inherit", cwd: root, env: { ...process.env, PYTHONPATH: root },
+  });
+}
 
 // Keywords that give a schema a type; a schema with none of them is pydantic's `Any`.
 const TYPED = ["type", "$ref", "anyOf", "oneOf", "allOf", "enum", "const", "items", "properties", "tsType"];
@@ -38,6 +43,7 @@ const targets = [
   { file: "commands.schema.json", name: "Command" },
   { file: "api.schema.json", name: "NuttyApi", header: apiImports, options: { unreachableDefinitions: true } },
 ];
+const stale = [];
 for (const { file, name, header, options } of targets) {
   const schema = JSON.parse(readFileSync(out + file, "utf8"));
   schema.title = name;
@@ -46,5 +52,11 @@ for (const { file, name, header, options } of targets) {
   const ts = await compile(schema, name, {
     bannerComment, additionalProperties: false, strictIndexSignatures: false, ...options,
   });
-  writeFileSync(out + file.replace(".schema.json", ".ts"), ts);
+  const target = out + file.replace(".schema.json", ".ts");
+  if (!check) writeFileSync(target, ts);
+  else if (!existsSync(target) || readFileSync(target, "utf8") !== ts) stale.push(target);
+}
+if (stale.length) {
+  console.error(`stale (run \`npm run gen:types\`): ${stale.join(", ")}`);
+  process.exit(1);
 }
