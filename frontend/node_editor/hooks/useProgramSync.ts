@@ -52,11 +52,13 @@ export function useProgramSync(say: (message: string) => void) {
     if (!next) return;
     dispatch({ type: "paramsEdited", node: id, params, at: performance.now() });
     if (!live || next.structural || !report?.valid) return;
+    // The patch brings the server to this graph: no hot swap for it (set now, before the sync effect runs).
+    synced.current = structureKey(next.graph, meta);
     try {
       await api.patchParams(id, next.params);  // applied at the next tick, nothing rebuilt
-      synced.current = structureKey(next.graph, meta);
     } catch (e) {
       if (e instanceof ApiError && e.detail?.report) dispatch({ type: "reportReceived", report: { ...e.detail.report, valid: false } });
+      else say(String(e));
     }
-  }, [graph, catalog, report, meta, dispatch]);
+  }, [graph, catalog, report, meta, dispatch, say]);
 }
