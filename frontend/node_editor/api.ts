@@ -7,11 +7,7 @@ import type {
 import type { Command } from "./generated/commands";
 import type { Program } from "./generated/program";
 
-export type {
-  BlockEntry, CommandAck, CommandEvent, ControlMessage, DofInfo, EditorRules, ErrorDetail, ExposedInputs,
-  Issue, LayerState, PortRule, PortSpec, PortType, PrevizInfo, RobotDescription, RunningProgram, SignalRef, SocketError, Telemetry,
-  TelemetryMessage, TelemetrySubscribe, ValidationReport,
-} from "./generated/api";
+export type * from "./generated/api";
 export type { Command } from "./generated/commands";
 export type { ExposedInput, Program } from "./generated/program";
 export type { JsonSchema } from "./jsonSchema";

@@ -300,8 +300,9 @@ class Block:
         a rule over a list parameter gives no port and the others follow the parameters' defaults."""
         if not cls.port_rules:
             return cls.inputs, cls.outputs
-        values = params.model_dump(mode="json") if params is not None else None
-        return derive_ports(cls.port_rules, values, _schema_defaults(cls.Params), cls.inputs, cls.outputs)
+        if params is None:
+            return derive_ports(cls.port_rules, None, _schema_defaults(cls.Params), cls.inputs, cls.outputs)
+        return derive_ports(cls.port_rules, params.model_dump(mode="json"), {}, cls.inputs, cls.outputs)
 
     @classmethod
     def summary(cls) -> str:
