@@ -1,8 +1,10 @@
 """End-to-end: the editor in headless Chromium against a real `nutty serve`.
 
 Covers: the running program shown live; σ slider of the motion filter changing the running program
-without a rebuild; adding a sine from the palette and wiring it to the output; an invalid connection
-refused with a reason and an invalid parameter shown on its node; undo/redo; save and reopen.
+without a rebuild; a mixer's `<layer>_weight` port (a port the backend derives from the parameters)
+wired by dragging and then running on the server; adding a sine from the palette and wiring it to the
+output; an invalid connection refused with a reason and an invalid parameter shown on its node;
+undo/redo; save and reopen.
 Screenshots go to test-artifacts/.
 """
 
@@ -118,6 +120,54 @@ def test_sigma_slider_changes_the_running_program(page, server):
         return next(n for n in prog["nodes"] if n["id"] == "nmf")["params"].get("sigma")
     wait_until(lambda: sigma() == 0.3, what="the running program's σ to change")
     assert server["client"].status()["swaps"] == apu_swaps  # a parameter drag rebuilds nothing
+
+
+# An LFO that could swell the idle layer: wired to the mixer's idle_weight port in the browser.
+WEIGHTED_LAYER = {
+    "format": "nutty-program/1", "name": "weighted layer", "max_level": 3, "inputs": [], "ui": {},
+    "nodes": [
+        {"id": "rest", "type": "rest_pose", "params": {}, "ui": {"x": 0, "y": 0}},
+        {"id": "wave", "type": "sine", "params": {"dofs": ["head_*"], "amplitude": 0.1}, "ui": {"x": 0, "y": 170}},
+        {"id": "swell", "type": "lfo", "params": {"frequency": 0.5, "amplitude": 0.5, "offset": 0.5},
+         "ui": {"x": 0, "y": 400}},
+        {"id": "mix", "type": "layer_mixer", "ui": {"x": 380, "y": 80},
+         "params": {"layers": [{"name": "base"}, {"name": "idle", "mode": "additive"}]}},
+        {"id": "output", "type": "output", "params": {}, "ui": {"x": 720, "y": 80}},
+    ],
+    "edges": [
+        {"from": {"node": "rest", "port": "out"}, "to": {"node": "mix", "port": "base"}},
+        {"from": {"node": "wave", "port": "out"}, "to": {"node": "mix", "port": "idle"}},
+        {"from": {"node": "mix", "port": "out"}, "to": {"node": "output", "port": "in"}},
+    ],
+}
+
+
+def _handle(page, node, port, kind):
+    return page.locator(f"[data-testid=node-{node}] .react-flow__handle.{kind}[data-handleid='{port}']")
+
+
+def test_mixer_weight_port_is_wired_in_the_browser(page, server):
+    server["client"].load_program(WEIGHTED_LAYER)
+    def leave(dialog):  # the σ edit left the editor with unsaved changes: it asks before reloading
+        if dialog.type == "beforeunload":
+            dialog.accept()
+    page.on("dialog", leave)
+    page.reload()
+    page.remove_listener("dialog", leave)
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    weight = _handle(page, "mix", "idle_weight", "target")
+    weight.wait_for()
+    drag(page, _handle(page, "swell", "value", "source"), weight)
+    wire = {"from": {"node": "swell", "port": "value"}, "to": {"node": "mix", "port": "idle_weight"}}
+    wait_until(lambda: wire in server["client"].program()["program"]["edges"], what="the weight edge on the server")
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    assert server["client"].program()["report"]["valid"]
+    page.screenshot(path=str(ARTIFACTS / "editor-weight-wired.png"))
+    seen = set()
+    def swelling():  # the LFO now scales the idle layer on the robot
+        seen.add(round(_layer(server, "idle")["effective"], 3))
+        return len(seen) >= 3
+    wait_until(swelling, what="the idle layer's weight to follow the LFO")
 
 
 def test_add_sine_connect_errors_undo_redo_and_save(page, server):

@@ -1,4 +1,4 @@
-"""`nutty schema OUT_DIR`: export the JSON Schemas the editor's TypeScript types are generated from."""
+"""`nutty schema OUT_DIR`: export what the editor's generated types and rules come from."""
 
 from __future__ import annotations
 
@@ -9,19 +9,22 @@ from backend.commands._common import fail
 
 
 def register(sub) -> None:
-    p = sub.add_parser("schema", help="export JSON Schemas (program, commands, block catalog)",
-                       description="Write program.schema.json, commands.schema.json and blocks.json to OUT_DIR.")
+    p = sub.add_parser("schema", help="export JSON Schemas (program, commands, API), the block catalog and rules",
+                       description="Write program.schema.json, commands.schema.json, api.schema.json (the API's "
+                                   "responses and messages), blocks.json (the block catalog) and rules.json (the "
+                                   "wiring rule, the palette's categories) to OUT_DIR.")
     p.add_argument("out_dir", help="output folder")
     p.set_defaults(func=run)
 
 
 def schemas() -> dict[str, object]:
+    from backend.api_types import api_json_schema
     from backend.control import command_json_schema
-    from backend.engine.blocks import block_catalog
+    from backend.engine.blocks import block_catalog, editor_rules
     from backend.graph.schema import program_json_schema
 
     return {"program.schema.json": program_json_schema(), "commands.schema.json": command_json_schema(),
-            "blocks.json": block_catalog()}
+            "api.schema.json": api_json_schema(), "blocks.json": block_catalog(), "rules.json": editor_rules()}
 
 
 def run(args) -> int:

@@ -8,7 +8,7 @@ and the parameter path relative to the node's `params` for parameter errors (`am
 
 from __future__ import annotations
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 
 ERROR_CODES: dict[str, str] = {
     "malformed_json": "the text is not valid JSON (line and column given)",
@@ -41,8 +41,14 @@ WARNING_CODES: dict[str, str] = {
 }
 
 
+# Serialised, every field is present (None when unset): the editor's generated types say so.
+_ALWAYS_SERIALISED = ConfigDict(json_schema_serialization_defaults_required=True)
+
+
 class Issue(BaseModel):
     """One validation error or warning."""
+
+    model_config = _ALWAYS_SERIALISED
 
     code: str
     node: str | None = None
@@ -62,6 +68,8 @@ class Issue(BaseModel):
 
 
 class ValidationReport(BaseModel):
+    model_config = _ALWAYS_SERIALISED
+
     valid: bool
     level: int | None = None
     errors: list[Issue] = Field(default_factory=list)

@@ -1,22 +1,14 @@
+// Contexts the graph's blocks and the live panels read: the block catalog, and telemetry (kept apart
+// from the store, so 30 messages a second re-render only what shows them).
 import { createContext } from "react";
-import type { BlockEntry } from "./api";
+import type { Catalog } from "./api";
+import { emptyLive, emptySamples, type Live, type Samples } from "./telemetry";
 
-export interface LayerState {
-  name: string;
-  mode: string;
-  weight: number;
-  fade: number;
-  effective: number;
-  active: boolean;
-}
-
-export interface Live {
-  values: Record<string, unknown>;
-  history: Record<string, number[]>;
-  layers: Record<string, LayerState[]>;
+export interface LiveWithActions extends Live {
   /** Fade a mixer's layer in or out (a set_layer command). */
   setLayer?: (mixer: string, layer: string, active: boolean) => void;
 }
 
-export const CatalogContext = createContext<Record<string, BlockEntry>>({});
-export const LiveContext = createContext<Live>({ values: {}, history: {}, layers: {} });
+export const CatalogContext = createContext<Catalog>({});
+export const LiveContext = createContext<LiveWithActions>(emptyLive);
+export const SamplesContext = createContext<Samples>(emptySamples);

@@ -29,11 +29,19 @@ describe("graph <-> program", () => {
     const { nodes, edges, meta } = programToFlow(program, catalog);
     expect(flowToProgram(nodes, edges, meta)).toEqual(program);
   });
-  it("derives dynamic ports: one mixer input per layer, typed exposed inputs", () => {
+  it("derives dynamic ports by the backend's rules: a frame input and a weight input per layer, typed exposed inputs", () => {
     const { nodes, edges } = programToFlow(program, catalog);
     const mix = nodes.find((n) => n.id === "mix")!;
-    expect(Object.keys(mix.data.inputs)).toEqual(["base", "idle"]);
+    expect(Object.keys(mix.data.inputs)).toEqual(["base", "idle", "base_weight", "idle_weight"]);
+    expect(mix.data.inputs.idle_weight.type).toBe("float");
+    expect(mix.data.inputs.idle.doc).toBe("layer 'idle' (additive)");
+    expect(mix.data.inputs.base.doc).toBe("layer 'base' (override)");  // the item's default mode, as the backend fills it
     expect(edges.find((e) => e.source === "in_amp")!.data!.type).toBe("float");
+  });
+  it("wires a signal into a mixer's layer weight, and refuses a frame there", () => {
+    const { nodes, edges } = programToFlow(program, catalog);
+    expect(connectionProblem(nodes, edges, "in_amp", "value", "mix", "idle_weight")).toBeNull();
+    expect(connectionProblem(nodes, edges, "wave", "out", "mix", "base_weight")).toMatch(/cannot connect frame output/);
   });
   it("lays out unpositioned programs left to right by depth", () => {
     const pos = autoLayout({ ...program, nodes: program.nodes.map((n: any) => ({ ...n, ui: {} })) });

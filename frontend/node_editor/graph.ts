@@ -1,6 +1,8 @@
-// Program document <-> React Flow graph, ports of a node, connection rules and auto-layout.
-// Pure functions (tested with vitest); the server stays the judge of validity.
-import type { BlockEntry, PortSpec, PortType, Program } from "./api";
+// Program document <-> React Flow graph, connection checks, auto-layout and paste.
+// Pure functions (tested with vitest); ports and type rules come from the backend (./ports), and the
+// server stays the judge of validity.
+import type { Catalog, PortSpec, PortType, Program } from "./api";
+import { accepts, portsOf } from "./ports";
 
 export interface NodeData {
   type: string;
@@ -30,49 +32,6 @@ export interface FlowEdge {
 }
 
 export type Meta = Omit<Program, "nodes" | "edges">;
-
-export const CATEGORY_ORDER = ["sources", "operators", "layers", "stage2", "signals", "output"];
-
-/** Ports of a block for given parameters: the catalog's, or derived for dynamic-port blocks. */
-export function portsOf(entry: BlockEntry | undefined, params: Record<string, unknown>) {
-  if (!entry) return { inputs: {}, outputs: {} } as { inputs: Record<string, PortSpec>; outputs: Record<string, PortSpec> };
-  if (entry.type === "layer_mixer") {
-    const layers = (params.layers as { name: string; mode?: string }[] | undefined) ?? defaultParams(entry).layers as any[] ?? [];
-    const inputs: Record<string, PortSpec> = {};
-    for (const l of layers) inputs[l.name] = { type: "frame", doc: `layer '${l.name}' (${l.mode ?? "override"})`, required: false };
-    return { inputs, outputs: entry.outputs };
-  }
-  if (entry.type === "input") {
-    const t = ((params.type as PortType) ?? "float") as PortType;
-    return { inputs: {}, outputs: { value: { type: t, doc: "current value of the exposed input", required: false } } };
-  }
-  return { inputs: entry.inputs, outputs: entry.outputs };
-}
-
-/** Default parameter values from a block's JSON Schema. */
-export function defaultParams(entry: BlockEntry): Record<string, unknown> {
-  const out: Record<string, unknown> = {};
-  for (const [k, s] of Object.entries(entry.params_schema.properties ?? {})) {
-    if (s.default !== undefined) out[k] = structuredClone(s.default);
-  }
-  return out;
-}
-
-/** Which output types an input accepts (the backend's COMPATIBLE_SIGNALS). */
-const ACCEPTS: Record<PortType, PortType[]> = {
-  float: ["float", "int", "bool"],
-  int: ["int", "bool"],
-  bool: ["bool"],
-  string: ["string"],
-  vec3: ["vec3"],
-  colour: ["colour"],
-  event: ["event", "string"],
-  frame: ["frame"],
-};
-
-export function accepts(target: PortType, source: PortType): boolean {
-  return ACCEPTS[target]?.includes(source) ?? false;
-}
 
 /** Why a connection is refused, or null when it is allowed. */
 export function connectionProblem(
@@ -110,7 +69,7 @@ export function edgeId(e: { source: string; sourceHandle: string; target: string
 }
 
 /** Program document -> graph. Nodes without ui positions are laid out left to right by depth. */
-export function programToFlow(program: Program, catalog: Record<string, BlockEntry>): { nodes: FlowNode[]; edges: FlowEdge[]; meta: Meta } {
+export function programToFlow(program: Program, catalog: Catalog): { nodes: FlowNode[]; edges: FlowEdge[]; meta: Meta } {
   const { nodes: pnodes = [], edges: pedges = [], ...meta } = program;
   const positions = needsLayout(program) ? autoLayout(program) : null;
   const nodes: FlowNode[] = pnodes.map((n) => {

@@ -1,5 +1,5 @@
 // Parameter-panel fields derived from a block's JSON Schema (pydantic's output), one widget each.
-import type { JsonSchema } from "./api";
+import type { JsonSchema } from "./jsonSchema";
 
 export type FieldKind = "slider" | "number" | "integer" | "enum" | "bool" | "text" | "dofs" | "colour" | "json" | "posture" | "clip";
 
@@ -16,7 +16,8 @@ export interface Field {
   default?: unknown;
 }
 
-function resolve(s: JsonSchema, root: JsonSchema): JsonSchema {
+/** `s` with a `$ref` into the root schema's `$defs` replaced by the definition. */
+export function resolve(s: JsonSchema, root: JsonSchema): JsonSchema {
   if (s.$ref) {
     const name = s.$ref.split("/").pop()!;
     return { ...(root.$defs?.[name] ?? {}), ...s, $ref: undefined };

@@ -7,15 +7,14 @@ import pkgutil
 
 from backend.engine.blocks.base import BLOCKS, Block, BlockContext, BlockParams, Port, PortType, Role, register_block
 
+# Modules that define no block: the base classes, ports and their rules, the catalog built from the registry.
+_SUPPORT = {"base", "ports", "catalog"}
+
 for _info in pkgutil.iter_modules(__path__):
-    if _info.name != "base" and not _info.name.startswith("_"):
+    if _info.name not in _SUPPORT and not _info.name.startswith("_"):
         importlib.import_module(f"{__name__}.{_info.name}")
 
+from backend.engine.blocks.catalog import CATEGORIES, block_catalog, editor_rules  # noqa: E402  (after the blocks)
 
-def block_catalog() -> list[dict]:
-    """Every registered block type with its schema, ports, category and doc (palette order)."""
-    order = {"sources": 0, "operators": 1, "layers": 2, "stage2": 3, "signals": 4, "output": 5}
-    return [BLOCKS[k].describe() for k in sorted(BLOCKS, key=lambda k: (order.get(BLOCKS[k].category, 9), k))]
-
-
-__all__ = ["BLOCKS", "Block", "BlockContext", "BlockParams", "Port", "PortType", "Role", "block_catalog", "register_block"]
+__all__ = ["BLOCKS", "CATEGORIES", "Block", "BlockContext", "BlockParams", "Port", "PortType", "Role", "block_catalog",
+           "editor_rules", "register_block"]

@@ -6,7 +6,8 @@ A block is a small class with
 - `Params`: a pydantic model (`BlockParams`) whose JSON Schema drives the editor's parameter panel and
   the program validator (units in field descriptions, ranges as `ge`/`le`);
 - typed `inputs` / `outputs` ports (`Port`): `frame` ports carry PAFs, the others scalar signals;
-  `ports(params)` may derive them from the parameters (the layer mixer has one input per layer);
+  `port_rules` derive more ports from the parameters (the layer mixer has one input per layer), as
+  data the editor applies too (`backend.engine.blocks.ports`), so `ports(params)` is never overridden;
 - explicit internal state, created by `reset()` and advanced by `tick(dt, inputs) -> outputs`.
 
 Conventions
@@ -45,39 +46,17 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
+# Port types and the wiring rule live in `ports`; they are re-exported here, where blocks import them.
+from backend.engine.blocks.ports import (  # noqa: F401
+    COMPATIBLE_SIGNALS,
+    Port,
+    PortRule,
+    PortType,
+    derive_ports,
+    port_accepts,
+)
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import PartialFrame
-
-
-class PortType(str, Enum):
-    """Types of ports. `frame` carries a PAF; the others are scalar signals."""
-
-    frame = "frame"
-    float = "float"
-    int = "int"
-    bool = "bool"
-    string = "string"
-    vec3 = "vec3"
-    colour = "colour"
-    event = "event"
-
-
-# Signal types a value may be implicitly converted between when wiring (numeric widening only).
-COMPATIBLE_SIGNALS: dict[PortType, set[PortType]] = {
-    PortType.float: {PortType.float, PortType.int, PortType.bool},
-    PortType.int: {PortType.int, PortType.bool},
-    PortType.bool: {PortType.bool},
-    PortType.string: {PortType.string},
-    PortType.vec3: {PortType.vec3},
-    PortType.colour: {PortType.colour},
-    PortType.event: {PortType.event, PortType.string},
-    PortType.frame: {PortType.frame},
-}
-
-
-def port_accepts(target: PortType, source: PortType) -> bool:
-    """Whether an output of type `source` may feed an input of type `target`."""
-    return source in COMPATIBLE_SIGNALS[target]
 
 
 class Role(str, Enum):
@@ -89,16 +68,6 @@ class Role(str, Enum):
     stage2 = "stage2"  # post-processes the whole frame (Level 3)
     output = "output"  # the program's single output
     signal = "signal"  # computes scalar signals (exposed inputs, math, LFOs)
-
-
-@dataclass(frozen=True)
-class Port:
-    type: PortType
-    doc: str = ""
-    required: bool = False
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"type": self.type.value, "doc": self.doc, "required": self.required}
 
 
 FRAME_IN = {"in": Port(PortType.frame, "frame to transform", required=True)}
@@ -289,13 +258,15 @@ def copy_state(state: Any) -> Any:
 class Block:
     type_name: ClassVar[str] = ""
     title: ClassVar[str] = ""
-    category: ClassVar[str] = "operators"  # sources | operators | layers | stage2 | signals | output
+    category: ClassVar[str] = "operators"  # one of catalog.CATEGORIES
     role: ClassVar[Role] = Role.operator
     doc: ClassVar[str] = ""
     Params: ClassVar[type[BlockParams]] = BlockParams
     inputs: ClassVar[dict[str, Port]] = {}  # the declared ports, then one per drivable parameter
     outputs: ClassVar[dict[str, Port]] = {}
     drivables: ClassVar[dict[str, DrivenParam]] = {}
+    # Ports derived from the parameters, after the ones above (see `PortRule`).
+    port_rules: ClassVar[tuple[PortRule, ...]] = ()
     _declared_inputs: ClassVar[dict[str, Port]] = {}
     # The run-time state: a dataclass; `reset()` puts a fresh instance at `self.state`.
     State: ClassVar[type | None] = None
@@ -310,6 +281,9 @@ class Block:
         if clash:
             raise TypeError(f"{cls.__name__}: ports {clash} are declared by hand and as drivable parameters")
         cls.inputs = {**declared, **{name: d.port for name, d in cls.drivables.items()}}
+        if "ports" in cls.__dict__:
+            raise TypeError(f"{cls.__name__}: derive ports with `port_rules`, which the editor applies too, "
+                            f"instead of overriding ports()")
 
     def __init__(self, params: BlockParams, ctx: BlockContext, node_id: str = ""):
         self.params = params
@@ -322,8 +296,13 @@ class Block:
     # --- description ----------------------------------------------------------------------------
     @classmethod
     def ports(cls, params: BlockParams | None = None) -> tuple[dict[str, Port], dict[str, Port]]:
-        """Input and output ports for these parameters (static for most blocks)."""
-        return cls.inputs, cls.outputs
+        """Input and output ports for these parameters (static for most blocks); without parameters,
+        a rule over a list parameter gives no port and the others follow the parameters' defaults."""
+        if not cls.port_rules:
+            return cls.inputs, cls.outputs
+        if params is None:
+            return derive_ports(cls.port_rules, None, _schema_defaults(cls.Params), cls.inputs, cls.outputs)
+        return derive_ports(cls.port_rules, params.model_dump(mode="json"), {}, cls.inputs, cls.outputs)
 
     @classmethod
     def summary(cls) -> str:
@@ -343,7 +322,8 @@ class Block:
             "params_schema": cls.Params.model_json_schema(),
             "inputs": {k: p.to_dict() for k, p in ins.items()},
             "outputs": {k: p.to_dict() for k, p in outs.items()},
-            "dynamic_ports": _has_dynamic_ports(cls),
+            "dynamic_ports": bool(cls.port_rules),
+            "port_rules": [rule.model_dump() for rule in cls.port_rules],
         }
 
     # --- program checks (called by backend.graph.checks; `node` is its NodeCheck) ----------------
@@ -455,8 +435,10 @@ class SignalBlock(Block):
     role = Role.signal
 
 
-def _has_dynamic_ports(cls: type[Block]) -> bool:
-    return cls.ports.__func__ is not Block.ports.__func__  # type: ignore[attr-defined]
+def _schema_defaults(params_model: type[BaseModel]) -> dict[str, Any]:
+    """Parameter defaults as the JSON Schema gives them (what the editor starts a new block with)."""
+    props = params_model.model_json_schema().get("properties", {})
+    return {name: prop["default"] for name, prop in props.items() if "default" in prop}
 
 
 BLOCKS: dict[str, type[Block]] = {}

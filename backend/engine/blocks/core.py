@@ -19,6 +19,7 @@ from backend.engine.blocks.base import (
     DofSelection,
     Operator,
     Port,
+    PortRule,
     PortType,
     Role,
     SignalBlock,
@@ -94,12 +95,8 @@ class ExposedInput(SignalBlock):
     type_name = "input"
     title = "Exposed input"
     Params = InputParams
-    outputs = {"value": Port(PortType.float, "current value")}
-
-    @classmethod
-    def ports(cls, params: InputParams | None = None):  # type: ignore[override]
-        kind = PortType(params.type) if params is not None else PortType.float
-        return {}, {"value": Port(kind, "current value of the exposed input")}
+    outputs: dict[str, Port] = {}
+    port_rules = (PortRule(side="outputs", name="value", type="{type}", doc="current value of the exposed input"),)
 
     @classmethod
     def check(cls, params: InputParams, node: Any) -> None:

@@ -10,7 +10,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from backend.engine.blend import BlendMode, advance_fades, blend_layers
-from backend.engine.blocks.base import Block, BlockCommandError, BlockParams, Port, PortType, Role, register_block
+from backend.engine.blocks.base import (Block, BlockCommandError, BlockParams, Port, PortRule, PortType, Role,
+                                        register_block)
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
 
@@ -78,13 +79,13 @@ class LayerMixer(Block):
         fade_level: np.ndarray  # each layer's fade 0..1
         fade_target: np.ndarray  # 1 for an active layer, 0 for an inactive one
 
-    @classmethod
-    def ports(cls, params: MixerParams | None = None):  # type: ignore[override]
-        layers = params.layers if params is not None else []
-        ins = {layer.name: Port(PortType.frame, f"layer '{layer.name}' ({layer.mode.value})") for layer in layers}
-        for layer in layers:  # optional live weights (a clip player's envelope, an emotion mapping)
-            ins[f"{layer.name}_weight"] = Port(PortType.float, f"multiplies layer '{layer.name}''s weight (0..1)")
-        return ins, cls.outputs
+    # One frame input per layer, then an optional live weight per layer (a clip player's envelope, an
+    # emotion mapping).
+    port_rules = (
+        PortRule(side="inputs", each="layers", name="{name}", type="frame", doc="layer '{name}' ({mode})"),
+        PortRule(side="inputs", each="layers", name="{name}_weight", type="float",
+                 doc="multiplies layer '{name}''s weight (0..1)"),
+    )
 
     @classmethod
     def check_wiring(cls, params: MixerParams, node: Any) -> None:

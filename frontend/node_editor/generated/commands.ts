@@ -112,6 +112,7 @@ export type Type4 = "set_gaze";
 export type Id5 = string | null;
 export type Name = string;
 export type Type5 = "set_input";
+export type Value = unknown;
 /**
  * client-chosen id (echoed in acks and events)
  */
@@ -265,9 +266,6 @@ export interface SetInput {
   name: Name;
   type?: Type5;
   value: Value;
-}
-export interface Value {
-  [k: string]: unknown;
 }
 /**
  * Set several exposed inputs at the same tick.

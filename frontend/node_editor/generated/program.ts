@@ -8,6 +8,7 @@ export type Edges = Edge[];
  * format and version; this engine reads 'nutty-program/1'
  */
 export type Format = string;
+export type Default = unknown;
 export type Description1 = string;
 export type Max = number | null;
 export type Min = number | null;
@@ -84,9 +85,6 @@ export interface ExposedInput {
   name: Name;
   options?: Options;
   type?: Type;
-}
-export interface Default {
-  [k: string]: unknown;
 }
 /**
  * A block instance: its id, block type, parameters by name, and editor-only data.

@@ -1,21 +1,27 @@
 // The curve panel (uPlot): a DoF over the last seconds, stage 1 (the ghost) vs the final output,
 // with the trajectory-helper's colouring of the final curve: green ok, orange velocity, pink
 // acceleration, red jerk violation of the robot's limits.
-import { useEffect, useRef } from "react";
+// The DoF shown is the robot's first continuous one until the user picks another.
+import { useContext, useEffect, useRef, useState } from "react";
 import uPlot from "uplot";
 import "uplot/dist/uPlot.min.css";
-import type { DofInfo } from "./api";
-import { classify, CLASS_COLOURS, CLASS_NAMES } from "./trajectory";
+import type { DofInfo } from "../api";
+import { SamplesContext } from "../context";
+import { useEditor } from "../store/EditorStore";
+import { TELEMETRY_HZ, type Samples } from "../telemetry";
+import { classify, CLASS_COLOURS, CLASS_NAMES } from "../trajectory";
 
-export interface Samples {
-  t: number[];
-  final: Record<string, number[]>;
-  stage1: Record<string, number[]>;
-  /** The server's classification of each sampled frame (exact, from the full-rate frames). */
-  classes: Record<string, number>[];
+export function CurvePanel() {
+  const samples = useContext(SamplesContext);
+  const { robot } = useEditor().state;
+  const [picked, setPicked] = useState<string | null>(null);
+  const dofs = robot?.dofs.filter((d) => d.type === "continuous").map((d) => d.name) ?? [];
+  const dof = picked ?? dofs[0] ?? "";
+  return <CurvePlot samples={samples} dof={dof} info={robot?.dofs.find((d) => d.name === dof)} rate={TELEMETRY_HZ}
+                    onDof={setPicked} dofs={dofs} />;
 }
 
-export function CurvePanel({ samples, dof, info, rate, onDof, dofs }: {
+function CurvePlot({ samples, dof, info, rate, onDof, dofs }: {
   samples: Samples; dof: string; info: DofInfo | undefined; rate: number; onDof: (d: string) => void; dofs: string[];
 }) {
   const box = useRef<HTMLDivElement>(null);

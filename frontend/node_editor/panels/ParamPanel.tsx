@@ -1,19 +1,12 @@
-// The parameter panel, generated from the selected block's JSON Schema.
-import { useContext, useMemo, useState } from "react";
-import type { BlockEntry, Robot } from "./api";
-import { CatalogContext } from "./context";
-import type { FlowNode } from "./graph";
-import { fieldsFromSchema, hexToRgb, rgbToHex, type Field } from "./schemaForm";
+// The parameter panel, generated from the selected block's JSON Schema; the server's errors for the
+// block are shown on it and on the fields they name.
+import { useMemo, useState } from "react";
+import type { RobotDescription } from "../api";
+import { fieldsFromSchema, hexToRgb, rgbToHex, type Field } from "../schemaForm";
+import { useActions, useEditor } from "../store/EditorStore";
+import { errorsByNode } from "../store/state";
 
-interface Props {
-  node: FlowNode | null;
-  robot: Robot | null;
-  clips: string[];
-  errors: string[];
-  onChange: (id: string, params: Record<string, unknown>, live: boolean) => void;
-}
-
-function DofPicker({ value, robot, onChange }: { value: string[]; robot: Robot | null; onChange: (v: string[]) => void }) {
+function DofPicker({ value, robot, onChange }: { value: string[]; robot: RobotDescription | null; onChange: (v: string[]) => void }) {
   const [text, setText] = useState("");
   const names = robot?.dofs.map((d) => d.name) ?? [];
   const add = (s: string) => s && !value.includes(s) && onChange([...value, s]);
@@ -36,7 +29,7 @@ function DofPicker({ value, robot, onChange }: { value: string[]; robot: Robot |
   );
 }
 
-function FieldEditor({ f, value, robot, clips, onChange }: { f: Field; value: unknown; robot: Robot | null; clips: string[]; onChange: (v: unknown, live: boolean) => void }) {
+function FieldEditor({ f, value, robot, clips, onChange }: { f: Field; value: unknown; robot: RobotDescription | null; clips: string[]; onChange: (v: unknown, live: boolean) => void }) {
   const v = value === undefined ? f.default : value;
   switch (f.kind) {
     case "slider": {
@@ -102,9 +95,12 @@ function JsonField({ value, onChange }: { value: unknown; onChange: (v: unknown)
   );
 }
 
-export function ParamPanel({ node, robot, clips, errors, onChange }: Props) {
-  const catalog = useContext(CatalogContext);
-  const entry: BlockEntry | undefined = node ? catalog[node.data.type] : undefined;
+export function ParamPanel() {
+  const { catalog, history, robot, clips, report } = useEditor().state;
+  const { editParams: onChange } = useActions();
+  const node = history.present.nodes.find((n) => n.selected) ?? null;
+  const entry = node ? catalog[node.data.type] : undefined;
+  const errors = useMemo(() => (node ? errorsByNode(report)[node.id] ?? [] : []), [node, report]);
   const fields = useMemo(() => (entry ? fieldsFromSchema(entry.params_schema) : []), [entry]);
   if (!node || !entry) return <div className="panel empty">Select a block to edit its parameters.</div>;
   const params = node.data.params;

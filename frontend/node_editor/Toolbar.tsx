@@ -1,0 +1,31 @@
+// The top bar: the program's name and status, files, undo/redo, fit.
+import { useActions, useEditor } from "./store/EditorStore";
+import { statusText } from "./store/state";
+
+export function Toolbar() {
+  const { state, dispatch } = useEditor();
+  const { newProgram, open, save, saveAs, importJson, exportJson, fitView } = useActions();
+  const { meta, dirty, report, syncing, library, history } = state;
+  return (
+    <header className="topbar">
+      <span className="logo">Nutty</span>
+      <input className="prog-name" aria-label="program name" value={meta?.name ?? ""}
+             onChange={(e) => dispatch({ type: "renamed", name: e.target.value })} />
+      {dirty && <span className="dirty" title="unsaved changes">●</span>}
+      <span className={`status ${report?.valid ? "ok" : "bad"}`} data-testid="status">{statusText(report, syncing)}</span>
+      <span className="spacer" />
+      <button onClick={newProgram}>New</button>
+      <select aria-label="open program" value="" onChange={(e) => e.target.value && open(e.target.value)}>
+        <option value="">Open…</option>
+        {library.map((p) => <option key={p} value={p}>{p}</option>)}
+      </select>
+      <button onClick={() => save()} data-testid="save">Save</button>
+      <button onClick={saveAs}>Save as</button>
+      <label className="button">Import<input type="file" accept=".json" hidden onChange={(e) => e.target.files?.[0] && importJson(e.target.files[0])} /></label>
+      <button onClick={exportJson}>Export</button>
+      <button onClick={() => dispatch({ type: "undo" })} disabled={!history.past.length} data-testid="undo" title="Ctrl+Z">Undo</button>
+      <button onClick={() => dispatch({ type: "redo" })} disabled={!history.future.length} data-testid="redo" title="Ctrl+Shift+Z">Redo</button>
+      <button onClick={fitView} title="F">Fit</button>
+    </header>
+  );
+}

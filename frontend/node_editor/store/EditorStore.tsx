@@ -1,0 +1,51 @@
+// The store: the reducer's state and dispatch in one context, and the editor's actions (made by the
+// hooks in ../hooks) in another, so panels and views reach both without props.
+import { createContext, useContext, useReducer, type Dispatch, type ReactNode } from "react";
+import type { Command } from "../api";
+import { initialState, reducer, type Action, type EditorState, type Position } from "./state";
+
+interface Store {
+  state: EditorState;
+  dispatch: Dispatch<Action>;
+}
+
+const StoreContext = createContext<Store | null>(null);
+
+export function EditorStoreProvider({ children, initial = initialState }: { children: ReactNode; initial?: EditorState }) {
+  const [state, dispatch] = useReducer(reducer, initial);
+  return <StoreContext.Provider value={{ state, dispatch }}>{children}</StoreContext.Provider>;
+}
+
+export function useEditor(): Store {
+  const store = useContext(StoreContext);
+  if (!store) throw new Error("useEditor() outside <EditorStoreProvider>");
+  return store;
+}
+
+/** What panels and views can do beyond dispatching: calls to the server, dialogs, the viewport. */
+export interface EditorActions {
+  say: (message: string) => void;
+  log: (line: string) => void;
+  sendCommand: (command: Command) => void;
+  editParams: (node: string, params: Record<string, unknown>, live: boolean) => void;
+  setInput: (name: string, value: unknown) => void;
+  setGhost: (visible: boolean) => void;
+  addBlock: (type: string, position?: Position) => void;
+  copy: () => void;
+  paste: () => void;
+  fitView: () => void;
+  save: (asName?: string) => void;
+  saveAs: () => void;
+  open: (name: string) => void;
+  newProgram: () => void;
+  importJson: (file: File) => void;
+  exportJson: () => void;
+}
+
+export const ActionsContext = createContext<EditorActions | null>(null);
+
+export function useActions(): EditorActions {
+  const actions = useContext(ActionsContext);
+  if (!actions) throw new Error("useActions() outside <ActionsContext.Provider>");
+  return actions;
+}

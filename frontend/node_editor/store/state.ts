@@ -1,0 +1,211 @@
+// The editor's state and every change to it, as one pure reducer (tested with vitest).
+// Side effects (HTTP, WebSockets, timers, dialogs) live in the hooks, which dispatch these actions.
+import { applyEdgeChanges, applyNodeChanges, type EdgeChange, type NodeChange } from "@xyflow/react";
+import type {
+  Catalog, ExposedInput, PrevizInfo, Program, RobotDescription, ValidationReport,
+} from "../api";
+import {
+  connectionProblem, edgeId, flowToProgram, freshId, pasteClipboard, programToFlow, type FlowEdge, type FlowNode, type Meta,
+} from "../graph";
+import * as H from "../history";
+import { defaultParams, portsOf } from "../ports";
+
+export type Graph = { nodes: FlowNode[]; edges: FlowEdge[] };
+export type Connection = { source: string; sourceHandle: string; target: string; targetHandle: string };
+export type Position = { x: number; y: number };
+
+export interface EditorState {
+  catalog: Catalog;
+  robot: RobotDescription | null;
+  previz: PrevizInfo | null;
+  meta: Meta | null;
+  history: H.History<Graph>;
+  report: ValidationReport | null;
+  syncing: boolean;
+  dirty: boolean;
+  /** Name of the program in the robot's library that the graph was opened from or saved as. */
+  libName: string | null;
+  library: string[];
+  clips: string[];
+  inputs: { decls: ExposedInput[]; values: Record<string, unknown> };
+  toast: string | null;
+  consoleLines: string[];
+  /** Counts loaded programs (the graph view fits each one into view); `fromServer`: the running one. */
+  loaded: { count: number; fromServer: boolean };
+  /** The last parameter edit: edits of one node in quick succession are one undo step. */
+  lastParamEdit: { node: string; at: number } | null;
+}
+
+export type Action =
+  | { type: "serverDescribed"; catalog: Catalog; robot: RobotDescription; previz: PrevizInfo }
+  | { type: "programLoaded"; program: Program; fromServer?: boolean; libName?: string | null; report?: ValidationReport | null }
+  | { type: "nodesChanged"; changes: NodeChange[] }
+  | { type: "edgesChanged"; changes: EdgeChange[] }
+  | { type: "connected"; connection: Connection }
+  | { type: "blockAdded"; blockType: string; position: Position }
+  | { type: "paramsEdited"; node: string; params: Record<string, unknown>; at: number }
+  | { type: "pasted"; clip: Graph }
+  | { type: "undo" }
+  | { type: "redo" }
+  | { type: "renamed"; name: string }
+  | { type: "syncing"; on: boolean }
+  | { type: "reportReceived"; report: ValidationReport | null }
+  | { type: "saved"; name: string }
+  | { type: "libraryListed"; names: string[] }
+  | { type: "clipsListed"; names: string[] }
+  | { type: "inputsLoaded"; decls: ExposedInput[]; values: Record<string, unknown> }
+  | { type: "inputSet"; name: string; value: unknown }
+  | { type: "ghostShown"; visible: boolean }
+  | { type: "toast"; message: string }
+  | { type: "toastExpired"; message: string }
+  | { type: "logged"; line: string };
+
+/** Parameter edits of one node closer together than this (ms) are one undo step. */
+export const COALESCE_MS = 600;
+const CONSOLE_LINES = 200;
+
+export const initialState: EditorState = {
+  catalog: {}, robot: null, previz: null, meta: null, history: H.init({ nodes: [], edges: [] }), report: null,
+  syncing: false, dirty: false, libName: null, library: [], clips: [], inputs: { decls: [], values: {} },
+  toast: null, consoleLines: [], loaded: { count: 0, fromServer: false }, lastParamEdit: null,
+};
+
+/** The program's structure (no positions): what the server must have; equal keys need no sync. */
+export function structureKey(g: Graph, meta: Meta | null): string {
+  return JSON.stringify(flowToProgram(g.nodes.map((n) => ({ ...n, position: { x: 0, y: 0 } })), g.edges, meta ?? ({} as Meta)));
+}
+
+/** The graph with one node's parameters replaced (unset ones dropped) and its ports derived again;
+ * `structural` when its ports changed (the server must rebuild, a live patch cannot do). */
+export function withParams(g: Graph, catalog: Catalog, id: string, params: Record<string, unknown>) {
+  const node = g.nodes.find((n) => n.id === id);
+  if (!node) return null;
+  const clean = Object.fromEntries(Object.entries(params).filter(([, v]) => v !== null && v !== undefined));
+  const { inputs, outputs } = portsOf(catalog[node.data.type], clean);
+  const structural = JSON.stringify(inputs) !== JSON.stringify(node.data.inputs) || JSON.stringify(outputs) !== JSON.stringify(node.data.outputs);
+  const graph = { ...g, nodes: g.nodes.map((n) => (n.id === id ? { ...n, data: { ...n.data, params: clean, inputs, outputs } } : n)) };
+  return { graph, params: clean, structural };
+}
+
+/** Errors of the report by node, each as `port: message`. */
+export function errorsByNode(report: ValidationReport | null): Record<string, string[]> {
+  const out: Record<string, string[]> = {};
+  for (const e of report?.errors ?? []) if (e.node) (out[e.node] ??= []).push(`${e.port ? e.port + ": " : ""}${e.message}`);
+  return out;
+}
+
+export function statusText(report: ValidationReport | null, syncing: boolean): string {
+  if (syncing) return "syncing…";
+  if (!report) return "…";
+  return report.valid
+    ? `valid · level ${report.level}${report.warnings.length ? ` · ${report.warnings.length} warning(s)` : ""}`
+    : `${report.errors.length} error(s) — the robot keeps the last valid program`;
+}
+
+const deselected = (nodes: FlowNode[]) => nodes.map((n) => ({ ...n, selected: false }));
+
+/** Record a graph edit: a new undo step (`push`) or folded into the present one. */
+function edit(state: EditorState, next: Graph, push = true): EditorState {
+  return { ...state, history: push ? H.push(state.history, next) : H.replace(state.history, next), dirty: state.dirty || push };
+}
+
+function addBlock(state: EditorState, type: string, position: Position): EditorState {
+  const entry = state.catalog[type];
+  if (!entry) return state;
+  const graph = state.history.present;
+  if (entry.role === "output" && graph.nodes.some((n) => state.catalog[n.data.type]?.role === "output"))
+    return { ...state, toast: "a program has exactly one output" };
+  const params = defaultParams(entry);
+  const { inputs, outputs } = portsOf(entry, params);
+  const pos = { ...position };
+  // never drop a new block exactly on top of another one
+  while (graph.nodes.some((n) => Math.abs(n.position.x - pos.x) < 240 && Math.abs(n.position.y - pos.y) < 140)) pos.y += 150;
+  const node: FlowNode = {
+    id: freshId(graph.nodes, type), type: "block", position: pos, selected: true,
+    data: { type, params, ui: {}, inputs, outputs, errors: [] },
+  };
+  return edit(state, { nodes: [...deselected(graph.nodes), node], edges: graph.edges });
+}
+
+function connect(state: EditorState, c: Connection): EditorState {
+  const graph = state.history.present;
+  const problem = connectionProblem(graph.nodes, graph.edges, c.source, c.sourceHandle, c.target, c.targetHandle);
+  if (problem) return { ...state, toast: `refused: ${problem}` };
+  const src = graph.nodes.find((n) => n.id === c.source)!;
+  const edge: FlowEdge = { ...c, id: edgeId(c), data: { type: src.data.outputs[c.sourceHandle].type } };
+  return edit(state, { ...graph, edges: [...graph.edges, edge] });
+}
+
+export function reducer(state: EditorState, action: Action): EditorState {
+  const graph = state.history.present;
+  switch (action.type) {
+    case "serverDescribed":
+      return { ...state, catalog: action.catalog, robot: action.robot, previz: action.previz };
+    case "programLoaded": {
+      const { nodes, edges, meta } = programToFlow(action.program, state.catalog);
+      return {
+        ...state, meta, history: H.init({ nodes, edges }), dirty: false, lastParamEdit: null,
+        libName: action.libName === undefined ? state.libName : action.libName,
+        report: action.report === undefined ? state.report : action.report,
+        loaded: { count: state.loaded.count + 1, fromServer: action.fromServer ?? false },
+      };
+    }
+    case "nodesChanged": {
+      const nodes = applyNodeChanges(action.changes, graph.nodes as any) as unknown as FlowNode[];
+      const removed = new Set(action.changes.flatMap((c) => (c.type === "remove" ? [c.id] : [])));
+      const edges = removed.size ? graph.edges.filter((e) => !removed.has(e.source) && !removed.has(e.target)) : graph.edges;
+      // selection and drag steps are not edits; a drop or a removal is
+      const meaningful = action.changes.some((c) => c.type === "remove" || (c.type === "position" && c.dragging === false));
+      return edit(state, { nodes, edges }, meaningful);
+    }
+    case "edgesChanged": {
+      const edges = applyEdgeChanges(action.changes, graph.edges as any) as unknown as FlowEdge[];
+      return edit(state, { ...graph, edges }, action.changes.some((c) => c.type === "remove"));
+    }
+    case "connected":
+      return connect(state, action.connection);
+    case "blockAdded":
+      return addBlock(state, action.blockType, action.position);
+    case "paramsEdited": {
+      const next = withParams(graph, state.catalog, action.node, action.params);
+      if (!next) return state;
+      const last = state.lastParamEdit;
+      const coalesce = last?.node === action.node && action.at - last.at < COALESCE_MS;
+      const history = coalesce ? H.replace(state.history, next.graph) : H.push(state.history, next.graph);
+      return { ...state, history, dirty: true, lastParamEdit: { node: action.node, at: action.at } };
+    }
+    case "pasted": {
+      if (!action.clip.nodes.length) return state;
+      const pasted = pasteClipboard(graph.nodes, action.clip);
+      return edit(state, { nodes: [...deselected(graph.nodes), ...pasted.nodes], edges: [...graph.edges, ...pasted.edges] });
+    }
+    case "undo":
+      return { ...state, history: H.undo(state.history), lastParamEdit: null };
+    case "redo":
+      return { ...state, history: H.redo(state.history), lastParamEdit: null };
+    case "renamed":
+      return state.meta ? { ...state, meta: { ...state.meta, name: action.name }, dirty: true } : state;
+    case "syncing":
+      return { ...state, syncing: action.on };
+    case "reportReceived":
+      return { ...state, report: action.report };
+    case "saved":
+      return { ...state, libName: action.name, dirty: false };
+    case "libraryListed":
+      return { ...state, library: action.names };
+    case "clipsListed":
+      return { ...state, clips: action.names };
+    case "inputsLoaded":
+      return { ...state, inputs: { decls: action.decls, values: action.values } };
+    case "inputSet":
+      return { ...state, inputs: { ...state.inputs, values: { ...state.inputs.values, [action.name]: action.value } } };
+    case "ghostShown":
+      return state.previz ? { ...state, previz: { ...state.previz, ghost: action.visible } } : state;
+    case "toast":
+      return { ...state, toast: action.message };
+    case "toastExpired":
+      return state.toast === action.message ? { ...state, toast: null } : state;
+    case "logged":
+      return { ...state, consoleLines: [...state.consoleLines.slice(-(CONSOLE_LINES - 1)), action.line] };
+  }
+}
