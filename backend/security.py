@@ -1,7 +1,8 @@
 """The server's boundary: who may change the robot, and what a request may contain.
 
 One place for every rule the API enforces before a route runs (`Guard`, pure ASGI middleware) and
-for the JSON-safety checks every entry point shares (`loads`, `check_json`, `dumps`):
+for the JSON-safety checks every entry point shares (`loads`, `check_json`, `dumps`, in
+backend.safe_json):
 
 - Authority. A mutating request (POST/PUT/PATCH/DELETE) and every WebSocket handshake must come
   from an allowed `Origin` when the header is present (browsers always send it cross-origin; curl
@@ -23,17 +24,26 @@ from __future__ import annotations
 import hashlib
 import hmac
 import ipaddress
-import json
-import math
 import secrets
 from dataclasses import dataclass, field
 from typing import Any, Iterable
 from urllib.parse import parse_qs, urlsplit
 
-MAX_BODY = 1_000_000  # bytes per request body
+# The JSON rules every entry point shares live in backend.safe_json; importable from here as well.
+from backend.safe_json import (  # noqa: F401
+    MAX_BODY,
+    MAX_DEPTH,
+    MAX_INT,
+    JsonSafetyError,
+    check_json,
+    dumps,
+    error_body,
+    loads,
+    safe_text,
+    sanitize,
+)
+
 MAX_WS_MESSAGE = 64_000  # bytes per WebSocket message
-MAX_DEPTH = 64  # nesting of JSON arrays/objects
-MAX_INT = 2 ** 63  # |int| limit: larger integers overflow floats and fixed-width fields downstream
 MUTATING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})
@@ -41,170 +51,6 @@ PREVIZ_PREFIX = "/previz"
 PREVIZ_COOKIE = "nutty_previz"
 JSON_TYPES = ("application/json",)
 SIMPLE_TYPES = ("text/plain", "application/x-www-form-urlencoded", "multipart/form-data")
-
-
-# --------------------------------------------------------------------------------------------------
-# JSON safety
-# --------------------------------------------------------------------------------------------------
-
-
-class JsonSafetyError(ValueError):
-    """A JSON document or value the server refuses; `code`, `field` and `status` describe why."""
-
-    def __init__(self, message: str, code: str = "malformed_json", field: str | None = None, status: int = 400):
-        super().__init__(message)
-        self.code = code
-        self.field = field
-        self.status = status
-
-
-def _path(parts: tuple[Any, ...]) -> str:
-    out = ""
-    for p in parts:
-        if isinstance(p, int):
-            out += f"[{p}]"
-        else:
-            out += f".{safe_text(p)}" if out else safe_text(p)
-    return out
-
-
-def _valid_text(s: str) -> bool:
-    if s.isascii():
-        return True
-    try:
-        s.encode("utf-8")
-        return True
-    except UnicodeEncodeError:
-        return False
-
-
-def check_json(value: Any, *, max_depth: int = MAX_DEPTH, where: str = "", status: int = 400) -> None:
-    """Refuse what JSON must not carry into the engine: raises JsonSafetyError naming the field.
-
-    Checks (iteratively, so any depth is safe to inspect): nesting <= `max_depth`, floats finite,
-    ints within +-2**63, strings and keys valid Unicode, only JSON types (dict, list/tuple, str,
-    int, float, bool, None; numpy scalars are floats/ints and pass).
-    """
-    stack: list[tuple[Any, int, tuple[Any, ...]]] = [(value, 0, ())]
-    prefix = (where,) if where else ()
-    while stack:
-        v, depth, parts = stack.pop()
-        if v is None or isinstance(v, bool):
-            continue
-        if isinstance(v, float):
-            if not math.isfinite(v):
-                p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: NaN and infinity are not allowed", "non_finite",
-                                      p or None, status)
-            continue
-        if isinstance(v, int):
-            if not -MAX_INT <= v <= MAX_INT:
-                p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: integer out of range (|n| <= 2**63)", "number_too_large",
-                                      p or None, status)
-            continue
-        if isinstance(v, str):
-            if not _valid_text(v):
-                p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: invalid Unicode (a lone surrogate)", "invalid_unicode",
-                                      p or None, status)
-            continue
-        if isinstance(v, (dict, list, tuple)):
-            if depth >= max_depth:
-                p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: nested deeper than {max_depth} levels", "too_deep",
-                                      p or None, status)
-            if isinstance(v, dict):
-                for k, item in v.items():
-                    if not isinstance(k, str):
-                        k = str(k)
-                    if not _valid_text(k):
-                        p = _path(prefix + parts)
-                        raise JsonSafetyError(f"{p or 'value'}: a key is invalid Unicode (a lone surrogate)",
-                                              "invalid_unicode", p or None, status)
-                    stack.append((item, depth + 1, parts + (k,)))
-            else:
-                for i, item in enumerate(v):
-                    stack.append((item, depth + 1, parts + (i,)))
-            continue
-        try:  # numpy scalars and other numbers
-            x = float(v)
-        except (TypeError, ValueError, OverflowError):
-            p = _path(prefix + parts)
-            raise JsonSafetyError(f"{p or 'value'}: {type(v).__name__} is not a JSON value", "invalid_type",
-                                  p or None, status) from None
-        if not math.isfinite(x):
-            p = _path(prefix + parts)
-            raise JsonSafetyError(f"{p or 'value'}: NaN and infinity are not allowed", "non_finite", p or None, status)
-
-
-def _bad_constant(name: str) -> Any:
-    raise JsonSafetyError(f"{name} is not allowed (JSON numbers are finite)", "non_finite")
-
-
-def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max_depth: int = MAX_DEPTH) -> Any:
-    """Parse JSON the safe way (see module doc). Raises JsonSafetyError with a 4xx `status`."""
-    if max_bytes is not None and len(raw) > max_bytes:
-        raise JsonSafetyError(f"over {max_bytes} bytes", "too_large", status=413)
-    if isinstance(raw, (bytes, bytearray)):
-        try:
-            raw = bytes(raw).decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise JsonSafetyError(f"the body is not valid UTF-8 (byte {exc.start})", "invalid_unicode") from None
-    try:
-        value = json.loads(raw, parse_constant=_bad_constant)
-    except JsonSafetyError:
-        raise
-    except RecursionError:
-        raise JsonSafetyError(f"nested deeper than {max_depth} levels", "too_deep") from None
-    except ValueError as exc:  # JSONDecodeError, and int() of a number with too many digits
-        raise JsonSafetyError(f"malformed JSON: {safe_text(str(exc))[:200]}", "malformed_json") from None
-    check_json(value, max_depth=max_depth)
-    return value
-
-
-def safe_text(s: Any) -> str:
-    """A string that always encodes as UTF-8 (lone surrogates become \\udXXX escapes)."""
-    s = s if isinstance(s, str) else str(s)
-    if _valid_text(s):
-        return s
-    return s.encode("utf-8", "backslashreplace").decode("utf-8")
-
-
-def sanitize(value: Any, _depth: int = 0) -> Any:
-    """A JSON-serialisable copy: non-finite floats -> None, bad strings escaped, odd types as str."""
-    if _depth > 2 * MAX_DEPTH:
-        return None
-    if value is None or isinstance(value, (bool, int)):
-        return value
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, str):
-        return safe_text(value)
-    if isinstance(value, dict):
-        return {safe_text(k): sanitize(v, _depth + 1) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [sanitize(v, _depth + 1) for v in value]
-    try:
-        x = float(value)
-        return x if math.isfinite(x) else None
-    except (TypeError, ValueError, OverflowError):
-        return safe_text(value)
-
-
-def dumps(value: Any) -> str:
-    """JSON text that is always valid and encodable: the fast path, else a sanitised copy."""
-    try:
-        text = json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(",", ":"))
-        if _valid_text(text):
-            return text
-    except (TypeError, ValueError, RecursionError):
-        pass
-    return json.dumps(sanitize(value), ensure_ascii=False, allow_nan=False, separators=(",", ":"))
-
-
-def error_body(code: str, message: str, **extra: Any) -> dict[str, Any]:
-    return {"detail": {"code": code, "message": safe_text(message), **{k: v for k, v in extra.items()}}}
 
 
 # --------------------------------------------------------------------------------------------------

@@ -1,0 +1,179 @@
+"""JSON that cannot hurt the server: parsing, checking and writing request and message bodies.
+
+`loads` parses with NaN/Infinity, numbers that overflow to infinity, integers beyond 2**63, invalid
+Unicode (lone surrogates) and nesting deeper than `MAX_DEPTH` refused with an error that names the
+field; `check_json` applies the same rules to an already parsed value (every entry point: REST,
+WebSockets, in-process commands); `dumps` never fails (a value that cannot be serialised is
+sanitised rather than turned into a 500 or a dead socket).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any
+
+MAX_BODY = 1_000_000  # bytes per request body
+MAX_DEPTH = 64  # nesting of JSON arrays/objects
+MAX_INT = 2 ** 63  # |int| limit: larger integers overflow floats and fixed-width fields downstream
+
+
+
+
+class JsonSafetyError(ValueError):
+    """A JSON document or value the server refuses; `code`, `field` and `status` describe why."""
+
+    def __init__(self, message: str, code: str = "malformed_json", field: str | None = None, status: int = 400):
+        super().__init__(message)
+        self.code = code
+        self.field = field
+        self.status = status
+
+
+def _path(parts: tuple[Any, ...]) -> str:
+    out = ""
+    for p in parts:
+        if isinstance(p, int):
+            out += f"[{p}]"
+        else:
+            out += f".{safe_text(p)}" if out else safe_text(p)
+    return out
+
+
+def _valid_text(s: str) -> bool:
+    if s.isascii():
+        return True
+    try:
+        s.encode("utf-8")
+        return True
+    except UnicodeEncodeError:
+        return False
+
+
+def check_json(value: Any, *, max_depth: int = MAX_DEPTH, where: str = "", status: int = 400) -> None:
+    """Refuse what JSON must not carry into the engine: raises JsonSafetyError naming the field.
+
+    Checks (iteratively, so any depth is safe to inspect): nesting <= `max_depth`, floats finite,
+    ints within +-2**63, strings and keys valid Unicode, only JSON types (dict, list/tuple, str,
+    int, float, bool, None; numpy scalars are floats/ints and pass).
+    """
+    stack: list[tuple[Any, int, tuple[Any, ...]]] = [(value, 0, ())]
+    prefix = (where,) if where else ()
+    while stack:
+        v, depth, parts = stack.pop()
+        if v is None or isinstance(v, bool):
+            continue
+        if isinstance(v, float):
+            if not math.isfinite(v):
+                p = _path(prefix + parts)
+                raise JsonSafetyError(f"{p or 'value'}: NaN and infinity are not allowed", "non_finite",
+                                      p or None, status)
+            continue
+        if isinstance(v, int):
+            if not -MAX_INT <= v <= MAX_INT:
+                p = _path(prefix + parts)
+                raise JsonSafetyError(f"{p or 'value'}: integer out of range (|n| <= 2**63)", "number_too_large",
+                                      p or None, status)
+            continue
+        if isinstance(v, str):
+            if not _valid_text(v):
+                p = _path(prefix + parts)
+                raise JsonSafetyError(f"{p or 'value'}: invalid Unicode (a lone surrogate)", "invalid_unicode",
+                                      p or None, status)
+            continue
+        if isinstance(v, (dict, list, tuple)):
+            if depth >= max_depth:
+                p = _path(prefix + parts)
+                raise JsonSafetyError(f"{p or 'value'}: nested deeper than {max_depth} levels", "too_deep",
+                                      p or None, status)
+            if isinstance(v, dict):
+                for k, item in v.items():
+                    if not isinstance(k, str):
+                        k = str(k)
+                    if not _valid_text(k):
+                        p = _path(prefix + parts)
+                        raise JsonSafetyError(f"{p or 'value'}: a key is invalid Unicode (a lone surrogate)",
+                                              "invalid_unicode", p or None, status)
+                    stack.append((item, depth + 1, parts + (k,)))
+            else:
+                for i, item in enumerate(v):
+                    stack.append((item, depth + 1, parts + (i,)))
+            continue
+        try:  # numpy scalars and other numbers
+            x = float(v)
+        except (TypeError, ValueError, OverflowError):
+            p = _path(prefix + parts)
+            raise JsonSafetyError(f"{p or 'value'}: {type(v).__name__} is not a JSON value", "invalid_type",
+                                  p or None, status) from None
+        if not math.isfinite(x):
+            p = _path(prefix + parts)
+            raise JsonSafetyError(f"{p or 'value'}: NaN and infinity are not allowed", "non_finite", p or None, status)
+
+
+def _bad_constant(name: str) -> Any:
+    raise JsonSafetyError(f"{name} is not allowed (JSON numbers are finite)", "non_finite")
+
+
+def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max_depth: int = MAX_DEPTH) -> Any:
+    """Parse JSON the safe way (see module doc). Raises JsonSafetyError with a 4xx `status`."""
+    if max_bytes is not None and len(raw) > max_bytes:
+        raise JsonSafetyError(f"over {max_bytes} bytes", "too_large", status=413)
+    if isinstance(raw, (bytes, bytearray)):
+        try:
+            raw = bytes(raw).decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise JsonSafetyError(f"the body is not valid UTF-8 (byte {exc.start})", "invalid_unicode") from None
+    try:
+        value = json.loads(raw, parse_constant=_bad_constant)
+    except JsonSafetyError:
+        raise
+    except RecursionError:
+        raise JsonSafetyError(f"nested deeper than {max_depth} levels", "too_deep") from None
+    except ValueError as exc:  # JSONDecodeError, and int() of a number with too many digits
+        raise JsonSafetyError(f"malformed JSON: {safe_text(str(exc))[:200]}", "malformed_json") from None
+    check_json(value, max_depth=max_depth)
+    return value
+
+
+def safe_text(s: Any) -> str:
+    """A string that always encodes as UTF-8 (lone surrogates become \\udXXX escapes)."""
+    s = s if isinstance(s, str) else str(s)
+    if _valid_text(s):
+        return s
+    return s.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def sanitize(value: Any, _depth: int = 0) -> Any:
+    """A JSON-serialisable copy: non-finite floats -> None, bad strings escaped, odd types as str."""
+    if _depth > 2 * MAX_DEPTH:
+        return None
+    if value is None or isinstance(value, (bool, int)):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, str):
+        return safe_text(value)
+    if isinstance(value, dict):
+        return {safe_text(k): sanitize(v, _depth + 1) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [sanitize(v, _depth + 1) for v in value]
+    try:
+        x = float(value)
+        return x if math.isfinite(x) else None
+    except (TypeError, ValueError, OverflowError):
+        return safe_text(value)
+
+
+def dumps(value: Any) -> str:
+    """JSON text that is always valid and encodable: the fast path, else a sanitised copy."""
+    try:
+        text = json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(",", ":"))
+        if _valid_text(text):
+            return text
+    except (TypeError, ValueError, RecursionError):
+        pass
+    return json.dumps(sanitize(value), ensure_ascii=False, allow_nan=False, separators=(",", ":"))
+
+
+def error_body(code: str, message: str, **extra: Any) -> dict[str, Any]:
+    return {"detail": {"code": code, "message": safe_text(message), **{k: v for k, v in extra.items()}}}
