@@ -123,18 +123,25 @@ def test_inputs_and_commands(client, session):
 
 
 def test_led_override_and_speech_reach_the_frames(client, session):
-    client.post("/api/commands", json={"type": "set_led", "dof": "chest_led", "colour": [0, 1, 0]})
-    client.post("/api/commands", json={"type": "say", "text": "hello"})
-    emb = session.embodiment
-    frame = session.engine.call(session.engine.tick) if not session.engine.running else None
     import time
 
-    seen_say = False
-    for _ in range(50):
-        frame = session.engine.last_frame
-        seen_say |= any(e.kind == "say" for e in frame.events)
+    from backend.engine.runtime import Sink
+
+    frames = []
+    probe = session.engine.add_sink(Sink("probe", consume=frames.append, max_queue=4096))
+    client.post("/api/commands", json={"type": "set_led", "dof": "chest_led", "colour": [0, 1, 0]})
+    client.post("/api/commands", json={"type": "say", "text": "hello"})
+    leds = session.embodiment.dof("chest_led").channels
+
+    def arrived() -> bool:
+        return (any(e.kind == "say" and e.payload.get("text") == "hello" for f in list(frames) for e in f.events)
+                and bool(frames) and list(frames[-1].position[leds]) == [0.0, 1.0, 0.0])
+
+    deadline = time.monotonic() + 10.0  # a generous bound for a loaded machine, not a timing goal
+    while not arrived() and time.monotonic() < deadline:
         time.sleep(0.01)
-    assert list(frame.position[emb.dof("chest_led").channels]) == [0.0, 1.0, 0.0]
+    session.engine.remove_sink(probe)
+    assert arrived()
 
 
 def test_status_and_previz_without_viser(client):
