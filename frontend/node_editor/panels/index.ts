@@ -9,6 +9,7 @@ import { InputsPanel } from "./InputsPanel";
 import { Palette } from "./Palette";
 import { ParamPanel } from "./ParamPanel";
 import { PrevizPanel } from "./PrevizPanel";
+import { ProgramInfoPanel } from "./ProgramInfoPanel";
 
 /** Places in the layout (../Layout.tsx): the side bars, the Pre-Viz corner and the live column's rows. */
 export type Area = "left" | "right" | "previz" | "live" | "controls" | "log";
@@ -26,5 +27,6 @@ export const PANELS: Panel[] = [
   { id: "curves", area: "live", Component: CurvePanel },
   { id: "inputs", area: "controls", Component: InputsPanel },
   { id: "commands", area: "controls", Component: CommandsPanel },
+  { id: "program-info", area: "controls", Component: ProgramInfoPanel },
   { id: "console", area: "log", Component: ConsolePanel },
 ];
