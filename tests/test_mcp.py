@@ -5,12 +5,14 @@ the initialize handshake (as today's desktop clients speak it), and over streama
 from __future__ import annotations
 
 import asyncio
+import json
 import os
 import shutil
 import socket
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import httpx
 import mcp
@@ -19,10 +21,11 @@ import pytest
 from mcp import StdioServerParameters
 
 from backend.engine.embodiment import robots_dir
-from tests.server_process import free_port, server_process
+from tests.server_process import free_port, server_process, stop_process
 from tests.tool_calls import example_arguments
 
 TIMEOUT = 30.0  # s: generous bounds on waits, never asserted as timings
+DOCUMENTED_URL = "http://127.0.0.1:8000"  # the server URL docs/ai.md configures
 
 
 def clip_doc(name: str) -> dict:
@@ -45,11 +48,22 @@ def mcp_command(*args: str) -> list[str]:
     return [sys.executable, "-m", "backend.cli", "mcp", *args]
 
 
+def documented_config(url: str) -> StdioServerParameters:
+    """The MCP client configuration of docs/ai.md, as a client would start it: `nutty` is this
+    checkout's CLI, and the URL is the test server's."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "ai.md").read_text()
+    block = text.split("<!-- mcp-config -->", 1)[1].split("```json", 1)[1].split("```", 1)[0]
+    entry = json.loads(block)["mcpServers"]["nutty"]
+    assert entry["command"] == "nutty" and entry["args"][:2] == ["mcp", "--url"]
+    command = mcp_command(*[url if a == DOCUMENTED_URL else a for a in entry["args"][1:]])
+    return StdioServerParameters(command=command[0], args=command[1:], env={**os.environ, **entry.get("env", {})})
+
+
 def text_of(result: types.CallToolResult) -> str:
     return "\n".join(c.text for c in result.content if isinstance(c, types.TextContent))
 
 
-def test_stdio_client_lists_plays_waits_cancels_and_sees_the_tools_change(server):
+def test_the_documented_client_lists_plays_waits_cancels_and_sees_the_tools_change(server):
     async def main() -> None:
         changed = asyncio.Event()
 
@@ -57,8 +71,7 @@ def test_stdio_client_lists_plays_waits_cancels_and_sees_the_tools_change(server
             if getattr(message, "method", None) == "notifications/tools/list_changed":
                 changed.set()
 
-        command = mcp_command("--url", server.url)
-        params = StdioServerParameters(command=command[0], args=command[1:], env=dict(os.environ))
+        params = documented_config(server.url)
         async with mcp.Client(params, mode="legacy", message_handler=on_message) as client:
             tools = {t.name: t for t in (await client.list_tools()).tools}
             assert {"play_clip", "set_posture", "look_at", "set_emotion", "say", "set_led", "set_face", "stop",
@@ -141,9 +154,26 @@ def test_streamable_http_client_with_subscriptions(server):
 
         asyncio.run(main())
     finally:
-        proc.terminate()
-        try:
-            proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(10)
+        stop_process(proc)
+
+
+def test_an_unreachable_server_is_a_tool_error_not_a_crash():
+    from backend.mcp_bridge import Remote, create_server
+
+    server, _ = create_server(Remote(f"http://127.0.0.1:{free_port()}"))  # nothing listens there
+
+    async def main() -> None:
+        async with mcp.Client(server, mode="legacy") as client:  # in process, the SDK's memory transport
+            result = await client.call_tool("play_clip", {"clip": "nod"})
+            assert result.is_error and "did not answer" in text_of(result)
+            assert result.structured_content["error"]["code"] == "unreachable"
+
+    asyncio.run(main())
+
+
+@pytest.mark.parametrize("args, fragment", [(["--url", "ftp://robot"], "--url"), (["--http", "70000"], "--http")])
+def test_bad_command_line_is_refused(capsys, args, fragment):
+    from backend.cli import main
+
+    assert main(["mcp", *args]) == 2
+    assert fragment in capsys.readouterr().err
