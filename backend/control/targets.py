@@ -42,13 +42,20 @@ def upstream_of_layer(session: Any, layer: str) -> set[str]:
     return seen
 
 
-def layers_of(session: Any, node_id: str) -> list[str]:
-    """Names of the mixer layers whose chain holds node `node_id` (e.g. ['gesture'])."""
+def layer_members(session: Any) -> dict[str, set[str]]:
+    """Every mixer layer's name -> the node ids whose output reaches it."""
     apu = session.engine.apu
     if apu is None:
-        return []
+        return {}
     names = {w.port for s in apu.steps if s.block.role.value == "mixer" for w in s.wires}
-    return sorted(name for name in names if node_id in upstream_of_layer(session, name))
+    return {name: upstream_of_layer(session, name) for name in names}
+
+
+def layers_of(session: Any, node_id: str, members: dict[str, set[str]] | None = None) -> list[str]:
+    """Names of the mixer layers whose chain holds node `node_id` (e.g. ['gesture']); `members`:
+    `layer_members(session)` when it is at hand."""
+    members = layer_members(session) if members is None else members
+    return sorted(name for name, nodes in members.items() if node_id in nodes)
 
 
 def find_block(session: Any, type_names: tuple[str, ...], what: str, node: str | None = None,

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from backend.control.targets import blocks_of, layers_of, mixers
+from backend.control.targets import layer_members, layers_of, mixers
 from backend.engine.embodiment import DofType
 
 
@@ -64,10 +64,11 @@ def read_live(session: Any) -> Live:
                 clips=_clips(session), postures=_postures(session),
                 inputs=list(program.inputs) if program is not None else [])
     apu = session.engine.apu
+    members = layer_members(session)
     for step in apu.steps if apu is not None else []:
         block = step.block
         live.blocks.setdefault(block.type_name, []).append(block.node_id)
-        for name in layers_of(session, block.node_id):
+        for name in layers_of(session, block.node_id, members):
             if name not in live.block_layers.setdefault(block.type_name, []):
                 live.block_layers[block.type_name].append(name)
     for mixer in mixers(session):

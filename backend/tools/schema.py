@@ -8,6 +8,8 @@ as `items` (both function-calling dialects read that; not every one reads `prefi
 
 from __future__ import annotations
 
+import copy
+import functools
 from typing import Any
 
 from backend.tools.live import Choice
@@ -17,7 +19,13 @@ COMMAND_HIDDEN = ("type", "id")  # a command's tag, and the id the server assign
 
 def model_arguments(model: type, hide: tuple[str, ...] = ()) -> dict[str, Any]:
     """The `{"type": "object", "properties", "required"}` schema of a pydantic model's fields, less
-    `hide` (and, of a command, its `type` and `id`)."""
+    `hide` (and, of a command, its `type` and `id`). A fresh copy: callers fill it in."""
+    return copy.deepcopy(_model_arguments(model, tuple(sorted(hide))))
+
+
+@functools.lru_cache(maxsize=256)
+def _model_arguments(model: type, hide: tuple[str, ...]) -> dict[str, Any]:
+    # Cached: a model class's schema never changes, and pydantic takes milliseconds to write one.
     schema = model.model_json_schema()
     defs = schema.get("$defs", {})
     hidden = set(hide) | (set(COMMAND_HIDDEN) if "type" in model.model_fields else set())

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from backend.control.targets import blocks_of, layers_of, mixers
+from backend.control.targets import blocks_of, layer_members, layers_of, mixers
 
 GAZE_FRAME = "m, robot base frame: x forward, y left, z up"
 
@@ -19,9 +19,10 @@ def robot_status(session: Any) -> dict[str, Any]:
     """The status document (JSON) of `session`, an EngineSession."""
 
     def read() -> tuple[list, list, dict, dict]:
-        players = [{"node": b.node_id, "layers": layers_of(session, b.node_id), **(b.playing() or {"clip": None})}
-                   for b in blocks_of(session, ("clip_player",))]
-        moves = [{"node": b.node_id, "layers": layers_of(session, b.node_id), "move": b.move_status()}
+        members = layer_members(session)
+        players = [{"node": b.node_id, "layers": layers_of(session, b.node_id, members),
+                    **(b.playing() or {"clip": None})} for b in blocks_of(session, ("clip_player",))]
+        moves = [{"node": b.node_id, "layers": layers_of(session, b.node_id, members), "move": b.move_status()}
                  for b in blocks_of(session, ("posture",))]
         layers = {m.node_id: [{"name": s["name"], "mode": s["mode"], "active": s["active"],
                                "weight": round(s["effective"], 3)} for s in m.layer_states()] for m in mixers(session)}
