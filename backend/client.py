@@ -6,6 +6,7 @@
     robot.look_at(0.6, 0.2, 0.35)
     robot.set(arousal=0.5)
     robot.say("Hello!")
+    robot.call_tool("play_clip", clip="nod", wait=True)  # the AI tools (GET /api/tools), see docs/ai.md
 
 Every method returns the server's JSON; errors raise NuttyError with the server's code and message.
 """
@@ -100,6 +101,17 @@ class NuttyClient:
 
     def cancel(self, command_id: str) -> dict[str, Any]:
         return self._call("DELETE", f"/api/commands/{command_id}")
+
+    # --- tools for AIs (docs/ai.md) ----------------------------------------------------------------
+    def tools(self, format: str = "plain") -> Any:  # noqa: A002
+        """The tools generated for the running robot and program (plain, openai or anthropic)."""
+        return self._call("GET", "/api/tools", params={"format": format})
+
+    def call_tool(self, name: str, **arguments: Any) -> dict[str, Any]:
+        """Carry out one tool call, e.g. `call_tool("play_clip", clip="nod", wait=True)`."""
+        wait = float(arguments.get("timeout", 30.0)) if arguments.get("wait") else 0.0
+        timeout = self._http.timeout.read + wait if self._http.timeout.read is not None else None
+        return self._call("POST", f"/api/tools/{name}", json=arguments, timeout=timeout)
 
     # --- state -------------------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:

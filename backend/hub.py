@@ -76,12 +76,13 @@ class CommandLog:
             if cid and cid in self._items:
                 self._items[cid].update(fields)
 
-    def handed_over(self, cid: str) -> None:
-        """The command went to a block, which reports its events itself: it counts as started."""
+    def handed_over(self, cid: str, queued: bool = False) -> None:
+        """The command went to a block, which reports its events itself: it counts as started, or as
+        `queued` when the block starts it later (its `started` event then marks it started)."""
         with self._lock:
             entry = self._items.get(cid)
             if entry is not None and entry["status"] == "accepted":
-                entry["status"] = "started"
+                entry["status"] = "queued" if queued and not self._flags[cid][0] else "started"
 
     def transition(self, cid: str | None, event: str | None) -> tuple[bool, str | None]:
         """Whether an event for command `cid` may go out, and the command's type (None if unknown)."""
@@ -94,7 +95,7 @@ class CommandLog:
                 if flags[0] or flags[1]:
                     return False, entry["type"]
                 flags[0] = True
-                if entry["status"] == "accepted":
+                if entry["status"] in ("accepted", "queued"):
                     entry["status"] = "started"
                 return True, entry["type"]
             if event in TERMINAL:
@@ -118,6 +119,7 @@ class Hub:
         self.control_queues: set[asyncio.Queue] = set()  # one per /ws/control client
         self.loop: asyncio.AbstractEventLoop | None = None
         self.stopping: asyncio.Event | None = None  # set when the app shuts down (lifespan)
+        self.tools_revision: str | None = None  # of the AI tools last announced (backend.routes.tools)
         session.on_note(self._on_note)
 
     def shutdown(self) -> None:
@@ -170,14 +172,15 @@ class Hub:
             result = control.execute(self.session, cmd, cid, cancel=self._cancel_target)
         except control.CommandError as exc:
             self._fail(cid, exc)
-            raise api_error(404 if exc.not_found else 422, exc.code, str(exc), field=exc.field, id=cid) from exc
+            raise api_error(exc.http_status, exc.code, str(exc), field=exc.field, id=cid) from exc
         except (ValueError, TypeError, KeyError, TimeoutError) as exc:
             self._fail(cid, exc)
             raise api_error(422, "rejected", str(exc), id=cid) from exc
         done = isinstance(result, dict) and result.get("done")
         self.commands.update(cid, result=result if jsonable(result) else None)
         if cmd.long_action and not done:
-            self.commands.handed_over(cid)  # its block reports started/completed/cancelled (see _on_note)
+            # Its block reports started/completed/cancelled (see _on_note); a queued one starts later.
+            self.commands.handed_over(cid, queued=isinstance(result, dict) and bool(result.get("queued")))
         else:
             self._emit(cid, "completed")
         return {"id": cid, "status": entry["status"], "result": entry["result"]}

@@ -12,6 +12,17 @@ from contextlib import contextmanager
 from backend.client import NuttyClient
 
 
+def stop_process(proc: subprocess.Popen) -> None:
+    """Terminate a child process, and kill it if it has not exited within 15 s."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10)
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -132,13 +143,7 @@ def running_server_proc(*args: str, start_timeout: float = 120.0):
         yield SimpleNamespace(url=url, port=port, client=client, proc=proc)
     finally:
         client.close()
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(15)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(10)
+        stop_process(proc)
         log.close()
 
 

@@ -113,12 +113,23 @@ def _robot_folder(tmp_path, yaml_text):
         ("name: b\nstationary: [{name: g, drives: {nope: 1.0}}]\n", "unknown actuated joint 'nope'"),
         ("name: b\npostures: {p: {ghost: 1}}\n", "unknown DoF 'ghost'"),
         ("name: b\nstationary: [{name: elbow, colour: red}]\n", "colour"),
+        ("name: b\npostures: {p: {values: {ghost: 1}}}\n", "unknown DoF 'ghost'"),
+        ("name: b\npostures: {p: {description: up, values: {elbow: 1}, elbow: 1}}\n", "only 'description' and 'values'"),
     ],
 )
 def test_bad_embodiment_yaml_is_explained(tmp_path, yaml_text, fragment):
     with pytest.raises(EmbodimentError) as err:
         load_embodiment(_robot_folder(tmp_path, yaml_text))
     assert fragment in str(err.value)
+
+
+def test_postures_load_in_both_shapes_with_their_descriptions(tmp_path, desk):
+    yaml_text = ("name: b\nstationary: [{name: elbow}, {name: shoulder}]\npostures:\n"
+                 "  flat: {elbow: 0.5}\n  described: {description: Arm up., values: {elbow: 1.0, shoulder: 0.2}}\n")
+    emb = load_embodiment(_robot_folder(tmp_path, yaml_text))
+    assert emb.postures == {"flat": {"elbow": 0.5}, "described": {"elbow": 1.0, "shoulder": 0.2}}
+    assert emb.posture_descriptions == {"flat": "", "described": "Arm up."}
+    assert all(desk.posture_descriptions[name] for name in desk.postures)  # every bundled posture is described
 
 
 def test_symbolic_range_follows_its_joints(tmp_path):

@@ -7,30 +7,48 @@ from typing import Any, Literal
 from pydantic import Field
 
 from backend.control.base import BlockCommand, CommandContext, Target
+from backend.control.errors import CommandError
+from backend.control.targets import layers_of
 
 CLIP_PLAYER = Target(blocks=("clip_player",), what="clip player")
 
 
 class PlayClip(BlockCommand):
-    """Play a clip on a clip player (e.g. the one on layer 'gesture')."""
+    """Play a clip on a clip player (e.g. the one on layer 'gesture').
+
+    While that player plays another clip, `if_busy` decides: `replace` (default) crossfades to this clip
+    (the playing one and any queued ones are cancelled), `queue` starts it when the playing clip
+    completes (acked `queued`; its `started` event comes then; cancellable while it waits), `reject`
+    refuses with code `busy` naming the layer and the playing command's id, and changes nothing.
+    """
 
     acts_on = CLIP_PLAYER
     long_action = True
     type: Literal["play_clip"] = "play_clip"
-    clip: str = Field(..., min_length=1, max_length=80)
+    clip: str = Field(..., min_length=1, max_length=80, description="name of a clip of the robot's library")
     speed: float | None = Field(None, gt=0.0, le=5.0, description="playback speed (1 = authored timing)")
-    mode: Literal["once", "loop", "ping_pong"] | None = None
+    mode: Literal["once", "loop", "ping_pong"] | None = Field(
+        None, description="once (default: then it completes), loop or ping_pong (both go on until stopped)")
     crossfade: float | None = Field(None, ge=0.0, le=10.0, description="crossfade from the current pose (s)")
     anchors: dict[str, float] | None = Field(None, description="anchor name -> time (s) it must land at")
+    if_busy: Literal["replace", "queue", "reject"] | None = Field(
+        None, description="while another clip plays on this player: replace it (crossfade; default), queue "
+                          "behind it, or reject this play")
 
     def run(self, ctx: CommandContext) -> Any:
-        return self.tell(ctx, self.block(ctx.session), "play", self.args())
+        block = self.block(ctx.session)
+        try:
+            return self.tell(ctx, block, "play", self.args())
+        except CommandError as exc:
+            if exc.code != "busy":
+                raise
+            layers = layers_of(ctx.session, block.node_id)
+            where = f"layer {', '.join(repr(n) for n in layers)}" if layers else f"clip player '{block.node_id}'"
+            raise CommandError(f"{where} is busy: {exc}", field="if_busy", code="busy") from exc
 
     @classmethod
     def stop_owned(cls, block: Any, command_id: str) -> None:
-        s = block.state
-        if s.command_id == command_id and s.current is not None and not s.done:
-            block.handle("stop", {"command_id": command_id})
+        block.handle("stop", {"command_id": command_id})  # the player stops this play only, playing or queued
 
 
 class StopClip(BlockCommand):
@@ -38,7 +56,7 @@ class StopClip(BlockCommand):
 
     acts_on = CLIP_PLAYER
     type: Literal["stop_clip"] = "stop_clip"
-    fade: float | None = Field(None, ge=0.0, le=10.0)
+    fade: float | None = Field(None, ge=0.0, le=10.0, description="fade-out time (s; default: the player's release)")
 
     def run(self, ctx: CommandContext) -> Any:
         return self.tell(ctx, self.block(ctx.session), "stop", {"fade": self.fade})

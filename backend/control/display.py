@@ -53,7 +53,7 @@ class Say(_Audible):
     channel = "speech"
     event = "say"
     type: Literal["say"] = "say"
-    text: str = Field(..., min_length=1, max_length=2000)
+    text: str = Field(..., min_length=1, max_length=2000, description="what to say")
 
     def event_payload(self) -> dict[str, Any]:
         return {"text": self.text}
@@ -76,7 +76,7 @@ class PlaySound(_Audible):
     channel = "sound"
     event = "sound"
     type: Literal["play_sound"] = "play_sound"
-    sound: str = Field(..., min_length=1, max_length=80)
+    sound: str = Field(..., min_length=1, max_length=80, description="name of one of the robot's sounds")
 
     def check_channel(self, dof: Any) -> None:
         if dof.sounds and self.sound not in dof.sounds:
@@ -148,7 +148,7 @@ class SetLed(_Display):
     value_field = "colour"
     type: Literal["set_led"] = "set_led"
     dof: str | None = Field(None, description="colour DoF; default: the robot's first")
-    colour: Vec3
+    colour: Vec3 = Field(..., description="[r, g, b], each within 0..1")
 
     @field_validator("colour")
     @classmethod
@@ -168,8 +168,8 @@ class SetFace(_Display):
     dof_type = "enum"
     value_field = "expression"
     type: Literal["set_face"] = "set_face"
-    dof: str | None = None
-    expression: str
+    dof: str | None = Field(None, description="enum display DoF; default: the robot's first")
+    expression: str = Field(..., description="an option of that DoF (e.g. smile)")
 
     def value(self) -> Any:
         return self.expression

@@ -41,9 +41,9 @@ class SetLayer(BaseCommand):
 
     acts_on = Target(role="mixer", what="layer mixer")
     type: Literal["set_layer"] = "set_layer"
-    layer: str
-    active: bool = True
-    fade: float | None = Field(None, ge=0.0, le=30.0)
+    layer: str = Field(..., description="name of a layer of the program's layer mixer")
+    active: bool = Field(True, description="on (true) or off")
+    fade: float | None = Field(None, ge=0.0, le=30.0, description="fade time (s; default: the layer's)")
     mixer: str | None = Field(None, description="mixer node id; default: the mixer that has this layer")
 
     def run(self, ctx: CommandContext) -> Any:

@@ -56,7 +56,7 @@ class Cancel(BaseCommand):
 
     acts_on = Target(role="command", what="command")
     type: Literal["cancel"] = "cancel"
-    target: str
+    target: str = Field(..., description="id of the command to cancel")
 
     def run(self, ctx: CommandContext) -> Any:
         if ctx.cancel is None:

@@ -19,9 +19,9 @@ class GoPosture(BlockCommand):
     acts_on = Target(blocks=("posture",), what="posture block")
     long_action = True
     type: Literal["go_posture"] = "go_posture"
-    posture: str = Field(..., min_length=1, max_length=80)
-    duration: float | None = Field(None, gt=0.0, le=30.0, description="s")
-    easing: str | None = None
+    posture: str = Field(..., min_length=1, max_length=80, description="name of a posture of the robot")
+    duration: float | None = Field(None, gt=0.0, le=30.0, description="time to get there (s; default: the block's)")
+    easing: str | None = Field(None, description="easing curve of the move (default: the block's)")
 
     def run(self, ctx: CommandContext) -> Any:
         return self.tell(ctx, self.block(ctx.session), "go", self.args())
@@ -38,7 +38,7 @@ class SetGaze(BaseCommand):
 
     acts_on = Target(role="input", what="gaze_target input")
     type: Literal["set_gaze"] = "set_gaze"
-    target: Vec3
+    target: Vec3 = Field(..., description="[x, y, z] (m) in the robot's base frame: x forward, y left, z up")
 
     def run(self, ctx: CommandContext) -> Any:
         if not declares_input(ctx.session, "gaze_target"):

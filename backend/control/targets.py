@@ -42,6 +42,22 @@ def upstream_of_layer(session: Any, layer: str) -> set[str]:
     return seen
 
 
+def layer_members(session: Any) -> dict[str, set[str]]:
+    """Every mixer layer's name -> the node ids whose output reaches it."""
+    apu = session.engine.apu
+    if apu is None:
+        return {}
+    names = {w.port for s in apu.steps if s.block.role.value == "mixer" for w in s.wires}
+    return {name: upstream_of_layer(session, name) for name in names}
+
+
+def layers_of(session: Any, node_id: str, members: dict[str, set[str]] | None = None) -> list[str]:
+    """Names of the mixer layers whose chain holds node `node_id` (e.g. ['gesture']); `members`:
+    `layer_members(session)` when it is at hand."""
+    members = layer_members(session) if members is None else members
+    return sorted(name for name, nodes in members.items() if node_id in nodes)
+
+
 def find_block(session: Any, type_names: tuple[str, ...], what: str, node: str | None = None,
                layer: str | None = None) -> Any:
     """The block named by `node`, else the one on `layer`, else the only one of these types.
@@ -72,13 +88,14 @@ def find_block(session: Any, type_names: tuple[str, ...], what: str, node: str |
 
 
 def tell(session: Any, block: Any, command: str, args: dict[str, Any]) -> Any:
-    """Hand `command` to a block in the clock thread; its refusal becomes a CommandError `rejected`."""
+    """Hand `command` to a block in the clock thread; its refusal becomes a CommandError `rejected` (or
+    the refusal's own `code`, e.g. `busy`)."""
     from backend.engine.blocks.base import BlockCommandError
 
     try:
         return session.engine.call(lambda: block.handle(command, args))
     except BlockCommandError as exc:
-        raise CommandError(str(exc), code="rejected") from exc
+        raise CommandError(str(exc), code=getattr(exc, "code", "rejected")) from exc
 
 
 def declares_input(session: Any, name: str) -> bool:

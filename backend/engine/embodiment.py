@@ -44,9 +44,10 @@ class Embodiment:
     dofs: list[Dof]
     urdf_path: Path | None = None
     joints: list[UrdfJoint] = field(default_factory=list)
-    postures: dict[str, dict[str, Any]] = field(default_factory=dict)
+    postures: dict[str, dict[str, Any]] = field(default_factory=dict)  # name -> {DoF name: value}
     gaze: dict[str, Any] = field(default_factory=dict)
     description: str = ""
+    posture_descriptions: dict[str, str] = field(default_factory=dict)  # name -> one line (may be missing)
 
     def __post_init__(self) -> None:
         self._by_name = {d.name: d for d in self.dofs}
@@ -269,11 +270,12 @@ def _from_config(cfg: EmbodimentConfig, folder: Path) -> Embodiment:
         dofs=dofs_from_config(cfg, joints, mimics),
         urdf_path=urdf_path,
         joints=joints,
-        postures=cfg.postures,
+        postures=cfg.posture_values(),
         gaze=cfg.gaze,
         description=cfg.description,
+        posture_descriptions=cfg.posture_descriptions(),
     )
-    for pname, pose in cfg.postures.items():
+    for pname, pose in emb.postures.items():
         for dof_name in pose:
             if not emb.has_dof(dof_name):
                 raise EmbodimentError(f"postures.{pname}: unknown DoF '{dof_name}'")

@@ -97,9 +97,35 @@ class EmbodimentConfig(_Model):
     display: list[DisplayDofConfig] = Field(default_factory=list)
     audible: list[AudibleDofConfig] = Field(default_factory=list)
     postures: dict[str, dict[str, Any]] = Field(
-        default_factory=dict, description="named poses: DoF name -> value (float, colour list or option name)"
-    )
+        default_factory=dict,
+        description="named poses: either DoF name -> value (float, colour list or option name), or "
+                    "{description: one line, values: {DoF name -> value}} (the nutty-posture/1 shape)")
     gaze: dict[str, Any] = Field(default_factory=dict, description="gaze chain description for look-at blocks")
+
+    @model_validator(mode="after")
+    def _posture_shapes(self) -> "EmbodimentConfig":
+        for name, pose in self.postures.items():
+            if "values" in pose and isinstance(pose["values"], dict):
+                extra = set(pose) - {"values", "description"}
+                if extra:
+                    raise ValueError(f"postures.{name}: a described posture has only 'description' and 'values', "
+                                     f"not {sorted(extra)}")
+                if not isinstance(pose.get("description", ""), str):
+                    raise ValueError(f"postures.{name}.description: a posture's description is text")
+        return self
+
+    def posture_values(self) -> dict[str, dict[str, Any]]:
+        """Posture name -> {DoF name: value}, whichever of the two shapes each posture was written in."""
+        return {name: dict(pose["values"]) if _described(pose) else dict(pose) for name, pose in self.postures.items()}
+
+    def posture_descriptions(self) -> dict[str, str]:
+        """Posture name -> its one-line description ('' when the file gives none)."""
+        return {name: str(pose.get("description", "")) if _described(pose) else "" for name, pose in self.postures.items()}
+
+
+def _described(pose: dict[str, Any]) -> bool:
+    """Whether a posture of embodiment.yaml is written as {description?, values} (a value is never a mapping)."""
+    return isinstance(pose.get("values"), dict)
 
 
 def read_urdf_joints(urdf_path: Path) -> tuple[list[UrdfJoint], dict[str, Any]]:

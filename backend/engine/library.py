@@ -179,7 +179,9 @@ class RobotLibrary:
                 self._cache[(kind, name)] = (mtime, doc)
                 return doc
         if kind == "postures" and self.embodiment is not None and name in self.embodiment.postures:
-            return {"name": name, "values": dict(self.embodiment.postures[name]), "builtin": True}
+            doc = {"name": name, "values": dict(self.embodiment.postures[name]), "builtin": True}
+            description = getattr(self.embodiment, "posture_descriptions", {}).get(name)
+            return {**doc, "description": description} if description else doc
         raise NotFound(f"no {kind[:-1]} named '{name}'")
 
     def exists(self, kind: str, name: str) -> bool:

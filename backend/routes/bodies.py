@@ -53,3 +53,4 @@ ProgramDoc = SkipValidation[Program]
 ClipDoc = SkipValidation[Clip]
 PostureDoc = SkipValidation[Posture]
 ParamValues = SkipValidation[dict[str, Any]]
+ToolArguments = SkipValidation[dict[str, Any]]  # checked by the tool (its enums) and its command's model

@@ -14,7 +14,8 @@ from backend.engine.library import LibraryError, NotFound
 from backend.routes.bodies import ClipDoc, PostureDoc, ProgramDoc
 from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
-from backend.routes.state import SessionDep
+from backend.routes.state import HubDep, SessionDep
+from backend.routes.tools import tools_changed
 
 router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["library"])
 
@@ -43,7 +44,7 @@ def add_kind(kind: str, doc_type: Any, validate_program: bool = False) -> None:
             return session.library.get(kind, name)
 
     @router.put(f"/{kind}/{{name}}", summary=f"Save one of the robot's {kind} (validated against its format)")
-    async def put_item(name: str, doc: doc_type, session: SessionDep) -> dict[str, Any]:
+    async def put_item(name: str, doc: doc_type, session: SessionDep, hub: HubDep) -> dict[str, Any]:
         if not isinstance(doc, dict):
             raise api_error(422, "invalid_document", f"a {kind[:-1]} is a JSON object")
         try:
@@ -58,12 +59,14 @@ def add_kind(kind: str, doc_type: Any, validate_program: bool = False) -> None:
             await asyncio.to_thread(session.library.save, kind, name, doc)
         except LibraryError as exc:
             raise api_error(422, "invalid_document", str(exc)) from exc
+        await tools_changed(hub)  # a clip or posture is part of the AI tools' vocabulary
         return {"saved": name}
 
     @router.delete(f"/{kind}/{{name}}", summary=f"Delete one of the robot's {kind}")
-    def delete_item(name: str, session: SessionDep) -> dict[str, Any]:
+    async def delete_item(name: str, session: SessionDep, hub: HubDep) -> dict[str, Any]:
         with _lookup_errors():
-            session.library.delete(kind, name)
+            await asyncio.to_thread(session.library.delete, kind, name)
+        await tools_changed(hub)
         return {"deleted": name}
 
 

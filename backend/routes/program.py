@@ -15,7 +15,8 @@ from backend.graph.schema import program_json_schema
 from backend.routes.bodies import ParamValues, PortsRequest, ProgramDoc
 from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
-from backend.routes.state import SessionDep
+from backend.routes.state import HubDep, SessionDep
+from backend.routes.tools import tools_changed
 from backend.session import SessionError
 
 router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["program"])
@@ -68,17 +69,18 @@ async def validate_program(doc: ProgramDoc, session: SessionDep) -> dict[str, An
 
 
 @router.put("/program", summary="Validate and hot-swap a program (atomic)")
-async def put_program(doc: ProgramDoc, session: SessionDep) -> dict[str, Any]:
+async def put_program(doc: ProgramDoc, session: SessionDep, hub: HubDep) -> dict[str, Any]:
     try:
         report, kept = await asyncio.to_thread(session.load_program, doc)
     except SessionError as exc:
         raise api_error(422, "invalid_program", str(exc), report=_report(exc)) from exc
+    await tools_changed(hub)  # the program decides which tools exist (its blocks, inputs, layers)
     return {"report": report.model_dump(), "kept": kept}
 
 
 @router.patch("/program/nodes/{node_id}/params",
               summary="Change one node's parameters live, without rebuilding the program")
-async def patch_params(node_id: str, params: ParamValues, session: SessionDep) -> dict[str, Any]:
+async def patch_params(node_id: str, params: ParamValues, session: SessionDep, hub: HubDep) -> dict[str, Any]:
     if not isinstance(params, dict):
         raise api_error(422, "invalid_param", "the body is an object of parameter name -> value")
     try:
@@ -86,4 +88,5 @@ async def patch_params(node_id: str, params: ParamValues, session: SessionDep) -
     except SessionError as exc:
         status = 404 if exc.code in ("unknown_node", "no_program") else 422
         raise api_error(status, exc.code, str(exc), report=_report(exc)) from exc
+    await tools_changed(hub)  # a parameter can add a layer
     return {"params": changed}

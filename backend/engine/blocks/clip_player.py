@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -24,6 +24,19 @@ from backend.engine.frames import FrameEvent, PartialFrame
 from backend.engine.selectors import channel_mask
 
 PlayMode = Literal["once", "loop", "ping_pong"]
+IfBusy = Literal["replace", "queue", "reject"]
+MAX_QUEUE = 16  # plays waiting behind the current clip, at most
+
+
+class ClipPlayerBusy(BlockCommandError):
+    """A play with `if_busy: "reject"` while a clip plays: names the clip and the command playing it."""
+
+    code = "busy"
+
+    def __init__(self, node_id: str, clip: str, command_id: Any):
+        super().__init__(f"clip player '{node_id}' is playing '{clip}' (command {command_id!r}); "
+                         f"use if_busy 'replace' or 'queue', or cancel that command")
+        self.clip, self.command_id = clip, command_id
 
 
 class ClipPlayerParams(BlockParams):
@@ -48,10 +61,16 @@ def _smooth(x: float) -> float:
 class ClipPlayer(Source):
     """Plays keyframed clips (per-DoF animation curves) once, looped or ping-pong, at any speed.
 
-    Commands: `play {clip, speed?, mode?, crossfade?, anchors?}`, `stop {fade?}`, `seek {t}`. A new clip
-    crossfades from the pose the player shows now; `anchors` warp the clip's named marks to given times
-    after the start (a beat meets a word). Clip events (speech, sounds) fire as the playhead passes them.
-    Reports started, completed and cancelled with the command's id. The `weight` output is the blend
+    Commands: `play {clip, speed?, mode?, crossfade?, anchors?, if_busy?}`, `stop {fade?, command_id?}`,
+    `seek {t}`. A new clip crossfades from the pose the player shows now; `anchors` warp the clip's named
+    marks to given times after the start (a beat meets a word). Clip events (speech, sounds) fire as the
+    playhead passes them. Reports started, completed and cancelled with the command's id.
+
+    While a clip plays, `if_busy` says what a new play does: `replace` (default) cancels it and every
+    queued play and crossfades to the new clip; `queue` waits until the clip completes (or is
+    cancelled) and reports `started` only then (at most MAX_QUEUE wait); `reject` refuses
+    (ClipPlayerBusy). `stop` with a `command_id` cancels that play only (playing or queued; the next
+    queued play starts); without one it cancels the clip and the whole queue. The `weight` output is the blend
     envelope (0..1): wire it to the layer mixer's `<layer>_weight` port so the gesture layer fades in over
     `crossfade` and out over `release`; a `relative` clip also fades its offsets itself.
     """
@@ -90,6 +109,7 @@ class ClipPlayer(Source):
         warp: tuple[np.ndarray, np.ndarray] | None = None  # anchor time map (play time -> clip time)
         speed: float | None = None  # the play command's speed (None: the parameter)
         done: bool = False  # the clip ended or was stopped (fading out)
+        queue: list[dict[str, Any]] = field(default_factory=list)  # plays waiting (their args, with command_id)
 
     def configure(self) -> None:
         self.allowed = channel_mask(self.emb, self.params.dofs)
@@ -124,8 +144,8 @@ class ClipPlayer(Source):
         self._cache[name] = (id(doc), compiled)
         return compiled
 
-    def _start(self, name: str, args: dict[str, Any]) -> dict[str, Any]:
-        s = self.state
+    def _prepare(self, name: str, args: dict[str, Any]) -> tuple[CompiledClip, str, Any, Any, float]:
+        """The clip and how to play it (clip, mode, speed, anchor warp, crossfade), or BlockCommandError."""
         clip = self._load(name)
         mode = str(args.get("mode") or self.params.mode)
         if mode not in ("once", "loop", "ping_pong"):
@@ -141,6 +161,11 @@ class ClipPlayer(Source):
                 raise BlockCommandError(f"clip '{name}': {exc}") from exc
         crossfade = args.get("crossfade")
         crossfade = self.params.crossfade if crossfade is None else float(crossfade)
+        return clip, mode, speed, warp, crossfade
+
+    def _start(self, name: str, args: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
+        clip, mode, speed, warp, crossfade = self._prepare(name, args)
         if s.current is not None and not s.done:
             self.ctx.notify(self.node_id, "cancelled", command_id=s.command_id, clip=s.current.name)
         # A clip replacing a visible one crossfades from the shown pose; from nothing, the envelope fades in.
@@ -157,19 +182,83 @@ class ClipPlayer(Source):
         self.ctx.notify(self.node_id, "started", command_id=s.command_id, clip=name, duration=clip.duration)
         return {"clip": name, "duration": clip.duration, "mode": mode}
 
+    def busy(self) -> bool:
+        """Whether a clip plays now (not yet completed, stopped or fading out)."""
+        return self.state.current is not None and not self.state.done
+
+    def playing(self) -> dict[str, Any] | None:
+        """What plays now, for status reports: {clip, command_id, t (s), duration (s), progress (0..1),
+        mode, queued: [{clip, command_id}]}; None when nothing plays or waits."""
+        s = self.state
+        queued = [{"clip": q["clip"], "command_id": q.get("command_id")} for q in s.queue]
+        if not self.busy():
+            return {"clip": None, "command_id": None, "queued": queued} if queued else None
+        clip = s.current
+        return {"clip": clip.name, "command_id": s.command_id, "t": round(s.pos, 3), "duration": clip.duration,
+                "progress": round(min(max(s.pos / clip.duration, 0.0), 1.0), 3) if clip.duration > 0 else 1.0,
+                "mode": s.mode, "queued": queued}
+
+    def _play(self, args: dict[str, Any]) -> dict[str, Any]:
+        name = args.get("clip") or self.params.clip
+        if not name:
+            raise BlockCommandError(f"clip player '{self.node_id}' has no clip to play: give 'clip'")
+        policy = args.get("if_busy") or "replace"
+        if policy not in ("replace", "queue", "reject"):
+            raise BlockCommandError(f"if_busy must be replace, queue or reject, got {policy!r}")
+        s = self.state
+        if self.busy() and policy == "reject":
+            raise ClipPlayerBusy(self.node_id, s.current.name, s.command_id)
+        if self.busy() and policy == "queue":
+            if len(s.queue) >= MAX_QUEUE:
+                raise BlockCommandError(f"clip player '{self.node_id}' already has {MAX_QUEUE} plays queued")
+            self._prepare(str(name), args)  # an unknown clip or bad argument is refused now, not on its turn
+            s.queue.append({**args, "clip": str(name)})
+            return {"clip": str(name), "queued": True, "position": len(s.queue)}
+        self._cancel_queue()
+        return self._start(str(name), args)
+
+    def _cancel_queue(self, command_id: Any = None) -> bool:
+        """Drop queued plays (all, or the one of `command_id`), each reported cancelled."""
+        s = self.state
+        dropped = [q for q in s.queue if command_id is None or q.get("command_id") == command_id]
+        s.queue = [q for q in s.queue if q not in dropped]
+        for q in dropped:
+            self.ctx.notify(self.node_id, "cancelled", command_id=q.get("command_id"), clip=q["clip"])
+        return bool(dropped)
+
+    def _next_queued(self) -> None:
+        """Start the first queued play; one that can no longer start (its clip was deleted) is reported
+        as an error and cancelled, and the next is tried."""
+        s = self.state
+        while s.queue:
+            args = s.queue.pop(0)
+            try:
+                self._start(args["clip"], args)
+                return
+            except BlockCommandError as exc:
+                self.ctx.notify(self.node_id, "cancelled", command_id=args.get("command_id"), clip=args["clip"],
+                                message=str(exc))
+
+    def _stop(self, args: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
+        command_id = args.get("command_id")
+        if command_id is not None and (not self.busy() or s.command_id != command_id):
+            return {"stopped": self._cancel_queue(command_id)}  # a queued play, or nothing of this command
+        if command_id is None:
+            self._cancel_queue()
+        if not self.busy():
+            return {"stopped": False}
+        self.ctx.notify(self.node_id, "cancelled", command_id=s.command_id, clip=s.current.name)
+        self._finish(args.get("fade"))
+        self._next_queued()
+        return {"stopped": True}
+
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         s = self.state
         if command == "play":
-            name = args.get("clip") or self.params.clip
-            if not name:
-                raise BlockCommandError(f"clip player '{self.node_id}' has no clip to play: give 'clip'")
-            return self._start(str(name), args)
+            return self._play(args)
         if command == "stop":
-            if s.current is None or s.done:
-                return {"stopped": False}
-            self.ctx.notify(self.node_id, "cancelled", command_id=s.command_id, clip=s.current.name)
-            self._finish(args.get("fade"))
-            return {"stopped": True}
+            return self._stop(args)
         if command == "seek":
             if s.current is None:
                 raise BlockCommandError(f"clip player '{self.node_id}' is not playing a clip")
@@ -203,6 +292,7 @@ class ClipPlayer(Source):
             if not s.done:
                 speed = self.driven(inputs, speed=s.speed or self.params.speed).speed  # else the play command's
                 events = self._advance(clip, dt, speed)
+                clip = s.current  # a queued clip may have started as this one completed
             clip.sample(s.pos, self.emb.rest, s.values)
             if s.xfade_t < s.xfade:
                 s.xfade_t += dt
@@ -249,6 +339,7 @@ class ClipPlayer(Source):
                     s.done = True
                 else:
                     self._finish()
+                self._next_queued()
                 return events
         elif s.mode == "loop":
             if s.pos >= duration:

@@ -99,6 +99,16 @@ class Posture(Source):
         if self.params.posture:
             self._pose(self.params.posture)  # an unknown posture is a configuration error, reported by name
 
+    def move_status(self) -> dict[str, Any] | None:
+        """The running move, for status reports: {posture, command_id, elapsed (s), duration (s),
+        progress (0..1)}; None when the block holds still."""
+        s = self.state
+        if s.move is None:
+            return None
+        duration = s.move["duration"]
+        return {"posture": s.move["posture"], "command_id": s.command_id, "elapsed": round(s.elapsed, 3),
+                "duration": duration, "progress": round(min(s.elapsed / duration, 1.0), 3)}
+
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         if command == "go":
             name = str(args.get("posture", ""))

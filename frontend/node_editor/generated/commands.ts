@@ -23,6 +23,9 @@ export type Command =
 export type Anchors = {
   [k: string]: number;
 } | null;
+/**
+ * name of a clip of the robot's library
+ */
 export type Clip = string;
 /**
  * crossfade from the current pose (s)
@@ -33,9 +36,16 @@ export type Crossfade = number | null;
  */
 export type Id = string | null;
 /**
+ * while another clip plays on this player: replace it (crossfade; default), queue behind it, or reject this play
+ */
+export type IfBusy = ("replace" | "queue" | "reject") | null;
+/**
  * layer whose chain holds the target block (optional)
  */
 export type Layer = string | null;
+/**
+ * once (default: then it completes), loop or ping_pong (both go on until stopped)
+ */
 export type Mode = ("once" | "loop" | "ping_pong") | null;
 /**
  * node id of the target block (optional)
@@ -46,6 +56,9 @@ export type Node = string | null;
  */
 export type Speed = number | null;
 export type Type = "play_clip";
+/**
+ * fade-out time (s; default: the player's release)
+ */
 export type Fade = number | null;
 /**
  * client-chosen id (echoed in acks and events)
@@ -78,9 +91,12 @@ export type Node2 = string | null;
 export type T = number;
 export type Type2 = "seek_clip";
 /**
- * s
+ * time to get there (s; default: the block's)
  */
 export type Duration = number | null;
+/**
+ * easing curve of the move (default: the block's)
+ */
 export type Easing = string | null;
 /**
  * client-chosen id (echoed in acks and events)
@@ -94,6 +110,9 @@ export type Layer3 = string | null;
  * node id of the target block (optional)
  */
 export type Node3 = string | null;
+/**
+ * name of a posture of the robot
+ */
 export type Posture = string;
 export type Type3 = "go_posture";
 /**
@@ -101,6 +120,8 @@ export type Type3 = "go_posture";
  */
 export type Id4 = string | null;
 /**
+ * [x, y, z] (m) in the robot's base frame: x forward, y left, z up
+ *
  * @minItems 3
  * @maxItems 3
  */
@@ -118,12 +139,21 @@ export type Value = unknown;
  */
 export type Id6 = string | null;
 export type Type6 = "set_inputs";
+/**
+ * on (true) or off
+ */
 export type Active = boolean;
+/**
+ * fade time (s; default: the layer's)
+ */
 export type Fade1 = number | null;
 /**
  * client-chosen id (echoed in acks and events)
  */
 export type Id7 = string | null;
+/**
+ * name of a layer of the program's layer mixer
+ */
 export type Layer4 = string;
 /**
  * mixer node id; default: the mixer that has this layer
@@ -149,6 +179,9 @@ export type Layer5 = string | null;
  * node id of the target block (optional)
  */
 export type Node4 = string | null;
+/**
+ * what to say
+ */
 export type Text = string;
 export type Type9 = "say";
 /**
@@ -163,9 +196,14 @@ export type Layer6 = string | null;
  * node id of the target block (optional)
  */
 export type Node5 = string | null;
+/**
+ * name of one of the robot's sounds
+ */
 export type Sound = string;
 export type Type10 = "play_sound";
 /**
+ * [r, g, b], each within 0..1
+ *
  * @minItems 3
  * @maxItems 3
  */
@@ -179,7 +217,13 @@ export type Dof = string | null;
  */
 export type Id11 = string | null;
 export type Type11 = "set_led";
+/**
+ * enum display DoF; default: the robot's first
+ */
 export type Dof1 = string | null;
+/**
+ * an option of that DoF (e.g. smile)
+ */
 export type Expression = string;
 /**
  * client-chosen id (echoed in acks and events)
@@ -201,17 +245,26 @@ export type Type14 = "stop_all";
  * client-chosen id (echoed in acks and events)
  */
 export type Id15 = string | null;
+/**
+ * id of the command to cancel
+ */
 export type Target1 = string;
 export type Type15 = "cancel";
 
 /**
  * Play a clip on a clip player (e.g. the one on layer 'gesture').
+ *
+ * While that player plays another clip, `if_busy` decides: `replace` (default) crossfades to this clip
+ * (the playing one and any queued ones are cancelled), `queue` starts it when the playing clip
+ * completes (acked `queued`; its `started` event comes then; cancellable while it waits), `reject`
+ * refuses with code `busy` naming the layer and the playing command's id, and changes nothing.
  */
 export interface PlayClip {
   anchors?: Anchors;
   clip: Clip;
   crossfade?: Crossfade;
   id?: Id;
+  if_busy?: IfBusy;
   layer?: Layer;
   mode?: Mode;
   node?: Node;

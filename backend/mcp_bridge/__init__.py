@@ -1,0 +1,48 @@
+"""`nutty mcp`: a running Nutty server's tools, offered to AIs over the Model Context Protocol (stdio,
+or streamable HTTP), built on the official `mcp` SDK. See docs/ai.md.
+
+    run(Remote("http://127.0.0.1:8000"))             # stdio
+    run(Remote("http://127.0.0.1:8000"), http=8765)  # http://127.0.0.1:8765/mcp
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from backend.mcp_bridge.remote import Remote
+from backend.mcp_bridge.server import create_server, initialization_options
+
+MCP_PATH = "/mcp"  # where the streamable HTTP transport answers
+CHANGE_EVENTS = ("tools_changed", "reconnected")  # /ws/control events after which the tools may differ
+
+
+async def run(remote: Remote, http: int | None = None, host: str = "127.0.0.1") -> None:
+    """Serve MCP for `remote` until stdin closes (stdio) or the process is interrupted (`http` PORT),
+    while /ws/control is watched for tool changes."""
+    import anyio
+
+    server, announcer = create_server(remote)
+
+    async def on_event(message: dict[str, Any]) -> None:
+        if message.get("event") in CHANGE_EVENTS:
+            await announcer.tools_changed()
+
+    try:
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(remote.watch, on_event)
+            if http is None:
+                from mcp.server.stdio import stdio_server
+
+                async with stdio_server() as (read, write):
+                    await server.run(read, write, initialization_options(server))
+            else:
+                import uvicorn
+
+                app = server.streamable_http_app(streamable_http_path=MCP_PATH, host=host)
+                await uvicorn.Server(uvicorn.Config(app, host=host, port=http, log_level="warning")).serve()
+            tg.cancel_scope.cancel()
+    finally:
+        await remote.close()
+
+
+__all__ = ["Remote", "create_server", "run", "MCP_PATH"]

@@ -1,0 +1,50 @@
+"""Tools for AIs: the tool definitions generated for the running robot and program, in each
+function-calling dialect, and carrying out one tool call (backend.tools).
+
+`tools_changed(hub)` is called by the routes that change the program or the library: when the tools
+differ from the last ones announced, every /ws/control client gets
+`{"type": "event", "event": "tools_changed", "id": null, "revision", "tools": [names]}`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any, Literal
+
+from fastapi import APIRouter, Query
+
+from backend.routes.bodies import ToolArguments
+from backend.routes.errors import api_error
+from backend.routes.json_body import SafeJsonRoute
+from backend.routes.state import HubDep
+from backend.tools import ToolError, build_tools, render
+from backend.tools.call import call_tool
+
+router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["tools"])
+
+
+@router.get("/tools", summary="Tool definitions for AIs, generated from the commands and the running robot")
+async def get_tools(hub: HubDep, format: Literal["plain", "openai", "anthropic"] = Query(  # noqa: A002
+        "plain", description="plain (nutty-tools/1), openai (Chat Completions `tools`) or anthropic (Messages `tools`)")
+        ) -> Any:
+    toolset = await asyncio.to_thread(build_tools, hub.session)
+    hub.tools_revision = hub.tools_revision or toolset.revision  # what clients now know
+    return render(toolset, format)
+
+
+@router.post("/tools/{name}", summary="Carry out one tool call (its arguments as the body)")
+async def post_tool(name: str, arguments: ToolArguments, hub: HubDep) -> dict[str, Any]:
+    try:
+        return await call_tool(hub, name, arguments)
+    except ToolError as exc:
+        raise api_error(exc.status, exc.code, str(exc), **({"field": exc.field} if exc.field else {})) from exc
+
+
+async def tools_changed(hub: Any) -> None:
+    """Announce the tools on /ws/control if they changed since they were last announced or read."""
+    toolset = await asyncio.to_thread(build_tools, hub.session)
+    if toolset.revision == hub.tools_revision:
+        return
+    hub.tools_revision = toolset.revision
+    hub.broadcast({"type": "event", "event": "tools_changed", "id": None, "revision": toolset.revision,
+                   "tools": [t.name for t in toolset.tools]})

@@ -1,0 +1,110 @@
+"""Carrying out one tool call: check its arguments against the live vocabulary, turn it into its
+command, run that through the server's one command path (`Hub.run_command`: the same validation, log,
+events and safety net as every other command), and optionally wait until the action has ended.
+
+The answer says what happened: `{"tool", "command", "id", "status", "result", "waited", "timed_out"}`,
+`status` being the command's (`started`, `queued`, `completed`, `cancelled`, `failed`). Waiting listens
+to the same event fan-out as /ws/control clients, so it ends the moment the terminal event goes out.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from typing import Any, Iterator
+
+from pydantic import BaseModel, ValidationError
+
+from backend.hub import TERMINAL
+from backend.tools.build import Tool, build_tools
+from backend.tools.errors import ToolError
+from backend.tools.status import robot_status
+from backend.tools.table import StatusArguments, WaitOptions
+
+OPEN = ("accepted", "queued", "started")  # a command that has not ended yet
+
+
+async def call_tool(hub: Any, name: str, arguments: Any) -> dict[str, Any]:
+    """Carry out tool `name` with `arguments` on the Hub's session. Raises ToolError naming the field,
+    or the HTTPException of `Hub.run_command` (the command's own error, naming its field)."""
+    toolset = await asyncio.to_thread(build_tools, hub.session)
+    tool = toolset.get(name)
+    if tool is None:
+        raise ToolError(f"no tool '{name}' for robot '{toolset.live.robot}' and program '{toolset.live.program}' "
+                        f"(tools: {[t.name for t in toolset.tools]})", field="name", code="unknown_tool", status=404)
+    if not isinstance(arguments, dict):
+        raise ToolError("a tool's arguments are a JSON object", code="invalid_arguments")
+    check_choices(tool, arguments)
+    if tool.command is None:
+        return await _status(hub, _validated(StatusArguments, arguments))
+    args = dict(arguments)
+    waiting = WaitOptions()
+    if tool.long_action:
+        waiting = _validated(WaitOptions, {k: args.pop(k) for k in ("wait", "timeout") if k in args})
+    command = tool.spec.route(args) if tool.spec.route else {"type": tool.command, **args}
+    with listening(hub) as events:
+        ack = await asyncio.to_thread(hub.run_command, command)
+        entry, timed_out = hub.commands.get(ack["id"]), False
+        if waiting.wait and ack["status"] in OPEN:
+            entry, timed_out = await wait_until_ended(hub, events, ack["id"], waiting.timeout)
+    return {"tool": name, "command": command["type"], "id": ack["id"],
+            "status": entry["status"] if entry else ack["status"], "result": ack["result"],
+            "waited": waiting.wait and ack["status"] in OPEN, "timed_out": timed_out}
+
+
+def check_choices(tool: Tool, arguments: dict[str, Any]) -> None:
+    """Every argument with an enum in the tool's schema takes one of its values (a clip, a posture, ...);
+    ToolError names the argument and lists what exists."""
+    for name, prop in tool.parameters["properties"].items():
+        allowed = prop.get("enum")
+        if allowed is not None and name in arguments and arguments[name] is not None and arguments[name] not in allowed:
+            raise ToolError(f"{name}: {arguments[name]!r} is not one of {allowed}", field=name)
+
+
+def _validated(model: type[BaseModel], data: dict[str, Any]) -> Any:
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        field = ".".join(str(x) for x in err["loc"]) or None
+        raise ToolError(f"{field}: {err['msg']}" if field else err["msg"], field=field) from exc
+
+
+@contextlib.contextmanager
+def listening(hub: Any) -> Iterator[asyncio.Queue]:
+    """The Hub's command events, as a /ws/control client gets them, for as long as the block runs."""
+    queue: asyncio.Queue = asyncio.Queue(maxsize=256)
+    hub.control_queues.add(queue)
+    try:
+        yield queue
+    finally:
+        hub.control_queues.discard(queue)
+
+
+async def wait_until_ended(hub: Any, events: asyncio.Queue, cid: str, timeout: float) -> tuple[Any, bool]:
+    """Wait (at most `timeout` s) until command `cid` has ended; its log entry, and whether time ran out.
+    The log is the truth; each event only says it is worth looking again (so a dropped one costs nothing)."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout
+    while True:
+        entry = hub.commands.get(cid)
+        if entry is None or entry["status"] in TERMINAL:
+            return entry, False
+        remaining = deadline - loop.time()
+        if remaining <= 0 or (hub.stopping is not None and hub.stopping.is_set()):
+            return entry, True
+        with contextlib.suppress(asyncio.TimeoutError):
+            await asyncio.wait_for(events.get(), min(remaining, 1.0))
+
+
+async def _status(hub: Any, args: StatusArguments) -> dict[str, Any]:
+    entry, timed_out = None, False
+    if args.id is not None:
+        entry = hub.commands.get(args.id)
+        if entry is None:
+            raise ToolError(f"id: no command with id '{args.id}'", field="id", code="unknown_command", status=404)
+        if args.wait and entry["status"] in OPEN:
+            with listening(hub) as events:
+                entry, timed_out = await wait_until_ended(hub, events, args.id, args.timeout)
+    status = await asyncio.to_thread(robot_status, hub.session)
+    return {"tool": "get_status", **status, "command": dict(entry) if entry else None, "timed_out": timed_out}
