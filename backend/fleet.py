@@ -29,7 +29,7 @@ from typing import Any, Callable, Iterable, Iterator
 
 from backend.client import NuttyClient, NuttyError
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import REPLY_LIMIT, decode_frame, decode_json, encode_json, read_stamp
+from backend.zenoh_link.codec import encode_json, frame_of, json_of
 from backend.zenoh_link.session import ZenohOptions
 
 DEFAULT_TIMEOUT = 5.0  # s to wait for answers
@@ -122,7 +122,7 @@ class Fleet:
             if rid is None or not keys.matches(target, rid):
                 continue  # an error reply carries no key, so no robot: the live check below covers it
             try:
-                answers[rid] = decode_json(bytes(sample.payload.to_bytes()), max_bytes=REPLY_LIMIT)
+                answers[rid] = json_of(sample)
             except ValueError as exc:
                 answers[rid] = _error(502, "bad_reply", f"robot '{rid}' answered something that is not JSON: {exc}")
         if "*" in target or target not in answers:
@@ -160,11 +160,11 @@ class Fleet:
         def on_sample(sample: Any) -> None:
             rid = keys.robot_of(sample.key_expr)
             try:
-                doc = decode_frame(bytes(sample.payload.to_bytes()))
+                doc, sent = frame_of(sample)
             except ValueError:
                 return
             if rid is not None:
-                callback(rid, doc, read_stamp(sample.attachment))
+                callback(rid, doc, sent)
 
         return self.session.declare_subscriber(keys.key(target, keys.FRAMES), on_sample)
 
@@ -276,21 +276,17 @@ class Watch:
         except queue.Full:  # nobody reads: drop rather than grow
             pass
 
-    def _on_message(self, sample: Any) -> None:
+    def _on_message(self, sample: Any, kind: str | None = None) -> None:
         try:
-            message = decode_json(bytes(sample.payload.to_bytes()), max_bytes=REPLY_LIMIT)
+            message = json_of(sample)
         except ValueError:
             return
         if isinstance(message, dict):
-            self._put({"robot": keys.robot_of(sample.key_expr), **message})
+            head = {"type": kind} if kind else {}
+            self._put({**head, "robot": keys.robot_of(sample.key_expr), **message})
 
     def _on_status(self, sample: Any) -> None:
-        try:
-            message = decode_json(bytes(sample.payload.to_bytes()), max_bytes=REPLY_LIMIT)
-        except ValueError:
-            return
-        self._put({"type": "status", "robot": keys.robot_of(sample.key_expr),
-                   **(message if isinstance(message, dict) else {})})
+        self._on_message(sample, "status")
 
     def _on_presence(self, sample: Any) -> None:
         import zenoh

@@ -29,6 +29,11 @@ REPLY_LIMIT = 1_000_000  # bytes of one answer to a query (a program can be larg
 STAMP = struct.Struct("<d")
 
 
+def payload_bytes(payload: Any) -> bytes:
+    """The bytes of a Zenoh payload (a query may have none: b"")."""
+    return b"" if payload is None else bytes(payload.to_bytes())
+
+
 def encode_json(value: Any) -> bytes:
     return dumps(value).encode("utf-8")
 
@@ -59,6 +64,16 @@ def decode_frame(payload: bytes) -> dict[str, Any]:
     if not isinstance(doc, dict) or not isinstance(doc.get("dofs"), dict):
         raise ValueError("not a frame: expected a map with 'dofs'")
     return doc
+
+
+def json_of(sample: Any) -> Any:
+    """The JSON value a Zenoh sample (an answer, an event, a status) carries; ValueError if it carries none."""
+    return decode_json(payload_bytes(sample.payload), max_bytes=REPLY_LIMIT)
+
+
+def frame_of(sample: Any) -> tuple[dict[str, Any], float | None]:
+    """(frame document, emission stamp or None) of a sample on a `frames` key; ValueError if not a frame."""
+    return decode_frame(payload_bytes(sample.payload)), read_stamp(sample.attachment)
 
 
 def stamp(t: float) -> bytes:

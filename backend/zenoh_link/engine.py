@@ -30,7 +30,7 @@ from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 from backend.safe_json import JsonSafetyError
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import decode_json, encode_frame, encode_json, stamp
+from backend.zenoh_link.codec import decode_json, encode_frame, encode_json, payload_bytes, stamp
 from backend.zenoh_link.session import ZenohOptions, ZenohSetupError
 
 STATUS_PERIOD = 1.0  # s between status publications
@@ -130,11 +130,15 @@ class EngineLink:
 
     # --- commands ---------------------------------------------------------------------------------
     def _on_put(self, sample: Any) -> None:
-        self._enqueue(bytes(sample.payload.to_bytes()), None)
+        if keys.is_command_key(sample.key_expr):  # not from a wider key: see keys.is_command_key
+            self._enqueue(payload_bytes(sample.payload), None)
 
     def _on_command_query(self, query: Any) -> None:
-        payload = query.payload
-        self._enqueue(bytes(payload.to_bytes()) if payload is not None else b"", query)
+        if not keys.is_command_key(query.key_expr):
+            self._answer(query, error_reply(400, "not_a_command_key",
+                                            f"commands are taken on {keys.ROOT}/<robot id or pattern>/commands only"))
+            return
+        self._enqueue(payload_bytes(query.payload), query)
 
     def _enqueue(self, payload: bytes, query: Any) -> None:
         try:

@@ -9,7 +9,7 @@ from typing import Any, Callable
 
 from backend.engine.embodiment import Embodiment
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import REPLY_LIMIT, decode_frame, decode_json, embodiment_from_dict, read_stamp
+from backend.zenoh_link.codec import embodiment_from_dict, frame_of, json_of
 
 
 def ask_one(session: Any, robot_id: str, leaf: str, timeout: float = 2.0) -> Any:
@@ -17,7 +17,7 @@ def ask_one(session: Any, robot_id: str, leaf: str, timeout: float = 2.0) -> Any
     for reply in session.get(keys.key(robot_id, leaf), timeout=timeout):
         if reply.ok is not None:
             try:
-                answer = decode_json(bytes(reply.ok.payload.to_bytes()), max_bytes=REPLY_LIMIT)
+                answer = json_of(reply.ok)
             except ValueError:
                 continue
             if not (isinstance(answer, dict) and answer.get("type") == "error"):
@@ -58,10 +58,10 @@ def follow_frames(session: Any, robot_id: str, receive: Callable[[dict[str, Any]
 
     def on_sample(sample: Any) -> None:
         try:
-            doc = decode_frame(bytes(sample.payload.to_bytes()))
+            doc, sent = frame_of(sample)
         except ValueError as exc:
             reject(str(exc))
             return
-        receive(doc, read_stamp(sample.attachment))
+        receive(doc, sent)
 
     return session.declare_subscriber(keys.key(robot_id, keys.FRAMES), on_sample)

@@ -96,6 +96,17 @@ def robot_of(key_expr: object) -> str | None:
     return parts[1]
 
 
+def is_command_key(key_expr: object) -> bool:
+    """Whether a put's or query's key names the `commands` leaf itself: `nutty/<id or pattern>/commands`.
+
+    An engine runs commands only from such keys. A wider one (`nutty/**`) would also reach its commands
+    subscriber, but Zenoh's access control matches a rule only on keys the rule's key includes, so a
+    rule on `nutty/*/commands` would not stop it (docs/fleet.md, Security).
+    """
+    parts = str(key_expr).split("/")
+    return len(parts) == 3 and parts[0] == ROOT and parts[2] == COMMANDS and "**" not in parts[1]
+
+
 def matches(pattern: str, robot_id: str) -> bool:
     """Whether a robot id falls under a pattern (`*` = any run of characters)."""
     return fnmatch.fnmatchcase(robot_id, pattern.replace("[", "[[]"))
