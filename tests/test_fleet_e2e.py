@@ -153,3 +153,41 @@ def _check_fade_to_rest(emb, recording, summary) -> None:
     moved = np.max(np.abs(pos - emb.rest[idx]), axis=1)
     assert moved.max() > 1e-3, "the robot never left rest: nothing was faded"
     assert summary["sent"] == len(rows)
+
+
+def test_the_readme_recipe_runs_as_written(tmp_path):
+    """README's three terminals: an engine, a bridge, then the fleet lists and commands it. Run as written,
+    but on a free port, another HTTP port and with multicast scouting off (no other test's peers)."""
+    import re
+    import shlex
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = re.search(r"## Many robots, many machines \(Zenoh\).*?```sh\n(.*?)```", readme, re.S).group(1)
+    lines = [shlex.split(line) for line in block.strip().splitlines()]
+    assert [line[:2] for line in lines] == [["nutty", "serve"], ["nutty", "bridge"], ["nutty", "fleet"],
+                                           ["nutty", "fleet"]]
+    endpoint, isolated = loopback(), ["--zenoh-config", local_config(tmp_path)]
+
+    def as_here(line: list[str]) -> list[str]:
+        args = [endpoint if a == "tcp/127.0.0.1:7447" else a for a in line[1:]] + isolated
+        return args + (["--port", str(free_port())] if args[0] == "serve" else [])
+
+    engine, bridge = NuttyProcess(*as_here(lines[0])), NuttyProcess(*as_here(lines[1]))
+    try:
+        assert bridge.wait_output("following robot 'desk-1'", 150), engine.output + bridge.output
+        run = [subprocess.run([sys.executable, "-m", "backend.cli", *as_here(line)], capture_output=True, text=True,
+                              timeout=60) for line in lines[2:]]
+        assert run[0].returncode == 0 and run[0].stdout.split() == ["desk-1"], run[0].stderr
+        assert run[1].returncode == 0, run[1].stdout + run[1].stderr
+        ack = json.loads(run[1].stdout)["desk-1"]
+        assert ack["type"] == "ack" and ack["status"] == "started"
+        bridge.signal(signal.SIGTERM)
+        assert bridge.wait_exit(20) == 0, bridge.output
+        engine.signal(signal.SIGTERM)
+        assert engine.wait_exit(20) == 0, engine.output
+    finally:
+        bridge.close()
+        engine.close()
