@@ -30,7 +30,7 @@ from typing import Any, Callable, Iterable, Iterator
 from backend.client import NuttyClient, NuttyError
 from backend.zenoh_link import keys
 from backend.zenoh_link.codec import encode_json, frame_of, json_of
-from backend.zenoh_link.session import ZenohOptions
+from backend.zenoh_link.session import ZenohOptions, settle as wait_for_peers
 
 DEFAULT_TIMEOUT = 5.0  # s to wait for answers
 
@@ -57,14 +57,7 @@ class Fleet:
         self.options = options or ZenohOptions(mode, list(connect), list(listen), config)
         self.timeout = float(timeout)
         self.session = self.options.open()
-        if not self.options.connect:
-            deadline = time.monotonic() + settle
-            while time.monotonic() < deadline and not self._neighbours():
-                time.sleep(0.05)
-
-    def _neighbours(self) -> bool:
-        info = self.session.info
-        return bool(info.peers_zid() or info.routers_zid())
+        wait_for_peers(self.session, self.options, settle)
 
     def close(self) -> None:
         self.session.close()

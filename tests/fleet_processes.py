@@ -22,6 +22,17 @@ def local_config(folder: Path) -> str:
     return str(path)
 
 
+def poll(predicate, timeout: float = 10.0, what: str = "the condition", step: float = 0.05):
+    """`predicate()`'s first truthy value, tried every `step` s; AssertionError after `timeout` s."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(step)
+    raise AssertionError(f"not within {timeout:g} s: {what}")
+
+
 def loopback() -> str:
     return f"tcp/127.0.0.1:{free_port()}"
 

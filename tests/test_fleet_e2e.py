@@ -14,23 +14,13 @@ import pytest
 from backend.engine.embodiment import load_embodiment
 from backend.client import NuttyError
 from backend.fleet import Fleet
-from tests.fleet_processes import NuttyProcess, local_config, loopback
+from tests.fleet_processes import NuttyProcess, local_config, loopback, poll
 from tests.server_process import free_port
 
 pytestmark = pytest.mark.slow
 
 ROBOTS = ("museum-1", "museum-2", "museum-3")
 RATE = 50.0  # Hz: low, so three engines, a bridge and the test share two busy cores comfortably
-
-
-def poll(predicate, timeout: float, what: str, step: float = 0.1):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(step)
-    raise AssertionError(f"not within {timeout:g} s: {what}")
 
 
 class Frames:

@@ -21,20 +21,10 @@ from backend.zenoh_link import keys
 from backend.zenoh_link.codec import encode_json
 from backend.zenoh_link.engine import EngineLink
 from backend.zenoh_link.session import ZenohOptions, ZenohSetupError
-from tests.fleet_processes import local_config, loopback
+from tests.fleet_processes import local_config, loopback, poll
 from tests.test_command_registry import INTERACTIVE
 
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "fleet"
-
-
-def poll(predicate, timeout: float = 10.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError(f"not within {timeout:g} s")
 
 
 class Served:
@@ -157,6 +147,8 @@ def test_only_the_commands_key_itself_carries_commands(served):
     answers = [r.ok for r in fleet.session.get("nutty/**", payload=encode_json({"type": "reset"}), timeout=3)]
     command_answers = [json.loads(s.payload.to_string()) for s in answers if s and str(s.key_expr).endswith("/commands")]
     assert command_answers and all(a["code"] == "not_a_command_key" for a in command_answers)
+    assert {str(s.key_expr) for s in answers if s} == {f"nutty/unit-1/{leaf}" for leaf in
+                                                        ("commands", "status", "robot", "program")}  # reads do answer
     time.sleep(0.3)
     assert engine.link.counts["commands"] == before
 

@@ -31,7 +31,7 @@ from backend.engine.runtime import Sink
 from backend.safe_json import JsonSafetyError
 from backend.zenoh_link import keys
 from backend.zenoh_link.codec import decode_json, encode_frame, encode_json, payload_bytes, stamp
-from backend.zenoh_link.session import ZenohOptions, ZenohSetupError
+from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, settle
 
 STATUS_PERIOD = 1.0  # s between status publications
 COMMAND_QUEUE = 64  # commands waiting for the worker; more are refused with `busy`
@@ -91,6 +91,7 @@ class EngineLink:
         """Join Zenoh as `robot_id`; ZenohSetupError when Zenoh refuses or a live engine has that id."""
         session = options.open()
         try:
+            settle(session, options)
             taken = any(r.ok is not None for r in
                         session.liveliness().get(keys.key(robot_id, keys.ALIVE), timeout=check_timeout))
         except Exception:
@@ -116,8 +117,8 @@ class EngineLink:
         self._declared += [frames, self._status_pub, self._events_pub]
         self._declared.append(s.declare_subscriber(k[keys.COMMANDS], self._on_put))
         self._declared.append(s.declare_queryable(k[keys.COMMANDS], self._on_command_query))
-        for leaf in keys.QUERIES:
-            self._declared.append(s.declare_queryable(k[leaf], self._on_read_query))
+        for leaf in keys.QUERIES:  # each answers for its own leaf, also to a wider query such as nutty/**
+            self._declared.append(s.declare_queryable(k[leaf], lambda q, leaf=leaf: self._on_read_query(q, leaf)))
         self._events = Sink("zenoh-events", lambda m: self._events_pub.put(encode_json(m)), max_queue=256)
         hub.listeners.append(self._events.offer)
         self._frames = hub.session.engine.add_sink(FramePublisher(frames, hub.session.embodiment))
@@ -199,9 +200,8 @@ class EngineLink:
             pass
 
     # --- reads ------------------------------------------------------------------------------------
-    def _on_read_query(self, query: Any) -> None:
+    def _on_read_query(self, query: Any, leaf: str) -> None:
         self.counts["queries"] += 1
-        leaf = str(query.key_expr).rsplit("/", 1)[-1]
         try:
             reply = self.read(leaf)
         except Exception as exc:

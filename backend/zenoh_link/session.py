@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -129,6 +130,10 @@ class ZenohOptions:
                 raise ZenohSetupError(f"{flag} {value}: {clean_error(exc)}") from None
         return cfg
 
+    def scouts(self) -> bool:
+        """Whether this session looks for peers by multicast (Zenoh's default, unless the config turns it off)."""
+        return json.loads(self.config().get_json("scouting/multicast/enabled")) is not False
+
     def open(self):
         """An open zenoh.Session (close it!); ZenohSetupError when Zenoh refuses, e.g. nothing to connect to."""
         import zenoh
@@ -139,6 +144,19 @@ class ZenohOptions:
             return zenoh.open(cfg)
         except zenoh.ZError as exc:
             raise ZenohSetupError(f"cannot join Zenoh ({self.describe()}): {clean_error(exc)}") from None
+
+
+def settle(session, options: ZenohOptions, seconds: float = 1.0) -> None:
+    """With no endpoint to connect to (multicast scouting only), wait up to `seconds` for a first peer or
+    router, so that what is asked next (who is alive?) is asked of someone."""
+    if options.connect or not options.scouts():
+        return  # opening connected already, or there is no one to find
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        info = session.info
+        if info.peers_zid() or info.routers_zid():
+            return
+        time.sleep(0.05)
 
 
 def clean_error(exc: BaseException) -> str:
