@@ -280,3 +280,14 @@ def test_the_access_control_example_turns_away_unknown_users(desk, tmp_path, cre
             Fleet(connect=[endpoint], config=str(path)).close()
     finally:
         engine.close()
+
+
+def test_status_is_published_and_liveliness_is_seen_by_a_watch(served):
+    engine, fleet = served
+    with fleet.watch("unit-*", status=True) as watch:
+        seen: list = []
+        poll(lambda: seen.append(watch.get(timeout=0.5)) or sum(1 for e in seen if e and e["type"] == "status") >= 2)
+    statuses = [e for e in seen if e and e["type"] == "status"]
+    assert all(s["robot"] == s["robot_id"] == "unit-1" for s in statuses)
+    assert statuses[1]["ticks"] > statuses[0]["ticks"]
+    assert next(e for e in seen if e) == {"type": "robot", "event": "appeared", "robot": "unit-1"}
