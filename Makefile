@@ -55,6 +55,7 @@ bench: deps-python
 	$(PY) benchmarks/bench_nmf.py
 	$(PY) benchmarks/bench_safety.py
 	$(PY) benchmarks/bench_clock.py
+	$(PY) benchmarks/bench_fleet.py
 
 # Optional, not part of bench: `nutty serve` at 100 Hz under churning clients, then a SIGTERM.
 SOAK_MINUTES ?= 1

@@ -13,7 +13,7 @@ import threading
 import time
 import uuid
 from collections import deque
-from typing import Any
+from typing import Any, Callable
 
 from backend import control
 from backend.routes.errors import api_error
@@ -120,6 +120,9 @@ class Hub:
         self.loop: asyncio.AbstractEventLoop | None = None
         self.stopping: asyncio.Event | None = None  # set when the app shuts down (lifespan)
         self.tools_revision: str | None = None  # of the AI tools last announced (backend.routes.tools)
+        # Called with every message broadcast to /ws/control clients, from the thread that emits it (the
+        # clock thread, for block events): e.g. the Zenoh link (backend/zenoh_link). Keep them quick.
+        self.listeners: list[Callable[[dict[str, Any]], None]] = []
         session.on_note(self._on_note)
 
     def shutdown(self) -> None:
@@ -147,6 +150,11 @@ class Hub:
             self.broadcast({"type": "event", "event": event, "id": cid, "command": ctype, **details})
 
     def broadcast(self, message: dict[str, Any]) -> None:
+        for fn in list(self.listeners):
+            try:
+                fn(message)
+            except Exception:  # a listener's fault never stops the events to the sockets
+                pass
         loop = self.loop
         if loop is None or loop.is_closed():
             return

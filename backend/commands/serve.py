@@ -13,6 +13,7 @@ from backend.shutdown import (  # noqa: F401
     COMMAND_SOCKETS, DEFAULT_SHUTDOWN_TIMEOUT, DRAIN_SECONDS, EXIT_BOUND, HOLD_SECONDS, HTTP_GRACE, HURRIED_GRACE,
     PARK_SLACK, REST_TOLERANCE, SAFE_METHODS, SHUTDOWN_SIGNALS, SHUTTING_DOWN, Shutdown, ShutdownGate, park_robot,
     rest_and_stop, rest_error, uvicorn_server)
+from backend.zenoh_link.serve import add_serve_options as add_zenoh_options, banner as zenoh_banner, open_for_serve
 
 LOCAL_HOSTS = {"127.0.0.1", "localhost", "::1"}
 
@@ -42,6 +43,7 @@ def register(sub) -> None:
                    help="on SIGTERM/SIGINT, give the robot at most this long to reach its rest pose before the "
                         f"drivers close (default {DEFAULT_SHUTDOWN_TIMEOUT:g}; the process exits within it + "
                         f"{EXIT_BOUND:g} s)")
+    add_zenoh_options(p)  # --zenoh, --robot-id, --zenoh-connect/-listen/-mode/-config (backend/zenoh_link)
     p.set_defaults(func=run)
 
 
@@ -123,7 +125,9 @@ def run(args) -> int:
         return 1
     try:
         attach_drivers(session, args)
+        zenoh = open_for_serve(args, emb)  # joins Zenoh before the clock starts: a taken id changes nothing
     except ValueError as exc:
+        session.engine.close()
         return fail(str(exc))
     session.engine.start()
     # From here on SIGTERM/SIGINT/SIGHUP park the robot and close the drivers (see Shutdown).
@@ -151,9 +155,14 @@ def run(args) -> int:
         ShutdownGate(app, shutdown.closing), host=args.host, port=args.port, log_level="warning",
         timeout_graceful_shutdown=HTTP_GRACE), shutdown))
     try:
+        if zenoh is not None:
+            zenoh.start(hub, shutdown.closing)  # Zenoh commands are refused from the first signal on, as REST's
+            print(zenoh_banner(zenoh), flush=True)
         server.run()
     finally:
-        code = shutdown.finish(previz)
+        code = shutdown.finish(previz)  # the park's frames went out on Zenoh too
+        if zenoh is not None:
+            zenoh.close()  # a Zenoh session left open keeps the process from exiting
         restore_signals()
     return code
 

@@ -1,0 +1,178 @@
+"""What travels on Zenoh and how: JSON for commands, events, status and answers; msgpack for frames.
+
+- JSON is read with the server's own rules (`backend.safe_json.loads`: finite numbers, valid UTF-8,
+  bounded depth) and a size limit per message, and written with `dumps`, which never fails.
+- A frame is `msgpack(AnimationFrame.to_dict(embodiment))`, byte for byte what `/ws/frames?format=msgpack`
+  sends; the Zenoh attachment carries when the engine emitted it (`STAMP`: Unix time in s, little-endian
+  float64), from which receivers measure latency (on one machine, or on machines with synchronised clocks).
+- A robot-side bridge rebuilds the robot from the `robot` answer (`embodiment_from_dict`) and turns
+  frame documents back into channel vectors (`FrameDoc`).
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from backend.engine.dofs import Dimension, Dof, DofType
+from backend.engine.embodiment import Embodiment
+from backend.engine.frames import AnimationFrame, FrameEvent
+from backend.safe_json import JsonSafetyError, dumps, loads
+
+MAX_MESSAGE = 64_000  # bytes per JSON message (commands, as on /ws/control)
+MAX_FRAME = 1_000_000  # bytes per frame message
+REPLY_LIMIT = 1_000_000  # bytes of one answer to a query (a program can be large)
+STAMP = struct.Struct("<d")
+
+
+def payload_bytes(payload: Any) -> bytes:
+    """The bytes of a Zenoh payload (a query may have none: b"")."""
+    return b"" if payload is None else bytes(payload.to_bytes())
+
+
+def encode_json(value: Any) -> bytes:
+    return dumps(value).encode("utf-8")
+
+
+def decode_json(payload: bytes, max_bytes: int = MAX_MESSAGE) -> Any:
+    """The JSON value of a message; JsonSafetyError (code too_large, invalid_unicode, malformed_json, ...)."""
+    if len(payload) > max_bytes:
+        raise JsonSafetyError(f"message over {max_bytes} bytes", "too_large", status=413)
+    return loads(payload, max_bytes=None)
+
+
+def encode_frame(frame: AnimationFrame, embodiment: Embodiment) -> bytes:
+    import msgpack
+
+    return msgpack.packb(frame.to_dict(embodiment))
+
+
+def decode_frame(payload: bytes) -> dict[str, Any]:
+    """A frame document; ValueError when the message is not one (too large, not msgpack, not a map)."""
+    import msgpack
+
+    if len(payload) > MAX_FRAME:
+        raise ValueError(f"frame message over {MAX_FRAME} bytes")
+    try:
+        doc = msgpack.unpackb(payload, raw=False, strict_map_key=True)
+    except Exception as exc:  # msgpack raises several unrelated types for bad input
+        raise ValueError(f"not a msgpack frame: {type(exc).__name__}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("dofs"), dict):
+        raise ValueError("not a frame: expected a map with 'dofs'")
+    return doc
+
+
+def json_of(sample: Any) -> Any:
+    """The JSON value a Zenoh sample (an answer, an event, a status) carries; ValueError if it carries none."""
+    return decode_json(payload_bytes(sample.payload), max_bytes=REPLY_LIMIT)
+
+
+def frame_of(sample: Any) -> tuple[dict[str, Any], float | None]:
+    """(frame document, emission stamp or None) of a sample on a `frames` key; ValueError if not a frame."""
+    return decode_frame(payload_bytes(sample.payload)), read_stamp(sample.attachment)
+
+
+def stamp(t: float) -> bytes:
+    return STAMP.pack(t)
+
+
+def read_stamp(attachment: Any) -> float | None:
+    """The emission time carried by a frame's attachment, or None."""
+    if attachment is None:
+        return None
+    raw = bytes(attachment.to_bytes() if hasattr(attachment, "to_bytes") else attachment)
+    if len(raw) != STAMP.size:
+        return None
+    (t,) = STAMP.unpack(raw)
+    return t if math.isfinite(t) else None
+
+
+# --------------------------------------------------------------------------------------------------
+# The robot, back from its description
+# --------------------------------------------------------------------------------------------------
+
+
+def _limit(value: Any, default: float) -> float:
+    """A limit from `Dof.to_dict` (null stands for an infinite one)."""
+    return default if value is None else float(value)
+
+
+def dof_from_dict(d: dict[str, Any]) -> Dof:
+    """The inverse of `Dof.to_dict` (what a bridge needs: type, channels, limits, rest, options)."""
+    kind = DofType(d["type"])
+    start, stop = (int(x) for x in d["channels"])
+    rest = d.get("rest")
+    rest = tuple(float(x) for x in rest) if isinstance(rest, list) else _limit(rest, 0.0)
+    return Dof(
+        name=str(d["name"]), dimension=Dimension(d["dimension"]), type=kind, channels=slice(start, stop),
+        min=_limit(d.get("min"), -math.inf), max=_limit(d.get("max"), math.inf),
+        velocity=_limit(d.get("velocity"), math.inf), acceleration=_limit(d.get("acceleration"), math.inf),
+        jerk=_limit(d.get("jerk"), math.inf), rest=rest, joint=d.get("joint"), drives=d.get("drives"),
+        axis=d.get("axis"), group=d.get("group"),
+        options=tuple(d["options"]) if d.get("options") is not None else None,
+        links=tuple(d.get("links", ())), kind=d.get("kind"), sounds=tuple(d.get("sounds", ())),
+        description=str(d.get("description", "")))
+
+
+def embodiment_from_dict(doc: dict[str, Any]) -> Embodiment:
+    """An Embodiment from an engine's `robot` answer (`GET /api/robot`): DoFs, channels and limits; no
+    URDF (a bridge drives channels, it draws nothing). ValueError when the document is not a robot."""
+    try:
+        dofs = [dof_from_dict(d) for d in doc["dofs"]]
+        emb = Embodiment(name=str(doc["name"]), dofs=dofs, description=str(doc.get("description", "")))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"not a robot description: {type(exc).__name__}: {exc}") from None
+    if list(emb.channel_names) != list(doc.get("channels", emb.channel_names)):
+        raise ValueError("not a robot description: its channels do not follow from its DoFs")
+    return emb
+
+
+# --------------------------------------------------------------------------------------------------
+# Frames, back to vectors
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class FrameDoc:
+    """A received frame as the bridge uses it: seq, engine time and tick (s), positions (C,), events."""
+
+    seq: int
+    t: float
+    dt: float
+    position: np.ndarray
+    events: list[FrameEvent]
+
+    @classmethod
+    def parse(cls, doc: dict[str, Any], emb: Embodiment, base: np.ndarray) -> "FrameDoc":
+        """Read a frame document for `emb`; channels it lacks keep `base`'s values. ValueError when the
+        frame is another robot's or malformed (non-finite numbers included)."""
+        if doc.get("embodiment") != emb.name:
+            raise ValueError(f"frame of robot '{doc.get('embodiment')}', expected '{emb.name}'")
+        seq, t, dt = doc.get("seq"), doc.get("t"), doc.get("dt")
+        if not isinstance(seq, int) or not all(isinstance(x, (int, float)) for x in (t, dt)) or not dt > 0:
+            raise ValueError("frame without a valid seq, t and dt")
+        pos = np.array(base, dtype=float)
+        dofs = doc["dofs"]
+        for d in emb.dofs:
+            entry = dofs.get(d.name)
+            if not isinstance(entry, dict):
+                continue
+            sl = d.channels
+            if d.type is DofType.continuous and "position" in entry:
+                pos[sl.start] = float(entry["position"])
+            elif d.type is DofType.enum and "index" in entry:
+                pos[sl.start] = float(entry["index"])
+            elif d.type is DofType.colour and isinstance(entry.get("rgb"), list) and len(entry["rgb"]) == 3:
+                pos[sl] = [float(x) for x in entry["rgb"]]
+        if not np.all(np.isfinite(pos)) or not math.isfinite(t):
+            raise ValueError("frame with non-finite values")
+        events = []
+        for e in doc.get("events") or []:
+            if isinstance(e, dict) and isinstance(e.get("dof"), str) and isinstance(e.get("kind"), str):
+                payload = e.get("payload")
+                events.append(FrameEvent(e["dof"], e["kind"], dict(payload) if isinstance(payload, dict) else {}))
+        return cls(seq, float(t), float(dt), pos, events)

@@ -1,0 +1,287 @@
+"""An engine on Zenoh (`nutty serve --zenoh`): its frames, status and events out, commands and queries in.
+
+`EngineLink.open` joins Zenoh and makes sure no live engine already has the robot id; `start(hub)`
+declares the robot's keys (backend/zenoh_link/keys.py) around the server's `Hub`:
+
+- every frame goes out on `frames` from an engine sink (its own thread and bounded queue: a slow
+  network drops frames, counted, and never slows the clock), stamped with its emission time;
+- `status` is published every second and answers queries, as do `robot` and `program`;
+- a command on `commands` takes the path a REST or /ws/control command takes, `Hub.run_command`:
+  the same JSON rules, the same typed union, the same command log and events under the command's
+  id. A query gets the ack (or the error) as its reply; a put gets it on `events`. Commands run one
+  at a time on one worker thread, like the messages of one /ws/control client;
+- every event the Hub broadcasts to /ws/control clients is published on `events`;
+- a liveliness token on `alive`, declared last and withdrawn first, tells others the engine is there.
+
+While the server shuts down (`closing` set) commands are refused with `shutting_down`, as the HTTP
+API refuses them; the frames of the park still go out, so a bridge follows the robot to rest.
+Who may publish commands is Zenoh's business: access control and TLS in the Zenoh configuration
+(docs/fleet.md).
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from typing import Any
+
+from backend.engine.frames import AnimationFrame
+from backend.engine.runtime import Sink
+from backend.safe_json import JsonSafetyError
+from backend.zenoh_link import keys
+from backend.zenoh_link.codec import decode_json, encode_frame, encode_json, payload_bytes, stamp
+from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, settle
+
+STATUS_PERIOD = 1.0  # s between status publications
+COMMAND_QUEUE = 64  # commands waiting for the worker; more are refused with `busy`
+SHUTTING_DOWN = "the server is shutting down: the robot is going to rest"
+
+
+class FramePublisher(Sink):
+    """Every frame on `nutty/<id>/frames` (msgpack, as /ws/frames), with its emission time attached.
+
+    The time is taken when the engine offers the frame (in the tick), so a receiver's latency counts
+    this sink's queue too, as a /ws/frames client's does.
+    """
+
+    def __init__(self, publisher: Any, embodiment: Any, max_queue: int = 64):
+        self.publisher, self.emb = publisher, embodiment
+        super().__init__("zenoh-frames", max_queue=max_queue)
+
+    def offer(self, frame: AnimationFrame) -> None:
+        super().offer((frame, time.time()))  # type: ignore[arg-type]  # the queue holds (frame, stamp)
+
+    def consume(self, item: Any) -> None:
+        frame, sent = item
+        self.publisher.put(encode_frame(frame, self.emb), attachment=stamp(sent))
+
+
+def error_reply(status: int, code: str, message: str, **extra: Any) -> dict[str, Any]:
+    """An error answer: the /ws/control error shape plus the HTTP `status` REST would have used."""
+    return {"type": "error", "status": status, "code": code, "message": message, **extra}
+
+
+class EngineLink:
+    """One engine's presence on Zenoh under `nutty/<robot_id>/` (see the module doc)."""
+
+    def __init__(self, session: Any, robot_id: str, options: ZenohOptions | None = None,
+                 status_period: float = STATUS_PERIOD):
+        self.session = session
+        self.robot_id = keys.check_robot_id(robot_id)
+        self.options = options or ZenohOptions()
+        self.status_period = status_period
+        self.hub: Any = None
+        self.closing: threading.Event | None = None
+        self.key = {leaf: keys.key(robot_id, leaf) for leaf in
+                    (keys.ALIVE, keys.FRAMES, keys.STATUS, keys.EVENTS, keys.COMMANDS, keys.ROBOT, keys.PROGRAM)}
+        self.counts = {"commands": 0, "errors": 0, "queries": 0, "busy": 0}
+        self._declared: list[Any] = []
+        self._token: Any = None
+        self._frames: FramePublisher | None = None
+        self._events: Sink | None = None
+        self._work: queue.Queue = queue.Queue(maxsize=COMMAND_QUEUE)
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._closed = False
+
+    # --- joining ----------------------------------------------------------------------------------
+    @classmethod
+    def open(cls, options: ZenohOptions, robot_id: str, *, check_timeout: float = 1.0) -> "EngineLink":
+        """Join Zenoh as `robot_id`; ZenohSetupError when Zenoh refuses or a live engine has that id."""
+        session = options.open()
+        try:
+            settle(session, options)
+            taken = any(r.ok is not None for r in
+                        session.liveliness().get(keys.key(robot_id, keys.ALIVE), timeout=check_timeout))
+        except Exception:
+            session.close()
+            raise
+        if taken:
+            session.close()
+            raise ZenohSetupError(f"robot id '{robot_id}' is taken: a live engine already publishes "
+                                  f"{keys.key(robot_id, '**')} (choose another --robot-id)")
+        return cls(session, robot_id, options)
+
+    def start(self, hub: Any, closing: threading.Event | None = None) -> "EngineLink":
+        """Declare everything around the server's Hub; the liveliness token last."""
+        import zenoh
+
+        self.hub, self.closing = hub, closing
+        s, k = self.session, self.key
+        frames = s.declare_publisher(k[keys.FRAMES], encoding=zenoh.Encoding("application/msgpack"),
+                                     congestion_control=zenoh.CongestionControl.DROP,
+                                     priority=zenoh.Priority.REAL_TIME, express=True)
+        self._status_pub = s.declare_publisher(k[keys.STATUS], encoding=zenoh.Encoding.APPLICATION_JSON)
+        self._events_pub = s.declare_publisher(k[keys.EVENTS], encoding=zenoh.Encoding.APPLICATION_JSON)
+        self._declared += [frames, self._status_pub, self._events_pub]
+        self._declared.append(s.declare_subscriber(k[keys.COMMANDS], self._on_put))
+        self._declared.append(s.declare_queryable(k[keys.COMMANDS], self._on_command_query))
+        for leaf in keys.QUERIES:  # each answers for its own leaf, also to a wider query such as nutty/**
+            self._declared.append(s.declare_queryable(k[leaf], lambda q, leaf=leaf: self._on_read_query(q, leaf)))
+        self._events = Sink("zenoh-events", lambda m: self._events_pub.put(encode_json(m)), max_queue=256)
+        hub.listeners.append(self._events.offer)
+        self._frames = hub.session.engine.add_sink(FramePublisher(frames, hub.session.embodiment))
+        for name, target in (("zenoh-commands", self._work_loop), ("zenoh-status", self._status_loop)):
+            t = threading.Thread(target=target, name=name, daemon=True)
+            t.start()
+            self._threads.append(t)
+        self._token = s.liveliness().declare_token(k[keys.ALIVE])
+        return self
+
+    # --- commands ---------------------------------------------------------------------------------
+    def _on_put(self, sample: Any) -> None:
+        if keys.is_command_key(sample.key_expr):  # not from a wider key: see keys.is_command_key
+            self._enqueue(payload_bytes(sample.payload), None)
+
+    def _on_command_query(self, query: Any) -> None:
+        if not keys.is_command_key(query.key_expr):
+            self._answer(query, error_reply(400, "not_a_command_key",
+                                            f"commands are taken on {keys.ROOT}/<robot id or pattern>/commands only"))
+            return
+        self._enqueue(payload_bytes(query.payload), query)
+
+    def _enqueue(self, payload: bytes, query: Any) -> None:
+        try:
+            self._work.put_nowait((payload, query))
+        except queue.Full:
+            self.counts["busy"] += 1
+            self._answer(query, error_reply(503, "busy", f"more than {COMMAND_QUEUE} commands are waiting; "
+                                                         "try again"))
+
+    def _work_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                payload, query = self._work.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            try:
+                reply = self.run(payload)
+            except Exception:  # never let one message stop the worker
+                reply = error_reply(500, "internal_error", "the server could not handle this message")
+            self._answer(query, reply)
+
+    def run(self, payload: bytes) -> dict[str, Any]:
+        """Carry out one command message; the ack or error answer (the /ws/control shapes)."""
+        from fastapi import HTTPException
+
+        self.counts["commands"] += 1
+        if self.closing is not None and self.closing.is_set():
+            return self._failed(error_reply(503, "shutting_down", SHUTTING_DOWN))
+        try:
+            data = decode_json(payload)
+        except JsonSafetyError as exc:
+            extra = {"field": exc.field} if exc.field else {}
+            return self._failed(error_reply(exc.status, exc.code, str(exc), **extra))
+        cid = data.get("id") if isinstance(data, dict) and isinstance(data.get("id"), str) else None
+        try:
+            ack = self.hub.run_command(data)
+        except HTTPException as exc:
+            detail = exc.detail if isinstance(exc.detail, dict) else {"code": "error", "message": str(exc.detail)}
+            return self._failed(error_reply(exc.status_code, **{"id": cid, **detail}))
+        except Exception:
+            return self._failed(error_reply(500, "internal_error", "the server could not carry out this command",
+                                            id=cid))
+        return {"type": "ack", **ack}
+
+    def _failed(self, reply: dict[str, Any]) -> dict[str, Any]:
+        self.counts["errors"] += 1
+        return reply
+
+    def _answer(self, query: Any, reply: dict[str, Any]) -> None:
+        """A query's reply, or (for a put) a message on `events` for whoever watches."""
+        try:
+            if query is not None:
+                query.reply(self.key[keys.COMMANDS], encode_json(reply))
+                query.drop()
+            elif self._events is not None:
+                self._events.offer(reply)
+        except Exception:  # the asker left, or the session is closing
+            pass
+
+    # --- reads ------------------------------------------------------------------------------------
+    def _on_read_query(self, query: Any, leaf: str) -> None:
+        self.counts["queries"] += 1
+        try:
+            reply = self.read(leaf)
+        except Exception as exc:
+            reply = error_reply(500, "internal_error", f"cannot read {leaf}: {type(exc).__name__}")
+        try:
+            query.reply(self.key[leaf], encode_json(reply))
+            query.drop()  # the asker's get ends now, not when Python collects the query
+        except Exception:
+            pass
+
+    def read(self, leaf: str) -> Any:
+        """The answer to a query on `robot`, `program` or `status` (as GET /api/<leaf> answers)."""
+        session = self.hub.session
+        if leaf == keys.ROBOT:
+            from backend.routes.robot import robot
+
+            return robot(session)
+        if leaf == keys.PROGRAM:
+            from backend.routes.program import get_program
+
+            return get_program(session)
+        if leaf == keys.STATUS:
+            return self.status()
+        raise KeyError(leaf)
+
+    def status(self) -> dict[str, Any]:
+        """`GET /api/status` without the Pre-Viz's URLs (they depend on the HTTP request), plus the
+        robot id and this link's counters."""
+        hub = self.hub
+        stats = hub.session.engine.stats()
+        stats["clients"] = dict(hub.clients)
+        stats["program"] = hub.session.program.name if hub.session.program else None
+        stats["previz"] = ({"frames_shown": hub.previz.frames_shown, "ghost": hub.previz.ghost_visible}
+                           if hub.previz else None)
+        stats["robot_id"] = self.robot_id
+        stats["zenoh"] = dict(self.counts)
+        return stats
+
+    def _status_loop(self) -> None:
+        while not self._stop.wait(self.status_period):
+            try:
+                self._status_pub.put(encode_json(self.status()))
+            except Exception:  # the session is closing
+                pass
+
+    # --- leaving ----------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Withdraw the token, stop the threads, deliver what is queued, close the session (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
+        for step in (self._withdraw, self._stop_threads, self._detach):
+            try:
+                step()
+            except Exception:
+                pass
+        self.session.close()
+
+    def _withdraw(self) -> None:
+        if self._token is not None:
+            self._token.undeclare()
+
+    def _stop_threads(self) -> None:
+        self._stop.set()
+        for t in self._threads:
+            t.join(3.0)
+        while True:  # commands that never ran: their askers get a clear no
+            try:
+                _, query = self._work.get_nowait()
+            except queue.Empty:
+                break
+            self._answer(query, error_reply(503, "shutting_down", SHUTTING_DOWN))
+
+    def _detach(self) -> None:
+        if self.hub is not None:
+            if self._events is not None and self._events.offer in self.hub.listeners:
+                self.hub.listeners.remove(self._events.offer)
+            if self._frames is not None:
+                self.hub.session.engine.remove_sink(self._frames)
+        if self._events is not None:
+            self._events.close(1.0)
+        for entity in reversed(self._declared):
+            entity.undeclare()
