@@ -110,8 +110,13 @@ class NuttyClient:
     def call_tool(self, name: str, **arguments: Any) -> dict[str, Any]:
         """Carry out one tool call, e.g. `call_tool("play_clip", clip="nod", wait=True)`."""
         wait = float(arguments.get("timeout", 30.0)) if arguments.get("wait") else 0.0
-        timeout = self._http.timeout.read + wait if self._http.timeout.read is not None else None
-        return self._call("POST", f"/api/tools/{name}", json=arguments, timeout=timeout)
+        return self._call("POST", f"/api/tools/{name}", json=arguments, **self._waiting(wait))
+
+    def _waiting(self, seconds: float) -> dict[str, Any]:
+        """Request options that let an answer take `seconds` longer than the client's read timeout
+        (a tool call that waits for its action's end)."""
+        read = self._http.timeout.read
+        return {"timeout": read + seconds} if read is not None and seconds > 0 else {}
 
     # --- state -------------------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:

@@ -215,6 +215,9 @@ class FleetRobot(NuttyClient):
     def close(self) -> None:
         pass
 
+    def _waiting(self, seconds: float) -> dict[str, Any]:
+        return {}  # no HTTP client: tool calls are not carried over Zenoh (they answer not_on_zenoh)
+
     def _call(self, method: str, path: str, **kw: Any) -> Any:
         answer = self.fleet.call(self.robot_id, method, path, kw.get("json"))[self.robot_id]
         if is_error(answer):
@@ -232,6 +235,9 @@ class FleetGroup(NuttyClient):
 
     def close(self) -> None:
         pass
+
+    def _waiting(self, seconds: float) -> dict[str, Any]:
+        return {}
 
     def _call(self, method: str, path: str, **kw: Any) -> Any:
         answers = self.fleet.call(self.pattern, method, path, kw.get("json"))

@@ -165,6 +165,9 @@ def test_queries_answer_as_the_rest_api_does(served):
     with pytest.raises(NuttyError) as refused:
         robot.tune("breathe", amplitude=0.1)
     assert refused.value.status == 405 and refused.value.code == "not_on_zenoh"
+    with pytest.raises(NuttyError) as no_tools:  # the AI tools are HTTP's (docs/ai.md): said, not a crash
+        robot.call_tool("play_clip", clip="nod", wait=True)
+    assert no_tools.value.code == "not_on_zenoh"
     with pytest.raises(NuttyError) as missing:
         fleet["unit-2"].status()
     assert missing.value.status == 404 and missing.value.code == "not_found"
