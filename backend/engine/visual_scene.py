@@ -1,11 +1,12 @@
 """The robot's visual meshes as one GLB (glTF 2.0 binary), for DCC tools (GET /api/robot/scene.glb).
 
 Built from the URDF with yourdfpy and trimesh, with every joint at zero (the pose `joint_frames`
-describes): one glTF node per URDF `<visual>`, all at the top level (no hierarchy), placed where the
-visual sits in the robot's base frame. Each node is named `<link>|<n>` (n counts the link's visuals)
+describes): one glTF node per URDF `<visual>`, all at the top level (no hierarchy), whose transform is
+where the visual sits in the robot's base frame. Each node is named `<link>|<n>` (n counts the link's visuals)
 and its mesh carries `{"nutty_link": "<link>"}` in its extras, so a rig can parent it to the bone of the
 joint that moves that link. glTF is +Y up: the robot's +Z up / +X forward is converted the standard way
-(x, y, z) -> (x, z, -y), which Blender's glTF importer turns back into the robot's frame exactly.
+(x, y, z) -> (x, z, -y), nodes and vertices alike, which Blender's glTF importer turns back exactly:
+each imported object's matrix is then the visual's transform in the robot's frame.
 Colours come from the URDF's materials as PBR base colours. Units: metres.
 """
 
@@ -62,10 +63,11 @@ def _build(urdf_path: Path) -> bytes:
         n = counts.get(link, 0)
         counts[link] = n + 1
         mesh = geometry.copy()
+        mesh.apply_transform(Z_UP_TO_Y_UP)  # vertices in glTF axes too: a reader's object frame = the URDF's
         _material(mesh)
         mesh.metadata = {"nutty_link": link}
         name = f"{link}|{n}"
-        out.add_geometry(mesh, node_name=name, geom_name=name, transform=Z_UP_TO_Y_UP @ transform)
+        out.add_geometry(mesh, node_name=name, geom_name=name, transform=Z_UP_TO_Y_UP @ transform @ Z_UP_TO_Y_UP.T)
     if not counts:
         raise NoVisuals(f"the URDF '{urdf_path.name}' has no visual geometry")
     return out.export(file_type="glb")
