@@ -12,7 +12,10 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import json
+import os
 import shutil
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -23,6 +26,7 @@ import pytest
 
 from backend.engine import trajectory
 from backend.engine.embodiment import load_embodiment
+import bpy_paths
 from blender_rpc import Blender, BlenderError
 from server_process import free_port, running_app, server_process
 
@@ -526,3 +530,30 @@ def test_a_robot_with_unsupported_joints_is_refused_by_name(blender, tmp_path):
     assert message is not None and "Traceback" not in message
     assert "'lift' (prismatic)" in message and "revolute and continuous" in message
     assert blender.run("result = [o.name for o in bpy.data.objects]") == []  # nothing half-built
+
+
+# --- 7. the installable zip ---------------------------------------------------------------------------
+
+
+def test_make_blender_addon_zip_installs_and_enables_in_blender(tmp_path):
+    """`make blender-addon`'s zip passes Blender's own extension validation and installs into a fresh
+    Blender (its own user folders in tmp_path), which registers the Nutty operators and menu."""
+    done = subprocess.run(["make", "-s", "blender-addon", f"DIST={tmp_path}"], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    zip_path = Path(done.stdout.strip().splitlines()[-1])
+    assert zip_path.parent == tmp_path and zip_path.name.startswith("nutty_blender-"), done.stdout
+    checked = subprocess.run([sys.executable, str(bpy_paths.blender_ext()), "validate", str(zip_path)],
+                             capture_output=True, text=True, timeout=120)
+    assert checked.returncode == 0 and "Success" in checked.stdout, checked.stdout + checked.stderr
+    script = f"""
+import bpy
+bpy.ops.extensions.package_install_files(filepath={str(zip_path)!r}, repo="user_default", enable_on_install=True)
+print("ENABLED", [k for k in bpy.context.preferences.addons.keys() if k.endswith("nutty_blender")])
+print("OPERATORS", all(hasattr(bpy.ops.nutty, n) for n in ("load_robot", "export_clip", "check_limits", "ghost", "live_link")))
+print("MENU", bpy.types.NUTTY_MT_menu.bl_label)
+"""
+    env = {**os.environ, "HOME": str(tmp_path), "BLENDER_USER_RESOURCES": str(tmp_path / "blender")}
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, env=env)
+    assert "ENABLED ['bl_ext.user_default.nutty_blender']" in run.stdout, run.stdout[-3000:] + run.stderr[-3000:]
+    assert "OPERATORS True" in run.stdout and "MENU Nutty" in run.stdout
