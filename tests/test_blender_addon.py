@@ -317,11 +317,18 @@ def test_ghost_keys_equal_the_servers_filter_output(blender, server):
         interps = {k.interpolation for fc in nutty_blender.rig.fcurves(g) for k in fc.keyframe_points}
         mats = {s.material.name for c in g.children for s in c.material_slots}
         alpha = [c.color[3] for c in g.children]
+        scene.frame_set(1)  # both at rest: each ghost mesh stands where its original does, shifted beside it
+        shift = g.matrix_world @ rig.matrix_world.inverted()
+        originals = {c.data.name: c for c in rig.children}
+        placed = max(max(abs(x) for row in (c.matrix_world - shift @ originals[c.data.name].matrix_world) for x in row)
+                     for c in g.children)
         result = {"keys": keys, "interps": sorted(interps), "mats": sorted(mats), "alpha": max(alpha),
-                  "meshes": len(g.children), "ghost_of": g["_nutty_ghost_of"]}
+                  "meshes": len(g.children), "ghost_of": g["_nutty_ghost_of"], "placed": placed,
+                  "beside": list(shift.translation)}
     """)
     assert got["ghost_of"] == "nutty_desk" and got["meshes"] == 17 and got["mats"] == ["Nutty ghost"]
     assert got["alpha"] < 1.0 and got["interps"] == ["LINEAR"]
+    assert got["placed"] < 1e-6 and got["beside"][0] == 0 and 0.2 < got["beside"][1] < 0.4  # one robot width left
     # the reference: Blender's evaluated angles per frame, posted to the server by this test
     angles = blender.run("""
         rig = bpy.data.objects["nutty_desk"]

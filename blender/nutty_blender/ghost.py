@@ -1,6 +1,7 @@
 """Nutty > Ghost: the action through the motion filter (POST /api/filter, a named preset or the running
 program's stage 2), baked onto a translucent copy of the rig (`<rig>.ghost`: one linear key per frame,
-exactly the server's values), so the authored and the filtered motion can be scrubbed side by side.
+exactly the server's values) standing beside it (or on it), so the authored and the filtered motion
+can be scrubbed side by side.
 """
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 import bpy
+from mathutils import Matrix, Vector
 
 from . import clip, rig
 from .client import Client
@@ -44,7 +46,10 @@ def _copy_meshes(rig_ob: Any, ghost: Any, collection: Any) -> None:
             continue
         c = child.copy()
         collection.objects.link(c)
-        c.parent = ghost  # same bone, same parent inverse and basis: the same place at rest
+        c.parent = ghost  # (setting the parent resets how it hangs: restore it, so it sits where the child does)
+        c.parent_type, c.parent_bone = child.parent_type, child.parent_bone
+        c.matrix_parent_inverse = child.matrix_parent_inverse.copy()
+        c.matrix_basis = child.matrix_basis.copy()
         c.hide_select = True  # clicks go to the authored rig
         for slot in c.material_slots:
             slot.link = "OBJECT"
@@ -69,9 +74,20 @@ def bake(ghost: Any, plan: Any, timing: clip.Timing, tracks: dict[str, list[floa
         fc.update()
 
 
-def make_ghost(context: Any, client: Client, rig_ob: Any, preset: str | None) -> tuple[Any, dict[str, Any]]:
-    """Build (or rebuild) the ghost of `rig_ob`; `preset` None: the running program's stage-2 filter.
-    Returns the ghost and the server's answer."""
+def beside(rig_ob: Any, offset: float) -> Matrix:
+    """Where the ghost stands: `offset` m along the rig's +Y (the robot's left); a negative offset means
+    one robot width (its meshes' extent along Y, plus a fifth), so the two never overlap."""
+    if offset < 0:
+        ys = [(c.matrix_world @ Vector(corner)).y for c in rig_ob.children if c.type == "MESH"
+              for corner in c.bound_box]
+        offset = 1.2 * (max(ys) - min(ys)) if ys else 0.5
+    return rig_ob.matrix_world @ Matrix.Translation((0.0, offset, 0.0))
+
+
+def make_ghost(context: Any, client: Client, rig_ob: Any, preset: str | None,
+               offset: float = -1.0) -> tuple[Any, dict[str, Any]]:
+    """Build (or rebuild) the ghost of `rig_ob` `offset` m beside it (see `beside`); `preset` None: the
+    running program's stage-2 filter. Returns the ghost and the server's answer."""
     plan = rig.plan_of(rig_ob)
     timing = clip.Timing.of(context.scene)
     tracks = clip.sample_tracks(rig_ob, plan, timing)
@@ -87,7 +103,7 @@ def make_ghost(context: Any, client: Client, rig_ob: Any, preset: str | None) ->
     collection = bpy.data.collections.get(COLLECTION) or rig_ob.users_collection[0]
     ghost = rig.build(context, rig.robot_of(rig_ob), plan, f"{rig_ob.name}.ghost", collection)
     ghost[rig.GHOST_KEY] = rig_ob.name
-    ghost.matrix_world = rig_ob.matrix_world
+    ghost.matrix_world = beside(rig_ob, offset)
     ghost.data.display_type = "WIRE"
     ghost.show_in_front = False
     _copy_meshes(rig_ob, ghost, collection)

@@ -145,7 +145,8 @@ class NUTTY_OT_ghost(_NuttyOperator):
     def run(self, context: Any) -> str:
         ob = rig_of(context)
         preset = context.scene.nutty.ghost_preset if self.preset == "PANEL" else self.preset
-        g, result = ghost.make_ghost(context, client_of(context), ob, None if preset == "PROGRAM" else preset)
+        g, result = ghost.make_ghost(context, client_of(context), ob, None if preset == "PROGRAM" else preset,
+                                     context.scene.nutty.ghost_offset)
         return f"ghost '{g.name}': {len(result['tracks'])} DoFs through filter {result['preset']}"
 
 

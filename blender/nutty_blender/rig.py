@@ -55,10 +55,10 @@ def fcurves(ob: Any) -> list[Any]:
 
 
 def _bone_length(plan: RigPlan) -> float:
-    """A bone length that suits the robot's size (m): 1/12 of its extent, within 1-10 cm."""
+    """A bone length that suits the robot's size (m): 1/8 of its joints' extent, within 1-15 cm."""
     heads = [b.head for b in plan.bones] or [(0.0, 0.0, 0.0)]
     extent = max(max(h[i] for h in heads) - min(h[i] for h in heads) for i in range(3))
-    return min(max(extent / 12.0, 0.01), 0.1)
+    return min(max(extent / 8.0, 0.01), 0.15)
 
 
 def _props(ob: Any, plan: RigPlan) -> None:

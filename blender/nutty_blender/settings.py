@@ -34,6 +34,9 @@ class NuttySettings(bpy.types.PropertyGroup):
     export_path: StringProperty(name="File", subtype="FILE_PATH", default="//clip.json")
     ghost_preset: EnumProperty(name="Filter", items=PRESETS, default="PROGRAM",
                                description="the motion filter the ghost shows")
+    ghost_offset: FloatProperty(name="Beside", default=-1.0, min=-1.0, soft_max=2.0, unit="LENGTH",
+                                description="how far to the robot's left the ghost stands (m): 0 overlays it on "
+                                            "the rig, -1 puts it one robot width away")
     ranges: CollectionProperty(type=NuttyRange)
     ranges_index: IntProperty()
     check_summary: StringProperty(name="Limits")

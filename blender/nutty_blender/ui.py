@@ -70,6 +70,7 @@ class NUTTY_PT_panel(bpy.types.Panel):
             box.template_list("NUTTY_UL_ranges", "", s, "ranges", s, "ranges_index", rows=4)
         box = layout.box()
         box.prop(s, "ghost_preset")
+        box.prop(s, "ghost_offset")
         row = box.row(align=True)
         row.operator("nutty.ghost", icon="GHOST_ENABLED")
         row.operator("nutty.remove_ghost", text="", icon="X")
