@@ -41,6 +41,19 @@ def reset_scene() -> None:
     scene.render.fps, scene.render.fps_base = 24, 1.0
 
 
+def key(rig, dof: str, frames: list[tuple[float, object]]) -> None:
+    """Key DoF `dof` of the rig at (frame, value) pairs: a bone's Y rotation (rad), or the armature's
+    property of that name (symbolic, display and sound DoFs)."""
+    bone = rig.pose.bones.get(dof)
+    for frame, value in frames:
+        if bone is not None:
+            bone.rotation_euler[1] = value
+            bone.keyframe_insert("rotation_euler", index=1, frame=frame)
+        else:
+            rig[dof] = value
+            rig.keyframe_insert(f'["{dof}"]', frame=frame)
+
+
 def joint_angles(rig, joints: dict, times: list[float]) -> dict[str, list[float]]:
     """Blender's evaluated angle (rad) of each joint at each frame (fractional frames allowed), from the
     evaluated pose matrices: the rotation of the joint's bone relative to its parent joint's bone and to
@@ -79,7 +92,7 @@ def operator_error(op, **kw) -> str | None:
     return None
 
 
-namespace = {"bpy": bpy, "nutty_blender": nutty_blender, "reset_scene": reset_scene, "joint_angles": joint_angles,
+namespace = {"bpy": bpy, "nutty_blender": nutty_blender, "reset_scene": reset_scene, "key": key, "joint_angles": joint_angles,
              "operator_error": operator_error, "Matrix": Matrix, "math": math, "json": json}
 protocol.write(json.dumps({"ok": True, "result": {"blender": bpy.app.version_string}}) + "\n")
 for line in sys.stdin:
