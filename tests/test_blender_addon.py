@@ -181,7 +181,8 @@ def clip_program(clip: str) -> dict:
             "edges": [{"from": {"node": "clip", "port": "out"}, "to": {"node": "out", "port": "in"}}]}
 
 
-def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(blender, server, emb, robot_dir):
+def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(blender, server, emb, robot_dir, tmp_path):
+    from backend.engine.clips import validate_clip_doc
     from backend.session import EngineSession
 
     robot = server.client.robot()
@@ -192,6 +193,9 @@ def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(blend
     """)
     doc = httpx.get(f"{server.url}/api/clips/blender_wave").json()  # saved through PUT /api/clips/{name}
     assert (robot_dir / "clips" / "blender_wave.json").exists()
+    path = tmp_path / "wave.json"
+    blender.run('bpy.ops.nutty.export_clip(target="FILE", filepath=args["path"])', path=str(path))
+    assert validate_clip_doc(json.loads(path.read_text())) == doc  # the same clip, written to a file
     assert doc["duration"] == pytest.approx(4.0) and doc["anchors"] == {"up": 1.0}
     assert [(e["kind"], round(e["t"] * FPS, 6)) for e in doc["events"]] == [("say", 4), ("sound", 9), ("sound", 59)]
     assert [e["payload"] for e in doc["events"]] == [{"text": "hello there"}, {"clip": "chirp"}, {"clip": "beep"}]
@@ -543,3 +547,27 @@ print("MENU", bpy.types.NUTTY_MT_menu.bl_label)
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, env=env)
     assert "ENABLED ['bl_ext.user_default.nutty_blender']" in run.stdout, run.stdout[-3000:] + run.stderr[-3000:]
     assert "OPERATORS True" in run.stdout and "MENU Nutty" in run.stdout
+
+
+def test_live_link_to_a_program_without_a_puppet_layer_says_so(blender):
+    """A real server (create_app under uvicorn) running the built-in idle program, which has no puppet
+    block: Live link is refused at once, in the report, and nothing keeps running."""
+    from backend.api import create_app
+    from backend.commands.serve import builtin_idle
+    from backend.session import EngineSession
+
+    desk = load_embodiment("nutty_desk")
+    session = EngineSession.create(desk, rate=50, program=builtin_idle(desk.name))
+    with running_app(create_app(session, frontend_dir=None)) as (_, _, port):
+        got = blender.run("""
+            reset_scene()
+            bpy.context.scene.nutty.server_url = args["url"]
+            bpy.ops.nutty.load_robot()
+            message = operator_error(bpy.ops.nutty.live_link, action="START")
+            link = nutty_blender.live.LINK
+            result = {"message": message, "running": link.running,
+                      "handlers": nutty_blender.live._on_change in bpy.app.handlers.frame_change_post}
+        """, url=f"http://127.0.0.1:{port}")
+    assert got["message"] and "Traceback" not in got["message"]
+    assert "refused the live link" in got["message"] and "no puppet block" in got["message"]
+    assert got["running"] is False and got["handlers"] is False

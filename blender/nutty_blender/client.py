@@ -51,6 +51,7 @@ class Client:
         self.url = url
         self.token = (token or os.environ.get("NUTTY_TOKEN", "")).strip()
         self.timeout = timeout
+        self.loopback = parts.hostname in ("localhost", "127.0.0.1", "::1") or parts.hostname.startswith("127.")
 
     # --- HTTP ---------------------------------------------------------------------------------------
     def request(self, method: str, path: str, body: Any = None) -> bytes:

@@ -20,6 +20,7 @@ from . import rig
 from .client import Client, NuttyError
 
 KEEPALIVE = 0.2  # s between messages while nothing changes (the puppet block's watchdog is 0.5 s)
+FIRST_REPLY = 5.0  # s to wait for the server's answer to the first pose
 
 
 class LiveLink:
@@ -89,19 +90,36 @@ class LiveLink:
         self.server_error = self.dropped = ""
         self.sent, self.last = 0, None
         self._stop.clear()
-        self._reader = threading.Thread(target=self._read, name="nutty-live-link", daemon=True)
-        self._reader.start()
+        try:
+            self._first_pose()
+        except NuttyError:
+            self.stop(release=False)
+            raise
         for handlers in (bpy.app.handlers.frame_change_post, bpy.app.handlers.depsgraph_update_post):
             if _on_change not in handlers:
                 handlers.append(_on_change)
         if not bpy.app.timers.is_registered(_tick):
             bpy.app.timers.register(_tick, first_interval=KEEPALIVE)
         self.status = f"live: {self.rig_name} -> {client.url}"
-        try:
-            self.send_pose(force=True)
-        except NuttyError:
-            self.stop()
-            raise
+
+    def _first_pose(self) -> None:
+        """Send the pose and wait for the server's answer, so a program that cannot be puppeteered (no
+        puppet block) or a refused target is reported by the operator, not found out later."""
+        pose = self.pose()
+        self.ws.send({"type": "puppet", "id": "blender-live-link", "values": pose})
+        deadline = time.monotonic() + FIRST_REPLY
+        while time.monotonic() < deadline:
+            msg = self.ws.receive(timeout=max(0.0, deadline - time.monotonic()))
+            if isinstance(msg, dict) and msg.get("id") == "blender-live-link" and msg.get("type") in ("ack", "error"):
+                if msg["type"] == "error":
+                    raise NuttyError(f"the server refused the live link: {msg.get('message', 'error')}")
+                break
+        else:
+            raise NuttyError(f"the server did not answer the live link within {FIRST_REPLY:g} s")
+        self.last, self.last_sent = pose, time.monotonic()
+        self.sent += 1
+        self._reader = threading.Thread(target=self._read, name="nutty-live-link", daemon=True)
+        self._reader.start()
 
     def _read(self) -> None:
         """Acks and events are read (so the server never waits on this client) and dropped; errors kept."""

@@ -23,7 +23,13 @@ CLIP_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-.]{0,79}$")  # as backend/eng
 
 
 def client_of(context: Any) -> Client:
-    return Client(context.scene.nutty.server_url, context.window_manager.nutty_token)
+    """The server of the Nutty panel. A server on another machine needs Blender's *Allow Online Access*
+    (the extension rule); one on this machine (loopback) does not."""
+    client = Client(context.scene.nutty.server_url, context.window_manager.nutty_token)
+    if not client.loopback and not getattr(bpy.app, "online_access", True):
+        raise NuttyError(f"{client.url} is on another machine and Blender's online access is off: allow it in "
+                         f"Preferences > System > Network, or run nutty serve on this machine")
+    return client
 
 
 def rig_of(context: Any) -> Any:

@@ -54,8 +54,9 @@ class NUTTY_PT_panel(bpy.types.Panel):
             layout.label(text="No rig yet: load the robot", icon="INFO")
             return
         box = layout.box()
-        box.prop(s, "clip_name", placeholder=ob.animation_data.action.name
-                 if ob.animation_data and ob.animation_data.action else "clip name")
+        box.prop(s, "clip_name")
+        if not s.clip_name and ob.animation_data and ob.animation_data.action:
+            box.label(text=f"(default: {ob.animation_data.action.name})")
         box.prop(s, "export_target", expand=True)
         if s.export_target == "FILE":
             box.prop(s, "export_path")
