@@ -168,8 +168,8 @@ def graph(curves: dict[str, list[float]], ranges: list, frames: list[int], colou
             faces.append((k, k + 1, k + 2, k + 3))
         add_mesh(name, verts, faces, material(name, rgba), col)
     zero = xy(frames[0], 0.0)[1]
-    add_mesh("zero", [(-6, zero - 0.01, -0.05), (6, zero - 0.01, -0.05), (6, zero + 0.01, -0.05), (-6, zero + 0.01, -0.05)],
-             [(0, 1, 2, 3)], material("axis", (0.35, 0.35, 0.35, 1)), col)
+    add_mesh("zero", [(-6, zero - 0.01, -0.05), (6, zero - 0.01, -0.05), (6, zero + 0.01, -0.05),
+                      (-6, zero + 0.01, -0.05)], [(0, 1, 2, 3)], material("axis", (0.35, 0.35, 0.35, 1)), col)
     x = xy(FRAME, 0)[0]
     add_mesh("now", [(x - 0.02, bottom, 0.05), (x + 0.02, bottom, 0.05), (x + 0.02, top, 0.05), (x - 0.02, top, 0.05)],
              [(0, 1, 2, 3)],

@@ -118,7 +118,8 @@ def test_load_robot_rigs_every_joint_and_moves_the_meshes_like_the_urdf(blender,
         locks = {b.name: list(b.lock_rotation) for b in rig.pose.bones}
         result = {"meshes": result, "limits": limits, "locks": locks}
     """, pose=pose, symbolic=symbolic)
-    assert got["limits"]["head_yaw"] == pytest.approx([-1.2, 1.2]) and got["limits"]["ear_left"] == pytest.approx([-0.9, 0.7])
+    assert got["limits"]["head_yaw"] == pytest.approx([-1.2, 1.2])
+    assert got["limits"]["ear_left"] == pytest.approx([-0.9, 0.7])
     assert got["locks"]["head_yaw"] == [True, False, True] and got["locks"]["head_yaw.drive"] == [True, True, True]
     values = emb.rest.copy()
     for name, v in {**pose, **symbolic}.items():
@@ -540,7 +541,8 @@ def test_make_blender_addon_zip_installs_and_enables_in_blender(tmp_path):
 import bpy
 bpy.ops.extensions.package_install_files(filepath={str(zip_path)!r}, repo="user_default", enable_on_install=True)
 print("ENABLED", [k for k in bpy.context.preferences.addons.keys() if k.endswith("nutty_blender")])
-print("OPERATORS", all(hasattr(bpy.ops.nutty, n) for n in ("load_robot", "export_clip", "check_limits", "ghost", "live_link")))
+names = ("load_robot", "export_clip", "check_limits", "ghost", "live_link")
+print("OPERATORS", all(hasattr(bpy.ops.nutty, n) for n in names))
 print("MENU", bpy.types.NUTTY_MT_menu.bl_label)
 """
     env = {**os.environ, "HOME": str(tmp_path), "BLENDER_USER_RESOURCES": str(tmp_path / "blender")}
@@ -571,3 +573,37 @@ def test_live_link_to_a_program_without_a_puppet_layer_says_so(blender):
     assert got["message"] and "Traceback" not in got["message"]
     assert "refused the live link" in got["message"] and "no puppet block" in got["message"]
     assert got["running"] is False and got["handlers"] is False
+
+
+def test_the_add_on_sends_the_token_when_the_server_has_one(blender, tmp_path):
+    """A real server with a token (create_app under uvicorn, the interactive program): reading needs none;
+    saving a clip and the live link are refused without it, with a message that says so, and work with it."""
+    from backend.api import create_app
+    from backend.session import EngineSession
+
+    desk = load_embodiment("nutty_desk")
+    program = (ROOT / "robots" / "nutty_desk" / "programs" / "interactive.json").read_text()
+    session = EngineSession.create(desk, rate=50, program_text=program)
+    session.library.folder = tmp_path  # the clip lands here, not in the repository
+    with running_app(create_app(session, token="s3cret", frontend_dir=None)) as (_, _, port):
+        got = blender.run("""
+            reset_scene()
+            s = bpy.context.scene.nutty
+            s.server_url, s.clip_name = args["url"], "token_test"
+            wm = bpy.context.window_manager
+            wm.nutty_token = ""
+            result = {"load": operator_error(bpy.ops.nutty.load_robot)}   # reading is open
+            key(bpy.data.objects["nutty_desk"], "head_yaw", [(1, 0.0), (20, 0.1)])
+            result["export"] = operator_error(bpy.ops.nutty.export_clip)
+            result["live"] = operator_error(bpy.ops.nutty.live_link, action="START")
+            wm.nutty_token = "s3cret"
+            result["export_with"] = operator_error(bpy.ops.nutty.export_clip)
+            result["live_with"] = operator_error(bpy.ops.nutty.live_link, action="START")
+            result["running"] = nutty_blender.live.LINK.running
+            bpy.ops.nutty.live_link(action="STOP")
+            wm.nutty_token = ""
+        """, url=f"http://127.0.0.1:{port}")
+    assert got["load"] is None and got["export_with"] is None and got["live_with"] is None and got["running"]
+    assert "needs its token" in got["export"]
+    assert "needs its token" in got["live"]
+    assert (tmp_path / "clips" / "token_test.json").exists()

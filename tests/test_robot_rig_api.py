@@ -146,4 +146,5 @@ def test_filter_without_stage2_asks_for_a_preset(desk):
     with TestClient(create_app(session, frontend_dir=None)) as c:
         r = c.post("/api/filter", json={"rate": 24, "tracks": {"head_yaw": [0.0, 0.1]}})
         assert r.status_code == 422 and r.json()["detail"]["code"] == "no_stage2"
-        assert c.post("/api/filter", json={"rate": 24, "tracks": {"head_yaw": [0.0, 0.1]}, "preset": "A"}).status_code == 200
+        named = c.post("/api/filter", json={"rate": 24, "tracks": {"head_yaw": [0.0, 0.1]}, "preset": "A"})
+        assert named.status_code == 200

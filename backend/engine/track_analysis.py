@@ -73,7 +73,8 @@ def analyze_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]])
     lo, hi = emb.min[ch], emb.max[ch]
     result = trajectory.analyze(x, rate, vel, acc, jerk, lo, hi)
     centre, half = (hi + lo) / 2.0, np.maximum((hi - lo) / 2.0, 1e-12)
-    ratios = {trajectory.VELOCITY: np.abs(result.velocity) / vel, trajectory.ACCELERATION: np.abs(result.acceleration) / acc,
+    ratios = {trajectory.VELOCITY: np.abs(result.velocity) / vel,
+              trajectory.ACCELERATION: np.abs(result.acceleration) / acc,
               trajectory.JERK: np.abs(result.jerk) / jerk, trajectory.POSITION: np.abs(x - centre) / half}
     ranges: list[dict[str, Any]] = []
     dofs: dict[str, Any] = {}

@@ -204,8 +204,11 @@ class WebSocket:
                     self._buffer += chunk
                     continue
                 opcode, payload = frame
-                if opcode == 0x8:  # close: the server says why after a 2-byte code
+                if opcode == 0x8:  # close: a 2-byte code, then why
+                    code = struct.unpack("!H", payload[:2])[0] if len(payload) >= 2 else 1005
                     self.closed, self.close_reason = True, payload[2:].decode("utf-8", "replace") or "closed"
+                    if code == 4401:
+                        raise NuttyError(f"the server at {self.where} needs its token: set it in the Nutty panel")
                     raise NuttyError(f"{self.where} closed the connection: {self.close_reason}")
                 if opcode == 0x9:
                     self._send_frame(0xA, payload)

@@ -118,7 +118,7 @@ def _baked(fc: Any, f0: float, f1: float, timing: Timing) -> list[dict[str, Any]
             key["left_type"], key["left"] = "free", [_r(-step / 3 / timing.fps), _r(-d * step / 3)]
         if k < pieces:
             d = _slope(fc, f, 1.0) if k == 0 else (fc.evaluate(f + 1e-3) - fc.evaluate(f - 1e-3)) / 2e-3
-            key["interp"], key["right_type"], key["right"] = "bezier", "free", [_r(step / 3 / timing.fps), _r(d * step / 3)]
+            key.update(interp="bezier", right_type="free", right=[_r(step / 3 / timing.fps), _r(d * step / 3)])
         keys.append(key)
     return keys
 
@@ -176,8 +176,8 @@ def _colour_keys(name: str, curves: dict[int, Any], timing: Timing, notes: list[
     frames = sorted({kp.co[0] for fc in curves.values() for kp in fc.keyframe_points})
     smooth = {kp.interpolation for fc in curves.values() for kp in fc.keyframe_points} - {"CONSTANT", "LINEAR"}
     if smooth:
-        notes.append(f"'{name}': colours blend linearly between keys in the engine ({', '.join(sorted(smooth)).lower()} "
-                     f"keys become linear)")
+        kinds = ", ".join(sorted(smooth)).lower()
+        notes.append(f"'{name}': colours blend linearly between keys in the engine ({kinds} keys become linear)")
     keys = []
     for f in frames:
         if f < timing.start - 1e-6:
@@ -283,8 +283,9 @@ def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict
 
     doc = {"format": "nutty-clip/1", "name": name, "robot": plan.robot, "duration": _r(timing.duration),
            "tracks": tracks, "anchors": anchors, "events": sorted(events + marker_events, key=lambda e: e["t"]),
-           "source": {"tool": "blender", "blender": bpy.app.version_string, "file": bpy.path.basename(bpy.data.filepath),
-                      "object": rig_ob.name, "action": rig_ob.animation_data.action.name, "fps": timing.fps,
+           "source": {"tool": "blender", "blender": bpy.app.version_string,
+                      "file": bpy.path.basename(bpy.data.filepath), "object": rig_ob.name,
+                      "action": rig_ob.animation_data.action.name, "fps": timing.fps,
                       "frame_start": timing.start, "frame_end": timing.end}}
     return doc, notes
 

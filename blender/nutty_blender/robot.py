@@ -94,6 +94,56 @@ def _clamp(expr: str, lower: float | None, upper: float | None) -> str:
     return expr
 
 
+def _refuse_unsupported(robot: dict[str, Any], frames: dict[str, Any], needed: set[str]) -> None:
+    """RigError naming every joint a DoF needs that is missing or not a plain rotation."""
+    def kind(j: str) -> str | None:
+        if j not in frames:
+            return "missing"
+        f = frames[j]
+        return "mimic" if f.get("mimic") else None if f["type"] in SUPPORTED_JOINTS else f["type"]
+
+    bad = [f"'{j}' ({kind(j)})" for j in sorted(needed) if kind(j) is not None]
+    if bad:
+        raise RigError(f"robot '{robot.get('name')}' has joints the add-on cannot rig: {', '.join(bad)}. It rigs "
+                       f"revolute and continuous joints (one rotation channel per bone)")
+
+
+def _joint_bones(name: str, f: dict[str, Any], parent: str | None, dof: dict[str, Any] | None,
+                 drives: list[tuple[str, float, float]] | None) -> list[BonePlan]:
+    """The bones of one joint, its link bone last: the DoF's control bone, a drive bone for the symbolic
+    DoFs that drive it (under the control bone, or alone), or a locked bone for a joint nothing drives."""
+    rot = f["rotation"]
+    axis = tuple(float(a) for a in f["axis"])
+    x_axis = (rot[0][0], rot[1][0], rot[2][0])  # the joint frame's X, unless it is the axis itself
+    z_axis = (rot[0][2], rot[1][2], rot[2][2])
+    roll_ref = x_axis if abs(sum(a * b for a, b in zip(x_axis, axis))) < 0.9 else z_axis
+    common = dict(joint=name, head=tuple(f["origin"]), axis=axis, roll_ref=roll_ref)
+    lower, upper = f["limits"]
+    bones = []
+    if dof is not None:
+        limits = None
+        if f["type"] == "revolute":  # the DoF's limits, within the joint's (the engine clamps to both)
+            limits = (max(float(dof["min"]), lower if lower is not None else float(dof["min"])),
+                      min(float(dof["max"]), upper if upper is not None else float(dof["max"])))
+        bones.append(BonePlan(name=name, parent=parent, dof=dof["name"], rest=float(dof.get("rest") or 0.0),
+                              limits=limits, **common))
+    if drives:
+        sums, variables = _sum_terms(drives)
+        if dof is not None:  # the joint = its DoF (the control bone's angle) + the symbolic terms
+            variables["d"] = ("bone", name)
+            expression = f"{_clamp(f'd + {sums}', lower, upper)} - d"
+            bones.append(BonePlan(name=name + DRIVE_SUFFIX, parent=name, expression=expression, variables=variables,
+                                  hidden=True, **common))
+        else:  # no DoF of its own: the joint rests where the engine rests it, plus the symbolic terms
+            rest = 0.0 if lower is None else max(0.0, lower)  # the engine's rest of an undriven joint
+            rest = rest if upper is None else min(rest, upper)
+            expression = _clamp(f"{_fmt(rest)} + {sums}", lower, upper)
+            bones.append(BonePlan(name=name, parent=parent, expression=expression, variables=variables, **common))
+    if not bones:  # a joint nothing drives: a locked bone (the engine holds it at zero)
+        bones.append(BonePlan(name=name, parent=parent, **common))
+    return bones
+
+
 def plan_rig(robot: dict[str, Any]) -> RigPlan:
     """The rig of `robot` (the JSON of GET /api/robot). RigError when a DoF needs a joint the add-on
     cannot rig (prismatic, planar, floating or mimic joints, or a robot without joint frames)."""
@@ -105,64 +155,24 @@ def plan_rig(robot: dict[str, Any]) -> RigPlan:
     stationary = [d for d in dofs if d.get("dimension") == "stationary" and d.get("type") == "continuous"]
     real = {d["joint"]: d for d in stationary if d.get("joint") and not d.get("drives")}
     symbolic = [d for d in stationary if d.get("drives")]
-    needed = set(real) | {j for d in symbolic for j in d["drives"]}
-    bad = sorted(j for j in needed if j not in frames or frames[j]["type"] not in SUPPORTED_JOINTS
-                 or frames[j].get("mimic"))
-    if bad:
-        kinds = ", ".join(f"'{j}' ({'missing' if j not in frames else 'mimic' if frames[j].get('mimic') else frames[j]['type']})"
-                          for j in bad)
-        raise RigError(f"robot '{robot.get('name')}' has joints the add-on cannot rig: {kinds}. It rigs revolute "
-                       f"and continuous joints (one rotation channel per bone)")
+    _refuse_unsupported(robot, frames, set(real) | {j for d in symbolic for j in d["drives"]})
     drives_of: dict[str, list[tuple[str, float, float]]] = {}
     for d in symbolic:
         for joint, coef in d["drives"].items():
             drives_of.setdefault(joint, []).append((d["name"], float(coef), float(d.get("rest") or 0.0)))
-    link_bone: dict[str, str] = {}  # joint -> link bone
+    link_bone: dict[str, str | None] = {}  # joint -> the bone its links and child joints hang from
     bones: list[BonePlan] = []
     warnings: list[str] = []
     for name, f in frames.items():  # parents first
-        if f["type"] not in SUPPORTED_JOINTS or f.get("mimic"):
+        parent = link_bone.get(f["parent_joint"]) if f["parent_joint"] else None
+        if f["type"] not in SUPPORTED_JOINTS or f.get("mimic"):  # no DoF needs it (else refused above)
             warnings.append(f"joint '{name}' ({f['type']}{', mimic' if f.get('mimic') else ''}) is not rigged: "
                             f"its links move with '{f['parent_joint'] or 'the base'}'")
-            link_bone[name] = link_bone.get(f["parent_joint"]) if f["parent_joint"] else None
+            link_bone[name] = parent
             continue
-        rot = f["rotation"]
-        axis = tuple(float(a) for a in f["axis"])
-        x_axis = (rot[0][0], rot[1][0], rot[2][0])  # the joint frame's X, unless it is the axis itself
-        z_axis = (rot[0][2], rot[1][2], rot[2][2])
-        roll_ref = x_axis if abs(sum(a * b for a, b in zip(x_axis, axis))) < 0.9 else z_axis
-        parent = link_bone.get(f["parent_joint"]) if f["parent_joint"] else None
-        lower, upper = f["limits"]
-        common = dict(joint=name, head=tuple(f["origin"]), axis=axis, roll_ref=roll_ref)
-        control = None
-        if name in real:
-            d = real[name]
-            limits = None
-            if f["type"] == "revolute":  # the DoF's limits, within the joint's (the engine clamps to both)
-                limits = (max(float(d["min"]), lower if lower is not None else float(d["min"])),
-                          min(float(d["max"]), upper if upper is not None else float(d["max"])))
-            control = BonePlan(name=name, parent=parent, dof=d["name"], rest=float(d.get("rest") or 0.0),
-                               limits=limits, **common)
-            bones.append(control)
-            link_bone[name] = name
-        if name in drives_of:
-            sums, variables = _sum_terms(drives_of[name])
-            if control is not None:  # the joint = its DoF (the control bone's angle) + the symbolic terms
-                variables["d"] = ("bone", name)
-                expr = f"{_clamp(f'd + {sums}', lower, upper)} - d"
-                bone_name = name + DRIVE_SUFFIX
-                bone_parent = name
-            else:  # no DoF of its own: the joint rests where the engine rests it, plus the symbolic terms
-                rest = 0.0 if lower is None else max(0.0, lower)  # the engine's rest of an undriven joint
-                rest = rest if upper is None else min(rest, upper)
-                expr = _clamp(f"{_fmt(rest)} + {sums}", lower, upper)
-                bone_name, bone_parent = name, parent
-            bones.append(BonePlan(name=bone_name, parent=bone_parent, expression=expr, variables=variables,
-                                  hidden=control is not None, **common))
-            link_bone[name] = bone_name
-        if name not in link_bone:  # a joint nothing drives: a locked bone (the engine holds it at zero)
-            bones.append(BonePlan(name=name, parent=parent, **common))
-            link_bone[name] = name
+        planned = _joint_bones(name, f, parent, real.get(name), drives_of.get(name))
+        bones += planned
+        link_bone[name] = planned[-1].name
     links: dict[str, str | None] = {link: None for link in robot.get("root_links") or []}
     for name, f in frames.items():
         for link in f["links"]:
@@ -170,9 +180,8 @@ def plan_rig(robot: dict[str, Any]) -> RigPlan:
     spatial = [d["name"] for d in dofs if d.get("dimension") == "spatial"]
     if spatial:
         warnings.append(f"spatial DoFs ({', '.join(spatial)}) are not rigged: animate the base in the editor")
-    props = _props(robot, symbolic)
     audible = {d.get("kind"): d["name"] for d in dofs if d.get("dimension") == "audible"}
-    return RigPlan(robot=str(robot.get("name")), bones=bones, props=props, link_bones=links,
+    return RigPlan(robot=str(robot.get("name")), bones=bones, props=_props(robot, symbolic), link_bones=links,
                    joint_bones={j: b for j, b in link_bone.items() if b is not None},
                    dof_bones={b.dof: b.name for b in bones if b.dof}, speech=audible.get("speech"),
                    sound=audible.get("sound"), warnings=warnings)

@@ -92,7 +92,8 @@ def operator_error(op, **kw) -> str | None:
     return None
 
 
-namespace = {"bpy": bpy, "nutty_blender": nutty_blender, "reset_scene": reset_scene, "key": key, "joint_angles": joint_angles,
+namespace = {"bpy": bpy, "nutty_blender": nutty_blender, "reset_scene": reset_scene, "key": key,
+             "joint_angles": joint_angles,
              "operator_error": operator_error, "Matrix": Matrix, "math": math, "json": json}
 protocol.write(json.dumps({"ok": True, "result": {"blender": bpy.app.version_string}}) + "\n")
 for line in sys.stdin:

@@ -10,7 +10,7 @@ import numpy as np
 from pydantic import Field
 
 from backend.engine.blend import advance_fades
-from backend.engine.blocks.base import BlockCommandError, BlockParams, DofSelection, Port, PortType, Source, register_block
+from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, register_block
 from backend.engine.embodiment import DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
@@ -100,7 +100,8 @@ class Puppet(Source):
         if dof.type is DofType.colour:
             if not (isinstance(target, list) and len(target) == 3 and all(
                     isinstance(c, (int, float)) and not isinstance(c, bool) and 0.0 <= c <= 1.0 for c in target)):
-                raise PuppetValueError(f"'{name}' takes a colour [r, g, b] with components in 0..1, got {target!r}", name)
+                raise PuppetValueError(f"'{name}' takes a colour [r, g, b] with components in 0..1, got {target!r}",
+                                       name)
             return [float(c) for c in target]
         options = list(dof.options or ())
         if not isinstance(target, str) or target not in options:
