@@ -97,10 +97,10 @@ class NUTTY_OT_export_clip(_NuttyOperator):
         ob = rig_of(context)
         action = ob.animation_data.action if ob.animation_data else None
         name = (self.name or settings.clip_name or (action.name if action else "")).strip()
+        doc, notes = clip.export_clip(ob, rig.plan_of(ob), context.scene, name)  # (no keys: said first)
         if not CLIP_NAME.match(name):  # the server's library rule, checked here so the name is never a path
             raise clip.ExportError(f"invalid clip name {name!r}: use letters, digits, '_', '-' or '.' "
                                    f"(at most 80 characters, not starting with '-' or '.')")
-        doc, notes = clip.export_clip(ob, rig.plan_of(ob), context.scene, name)
         self.warn(notes)
         target = settings.export_target if self.target == "PANEL" else self.target
         if target == "FILE":

@@ -29,7 +29,8 @@ nutty_blender.register()
 
 
 def reset_scene() -> None:
-    """An empty scene (what a new file has, minus the default objects)."""
+    """An empty scene with the settings of a new file (minus its default objects): tests do not see each
+    other's rigs, keys, markers, frame range or Nutty settings."""
     if nutty_blender.live.LINK.running:
         nutty_blender.live.LINK.stop()
     for ob in list(bpy.data.objects):
@@ -39,6 +40,12 @@ def reset_scene() -> None:
     scene = bpy.context.scene
     scene.timeline_markers.clear()
     scene.render.fps, scene.render.fps_base = 24, 1.0
+    scene.frame_start, scene.frame_end = 1, 250  # a new file's
+    scene.frame_set(1)
+    for name in ("server_url", "clip_name", "export_target", "export_path", "ghost_preset", "ghost_offset"):
+        scene.nutty.property_unset(name)
+    scene.nutty.ranges.clear()
+    bpy.context.window_manager.nutty_token = ""
 
 
 def key(rig, dof: str, frames: list[tuple[float, object]]) -> None:
