@@ -2,6 +2,7 @@
 #   make run   install everything, build the editor, serve the default robot and program
 #   make test  install everything and run every test (Python, front-end unit, browser end-to-end)
 #   make bench engine and NMF benchmarks; make soak: a served robot under churning clients (optional)
+#   make blender-addon  the Blender add-on as an installable extension: dist/nutty_blender-<version>.zip
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
@@ -9,7 +10,8 @@ PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
 FRONTEND := frontend
 
-.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench soak figures clean
+.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench soak figures \
+	blender-addon clean
 
 run: deps frontend-build
 	$(VENV)/bin/nutty serve
@@ -65,5 +67,10 @@ soak: deps-python
 figures: deps-python
 	$(VENV)/bin/nutty figures docs/figures
 
+# Standard library only: needs no virtualenv and no Blender (docs/blender.md installs the zip).
+DIST ?= dist
+blender-addon:
+	$(PYTHON) blender/build_addon.py $(DIST)
+
 clean:
-	rm -rf $(VENV) $(FRONTEND)/node_modules $(FRONTEND)/dist
+	rm -rf $(VENV) $(FRONTEND)/node_modules $(FRONTEND)/dist dist

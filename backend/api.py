@@ -30,14 +30,14 @@ from fastapi.responses import HTMLResponse
 
 from backend import security
 from backend.hub import Hub
-from backend.routes import commands, library, program, robot, sockets, status, tools
+from backend.routes import analysis, commands, library, program, robot, sockets, status, tools
 from backend.routes.errors import SafeJSONResponse, install_error_handlers
 from backend.security import MAX_BODY
 from backend.session import EngineSession
 
 FRONTEND_DIST = Path(__file__).resolve().parents[1] / "frontend" / "dist"
 ROUTERS = (robot.router, program.router, library.router, commands.router, tools.router, status.router,
-           status.previz_proxy, sockets.router)
+           status.previz_proxy, sockets.router, analysis.router)
 
 
 def create_app(session: EngineSession, *, token: str | None = None, previz: Any = None,

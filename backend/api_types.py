@@ -87,6 +87,22 @@ class EditorRules(_Shape):
 # --- the robot ---------------------------------------------------------------------------------------
 
 
+class JointFrame(_Shape):
+    """A moving URDF joint with every joint at zero, in the root link's frame (backend/engine/joint_frames.py):
+    what a DCC rig needs to put a bone on it."""
+
+    joint: str
+    type: str = Field(..., description="URDF joint type: revolute, continuous, prismatic, ...")
+    parent_joint: str | None = Field(..., description="the nearest moving joint above it (null: the root link)")
+    origin: list[float] = Field(..., min_length=3, max_length=3, description="joint frame origin (m)")
+    rotation: list[list[float]] = Field(..., description="joint frame orientation, 3x3 rows")
+    axis: list[float] = Field(..., min_length=3, max_length=3, description="unit joint axis (right-handed)")
+    links: list[str] = Field(..., description="links that move rigidly with this joint")
+    limits: list[float | None] = Field(..., min_length=2, max_length=2,
+                                       description="[lower, upper] joint position (rad or m); null: unbounded")
+    mimic: dict[str, Any] | None = Field(..., description="{joint, multiplier, offset} of a mimic joint")
+
+
 class DofInfo(_Shape):
     name: str
     dimension: Dimension
@@ -108,6 +124,7 @@ class DofInfo(_Shape):
     kind: str | None = None
     sounds: list[str] | None = None
     description: str | None = None
+    joint_frame: JointFrame | None = Field(None, description="the frame and axis of `joint` (a URDF joint's DoF)")
 
 
 class RobotDescription(_Shape):
@@ -121,6 +138,8 @@ class RobotDescription(_Shape):
     joints: list[str]
     groups: dict[str, list[str]]
     postures: list[str]
+    joint_frames: dict[str, JointFrame] = Field(..., description="every moving URDF joint, parents first")
+    root_links: list[str] = Field(..., description="links no joint moves (the base)")
     urdf: str
 
 

@@ -48,7 +48,7 @@ def test_the_union_schema_and_long_actions_come_from_the_registry():
     types = {cls.model_fields["type"].default for cls in REGISTRY.classes()}
     schema = control.command_json_schema()
     assert set(schema["discriminator"]["mapping"]) == types
-    assert len(schema["oneOf"]) == len(types) == 16
+    assert len(schema["oneOf"]) == len(types) == 17  # 16 + puppet (Blender's live link)
     assert control.LONG_ACTIONS == {"play_clip", "go_posture", "say", "play_sound"}
     for cls in REGISTRY.classes():
         assert cls.acts_on.blocks or cls.acts_on.role != "block", cls  # every command says what it acts on

@@ -7,7 +7,7 @@ and how to cancel it, and `run`. The union every entry point validates against, 
 the JSON Schema the editor's TypeScript types come from, and `execute` are built from the registry.
 
 Adding a command: one class in the module of its concern (clips, postures, inputs, display,
-lifecycle), a test, then `cd frontend && npm run gen:types`. The REST API, /ws/control, the Python
+lifecycle, puppet), a test, then `cd frontend && npm run gen:types`. The REST API, /ws/control, the Python
 client (`NuttyClient.command`) and the editor pick it up.
 """
 
@@ -22,6 +22,7 @@ from backend.control.postures import GoPosture, SetGaze, Vec3
 from backend.control.inputs import SetEmotion, SetInput, SetInputs, SetLayer
 from backend.control.display import PlaySound, Say, SetFace, SetLed
 from backend.control.lifecycle import Cancel, Reset, StopAll
+from backend.control.puppet import Puppet
 from backend.control.dispatch import (
     cancel_command, command_json_schema, command_union, execute, is_long_action, parse_command)
 from backend.control.targets import blocks_of, find_block
@@ -34,5 +35,5 @@ __all__ = [
     "LONG_ACTIONS", "parse_command", "execute", "command_json_schema", "command_union", "is_long_action",
     "cancel_command", "blocks_of", "find_block", "Vec3",
     "PlayClip", "StopClip", "SeekClip", "GoPosture", "SetGaze", "SetInput", "SetInputs", "SetLayer",
-    "SetEmotion", "Say", "PlaySound", "SetLed", "SetFace", "Reset", "StopAll", "Cancel",
+    "SetEmotion", "Say", "PlaySound", "SetLed", "SetFace", "Reset", "StopAll", "Cancel", "Puppet",
 ]

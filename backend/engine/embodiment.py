@@ -179,15 +179,21 @@ class Embodiment:
         return pose
 
     def to_dict(self) -> dict[str, Any]:
+        from backend.engine.joint_frames import joint_frames, root_links
+
+        frames = joint_frames(self)  # a rig's bones: each moving joint's frame and axis at zero
         return {
             "name": self.name,
             "description": self.description,
             "dimensions": self.dimension_counts(),
-            "dofs": [d.to_dict() for d in self.dofs],
+            "dofs": [{**d.to_dict(), **({"joint_frame": frames[d.joint]} if d.joint in frames else {})}
+                     for d in self.dofs],
             "channels": list(self.channel_names),
             "joints": [j.name for j in self.joints],
             "groups": {g: [self.channel_names[i] for i in ix] for g, ix in self.groups.items()},
             "postures": sorted(self.postures),
+            "joint_frames": frames,
+            "root_links": root_links(self),
         }
 
 

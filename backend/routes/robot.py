@@ -1,11 +1,12 @@
-"""The robot: its embodiment (kinematronics table) and its URDF."""
+"""The robot: its embodiment (kinematronics table, with each joint's frame and axis), its URDF and its
+visual meshes as GLB (for DCC tools such as the Blender add-on)."""
 
 from __future__ import annotations
 
 from typing import Any
 
 from fastapi import APIRouter
-from fastapi.responses import PlainTextResponse
+from fastapi.responses import PlainTextResponse, Response
 
 from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
@@ -24,3 +25,15 @@ def robot_urdf(session: SessionDep) -> str:
     if session.embodiment.urdf_path is None:
         raise api_error(404, "no_urdf", "this robot has no URDF file")
     return session.embodiment.urdf_path.read_text()
+
+
+@router.get("/robot/scene.glb", response_class=Response, summary="The robot's visual meshes (GLB, every joint at zero)",
+            responses={200: {"content": {"model/gltf-binary": {}}}})
+def robot_scene(session: SessionDep) -> Response:
+    from backend.engine.visual_scene import NoVisuals, scene_glb
+
+    try:
+        glb = scene_glb(session.embodiment)
+    except NoVisuals as exc:
+        raise api_error(404, "no_visuals", str(exc)) from exc
+    return Response(glb, media_type="model/gltf-binary")

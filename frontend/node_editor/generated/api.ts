@@ -356,9 +356,19 @@ export interface RobotDescription {
   groups: {
     [k: string]: string[];
   };
+  /**
+   * every moving URDF joint, parents first
+   */
+  joint_frames: {
+    [k: string]: JointFrame;
+  };
   joints: string[];
   name: string;
   postures: string[];
+  /**
+   * links no joint moves (the base)
+   */
+  root_links: string[];
   urdf: string;
 }
 /**
@@ -383,6 +393,10 @@ export interface DofInfo {
   group?: string | null;
   jerk: number | null;
   joint?: string | null;
+  /**
+   * the frame and axis of `joint` (a URDF joint's DoF)
+   */
+  joint_frame?: JointFrame | null;
   kind?: string | null;
   links?: string[] | null;
   max: number | null;
@@ -393,6 +407,59 @@ export interface DofInfo {
   sounds?: string[] | null;
   type: DofType;
   velocity: number | null;
+}
+/**
+ * A moving URDF joint with every joint at zero, in the root link's frame (backend/engine/joint_frames.py):
+ * what a DCC rig needs to put a bone on it.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "JointFrame".
+ */
+export interface JointFrame {
+  /**
+   * unit joint axis (right-handed)
+   *
+   * @minItems 3
+   * @maxItems 3
+   */
+  axis: [number, number, number];
+  joint: string;
+  /**
+   * [lower, upper] joint position (rad or m); null: unbounded
+   *
+   * @minItems 2
+   * @maxItems 2
+   */
+  limits: [number | null, number | null];
+  /**
+   * links that move rigidly with this joint
+   */
+  links: string[];
+  /**
+   * {joint, multiplier, offset} of a mimic joint
+   */
+  mimic: {
+    [k: string]: unknown;
+  } | null;
+  /**
+   * joint frame origin (m)
+   *
+   * @minItems 3
+   * @maxItems 3
+   */
+  origin: [number, number, number];
+  /**
+   * the nearest moving joint above it (null: the root link)
+   */
+  parent_joint: string | null;
+  /**
+   * joint frame orientation, 3x3 rows
+   */
+  rotation: number[][];
+  /**
+   * URDF joint type: revolute, continuous, prismatic, ...
+   */
+  type: string;
 }
 /**
  * GET /api/program.

@@ -16,7 +16,8 @@ export type Command =
   | SetFace
   | Reset
   | StopAll
-  | Cancel;
+  | Cancel
+  | Puppet;
 /**
  * anchor name -> time (s) it must land at
  */
@@ -250,6 +251,23 @@ export type Id15 = string | null;
  */
 export type Target1 = string;
 export type Type15 = "cancel";
+/**
+ * client-chosen id (echoed in acks and events)
+ */
+export type Id16 = string | null;
+/**
+ * layer whose chain holds the target block (optional)
+ */
+export type Layer7 = string | null;
+/**
+ * node id of the target block (optional)
+ */
+export type Node6 = string | null;
+/**
+ * end the stream now: the layer fades out (give no values)
+ */
+export type Release = boolean;
+export type Type16 = "puppet";
 
 /**
  * Play a clip on a clip player (e.g. the one on layer 'gesture').
@@ -413,4 +431,27 @@ export interface Cancel {
   id?: Id15;
   target: Target1;
   type?: Type15;
+}
+/**
+ * One message of a live stream: set the puppet layer's targets for the named DoFs.
+ *
+ * The puppet block (`puppet`) holds each DoF's latest target and fades its layer in while messages
+ * come; when they stop for longer than its `timeout` (0.5 s in the bundled programs), or on
+ * `release: true`, the layer fades out. The pose still goes through the program's stage 2 (motion
+ * filter, IK, safety limiter) and the engine's safety net. A target outside a DoF's limits, an unknown
+ * DoF or one the block may not set is refused (the field names it) and nothing changes.
+ */
+export interface Puppet {
+  id?: Id16;
+  layer?: Layer7;
+  node?: Node6;
+  release?: Release;
+  type?: Type16;
+  values?: Values1;
+}
+/**
+ * DoF name -> target: rad/m within the DoF's limits, [r, g, b] in 0..1, or an option name
+ */
+export interface Values1 {
+  [k: string]: number | number[] | string;
 }

@@ -1,0 +1,113 @@
+"""The trajectory-helper and the ghost for sampled tracks a client posts (POST /api/analyze, /api/filter):
+a DCC tool samples its animation (one value per frame per DoF) and asks where it breaks the robot's
+limits, and what the Nutty Motion Filter would make of it.
+
+Tracks are `{dof: [value, ...]}` on continuous DoFs (rad or m), all the same length, sampled at `rate`
+Hz from sample 0. `analyze_tracks` classifies every sample with `backend.engine.trajectory.analyze`
+(the editor's rule: backward finite differences, the trajectory taken to start at rest, the most
+severe class wins: position > jerk > acceleration > velocity) and groups consecutive samples of one
+class into *ranges*, each with its worst ratio to the limit (|derivative| / limit; for position the
+distance from the middle of the range over half the range, so 1 is at the limit). `filter_tracks` runs
+the tracks through the robot's stage-2 motion filter (`nmf_stage2`, its limits and character) from the
+first sample, at the tracks' rate.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from backend.engine import trajectory
+from backend.engine.embodiment import DofType, Embodiment
+
+MAX_SAMPLES = 200_000  # per track (an hour at 50 Hz); a longer request is refused, not truncated
+
+
+class TrackError(ValueError):
+    """Posted tracks that do not fit the robot; `field` names the track (`tracks.<dof>`)."""
+
+    def __init__(self, message: str, field: str | None = None):
+        super().__init__(message)
+        self.field = field
+
+
+def _matrix(emb: Embodiment, tracks: dict[str, list[float]]) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(names, samples (T, n), channel index (n,)); TrackError names the first track that does not fit."""
+    if not tracks:
+        raise TrackError("no tracks: send at least one {dof: [values]}", "tracks")
+    names = list(tracks)
+    length = len(tracks[names[0]])
+    for name, values in tracks.items():
+        field = f"tracks.{name}"
+        if not emb.has_dof(name):
+            raise TrackError(f"robot '{emb.name}' has no DoF '{name}'", field)
+        dof = emb.dof(name)
+        if dof.type is not DofType.continuous:
+            raise TrackError(f"DoF '{name}' is not continuous ({dof.type.value}): only continuous DoFs have "
+                             f"limits to check", field)
+        if not values:
+            raise TrackError(f"track '{name}' has no samples", field)
+        if len(values) > MAX_SAMPLES:
+            raise TrackError(f"track '{name}' has {len(values)} samples (at most {MAX_SAMPLES})", field)
+        if len(values) != length:
+            raise TrackError(f"track '{name}' has {len(values)} samples, track '{names[0]}' {length}: "
+                             f"every track needs one value per sample", field)
+    x = np.array([tracks[n] for n in names], dtype=float).T
+    channels = np.array([emb.dof(n).channels.start for n in names])
+    return names, x, channels
+
+
+def _runs(codes: np.ndarray) -> list[tuple[int, int, int]]:
+    """(first, last, code) of every run of equal non-zero codes."""
+    edges = np.flatnonzero(np.diff(codes)) + 1
+    starts = np.r_[0, edges]
+    ends = np.r_[edges, codes.size] - 1
+    return [(int(a), int(b), int(codes[a])) for a, b in zip(starts, ends) if codes[a] != trajectory.OK]
+
+
+def analyze_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]]) -> dict[str, Any]:
+    """The trajectory-helper's verdict on posted tracks (see the module doc)."""
+    names, x, ch = _matrix(emb, tracks)
+    vel, acc, jerk = emb.vel_limit[ch], emb.acc_limit[ch], emb.jerk_limit[ch]
+    lo, hi = emb.min[ch], emb.max[ch]
+    result = trajectory.analyze(x, rate, vel, acc, jerk, lo, hi)
+    centre, half = (hi + lo) / 2.0, np.maximum((hi - lo) / 2.0, 1e-12)
+    ratios = {trajectory.VELOCITY: np.abs(result.velocity) / vel,
+              trajectory.ACCELERATION: np.abs(result.acceleration) / acc,
+              trajectory.JERK: np.abs(result.jerk) / jerk, trajectory.POSITION: np.abs(x - centre) / half}
+    ranges: list[dict[str, Any]] = []
+    dofs: dict[str, Any] = {}
+    for i, name in enumerate(names):
+        for first, last, code in _runs(result.classes[:, i]):
+            ratio = ratios[code][first:last + 1, i]
+            worst = int(np.argmax(ratio))
+            ranges.append({"dof": name, "kind": trajectory.CLASS_NAMES[code], "start": first, "end": last,
+                           "worst_ratio": float(ratio[worst]), "worst_sample": first + worst})
+        summary = result.summary[i]
+        dofs[name] = {**{k: summary[k] for k in ("max_velocity", "max_acceleration", "max_jerk")},
+                      "counts": {k: summary[k] for k in trajectory.CLASS_NAMES.values()},
+                      "limits": {"min": float(lo[i]), "max": float(hi[i]), "velocity": float(vel[i]),
+                                 "acceleration": float(acc[i]), "jerk": float(jerk[i])}}
+    ranges.sort(key=lambda r: (r["start"], r["dof"]))
+    return {"rate": rate, "samples": int(x.shape[0]), "ok": result.ok, "ranges": ranges, "dofs": dofs,
+            "colours": dict(trajectory.CLASS_COLOURS)}
+
+
+def filter_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]], params: Any) -> dict[str, list[float]]:
+    """The tracks after the stage-2 motion filter with `params` (an `nmf_stage2` block's FilterParams),
+    started at rest on the first sample; DoFs not posted hold their rest values."""
+    from backend.engine.blocks.base import BlockContext
+    from backend.engine.blocks.motion_filter import MotionFilterStage2
+
+    names, x, ch = _matrix(emb, tracks)
+    stage2 = MotionFilterStage2(params, BlockContext(emb, rate))  # the robot's limits, as the engine sets them
+    mf = stage2.filter
+    where = np.searchsorted(stage2.idx, ch)  # the posted channels among the filtered ones
+    start = emb.rest[stage2.idx].copy()
+    start[where] = x[0]
+    mf.reset(start)
+    setpoints = np.full((x.shape[0], stage2.idx.size), np.nan)  # NaN: the other channels hold
+    setpoints[:, where] = x
+    out = mf.run(setpoints).position[:, where]
+    return {name: out[:, i].tolist() for i, name in enumerate(names)}
