@@ -529,10 +529,11 @@ def test_a_robot_with_unsupported_joints_is_refused_by_name(blender, tmp_path):
 def test_make_blender_addon_zip_installs_and_enables_in_blender(tmp_path):
     """`make blender-addon`'s zip passes Blender's own extension validation and installs into a fresh
     Blender (its own user folders in tmp_path), which registers the Nutty operators and menu."""
-    done = subprocess.run(["make", "-s", "blender-addon", f"DIST={tmp_path}"], cwd=ROOT, capture_output=True,
-                          text=True, timeout=120)
+    # --no-print-directory: under `make test` this make is a sub-make, which would print its directory.
+    done = subprocess.run(["make", "-s", "--no-print-directory", "blender-addon", f"DIST={tmp_path}"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    zip_path = Path(done.stdout.strip().splitlines()[-1])
+    zip_path = Path(next(line for line in reversed(done.stdout.splitlines()) if line.endswith(".zip")))
     assert zip_path.parent == tmp_path and zip_path.name.startswith("nutty_blender-"), done.stdout
     checked = subprocess.run([sys.executable, str(bpy_paths.blender_ext()), "validate", str(zip_path)],
                              capture_output=True, text=True, timeout=120)

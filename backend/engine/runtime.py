@@ -210,8 +210,11 @@ class Engine:
         self._pending.put(_Pending(fn, fut))
         return fut
 
-    def call(self, fn: Callable[[], Any], timeout: float = 2.0) -> Any:
-        """`call_soon` and wait. When the clock is not running, runs `fn` at once (under the tick lock)."""
+    def call(self, fn: Callable[[], Any], timeout: float = 10.0) -> Any:
+        """`call_soon` and wait. When the clock is not running, runs `fn` at once (under the tick lock).
+
+        `timeout` (s) only bounds a wait on a clock that is stuck: the next tick boundary normally comes
+        within one period, but a machine under heavy load can hold the clock thread off for a while."""
         if not self.running:
             with self._tick_lock:
                 self._drain_pending()
