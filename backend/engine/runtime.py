@@ -30,6 +30,8 @@ import numpy as np
 
 from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
+from backend.engine.compiled import default_compiled, entry_point
+from backend.engine.compiled.frames import DERIVATIVES_SIG, derivatives
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.safety import SafetyNet
@@ -161,10 +163,13 @@ class Engine:
 
     rate: ticks per second, 30..1000. max_level: the highest APU level accepted (0..3).
     clock: what the running clock (`start()`) reads time from and waits on (default: a `WallClock`).
+    compiled: blocks use their compiled kernels (False: their numpy references; default: True unless
+    the environment sets NUTTY_REFERENCE=1, see backend.engine.compiled).
     """
 
     def __init__(self, embodiment: Embodiment, rate: float = 100.0, max_level: int = MAX_LEVEL,
-                 resources: Any = None, seed: int = 0, safety: bool = True, clock: Clock | None = None):
+                 resources: Any = None, seed: int = 0, safety: bool = True, clock: Clock | None = None,
+                 compiled: bool | None = None):
         if not (isinstance(rate, (int, float)) and MIN_RATE <= rate <= MAX_RATE):
             raise ValueError(f"rate must be within [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate}")
         if max_level not in (0, 1, 2, 3):
@@ -174,7 +179,8 @@ class Engine:
         self.dt = 1.0 / self.rate
         self.max_level = max_level
         self.clock: Clock = clock if clock is not None else WallClock(spin=min(0.0003, self.dt / 10))
-        self.ctx = BlockContext(embodiment=embodiment, rate=self.rate, resources=resources, seed=seed)
+        self.ctx = BlockContext(embodiment=embodiment, rate=self.rate, resources=resources, seed=seed,
+                                compiled=default_compiled() if compiled is None else bool(compiled))
         self.apu: APU | None = None
         self.seq = 0
         self.t = 0.0
@@ -199,6 +205,8 @@ class Engine:
         self._injected: list = []  # events added by commands for the next frame
         self._override_mask = np.zeros(embodiment.n_channels, dtype=bool)  # display values set by commands
         self._override_values = np.zeros(embodiment.n_channels)
+        self._overriding = False  # whether any channel is overridden (so a tick need not look)
+        self._derivatives = entry_point(derivatives, DERIVATIVES_SIG) if self.ctx.compiled else None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._tick_lock = threading.Lock()
@@ -294,9 +302,11 @@ class Engine:
         Call in the clock thread (via `call`)."""
         self._override_mask = self._override_mask | mask
         self._override_values = np.where(mask, values, self._override_values)
+        self._overriding = bool(self._override_mask.any())
 
     def clear_overrides(self) -> None:
         self._override_mask = np.zeros_like(self._override_mask)
+        self._overriding = False
 
     def add_listener(self, fn: Callable[[dict[str, Any]], None]) -> None:
         """Receive block notifications (clip started/completed, …) from the clock thread; keep it quick."""
@@ -346,7 +356,7 @@ class Engine:
             else:
                 final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
             program = np.array(final, dtype=float)
-            if self._override_mask.any():
+            if self._overriding:
                 np.copyto(program, self._override_values, where=self._override_mask)
             target = program
             if self._transition is not None:
@@ -356,9 +366,13 @@ class Engine:
             pos = self.safety.step(target)
             if self._injected:
                 events, self._injected = [*events, *self._injected], []
-            vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
-            acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
-            jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
+            if self._derivatives is not None and pos.shape == self._pos.shape and pos.dtype == np.float64:
+                vel, acc, jerk = np.empty_like(pos), np.empty_like(pos), np.empty_like(pos)
+                self._derivatives(pos, self._pos, self._vel, self._acc, dt, self.seq, vel, acc, jerk)
+            else:
+                vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
+                acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
+                jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
             self._pos, self._vel, self._acc = pos, vel, acc
             frame = AnimationFrame(
                 embodiment=self.embodiment.name, t=self.t, dt=dt, seq=self.seq, position=pos,
