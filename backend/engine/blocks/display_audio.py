@@ -135,7 +135,9 @@ class Led(Source):
         factor = brightness(self.params.mode, s.cycles % 1.0, d.depth)
         s.cycles = (s.cycles + d.frequency * dt) % 1.0
         values = self.emb.rest.copy()
-        values[self.dof.channels] = np.clip(d.colour * factor, 0.0, 1.0)
+        # np.clip(colour * factor, 0, 1) on three numbers, without numpy's per-call cost
+        values[self.dof.channels] = [min(max(c * factor, 0.0), 1.0)
+                                     for c in np.asarray(d.colour, dtype=float).ravel().tolist()]
         return {"out": PartialFrame(values, self.mask.copy(), [])}
 
 
@@ -196,7 +198,8 @@ class Face(Source):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         commanded = self.state.commanded
         index = commanded if commanded is not None else self.default_index
-        wired = self.driven(inputs, expression=None).expression  # unknown names are ignored
+        # unknown names are ignored; unconnected, the expression resolves to None
+        wired = self.driven(inputs, expression=None).expression if "expression" in inputs else None
         if isinstance(wired, str) and wired in self.options:
             index = self.options.index(wired)
         values = self.emb.rest.copy()
