@@ -244,6 +244,7 @@ class CookTime(_Shape):
     """Cook time of one node (or of the whole APU tick) over the profile's window, in µs."""
 
     mean_us: float
+    p50_us: float
     p99_us: float
     max_us: float
 

@@ -218,6 +218,7 @@ class Engine:
         self.last_frame: AnimationFrame | None = None
         self.tick_cost = RingStats()
         self.tick_cpu = RingStats()  # CPU time the clock thread spent in each tick (tick_cost minus waits)
+        self.started_at: float | None = None  # wall-clock time (s since the epoch) the clock first started
         self.period = RingStats()
         self.lateness = RingStats()
         self.ticks = 0
@@ -473,6 +474,8 @@ class Engine:
 
     def _run_clock(self) -> None:
         clock, period = self.clock, self.dt
+        if self.started_at is None:
+            self.started_at = time.time()
         deadline = clock.now()
         last_start: float | None = None
         while not self._stop.is_set() and clock.wait_until(deadline, self._stop):
@@ -535,6 +538,7 @@ class Engine:
             "tick_cpu": self.tick_cpu.summary(),
             "period": self.period.summary(),
             "jitter": self.lateness.summary(),
+            "started_at": self.started_at,
             "clock_priority": None if self.clock_priority is None else {
                 "switch_interval_ms": self.clock_priority.interval * 1e3, "nice": self.clock_priority.nice},
             "sinks": [s.stats() for s in self.sinks],

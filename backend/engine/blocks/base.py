@@ -400,8 +400,10 @@ class Block:
         # never changed in place: update_params); the values are shared from tick to tick, read-only.
         cache = self.__dict__.get("_driven_cache")
         if cache is None or cache[0] is not params:
-            cache = self._driven_cache = (params, {name: d.resolve(None, getattr(params, name))
-                                                   for name, d in self.drivables.items()})
+            static = {name: d.resolve(None, getattr(params, name)) for name, d in self.drivables.items()}
+            cache = self._driven_cache = (params, static, SimpleNamespace(**static))
+        if not fallbacks and not any(name in inputs for name in self.drivables):
+            return cache[2]  # nothing wired, nothing given: the parameters themselves, resolved once
         values = dict(cache[1])
         for name, fallback in fallbacks.items():
             values[name] = self.drivables[name].resolve(None, fallback)

@@ -352,6 +352,7 @@ export interface Profile {
 export interface CookTime {
   max_us: number;
   mean_us: number;
+  p50_us: number;
   p99_us: number;
 }
 /**
@@ -362,6 +363,7 @@ export interface NodeCookTime {
   max_us: number;
   mean_us: number;
   node: string;
+  p50_us: number;
   p99_us: number;
   /**
    * this node's part of the mean APU tick (0..1)
