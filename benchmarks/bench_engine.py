@@ -11,8 +11,10 @@ or a fast machine compare.
 2. Served: `nutty serve` with the Pre-Viz on and its page open, 4 editor telemetry clients, a 100 Hz
    driver and the scripted AI over REST (benchmarks/served.py): tick p50/p99 (and the tick's own CPU
    time), lateness p99 (the period jitter: how late a tick starts), overruns, lost ticks, and the
-   tick p50 as a ratio to the same program's headless p50. The machine's load average is printed:
-   a machine with more runnable threads than cores delays any clock.
+   tick p50 as a ratio to the same program's headless p50. Peer row `alone`: the same program and
+   rate on a running clock without a server, measured just before (a clock that sleeps between ticks
+   finds colder caches than a tight headless loop, and the machine's other load delays any clock).
+   The machine's load average is printed.
 3. Start-up of `nutty serve` to its first frame, with numba's cache warm and cold.
 
 Targets (issue 15; benchmarks, never tests): interactive tick p50 <= 3x a Ruckig update headless and
@@ -162,30 +164,60 @@ def run_headless(peer: Peer) -> dict[str, float]:
     return {rate: float(np.percentile(c, 50)) for name, rate, c in rows if name == "interactive"}
 
 
+def clock_alone(rate: float, seconds: float) -> dict:
+    """The same program on a running clock in this process, without a server (the AI's commands sent
+    every 0.5 s from this thread): what the clock gets from this machine. Its /api/status figures."""
+    session = EngineSession.create(load_embodiment("nutty_desk"), rate=rate, program=program("interactive"))
+    engine = session.engine
+    engine.start()
+    script = list(scripted_ai.timeline(1e6))
+    time.sleep(1.0)
+    engine.call(engine.reset_stats)
+    ticks, overruns, lost = engine.ticks, engine.overruns, engine.lost_ticks
+    end, k = time.monotonic() + seconds, 0
+    while time.monotonic() < end:
+        try:
+            session.execute(script[k][1])
+        except ValueError:
+            pass
+        k += 1
+        time.sleep(0.5)
+    stats = engine.stats()
+    engine.close()
+    stats.update(ticks=engine.ticks - ticks, overruns=engine.overruns - overruns, lost_ticks=engine.lost_ticks - lost)
+    return stats
+
+
 def run_served(peer: Peer, seconds: float, rates: tuple[float, ...], headless: dict[float, float]) -> list[dict]:
     import served
 
     results = []
     for rate in rates:
         peer.round()
+        alone = clock_alone(rate, min(seconds, 8.0))
         load = os.getloadavg()[0]
         r = served.measure(rate, seconds)
-        r["load"] = load
+        r.update(load=load, alone=alone)
         results.append(r)
     us = peer.round()
     print(f"\nServed: nutty serve, interactive program, Pre-Viz on with its page open, {served.TELEMETRY_CLIENTS} "
           f"telemetry clients at {served.TELEMETRY_HZ} Hz, a {served.DRIVER_HZ} Hz driver, the scripted AI over "
           f"REST every {served.AI_PERIOD:g} s (Ruckig peer {us:.1f} µs)")
-    print(f"{'rate':>5} {'window':>7} {'load':>5} {'tick p50 µs':>11} {'xRuckig':>7} {'p99 µs':>9} {'xRuckig':>7} "
-          f"{'cpu p50':>8} {'/headless':>9} {'late p99 ms':>11} {'overruns':>8} {'lost':>6}")
+    print("(`alone`: the same program and rate on a clock in the benchmark's process with no server, just before; "
+          "`/headless` and `/alone`: the served tick p50 over the headless p50 and over the alone p50)")
+    print(f"{'rate':>5} {'run':>7} {'window':>7} {'load':>5} {'tick p50 µs':>11} {'xRuckig':>7} {'p99 µs':>9} "
+          f"{'xRuckig':>7} {'cpu p50':>8} {'/headless':>9} {'/alone':>7} {'late p99 ms':>11} {'overruns':>8} {'lost':>6}")
     for r in results:
-        st = r["status"]
-        p50, p99 = st["tick_cost"]["p50_ms"] * 1e3, st["tick_cost"]["p99_ms"] * 1e3
-        base = headless.get(r["rate"])
-        vs = f"{p50 / base:8.2f}x" if base else f"{'-':>9}"
-        print(f"{r['rate']:>5g} {r['seconds']:>6.1f}s {r['load']:>5.1f} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)} "
-              f"{st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {st['jitter']['p99_ms']:>11.3f} {r['overruns']:>8} "
-              f"{r['lost_ticks']:>6}")
+        for label, st in (("alone", r["alone"]), ("served", r["status"])):
+            counts = r["alone"] if label == "alone" else r
+            p50, p99 = st["tick_cost"]["p50_ms"] * 1e3, st["tick_cost"]["p99_ms"] * 1e3
+            base, alone = headless.get(r["rate"]), r["alone"]["tick_cost"]["p50_ms"] * 1e3
+            vs = f"{p50 / base:8.2f}x" if base else f"{'-':>9}"
+            window = f"{r['seconds']:>6.1f}s" if label == "served" else f"{'':>7}"
+            load = f"{r['load']:>5.1f}" if label == "served" else f"{'':>5}"
+            print(f"{r['rate']:>5g} {label:>7} {window} {load} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)} "
+                  f"{st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {p50 / alone:>6.2f}x {st['jitter']['p99_ms']:>11.3f} "
+                  f"{counts['overruns']:>8} {counts['lost_ticks']:>6}")
     top = sorted(results[0]["profile"]["nodes"], key=lambda n: -n["mean_us"])[:6]
     print("  most expensive nodes in the server (mean µs): "
           + ", ".join(f"{n['node']} ({n['type']}) {n['mean_us']:.0f}" for n in top))

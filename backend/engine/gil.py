@@ -11,8 +11,8 @@ runnable, may wait for a CPU behind the server's own threads.
 (`SWITCH_INTERVAL`), so another thread gives the lock back within about that long once the clock asks,
 and lowers the clock thread's nice value by `NICE_BOOST` where the OS allows it (Linux: root or
 CAP_SYS_NICE; elsewhere nothing changes), so the scheduler prefers it when it wakes; it sleeps most
-of each period, so this takes little from the others. `restore()` puts the switch interval back
-(the interval is process-wide).
+of each period, so this takes little from the others. The interval is process-wide: the last clock to
+stop (`restore()`) puts back the one found before the first started.
 
 What this cannot do: a thread that holds the lock while the OS has preempted it (a machine with more
 runnable threads than cores) keeps the clock waiting until it runs again. benchmarks/bench_engine.py
@@ -36,15 +36,24 @@ class ClockPriority:
 
     `nice` is the nice value the clock thread got (None: unchanged: not permitted, or not Linux)."""
 
+    # Clocks running now and the interval found before the first of them: the last one to stop restores it.
+    _running = 0
+    _saved = 0.005
+    _lock = threading.Lock()
+
     def __init__(self, interval: float = SWITCH_INTERVAL, nice_boost: int = NICE_BOOST):
         self.interval, self.nice_boost = interval, nice_boost
-        self.saved: float | None = None
+        self.applied = False
         self.nice: int | None = None
 
     def apply(self) -> None:
         """On the clock thread, before its first tick."""
-        self.saved = sys.getswitchinterval()
-        sys.setswitchinterval(min(self.saved, self.interval))
+        with ClockPriority._lock:
+            if ClockPriority._running == 0:
+                ClockPriority._saved = sys.getswitchinterval()
+            ClockPriority._running += 1
+            sys.setswitchinterval(min(sys.getswitchinterval(), self.interval))
+        self.applied = True
         if self.nice_boost and hasattr(os, "setpriority") and sys.platform.startswith("linux"):
             tid = threading.get_native_id()  # on Linux a thread's own id takes per-thread priority
             try:
@@ -55,6 +64,10 @@ class ClockPriority:
                 self.nice = None
 
     def restore(self) -> None:
-        if self.saved is not None:
-            sys.setswitchinterval(self.saved)
-            self.saved = None
+        if not self.applied:
+            return
+        self.applied = False
+        with ClockPriority._lock:
+            ClockPriority._running -= 1
+            if ClockPriority._running == 0:
+                sys.setswitchinterval(ClockPriority._saved)

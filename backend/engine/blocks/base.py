@@ -25,7 +25,10 @@ Conventions
 - `handle(command)` receives run-time commands (play, seek, set layer, …) addressed to the block.
 - `check(params, node)` / `check_wiring(params, node)` add the block type's own rules to the program
   checks (`backend.graph.checks.hooks`), so the checker never names a block type.
-- Hot paths are vectorised over channels; never loop over DoFs in `tick`.
+- Hot paths are vectorised over channels; never loop over DoFs in `tick` (or compile the tick, keeping
+  the numpy code as its reference: `backend.engine.compiled`).
+- A block never changes the frames and values it receives, nor what `driven` returns: arrays are
+  shared between blocks and from tick to tick.
 
 Register a block class with `@register_block`. Every module of this package is imported by
 `backend.engine.blocks`, so a new block needs no other edit.

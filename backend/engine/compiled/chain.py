@@ -117,6 +117,18 @@ def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post
 
 
 @njit(cache=True)
+def _joint_positions(values, rows, offset, lower, upper):
+    """The chain's joint positions for a channel vector: clip(rows @ values + offset, lower, upper)."""
+    q = np.empty(offset.shape[0])
+    for i in range(offset.shape[0]):
+        s = 0.0
+        for c in range(values.shape[0]):
+            s += rows[i, c] * values[c]
+        q[i] = min(max(s + offset[i], lower[i]), upper[i])
+    return q
+
+
+@njit(cache=True)
 def _inv3(a):
     """Inverse of a 3x3 matrix by cofactors (the damped normal matrix: symmetric positive definite)."""
     out = np.empty((3, 3))
@@ -164,13 +176,8 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
             values[c] = frame_values[c]
         out[c] = frame_values[c]
         out_mask[c] = frame_mask[c] or add_mask[c]
-    n, nv = lower.shape[0], var.shape[0]
-    q0 = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for c in range(values.shape[0]):
-            s += j_rows[i, c] * values[c]
-        q0[i] = min(max(s + j_off[i], lower[i]), upper[i])
+    nv = var.shape[0]
+    q0 = _joint_positions(values, j_rows, j_off, lower, upper)
     ch = np.empty(nv)
     lo = np.empty(nv)
     hi = np.empty(nv)
@@ -278,13 +285,7 @@ def gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, 
     values = rest.copy()
     for i in range(n):
         values[idx[i]] += x[i]
-    nq = j_off.shape[0]
-    q = np.empty(nq)
-    for i in range(nq):
-        s = 0.0
-        for c in range(values.shape[0]):
-            s += j_rows[i, c] * values[c]
-        q[i] = min(max(s + j_off[i], jlo[i]), jhi[i])
+    q = _joint_positions(values, j_rows, j_off, jlo, jhi)
     _, pose = _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity)
     eye = np.empty(3)
     for r in range(3):
