@@ -15,14 +15,15 @@ or a fast machine compare.
    rate on a running clock without a server, measured just before (a clock that sleeps between ticks
    finds colder caches than a tight headless loop, and the machine's other load delays any clock).
    The machine's load average is printed.
-3. Start-up of `nutty serve` to its first frame, with numba's cache warm and cold.
+3. Start-up of `nutty serve` to its first frame, with numba's cache warm (and cold: `--cold`).
 
 Targets (issue 15; benchmarks, never tests): interactive tick p50 <= 3x a Ruckig update headless and
 <= 1.3x its headless cost in the server; 500 Hz in the server for 60 s (`--long`) with no overrun and
 lateness p99 <= 0.5 ms; 1000 DoFs <= 1 ms per tick; start-up <= 3 s with warm caches.
 
-Run: .venv/bin/python benchmarks/bench_engine.py [--seconds 8] [--long] [--no-server] [--no-startup]
-     (make bench runs it with the defaults: a few minutes)
+Run: .venv/bin/python benchmarks/bench_engine.py [--seconds 8] [--long] [--cold] [--no-server] [--no-startup]
+     (make bench runs it with the defaults, a few minutes; make bench-long adds --long, which also
+     measures the cold start)
 """
 
 from __future__ import annotations
@@ -218,20 +219,26 @@ def run_served(peer: Peer, seconds: float, rates: tuple[float, ...], headless: d
             print(f"{r['rate']:>5g} {label:>7} {window} {load} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)} "
                   f"{st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {p50 / alone:>6.2f}x {st['jitter']['p99_ms']:>11.3f} "
                   f"{counts['overruns']:>8} {counts['lost_ticks']:>6}")
+    for r in results:
+        c = r["counts"]
+        print(f"  {r['rate']:g} Hz load delivered: {c['telemetry']} telemetry messages, {c['frames']} driver frames, "
+              f"{c['previz']} Pre-Viz messages ({c['previz_reconnects']} reconnects), {c['commands']} commands")
     top = sorted(results[0]["profile"]["nodes"], key=lambda n: -n["mean_us"])[:6]
     print("  most expensive nodes in the server (mean µs): "
           + ", ".join(f"{n['node']} ({n['type']}) {n['mean_us']:.0f}" for n in top))
     return results
 
 
-def run_startup() -> None:
+def run_startup(cold: bool) -> None:
     import served
 
     warm = min(served.startup(None) for _ in range(2))  # numba's own cache, filled by the runs above
-    with tempfile.TemporaryDirectory() as tmp:
-        cold = served.startup(tmp)
-    print(f"\nStart-up of nutty serve to its first frame (Pre-Viz on): warm caches {warm:.2f} s "
-          f"(target <= 3 s: {'meets' if warm <= 3 else 'MISSES'}), cold numba cache {cold:.2f} s")
+    line = (f"\nStart-up of nutty serve to its first frame (Pre-Viz on): warm caches {warm:.2f} s "
+            f"(target <= 3 s: {'meets' if warm <= 3 else 'MISSES'})")
+    if cold:
+        with tempfile.TemporaryDirectory() as tmp:  # an empty cache: every kernel compiles, as on a fresh clone
+            line += f", cold numba cache {served.startup(tmp):.2f} s"
+    print(line)
 
 
 def main() -> None:
@@ -240,6 +247,8 @@ def main() -> None:
     ap.add_argument("--long", action="store_true", help="also serve at 500 Hz for 60 s (the steadiness target)")
     ap.add_argument("--no-server", action="store_true", help="headless figures only")
     ap.add_argument("--no-startup", action="store_true", help="skip the start-up measurement")
+    ap.add_argument("--cold", action="store_true", help="also start with an empty numba cache (compiles every kernel: "
+                                                        "a minute or two)")
     args = ap.parse_args()
     peer = Peer()
     headless = run_headless(peer)
@@ -248,7 +257,7 @@ def main() -> None:
         if args.long:
             run_served(peer, 60.0, (500.0,), headless)
     if not args.no_startup:
-        run_startup()
+        run_startup(args.cold or args.long)
 
 
 if __name__ == "__main__":

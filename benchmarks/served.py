@@ -116,12 +116,18 @@ async def _driver(url: str, decimate: int, stop: asyncio.Event, counts: dict) ->
 
 
 async def _previz_page(port: int, stop: asyncio.Event, counts: dict) -> None:
-    """What the Pre-Viz page in a browser does to the server: hold viser's WebSocket and read it."""
+    """What the Pre-Viz page in a browser does to the server: hold viser's WebSocket and read it. On a
+    busy machine viser's own handshake can time out: the page connects again, as a browser would."""
     import viser
 
-    async with websockets.connect(f"ws://{HOST}:{port}", max_size=None,
-                                  subprotocols=[f"viser-v{viser.__version__}"], open_timeout=OPEN_TIMEOUT) as ws:
-        await _read(ws, stop, counts, "previz")
+    while not stop.is_set():
+        try:
+            async with websockets.connect(f"ws://{HOST}:{port}", max_size=None, open_timeout=OPEN_TIMEOUT,
+                                          subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+                await _read(ws, stop, counts, "previz")
+        except (OSError, websockets.exceptions.WebSocketException):
+            counts["previz_reconnects"] += 1
+            await asyncio.sleep(0.5)
 
 
 async def _ai(http: httpx.AsyncClient, stop: asyncio.Event, counts: dict) -> None:
@@ -139,7 +145,7 @@ async def _ai(http: httpx.AsyncClient, stop: asyncio.Event, counts: dict) -> Non
 
 async def _load(server: Server, rate: float, warm_up: float, seconds: float) -> dict[str, Any]:
     ws_url = f"ws://{HOST}:{server.port}"
-    counts = {"telemetry": 0, "frames": 0, "previz": 0, "commands": 0}
+    counts = {"telemetry": 0, "frames": 0, "previz": 0, "previz_reconnects": 0, "commands": 0}
     async with httpx.AsyncClient(base_url=server.url, timeout=10.0) as http:
         program = (await http.get("/api/program")).json()["program"]
         blocks = {b["type"]: b for b in (await http.get("/api/blocks")).json()}
