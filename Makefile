@@ -1,7 +1,8 @@
 # Nutty — one Makefile for a fresh Debian machine (Python 3.11, Node 20, root).
 #   make run   install everything, build the editor, serve the default robot and program
 #   make test  install everything and run every test (Python, front-end unit, browser end-to-end)
-#   make bench engine and NMF benchmarks; make soak: a served robot under churning clients (optional)
+#   make bench engine and NMF benchmarks; make bench-long adds 60 s served at 500 Hz;
+#              make soak: a served robot under churning clients (optional)
 #   make blender-addon  the Blender add-on as an installable extension: dist/nutty_blender-<version>.zip
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -10,8 +11,8 @@ PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
 FRONTEND := frontend
 
-.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench soak figures \
-	blender-addon clean
+.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench bench-long \
+	soak figures blender-addon clean
 
 run: deps frontend-build
 	$(VENV)/bin/nutty serve
@@ -58,6 +59,10 @@ bench: deps-python
 	$(PY) benchmarks/bench_safety.py
 	$(PY) benchmarks/bench_clock.py
 	$(PY) benchmarks/bench_fleet.py
+
+# The served steadiness target: bench_engine's runs plus `nutty serve` at 500 Hz for 60 s.
+bench-long: deps-python
+	$(PY) benchmarks/bench_engine.py --long
 
 # Optional, not part of bench: `nutty serve` at 100 Hz under churning clients, then a SIGTERM.
 SOAK_MINUTES ?= 1

@@ -259,6 +259,33 @@ class LayerState(_Shape):
     active: bool
 
 
+class CookTime(_Shape):
+    """Cook time of one node (or of the whole APU tick) over the profile's window, in µs."""
+
+    mean_us: float
+    p50_us: float
+    p99_us: float
+    max_us: float
+
+
+class NodeCookTime(CookTime):
+    node: str
+    type: str
+    share: float = Field(..., description="this node's part of the mean APU tick (0..1)")
+
+
+class Profile(_Shape):
+    """GET /api/profile (and `profile` in /ws/telemetry messages, about once a second): how long each
+    node of the running program takes per tick. One tick in `every` is timed; `samples` timed ticks
+    (at most `window`) are summarised. Nodes come in tick order."""
+
+    every: int
+    window: int
+    samples: int
+    apu: CookTime
+    nodes: list[NodeCookTime]
+
+
 class TelemetryFrame(_Shape):
     position: dict[str, float]
     stage1: dict[str, float]
@@ -273,6 +300,7 @@ class Telemetry(_Shape):
     signals: dict[str, Any] | None = Field(None, description="'node.port' -> value (frames as {mask, values})")
     frame: TelemetryFrame | None = None
     layers: dict[str, list[LayerState]] | None = None
+    profile: Profile | None = None
 
 
 class SocketError(_OpenShape):
@@ -311,7 +339,7 @@ class ControlMessage(RootModel[Annotated[Union[CommandAck, CommandEvent, SocketE
 API_MODELS: tuple[type[BaseModel], ...] = (
     BlockEntry, BlockPorts, EditorRules, RobotDescription, RunningProgram, ValidationReport, Issue, ProgramLoaded,
     ParamsApplied, ExposedInputs, InputSet, Saved, CommandAccepted, PrevizInfo, GhostSet, ErrorBody,
-    TelemetrySubscribe, TelemetryMessage, ControlMessage,
+    TelemetrySubscribe, TelemetryMessage, ControlMessage, Profile,
 )
 
 

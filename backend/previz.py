@@ -6,7 +6,8 @@
 - The paper's *ghost*: a translucent second robot shows the stage-1 (unfiltered) pose; switchable.
 - A draggable gaze target sets the program's `gaze_target` input when the program declares one.
 - Updates run on the Pre-Viz sink's own thread at <= 60 Hz; a stale frame is dropped, never queued,
-  so the engine clock never waits for viser.
+  so the engine clock never waits for viser. Only the joint frames that moved are sent to viser
+  (`backend.previz_pose.UrdfPoser`, ~5x cheaper than re-posing the whole URDF each frame).
 
 Safety: viser itself has no authentication and its gaze gizmo moves the robot, so it only ever
 listens on 127.0.0.1. Browsers reach it through the API port (`/previz/`, see `fetch_page` and
@@ -32,6 +33,7 @@ import numpy as np
 from backend.engine.embodiment import DofType
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
+from backend.previz_pose import UrdfPoser
 from backend.security import LOOPBACK_NAMES, AccessPolicy
 from backend.security import cancel_all as _cancel_all
 
@@ -50,6 +52,27 @@ def _yaw_pitch_roll_to_wxyz(yaw: float, pitch: float, roll: float) -> tuple[floa
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
             cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
+
+
+def _poser(robot: Any) -> UrdfPoser | None:
+    """A cheap poser for a ViserUrdf (its joints and frames, as it made them); None when this viser
+    version keeps them elsewhere (its own `update_cfg` is used then)."""
+    joints, handles = getattr(robot, "_joint_map_values", None), getattr(robot, "_joint_frames", None)
+    if not joints or not handles or len(joints) != len(handles):
+        return None
+    return UrdfPoser(joints, handles, list(robot.get_actuated_joint_names()), getattr(robot, "_scale", 1.0))
+
+
+def _set_if_changed(handle: Any, name: str, value: Any) -> None:
+    """Assign a scene property only when it differs (viser's setters compare arrays with allclose, and
+    queue a message when it does differ: both cost far more than this comparison)."""
+    current = getattr(handle, name)
+    if isinstance(current, np.ndarray):
+        if current.shape == (len(value),) and current.tolist() == list(value):
+            return
+    elif current == value:
+        return
+    setattr(handle, name, value)
 
 
 class PreViz:
@@ -85,6 +108,7 @@ class PreViz:
         names = self.robot.get_actuated_joint_names()
         index = {n: i for i, n in enumerate(self.emb.joint_names)}
         self._order = np.array([index[n] for n in names], dtype=int) if all(n in index for n in names) else None
+        self._posers = {id(vu): _poser(vu) for vu in (self.robot, self.ghost)}
         self._leds = self._add_leds()
         self._face = self._add_face_label()
         self._caption = self.server.scene.add_label("/caption", "", position=(0.0, 0.0, 0.62), anchor="bottom-center",
@@ -247,22 +271,23 @@ class PreViz:
         """Pose both robots and the displays from one frame (called on the sink thread)."""
         with self._lock, self.server.atomic():
             self._cfg_now = self._cfg(frame.position)
-            self.robot.update_cfg(self._cfg_now)
+            self._pose(self.robot, self._cfg_now)
             base = self.emb.base_pose(frame.position)
-            self.base.position = (base["x"], base["y"], base["z"])
-            self.base.wxyz = _yaw_pitch_roll_to_wxyz(base["yaw"], base["pitch"], base["roll"])
+            _set_if_changed(self.base, "position", (base["x"], base["y"], base["z"]))
+            _set_if_changed(self.base, "wxyz", _yaw_pitch_roll_to_wxyz(base["yaw"], base["pitch"], base["roll"]))
             if self.ghost_visible and frame.stage1 is not None:
-                self.ghost.update_cfg(self._cfg(frame.stage1))
+                self._pose(self.ghost, self._cfg(frame.stage1))
                 gb = self.emb.base_pose(frame.stage1)
-                self.ghost_base.position = (gb["x"], gb["y"], gb["z"])
+                _set_if_changed(self.ghost_base, "position", (gb["x"], gb["y"], gb["z"]))
+            position = frame.position.tolist()
             for _, channels, handles in self._leds:
-                rgb = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in frame.position[channels])
+                rgb = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in position[channels])
                 for h in handles:
-                    h.color = rgb
+                    _set_if_changed(h, "color", rgb)
             if self._face is not None:
                 channels, options, label = self._face
-                k = int(round(float(frame.position[channels.start])))
-                label.text = options[min(max(k, 0), len(options) - 1)]
+                k = int(round(position[channels.start]))
+                _set_if_changed(label, "text", options[min(max(k, 0), len(options) - 1)])
             now = time.monotonic()
             for ev in frame.events:
                 text = ev.payload.get("text") or ev.payload.get("clip") or ev.kind
@@ -272,6 +297,13 @@ class PreViz:
                 self._caption.text = ""
                 self._caption_until = 0.0
             self.frames_shown += 1
+
+    def _pose(self, robot: Any, cfg: np.ndarray) -> None:
+        poser = self._posers.get(id(robot))
+        if poser is not None:
+            poser.update(cfg)
+        else:
+            robot.update_cfg(cfg)
 
     def start(self) -> "PreViz":
         rate = self.session.engine.rate

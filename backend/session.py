@@ -99,7 +99,8 @@ class EngineSession:
         from backend.engine.blocks.base import BlockContext
 
         return BlockContext(embodiment=self.embodiment, rate=self.engine.rate,
-                            inputs=dict(self.engine.ctx.inputs), resources=self.library)
+                            inputs=dict(self.engine.ctx.inputs), resources=self.library,
+                            compiled=self.engine.ctx.compiled)
 
     def _compile_live(self, source: Any, refusal: str):
         """Compile `source` for this engine (raises SessionError with the report if it is invalid); the

@@ -115,3 +115,25 @@ def test_the_proxy_fetches_viser_pages(previz):
     assert status == 200 and headers["content-type"].startswith("text/html") and b"<html" in body[:500].lower()
     status, _, _ = asyncio.run(fetch_page(previz.port, "../../etc/passwd"))
     assert status == 404
+
+
+def test_only_moved_joint_frames_are_sent_and_poses_match_viser(previz):
+    """The Pre-Viz poses joint frames itself (backend.previz_pose): the same poses as viser's own
+    `ViserUrdf.update_cfg`, and a frame whose joint did not move is not sent again."""
+    from backend.previz_pose import UrdfPoser
+
+    poser = previz._posers[id(previz.robot)]
+    assert isinstance(poser, UrdfPoser)
+    rng = np.random.default_rng(4)
+    names = previz.robot.get_actuated_joint_names()
+    for _ in range(5):
+        cfg = rng.uniform(-0.6, 0.6, len(names))
+        previz._pose(previz.robot, cfg)
+        previz.ghost.update_cfg(cfg)  # viser's own posing of the same URDF
+        for mine, theirs in zip(previz.robot._joint_frames, previz.ghost._joint_frames):
+            q, r = np.asarray(mine.wxyz), np.asarray(theirs.wxyz)
+            assert min(np.abs(q - r).max(), np.abs(q + r).max()) < 1e-12  # q and -q are one rotation
+            np.testing.assert_allclose(mine.position, theirs.position, atol=1e-12)
+    assert poser.update(cfg) == 0  # nothing moved: nothing sent
+    cfg[0] += 0.1
+    assert poser.update(cfg) == 1

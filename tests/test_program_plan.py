@@ -179,3 +179,31 @@ def test_the_checker_names_no_block_type():
         assert _type_name_tests(ast.parse(path.read_text())) == [], path.name
     assert _type_name_tests(ast.parse('if node.type == "layer_mixer" or kind in ("input", "x"): BLOCKS["sine"]')) == [
         "layer_mixer", "input", "sine"]
+
+
+def test_compile_builds_each_block_once_and_a_second_apu_afresh(desk, monkeypatch):
+    """The checks' trial-built blocks become the first APU's blocks in the same context (they are fresh:
+    configured, reset, never ticked); any other APU of the plan builds its own."""
+    built: list[str] = []
+    original = Sine.__init__
+
+    def counting(self, params, ctx, node_id=""):
+        built.append(node_id)
+        original(self, params, ctx, node_id)
+
+    monkeypatch.setattr(Sine, "__init__", counting)
+    ctx = BlockContext(embodiment=desk, rate=100.0)
+    result = compile_program(LEVEL3, desk, ctx=ctx)
+    sines = [s.node_id for s in result.apu.steps if isinstance(s.block, Sine)]
+    assert sines and sorted(built) == sorted(sines)  # once each, during the checks
+    _, plan = check_program(LEVEL3, desk, ctx=ctx)
+    built.clear()
+    first = plan.instantiate(desk, ctx)  # takes the probes over
+    assert built == []
+    second = plan.instantiate(desk, ctx)  # builds its own
+    assert sorted(built) == sorted(sines)
+    for a, b in zip(first.steps, second.steps):
+        assert a.block is not b.block and a.block.params is not plan.params[a.node_id]
+    other = plan.instantiate(desk, BlockContext(embodiment=desk, rate=100.0))  # another context: fresh blocks
+    assert all(a.block is not b.block for a, b in zip(first.steps, other.steps))
+    np.testing.assert_array_equal(first.tick(0.01)[0], other.tick(0.01)[0])

@@ -293,3 +293,27 @@ def test_empty_selector_list_selects_nothing(desk):
 
     assert not channel_mask(desk, []).any()
     assert channel_mask(desk, ["!head_*"]).sum() == desk.n_channels - 3
+
+
+def test_clock_priority_restores_the_switch_interval_when_the_last_clock_stops():
+    import sys
+    import threading
+
+    from backend.engine.gil import ClockPriority
+
+    before = sys.getswitchinterval()
+    a, b = ClockPriority(interval=0.0004, nice_boost=0), ClockPriority(interval=0.0004, nice_boost=0)
+    a.apply()
+    b.apply()
+    assert sys.getswitchinterval() == pytest.approx(0.0004, abs=2e-6)  # kept in whole µs
+    a.restore()
+    assert sys.getswitchinterval() == pytest.approx(0.0004, abs=2e-6)  # kept in whole µs  # b still runs
+    b.restore()
+    b.restore()  # twice is harmless
+    assert sys.getswitchinterval() == before
+    raised = ClockPriority(interval=0.0004, nice_boost=1)
+    worker = threading.Thread(target=raised.apply)
+    worker.start()
+    worker.join()
+    raised.restore()
+    assert raised.nice is None or raised.nice <= 0  # raised where the OS permits it, never lowered

@@ -31,6 +31,9 @@ def register(sub) -> None:
     p.add_argument("--commands", default=None, metavar="FILE.jsonl",
                    help="replay timed commands: one JSON object per line with 't' (s) and a command")
     p.add_argument("--max-level", type=int, default=3, choices=(0, 1, 2, 3), help="highest APU level allowed")
+    p.add_argument("--profile", action="store_true",
+                   help="time every block on every tick and print a table of cook times (µs), the most "
+                        "expensive node first")
     p.add_argument("--unsafe-no-limits", action="store_true",
                    help="write the program's frames without the engine's safety net (position, velocity, "
                         "acceleration and jerk limits): for inspecting a program, never for a robot")
@@ -84,6 +87,8 @@ def run(args) -> int:
         return fail(str(exc))
 
     n = int(round(args.seconds * rate))
+    if args.profile:
+        session.engine.set_profiling(every=1, window=max(1, n))
     frames_written = 0
     with out.open("w", newline="") as fh:
         if out.suffix.lower() == ".csv":
@@ -102,4 +107,8 @@ def run(args) -> int:
         if note.get("event") == "error":
             print(f"nutty: warning: {note.get('message')}", file=sys.stderr)
     print(f"wrote {frames_written} frames ({args.seconds:g} s at {rate:g} Hz) to {out}", file=sys.stderr)
+    if args.profile:
+        from backend.engine.profile import format_table
+
+        print(format_table(session.engine.profile()))
     return 0

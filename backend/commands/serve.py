@@ -92,9 +92,6 @@ def builtin_idle(robot_name: str) -> dict:
 
 
 def run(args) -> int:
-    import uvicorn
-
-    from backend.api import create_app
     from backend.session import EngineSession, SessionError
 
     if args.host not in LOCAL_HOSTS and not args.token:
@@ -130,6 +127,10 @@ def run(args) -> int:
         session.engine.close()
         return fail(str(exc))
     session.engine.start()
+    # The server's own imports come after the first frame: the robot need not wait for them.
+    import uvicorn
+
+    from backend.api import create_app
     # From here on SIGTERM/SIGINT/SIGHUP park the robot and close the drivers (see Shutdown).
     shutdown = Shutdown(session, args.shutdown_timeout)
     restore_signals = shutdown.install()

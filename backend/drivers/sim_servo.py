@@ -13,11 +13,34 @@ from __future__ import annotations
 import threading
 
 import numpy as np
+from numba import njit
 
+from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.drivers.registry import driver_option, positive_or_off
 from backend.engine.runtime import Sink
+
+
+@njit(cache=True)
+def _servo_step(position, velocity, idx, gain, vmax, amax, dt, has_samples, q, v, a, max_jerk, sq_jerk, max_error,
+                sq_error):
+    """`SimulatedServos.consume_reference` per DoF, in place (the same operations in the same order)."""
+    for k in range(idx.shape[0]):
+        target = position[idx[k]]
+        want = min(max(velocity[idx[k]] + gain * (target - q[k]), -vmax[k]), vmax[k])
+        dv = min(max(want - v[k], -(amax[k] * dt)), amax[k] * dt)
+        a_new = dv / dt
+        if has_samples:
+            jerk = abs(a_new - a[k]) / dt
+            max_jerk[k] = max(max_jerk[k], jerk)
+            sq_jerk[k] += jerk * jerk
+        a[k] = a_new
+        v[k] = v[k] + dv
+        q[k] = q[k] + v[k] * dt
+        err = abs(target - q[k])
+        max_error[k] = max(max_error[k], err)
+        sq_error[k] += err * err
 
 
 @driver_option("sim-servo", metavar="HZ", parse=positive_or_off, default=8.0,
@@ -41,6 +64,9 @@ class SimulatedServos(Sink):
         self.max_jerk = np.zeros(self.idx.size)
         self._sq_jerk = np.zeros(self.idx.size)
         self._last_t: float | None = None
+        self._idx64 = self.idx.astype(np.int64)
+        #: Step with the compiled kernel (False: the numpy reference, `consume_reference`).
+        self.compiled = default_compiled()
         # A simulation wants every frame: a deep queue (live it keeps up easily; headless it catches up).
         super().__init__("sim-servo", max_queue=4096, decimate=decimate)
 
@@ -54,6 +80,19 @@ class SimulatedServos(Sink):
         self._last_t = frame.t
         if dt <= 0:
             return
+        if self.compiled and frame.position.dtype == np.float64 and frame.velocity.dtype == np.float64 \
+                and frame.position.shape == frame.velocity.shape == self.emb.rest.shape \
+                and frame.position.flags.c_contiguous and frame.velocity.flags.c_contiguous:
+            with self._lock:
+                _servo_step(frame.position, frame.velocity, self._idx64, self.gain, self.vmax, self.amax, float(dt),
+                            self.samples > 0, self.q, self.v, self.a, self.max_jerk, self._sq_jerk, self.max_error,
+                            self._sq_error)
+                self.samples += 1
+            return
+        self.consume_reference(frame, dt)
+
+    def consume_reference(self, frame: AnimationFrame, dt: float) -> None:
+        """The numpy definition of one servo step over `dt` seconds (`_servo_step` compiles it)."""
         target = frame.position[self.idx]
         with self._lock:
             want = np.clip(frame.velocity[self.idx] + self.gain * (target - self.q), -self.vmax, self.vmax)

@@ -9,6 +9,7 @@ Levels (the paper's Nutty pipeline):
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -16,6 +17,7 @@ import numpy as np
 
 from backend.engine.blocks.base import Block, Role
 from backend.engine.frames import FrameEvent, PartialFrame
+from backend.engine.profile import CookTimes
 
 MAX_LEVEL = 3
 
@@ -58,6 +60,7 @@ class APU:
 
     `stage1_tap` = (step index, port) of the frame entering the stage-2 post-processors: the
     pose before filtering/IK, which the Pre-Viz shows as the paper's *ghost*.
+    `cook` holds the per-node cook times: one tick in `cook.every` is timed block by block.
     """
 
     def __init__(self, steps: list[Step], output: int, level: int, stage1_tap: tuple[int, str] | None = None,
@@ -71,6 +74,10 @@ class APU:
         self.results: list[dict[str, Any]] = [{} for _ in steps]
         emb = steps[output].block.emb
         self._stage1_held = emb.rest.copy()
+        # The wiring as plain tuples (port, source step, source port): read on every tick.
+        self._wires = [tuple((w.port, w.src, w.src_port) for w in s.wires) for s in steps]
+        self.cook = CookTimes([s.node_id for s in steps], [s.type_name for s in steps])
+        self._untimed = 0  # ticks since the last timed one
 
     def block(self, node_id: str) -> Block:
         return self.steps[self.index[node_id]].block
@@ -81,9 +88,14 @@ class APU:
     def tick(self, dt: float) -> tuple[np.ndarray, np.ndarray, list[FrameEvent]]:
         """Run every step once. Returns (final positions (C,), stage-1 positions (C,), events)."""
         results = self.results
-        for i, step in enumerate(self.steps):
-            inputs = {w.port: results[w.src].get(w.src_port) for w in step.wires}
-            results[i] = step.block.tick(dt, inputs) or {}
+        self._untimed += 1
+        if self._untimed >= self.cook.every:
+            self._untimed = 0
+            self._tick_timed(dt)
+        else:
+            for i, (step, wires) in enumerate(zip(self.steps, self._wires)):
+                inputs = {port: results[src].get(src_port) for port, src, src_port in wires} if wires else {}
+                results[i] = step.block.tick(dt, inputs) or {}
         final: PartialFrame = results[self.output]["frame"]
         if self.stage1_tap is None:
             stage1 = final.values
@@ -93,6 +105,18 @@ class APU:
                 np.copyto(self._stage1_held, tapped.values, where=tapped.mask)
             stage1 = self._stage1_held
         return final.values, stage1, final.events
+
+    def _tick_timed(self, dt: float) -> None:
+        """The same loop, with each block's cook time (ns) written to `cook.row`."""
+        results, row, clock = self.results, self.cook.row, time.perf_counter_ns
+        start = clock()
+        for i, (step, wires) in enumerate(zip(self.steps, self._wires)):
+            t0 = clock()
+            inputs = {port: results[src].get(src_port) for port, src, src_port in wires} if wires else {}
+            results[i] = step.block.tick(dt, inputs) or {}
+            row[i] = clock() - t0
+        row[-1] = clock() - start
+        self.cook.record()
 
     def adopt_state_from(self, old: "APU") -> list[str]:
         """Blocks whose id and type survive keep their state. Returns the ids that kept it."""

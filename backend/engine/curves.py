@@ -29,6 +29,11 @@ from typing import Literal, Sequence
 
 import numpy as np
 
+from backend.engine import compiled as _compiled
+from backend.engine.compiled import curves as compiled_curves
+
+default_compiled, entry_point = _compiled.default_compiled, _compiled.entry_point
+
 Interp = Literal["constant", "linear", "bezier", "sine", "quad", "cubic", "quart", "quint", "expo", "circ",
                  "back", "elastic", "bounce"]
 EasingMode = Literal["in", "out", "in_out"]
@@ -212,8 +217,8 @@ class CurveSet:
         self.v = np.zeros((n, m))
         self.h_right = np.zeros((n, m, 2))  # absolute handle points
         self.h_left = np.zeros((n, m, 2))
-        self.code = np.zeros((n, m), dtype=int)
-        self.mode = np.zeros((n, m), dtype=int)
+        self.code = np.zeros((n, m), dtype=np.int64)
+        self.mode = np.zeros((n, m), dtype=np.int64)
         for i, c in enumerate(curves):
             handles = resolve_handles(c)
             for j, k in enumerate(c):
@@ -230,9 +235,21 @@ class CurveSet:
         self.start = float(np.min(self.t[:, 0]))
         self.end = float(np.max(self.t[self.rows, self.n_keys - 1]))
         self._present = sorted(set(self.code[self.t < np.inf].tolist()))
+        self._kernel = None  # the compiled evaluation, fetched on first use
 
     def evaluate(self, t: float) -> np.ndarray:
-        """Values of every curve at time `t` (s)."""
+        """Values of every curve at time `t` (s) (compiled, unless NUTTY_REFERENCE=1 selects the numpy
+        reference, `evaluate_reference`)."""
+        if default_compiled():
+            if self._kernel is None:
+                self._kernel = entry_point(compiled_curves.evaluate, compiled_curves.EVALUATE_SIG)
+            out = np.empty(len(self.rows))
+            self._kernel(self.t, self.v, self.h_right, self.h_left, self.code, self.mode, self.n_keys, float(t), out)
+            return out
+        return self.evaluate_reference(t)
+
+    def evaluate_reference(self, t: float) -> np.ndarray:
+        """The numpy definition of `evaluate`."""
         rows = self.rows
         last = self.n_keys - 1
         idx = np.minimum(np.sum(self.t <= t, axis=1) - 1, last)  # key at or before t

@@ -88,20 +88,21 @@ class AnimationFrame:
     def to_dict(self, embodiment: Embodiment, derivatives: bool = True) -> dict[str, Any]:
         """JSON-friendly form keyed by DoF name: continuous -> float, enum -> option, colour -> [r,g,b]."""
         dofs: dict[str, Any] = {}
+        # Python floats of whole vectors at once (what float() of each element gives, without the calls).
+        position = self.position.tolist()
+        if derivatives:
+            velocity, acceleration, jerk = self.velocity.tolist(), self.acceleration.tolist(), self.jerk.tolist()
         for d in embodiment.dofs:
             sl = d.channels
             if d.type is DofType.continuous:
-                entry: dict[str, Any] = {"position": float(self.position[sl.start])}
-                if derivatives:
-                    entry["velocity"] = float(self.velocity[sl.start])
-                    entry["acceleration"] = float(self.acceleration[sl.start])
-                    entry["jerk"] = float(self.jerk[sl.start])
-                dofs[d.name] = entry
+                c = sl.start
+                dofs[d.name] = ({"position": position[c], "velocity": velocity[c], "acceleration": acceleration[c],
+                                 "jerk": jerk[c]} if derivatives else {"position": position[c]})
             elif d.type is DofType.enum:
-                index = int(round(float(self.position[sl.start])))
+                index = int(round(position[sl.start]))
                 dofs[d.name] = {"index": index, "option": d.options[index] if d.options else None}
             elif d.type is DofType.colour:
-                dofs[d.name] = {"rgb": [float(x) for x in self.position[sl]]}
+                dofs[d.name] = {"rgb": position[sl]}
         out: dict[str, Any] = {
             "embodiment": self.embodiment,
             "t": self.t,

@@ -237,6 +237,15 @@ class Chain:
             if d.joint in self.joint_names and not d.symbolic and d.dimension.value == "stationary":
                 self.dof_channels[self.joint_names.index(d.joint)] = d.channels.start
 
+    def channel_map(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, offset, lower, upper), contiguous, such that `q_from_channels(v)` equals
+        `clip(rows @ v + offset, lower, upper)` (what compiled kernels evaluate)."""
+        if self.emb is None:
+            raise KinematicsError("this chain was not built from an Embodiment")
+        emb, i = self.emb, self.emb_index
+        return (np.ascontiguousarray(emb.joint_matrix[i]), np.ascontiguousarray(emb.joint_offset[i]),
+                np.ascontiguousarray(emb._joint_lower[i]), np.ascontiguousarray(emb._joint_upper[i]))
+
     def q_from_channels(self, values: np.ndarray) -> np.ndarray:
         """The chain's joint positions for a full channel vector (symbolic DoFs resolved, joint limits applied)."""
         if self.emb is None:

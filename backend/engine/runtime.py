@@ -30,8 +30,12 @@ import numpy as np
 
 from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
+from backend.engine.compiled import default_compiled, entry_point
+from backend.engine.compiled.frames import DERIVATIVES_SIG, derivatives
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
+from backend.engine.gil import ClockPriority
+from backend.engine.profile import SAMPLE_EVERY, WINDOW, CookTimes
 from backend.engine.safety import SafetyNet
 from backend.engine.transition import Transition
 
@@ -49,6 +53,9 @@ class RingStats:
         self._buf[self._n % len(self._buf)] = x
         self._n += 1
 
+    def reset(self) -> None:
+        self._n = 0
+
     def summary(self) -> dict[str, float]:
         n = min(self._n, len(self._buf))
         if n == 0:
@@ -64,6 +71,10 @@ class Sink:
     `offer` never blocks: frames go through a bounded queue to the sink's own thread; when the queue
     is full the oldest frame is dropped and counted. Subclass and override `consume`, or pass a callable.
     `decimate = k` forwards every k-th frame only.
+
+    The hand-over shares no lock with the sink's thread: the clock appends to the queue (atomic) and
+    releases a "frames waiting" signal (releasing a lock never blocks), so a busy sink can never make
+    the clock wait for it, not even for the interpreter lock a blocked lock acquisition gives away.
     """
 
     def __init__(self, name: str, consume: Callable[[AnimationFrame], None] | None = None,
@@ -72,12 +83,19 @@ class Sink:
         self._consume = consume
         self.decimate = max(1, int(decimate))
         self._queue: deque[AnimationFrame] = deque(maxlen=max_queue)
-        self._ready = threading.Condition()
+        self._signal = threading.Lock()  # locked: nothing new since the sink last looked
+        self._signal.acquire()
         self._closed = False
-        self.offered = self.delivered = self.dropped = self.errors = 0
+        self.offered = self.delivered = self.errors = 0
+        self._enqueued = self._taken = 0  # frames put in the queue (clock) / taken out of it (sink thread)
         self.last_error: str | None = None
         self._thread = threading.Thread(target=self._loop, name=f"sink-{name}", daemon=True)
         self._thread.start()
+
+    @property
+    def dropped(self) -> int:
+        """Frames the queue dropped (oldest first) because the sink was behind."""
+        return max(0, self._enqueued - self._taken - len(self._queue))
 
     def consume(self, frame: AnimationFrame) -> None:
         if self._consume is not None:
@@ -87,32 +105,38 @@ class Sink:
         self.offered += 1
         if (self.offered - 1) % self.decimate:
             return
-        with self._ready:
-            if len(self._queue) == self._queue.maxlen:
-                self.dropped += 1  # deque(maxlen) drops the oldest for us
-            self._queue.append(frame)
-            self._ready.notify()
+        self._queue.append(frame)  # deque(maxlen) drops the oldest for us
+        self._enqueued += 1
+        self._wake()
+
+    def _wake(self) -> None:
+        try:
+            self._signal.release()
+        except RuntimeError:  # already signalled: the sink will look anyway
+            pass
 
     def _loop(self) -> None:
         while True:
-            with self._ready:
-                while not self._queue and not self._closed:
-                    self._ready.wait()
-                if self._closed and not self._queue:
-                    return
-                frame = self._queue.popleft()
-            try:
-                self.consume(frame)
-                self.delivered += 1
-            except Exception as exc:  # a broken driver must not take the engine down
-                self.errors += 1
-                self.last_error = f"{type(exc).__name__}: {exc}"
+            self._signal.acquire()
+            while True:
+                try:
+                    frame = self._queue.popleft()
+                except IndexError:
+                    break
+                self._taken += 1
+                try:
+                    self.consume(frame)
+                    self.delivered += 1
+                except Exception as exc:  # a broken driver must not take the engine down
+                    self.errors += 1
+                    self.last_error = f"{type(exc).__name__}: {exc}"
+            if self._closed and not self._queue:
+                return
 
     def close(self, timeout: float = 2.0) -> None:
         """Deliver what is queued, then stop the sink's thread."""
-        with self._ready:
-            self._closed = True
-            self._ready.notify()
+        self._closed = True
+        self._wake()
         self._thread.join(timeout)
 
     def stats(self) -> dict[str, Any]:
@@ -161,10 +185,15 @@ class Engine:
 
     rate: ticks per second, 30..1000. max_level: the highest APU level accepted (0..3).
     clock: what the running clock (`start()`) reads time from and waits on (default: a `WallClock`).
+    compiled: blocks use their compiled kernels (False: their numpy references; default: True unless
+    the environment sets NUTTY_REFERENCE=1, see backend.engine.compiled).
+    priority: while the clock runs, other threads hand the interpreter lock over quickly and the clock
+    thread runs at a higher priority where the OS permits (backend.engine.gil.ClockPriority).
     """
 
     def __init__(self, embodiment: Embodiment, rate: float = 100.0, max_level: int = MAX_LEVEL,
-                 resources: Any = None, seed: int = 0, safety: bool = True, clock: Clock | None = None):
+                 resources: Any = None, seed: int = 0, safety: bool = True, clock: Clock | None = None,
+                 compiled: bool | None = None, priority: bool = True):
         if not (isinstance(rate, (int, float)) and MIN_RATE <= rate <= MAX_RATE):
             raise ValueError(f"rate must be within [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate}")
         if max_level not in (0, 1, 2, 3):
@@ -174,7 +203,8 @@ class Engine:
         self.dt = 1.0 / self.rate
         self.max_level = max_level
         self.clock: Clock = clock if clock is not None else WallClock(spin=min(0.0003, self.dt / 10))
-        self.ctx = BlockContext(embodiment=embodiment, rate=self.rate, resources=resources, seed=seed)
+        self.ctx = BlockContext(embodiment=embodiment, rate=self.rate, resources=resources, seed=seed,
+                                compiled=default_compiled() if compiled is None else bool(compiled))
         self.apu: APU | None = None
         self.seq = 0
         self.t = 0.0
@@ -187,6 +217,8 @@ class Engine:
         self._acc = np.zeros(embodiment.n_channels)
         self.last_frame: AnimationFrame | None = None
         self.tick_cost = RingStats()
+        self.tick_cpu = RingStats()  # CPU time the clock thread spent in each tick (tick_cost minus waits)
+        self.started_at: float | None = None  # wall-clock time (s since the epoch) the clock first started
         self.period = RingStats()
         self.lateness = RingStats()
         self.ticks = 0
@@ -199,6 +231,12 @@ class Engine:
         self._injected: list = []  # events added by commands for the next frame
         self._override_mask = np.zeros(embodiment.n_channels, dtype=bool)  # display values set by commands
         self._override_values = np.zeros(embodiment.n_channels)
+        #: The running clock's claim on the interpreter lock and the CPU (None: none; see backend.engine.gil).
+        self.clock_priority: ClockPriority | None = ClockPriority() if priority else None
+        #: Ticks between two timed ticks of the program's cook times (1: every tick, for `nutty run --profile`).
+        self.profile_every, self.profile_window = SAMPLE_EVERY, WINDOW
+        self._overriding = False  # whether any channel is overridden (so a tick need not look)
+        self._derivatives = entry_point(derivatives, DERIVATIVES_SIG) if self.ctx.compiled else None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._tick_lock = threading.Lock()
@@ -241,6 +279,8 @@ class Engine:
 
         def swap() -> list[str]:
             kept = apu.adopt_state_from(self.apu) if (adopt and apu is not None and self.apu is not None) else []
+            if apu is not None and (apu.cook.every, apu.cook.window) != (self.profile_every, self.profile_window):
+                apu.cook = CookTimes(apu.cook.node_ids, apu.cook.types, self.profile_every, self.profile_window)
             self.apu = apu
             self.swaps += 1
             if also is not None:
@@ -297,9 +337,11 @@ class Engine:
         Call in the clock thread (via `call`)."""
         self._override_mask = self._override_mask | mask
         self._override_values = np.where(mask, values, self._override_values)
+        self._overriding = bool(self._override_mask.any())
 
     def clear_overrides(self) -> None:
         self._override_mask = np.zeros_like(self._override_mask)
+        self._overriding = False
 
     def add_listener(self, fn: Callable[[dict[str, Any]], None]) -> None:
         """Receive block notifications (clip started/completed, …) from the clock thread; keep it quick."""
@@ -337,7 +379,7 @@ class Engine:
     def tick(self) -> AnimationFrame:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
         with self._tick_lock:
-            t0 = time.perf_counter()
+            t0, cpu0 = time.perf_counter(), time.thread_time()
             self._drain_pending()
             dt = self.dt
             if self.apu is not None:
@@ -349,7 +391,7 @@ class Engine:
             else:
                 final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
             program = np.array(final, dtype=float)
-            if self._override_mask.any():
+            if self._overriding:
                 np.copyto(program, self._override_values, where=self._override_mask)
             target = program
             if self._transition is not None:
@@ -359,9 +401,13 @@ class Engine:
             pos = self.safety.step(target)
             if self._injected:
                 events, self._injected = [*events, *self._injected], []
-            vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
-            acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
-            jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
+            if self._derivatives is not None and pos.shape == self._pos.shape and pos.dtype == np.float64:
+                vel, acc, jerk = np.empty_like(pos), np.empty_like(pos), np.empty_like(pos)
+                self._derivatives(pos, self._pos, self._vel, self._acc, dt, self.seq, vel, acc, jerk)
+            else:
+                vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
+                acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
+                jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
             self._pos, self._vel, self._acc = pos, vel, acc
             frame = AnimationFrame(
                 embodiment=self.embodiment.name, t=self.t, dt=dt, seq=self.seq, position=pos,
@@ -381,6 +427,7 @@ class Engine:
             for sink in self._sinks:
                 sink.offer(frame)
             self.tick_cost.add(time.perf_counter() - t0)
+            self.tick_cpu.add(time.thread_time() - cpu0)
             return frame
 
     def _notify(self, note: dict[str, Any]) -> None:
@@ -419,7 +466,19 @@ class Engine:
             sink.close()
 
     def _clock(self) -> None:
+        priority = self.clock_priority
+        if priority is not None:
+            priority.apply()
+        try:
+            self._run_clock()
+        finally:
+            if priority is not None:
+                priority.restore()
+
+    def _run_clock(self) -> None:
         clock, period = self.clock, self.dt
+        if self.started_at is None:
+            self.started_at = time.time()
         deadline = clock.now()
         last_start: float | None = None
         while not self._stop.is_set() and clock.wait_until(deadline, self._stop):
@@ -439,6 +498,33 @@ class Engine:
                 self.lost_ticks += int(behind // period)
                 deadline = now + period - math.fmod(behind, period)
 
+    def set_profiling(self, every: int, window: int = WINDOW) -> None:
+        """Time one tick in `every` block by block, keeping the last `window` timed ticks (for this
+        program and the ones loaded after it). `nutty run --profile` times every tick."""
+        self.profile_every, self.profile_window = int(every), int(window)
+
+        def apply() -> None:
+            if self.apu is not None:
+                self.apu.cook = CookTimes(self.apu.cook.node_ids, self.apu.cook.types, self.profile_every,
+                                          self.profile_window)
+        self.call(apply)
+
+    def reset_stats(self) -> None:
+        """Start a new measurement window: tick cost, period, lateness and the program's cook times
+        forget their samples (the counters of ticks, overruns and lost ticks go on)."""
+        for ring in (self.tick_cost, self.tick_cpu, self.period, self.lateness):
+            ring.reset()
+        apu = self.apu
+        if apu is not None:
+            apu.cook.reset()
+
+    def profile(self) -> dict[str, Any]:
+        """Per-node cook times of the running program (`backend.engine.profile.CookTimes.summary`)."""
+        apu = self.apu
+        if apu is None:
+            return CookTimes([], []).summary()
+        return apu.cook.summary()
+
     def stats(self) -> dict[str, Any]:
         return {
             "rate": self.rate,
@@ -452,7 +538,11 @@ class Engine:
             "swaps": self.swaps,
             "safety": self.safety.stats(),
             "tick_cost": self.tick_cost.summary(),
+            "tick_cpu": self.tick_cpu.summary(),
             "period": self.period.summary(),
             "jitter": self.lateness.summary(),
+            "started_at": self.started_at,
+            "clock_priority": None if self.clock_priority is None else {
+                "switch_interval_ms": self.clock_priority.interval * 1e3, "nice": self.clock_priority.nice},
             "sinks": [s.stats() for s in self.sinks],
         }

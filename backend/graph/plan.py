@@ -10,7 +10,7 @@ APUs. Nothing in a Plan refers to a particular block type.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from backend.engine.apu import APU, Step, Wire
@@ -38,6 +38,10 @@ class Plan:
     output: int  # index of the output step
     level: int
     stage1_tap: tuple[int, str] | None  # (step, port) of the frame entering stage 2
+    # The blocks the checks built (fresh, never ticked) and the context they were built in: the first
+    # APU instantiated in that context takes them over (building a block twice doubled compile time).
+    _probes: dict = field(default_factory=dict, compare=False, repr=False)
+    _probe_ctx: BlockContext | None = field(default=None, compare=False, repr=False)
 
     @property
     def params(self) -> Mapping[str, BlockParams]:
@@ -53,11 +57,22 @@ class Plan:
         if embodiment.name != self.robot:
             raise ValueError(f"this plan was checked for robot '{self.robot}', not '{embodiment.name}'")
         ctx = ctx or BlockContext(embodiment=embodiment, rate=rate)
-        steps = [Step(s.node_id, s.block(s.params.model_copy(deep=True), ctx, s.node_id), list(s.wires))
+        probes = {}
+        if ctx is self._probe_ctx and self._probes:
+            probes = dict(self._probes)  # taken once: a second APU builds its own blocks
+            self._probes.clear()
+        steps = [Step(s.node_id, self._take(probes, s) or s.block(s.params.model_copy(deep=True), ctx, s.node_id),
+                      list(s.wires))
                  for s in self.steps]
         for inp in self.program.inputs:
             ctx.inputs.setdefault(inp.name, inp.coerce(inp.default))
         return APU(steps, self.output, self.level, self.stage1_tap, source=self.program)
+
+    @staticmethod
+    def _take(probes: dict, step: PlannedStep) -> Block | None:
+        """The checks' block for `step` when it is of the planned class (and not taken before)."""
+        block = probes.pop(step.node_id, None)
+        return block if type(block) is step.block else None
 
     @classmethod
     def from_checks(cls, state: CheckState) -> "Plan":
@@ -73,7 +88,8 @@ class Plan:
             steps.append(PlannedStep(n, block, state.params[n], wires))
         out = index[state.outputs[0]]
         return cls(program=state.program, robot=state.embodiment.name, steps=tuple(steps), output=out,
-                   level=state.level or 0, stage1_tap=stage1_tap(steps, out))
+                   level=state.level or 0, stage1_tap=stage1_tap(steps, out), _probes=dict(state.probes),
+                   _probe_ctx=state.ctx)
 
 
 def topological(ids: list[str], graph: Mapping[str, set[str]]) -> list[str]:

@@ -25,6 +25,11 @@ class ClientSocket:
         async with self._lock:
             await self.ws.send_text(security.dumps(message))
 
+    async def send_text(self, text: str) -> None:
+        """Send JSON text already encoded (by `security.dumps`)."""
+        async with self._lock:
+            await self.ws.send_text(text)
+
     async def send_bytes(self, data: bytes) -> None:
         async with self._lock:
             await self.ws.send_bytes(data)

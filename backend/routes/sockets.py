@@ -8,6 +8,7 @@ Each handler races its send loop against the client's disconnect and the app's s
 from __future__ import annotations
 
 import asyncio
+import math
 from typing import Any
 
 from fastapi import APIRouter, HTTPException, WebSocket
@@ -93,18 +94,20 @@ async def _send_telemetry(sock: ClientSocket, hub: Hub, sub: Subscription) -> No
             await asyncio.sleep(min(due - now, 0.25))
             continue
         period = 1.0 / sub.rate
-        due = due + period if due + period > now else now + period  # never faster than the rate
+        # On a grid of the period: clients at one rate wake together and share one message (see
+        # telemetry.SharedTexts); never faster than the rate.
+        slot = math.floor(now / period)
+        due = (slot + 1.0) * period
         frame = hub.session.engine.last_frame
         if frame is None or frame.seq == last_seq:
             continue
-        last_seq = frame.seq
         try:
-            msg = sub.message(hub.session, frame)
+            last_seq, text = sub.text(hub.session, frame, (sub.rate, slot))
         except Exception:
             await sock.error("internal_error", "telemetry for this subscription failed; subscribe again")
             sub.signals = []
             continue
-        await sock.send(msg)
+        await sock.send_text(text)
 
 
 @router.websocket("/ws/frames")

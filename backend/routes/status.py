@@ -39,6 +39,18 @@ def status(request: Request, hub: HubDep) -> dict[str, Any]:
     return stats
 
 
+@router.get("/profile", summary="Per-node cook times of the running program (µs, sampled ticks)")
+def profile(hub: HubDep) -> dict[str, Any]:
+    return hub.session.engine.profile()
+
+
+@router.delete("/profile", summary="Start a new measurement window (cook times, tick cost, period, jitter)")
+def reset_profile(hub: HubDep) -> dict[str, Any]:
+    engine = hub.session.engine
+    engine.call(engine.reset_stats)
+    return engine.profile()
+
+
 @router.get("/previz", summary="Where the 3D Pre-Viz is served (the URL a client should open)")
 def previz_info(request: Request, hub: HubDep) -> dict[str, Any]:
     if hub.previz is None:

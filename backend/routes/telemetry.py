@@ -2,27 +2,39 @@
 
 A client subscribes to node outputs (`{node, port}`), frames on or off, and a rate (Hz, at most
 TELEMETRY_MAX_HZ); it gets the latest engine frame at that rate, decimated when it reads slowly.
+About once a second (PROFILE_PERIOD) a message also carries the program's per-node cook times
+(`profile`, see backend/engine/profile.py).
+
+Clients with the same subscription and rate share one message per period (`SharedTexts`): built and
+encoded once, on the event loop, however many editors watch, so telemetry costs the server (and the
+engine's clock, which needs the same interpreter lock) little.
 """
 
 from __future__ import annotations
 
 import asyncio
+import time
+import weakref
 from typing import Any
 
 import numpy as np
 
+from backend import security
 from backend.engine.frames import AnimationFrame, PartialFrame
 from backend.hub import jsonable
 
 TELEMETRY_MAX_HZ = 60.0
 MAX_SIGNALS = 200
+PROFILE_PERIOD = 1.0  # s between two messages with cook times, per client
 
 
 def signal_json(emb: Any, value: Any) -> Any:
     """A node output as JSON: frames as their set channels, arrays as lists."""
     if isinstance(value, PartialFrame):
-        idx = np.flatnonzero(value.mask)
-        return {"mask": int(idx.size), "values": {emb.channel_names[i]: round(float(value.values[i]), 5) for i in idx}}
+        idx = np.asarray(value.mask).ravel().nonzero()[0]
+        names = emb.channel_names
+        return {"mask": int(idx.size),
+                "values": dict(zip([names[i] for i in idx.tolist()], _rounded(np.asarray(value.values)[idx])))}
     if isinstance(value, np.ndarray):
         return [float(x) for x in value.ravel()[:16]]
     if isinstance(value, (np.floating, np.integer)):
@@ -44,8 +56,14 @@ def limit_classes(emb: Any, frame: AnimationFrame) -> dict[str, int]:
     return {emb.channel_names[i]: int(codes[i]) for i in np.flatnonzero(codes)}
 
 
+def _rounded(values: np.ndarray) -> list[float]:
+    """Values rounded to 5 decimals for display, as Python floats (numpy's rounding: a whole vector at
+    once; it can differ from `round(v, 5)` in the last digit of a value exactly halfway)."""
+    return np.asarray(values, dtype=float).round(5).tolist()
+
+
 def frame_channels(emb: Any, values: np.ndarray) -> dict[str, float]:
-    return {name: round(float(values[i]), 5) for i, name in enumerate(emb.channel_names)}
+    return dict(zip(emb.channel_names, _rounded(values)))
 
 
 def frame_json(emb: Any, frame: AnimationFrame) -> dict[str, Any]:
@@ -75,6 +93,12 @@ class Subscription:
         self.frames = True
         self.rate = 30.0  # Hz
         self.changed = asyncio.Event()
+        self.profile_at = 0.0  # monotonic time of the last message with cook times
+
+    @property
+    def key(self) -> tuple:
+        """What makes two subscriptions' messages the same."""
+        return tuple((s["node"], s["port"]) for s in self.signals), self.frames
 
     def update(self, data: Any) -> None:
         """Follow a subscribe message, or raise SubscriptionError (changing nothing)."""
@@ -107,3 +131,51 @@ class Subscription:
         if apu is not None:
             msg["layers"] = {s.node_id: s.block.layer_states() for s in apu.steps if hasattr(s.block, "layer_states")}
         return msg
+
+    def text(self, session: Any, frame: AnimationFrame, slot: Any = None) -> tuple[int, str]:
+        """(seq, JSON text) of this client's message for `frame`: the same text as a client subscribed
+        alike was sent in the same `slot` (any hashable: a period of a shared schedule; None: never
+        shared), built once; with the cook times about once every PROFILE_PERIOD seconds."""
+        shared = SharedTexts.of(session)
+        now = time.monotonic()
+        seq, text = shared.text(self, session, frame, slot)
+        if now - self.profile_at >= PROFILE_PERIOD:
+            profile = shared.profile(session, now)
+            if profile is not None:
+                self.profile_at = now
+                text = f'{text[:-1]},"profile":{profile}}}'
+        return seq, text
+
+
+class SharedTexts:
+    """The latest frame's telemetry texts of one session, by subscription (event loop only)."""
+
+    _of: "weakref.WeakKeyDictionary[Any, SharedTexts]" = weakref.WeakKeyDictionary()
+
+    def __init__(self) -> None:
+        self.texts: dict[tuple, tuple[Any, int, str]] = {}  # subscription key -> (slot, seq, text)
+        self._profile: tuple[float, Any, str] | None = None  # (when, apu, JSON text)
+
+    @classmethod
+    def of(cls, session: Any) -> "SharedTexts":
+        shared = cls._of.get(session)
+        if shared is None:
+            shared = cls._of[session] = cls()
+        return shared
+
+    def text(self, sub: Subscription, session: Any, frame: AnimationFrame, slot: Any) -> tuple[int, str]:
+        key = sub.key
+        built = self.texts.get(key)
+        if built is None or slot is None or built[0] != slot:
+            built = self.texts[key] = (slot, frame.seq, security.dumps(sub.message(session, frame)))
+        return built[1], built[2]
+
+    def profile(self, session: Any, now: float) -> str | None:
+        """The running program's cook times as JSON (summarised at most once per PROFILE_PERIOD)."""
+        apu = session.engine.apu
+        if apu is None:
+            return None
+        cached = self._profile
+        if cached is None or cached[1] is not apu or now - cached[0] >= PROFILE_PERIOD:
+            cached = self._profile = (now, apu, security.dumps(apu.cook.summary()))
+        return cached[2]

@@ -25,7 +25,10 @@ Conventions
 - `handle(command)` receives run-time commands (play, seek, set layer, …) addressed to the block.
 - `check(params, node)` / `check_wiring(params, node)` add the block type's own rules to the program
   checks (`backend.graph.checks.hooks`), so the checker never names a block type.
-- Hot paths are vectorised over channels; never loop over DoFs in `tick`.
+- Hot paths are vectorised over channels; never loop over DoFs in `tick` (or compile the tick, keeping
+  the numpy code as its reference: `backend.engine.compiled`).
+- A block never changes the frames and values it receives, nor what `driven` returns: arrays are
+  shared between blocks and from tick to tick.
 
 Register a block class with `@register_block`. Every module of this package is imported by
 `backend.engine.blocks`, so a new block needs no other edit.
@@ -55,6 +58,7 @@ from backend.engine.blocks.ports import (  # noqa: F401
     derive_ports,
     port_accepts,
 )
+from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import PartialFrame
 
@@ -99,8 +103,13 @@ def vec3_or_none(value: Any) -> np.ndarray | None:
     """A finite 3-vector from a vec3 signal, or None when it is missing or not finite."""
     if value is None:
         return None
+    if type(value) in (list, tuple) and len(value) == 3:  # the common case, without numpy's conversions
+        a, b, c = value
+        if isinstance(a, (int, float)) and isinstance(b, (int, float)) and isinstance(c, (int, float)):
+            a, b, c = float(a), float(b), float(c)
+            return np.array((a, b, c)) if math.isfinite(a) and math.isfinite(b) and math.isfinite(c) else None
     try:
-        v = np.asarray(value, dtype=float).reshape(-1)
+        v = np.array(value, dtype=float).reshape(-1)  # a copy: contiguous, and never the sender's array
     except (TypeError, ValueError):
         return None
     if v.shape != (3,) or not np.all(np.isfinite(v)):
@@ -111,7 +120,10 @@ def vec3_or_none(value: Any) -> np.ndarray | None:
 def colour_or_none(value: Any) -> np.ndarray | None:
     """A colour [r, g, b] with components in [0, 1] from a signal or command, or None when it is not one."""
     c = vec3_or_none(value)
-    return None if c is None or np.any(c < 0.0) or np.any(c > 1.0) else c
+    if c is None:
+        return None
+    r, g, b = c.tolist()  # three Python comparisons beat two numpy reductions on 3 numbers
+    return c if 0.0 <= r <= 1.0 and 0.0 <= g <= 1.0 and 0.0 <= b <= 1.0 else None
 
 
 def _number(value: Any) -> Any:
@@ -175,6 +187,10 @@ class DrivenParam:
     def resolve(self, wired: Any, fallback: Any) -> Any:
         """The wired value when it is usable, else `fallback`; numbers as float/int, clamped as declared."""
         kind = self.port.type
+        if type(wired) is float and kind is PortType.float and math.isfinite(wired):  # the common case, shortly
+            lo, hi = self.lo, self.hi
+            return wired if lo is None and hi is None else min(max(wired, -math.inf if lo is None else lo),
+                                                               math.inf if hi is None else hi)
         usable = _USABLE.get(kind)
         value = wired if usable is None else usable(wired)
         if value is None:
@@ -213,6 +229,8 @@ class BlockContext:
 
     `inputs` is the live dict of the program's exposed input values (written by commands at tick
     boundaries, read by `input` blocks). `resources` gives access to clips and postures on disk.
+    `compiled`: blocks with a compiled kernel use it (False: their numpy reference; see
+    `backend.engine.compiled`).
     """
 
     embodiment: Embodiment
@@ -221,6 +239,7 @@ class BlockContext:
     resources: Any = None
     seed: int = 0
     events: list[dict[str, Any]] = field(default_factory=list)  # block -> engine notifications
+    compiled: bool = field(default_factory=default_compiled)
 
     def notify(self, node: str, kind: str, **data: Any) -> None:
         """Report a block event (e.g. clip completed) to the engine, which forwards it to clients."""
@@ -374,14 +393,38 @@ class Block:
     # --- helpers --------------------------------------------------------------------------------
     def driven(self, inputs: dict[str, Any], **fallbacks: Any) -> SimpleNamespace:
         """Every drivable parameter for this tick, by name: the wired value when its input is connected
-        and usable, else the parameter, or the fallback given here (e.g. a value set by a command)."""
+        and usable, else the parameter, or the fallback given here (e.g. a value set by a command).
+        Treat the values as read-only (arrays may be shared between ticks)."""
         unknown = fallbacks.keys() - self.drivables.keys() if fallbacks else ()
         if unknown:
             raise TypeError(f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters")
         params = self.params
-        return SimpleNamespace(**{
-            name: d.resolve(inputs.get(name), fallbacks[name] if name in fallbacks else getattr(params, name))
-            for name, d in self.drivables.items()})
+        # The parameters resolved with nothing wired, once per parameter object (parameters are replaced,
+        # never changed in place: update_params); the values are shared from tick to tick, read-only.
+        cache = self.__dict__.get("_driven_cache")
+        if cache is None or cache[0] is not params:
+            static = {name: d.resolve(None, getattr(params, name)) for name, d in self.drivables.items()}
+            cache = self._driven_cache = (params, static, SimpleNamespace(**static))
+        if not fallbacks and not any(name in inputs for name in self.drivables):
+            return cache[2]  # nothing wired, nothing given: the parameters themselves, resolved once
+        values = dict(cache[1])
+        for name, fallback in fallbacks.items():
+            values[name] = self.drivables[name].resolve(None, fallback)
+        if inputs:
+            for name, d in self.drivables.items():
+                wired = inputs.get(name)
+                if wired is None:
+                    continue
+                if name in fallbacks:
+                    values[name] = d.resolve(wired, fallbacks[name])
+                elif type(wired) in (list, tuple):  # a vector signal: converted again only when it changes
+                    key, seen = tuple(wired), self.__dict__.setdefault("_wired_cache", {}).get(name)
+                    if seen is None or seen[1] is not params or seen[0] != key:
+                        seen = self._wired_cache[name] = (key, params, d.resolve(wired, getattr(params, name)))
+                    values[name] = seen[2]
+                else:
+                    values[name] = d.resolve(wired, getattr(params, name))
+        return SimpleNamespace(**values)
 
     def signal(self, inputs: dict[str, Any], name: str, default: Any) -> Any:
         """A signal input that is not a parameter (e.g. the mixer's layer weights), or `default` when it

@@ -80,6 +80,7 @@ class Blink(Source):
         double_at: float | None = None  # when the second blink of a double blink starts (s)
         forced: bool = False  # the `blink` command asked for a blink
         gaze_ref: np.ndarray | None = None  # the gaze at the last gaze shift
+        gaze_seen: tuple | None = None  # (the last gaze value read, the threshold then), to skip repeats
 
     def configure(self) -> None:
         p, emb = self.params, self.emb
@@ -91,6 +92,8 @@ class Blink(Source):
         else:
             closed = np.clip(float(p.closed), emb.min, emb.max)
         self.delta = np.where(self.mask, closed - emb.rest, 0.0)
+        # Outside a blink (k = 0) the frame is always the same: computed once.
+        self._open_values = np.where(self.mask, np.clip(emb.rest + 0.0 * self.delta, emb.min, emb.max), emb.rest)
 
     def reset(self) -> None:
         self.state = self.State(rng=block_rng(self.ctx, self.params.seed, self.node_id))
@@ -124,6 +127,13 @@ class Blink(Source):
         other vector) the plain difference."""
         if value is None:
             return False
+        s = self.state
+        # The same value as last tick, under the same threshold, cannot be a shift: the reference is
+        # either that value already (just set) or one it was found too close to a tick ago.
+        seen = (tuple(value), self.params.gaze_shift_threshold) if type(value) in (list, tuple) else None
+        if seen is not None and seen == s.gaze_seen:
+            return False
+        s.gaze_seen = seen
         try:
             g = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
         except (TypeError, ValueError):
@@ -192,6 +202,8 @@ class Blink(Source):
             if s.elapsed >= p.close_time + p.hold_time + p.open_time:
                 s.active, k = False, 0.0
         emb = self.emb
+        if k == 0.0:
+            return {"out": PartialFrame(self._open_values.copy(), self.mask.copy(), []), "blinking": s.active}
         values = np.clip(emb.rest + k * self.delta, emb.min, emb.max)
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), []),
                 "blinking": s.active}

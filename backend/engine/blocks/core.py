@@ -27,6 +27,9 @@ from backend.engine.blocks.base import (
     drivable,
     register_block,
 )
+from backend.engine.compiled import entry_point, plain_frame
+from backend.engine.compiled.frames import (GAIN_OFFSET_SIG, HOLD_SIG, LIMITER_SIG, gain_offset_tick, hold_tick,
+                                            limiter_tick)
 from backend.engine.embodiment import DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask, select_dofs
@@ -35,6 +38,7 @@ from backend.engine.selectors import SelectorError, channel_mask, select_dofs
 # --------------------------------------------------------------------------------------------------
 # Output and exposed inputs
 # --------------------------------------------------------------------------------------------------
+
 
 
 class OutputParams(BlockParams):
@@ -62,6 +66,9 @@ class Output(Block):
     class State:
         held: np.ndarray  # the last value of every channel
 
+    def configure(self) -> None:
+        self._kernel = entry_point(hold_tick, HOLD_SIG) if self.ctx.compiled else None
+
     def reset(self) -> None:
         self.state = self.State(held=self.emb.rest.copy())
 
@@ -70,8 +77,11 @@ class Output(Block):
         held = self.state.held
         events = []
         if frame is not None:
-            np.copyto(held, frame.values, where=frame.mask)
-            np.clip(held, self.emb.min, self.emb.max, out=held)
+            if self._kernel is not None and self.ctx.compiled and plain_frame(frame, self.emb.n_channels):
+                self._kernel(frame.values, frame.mask, held, self.emb.min, self.emb.max)
+            else:
+                np.copyto(held, frame.values, where=frame.mask)
+                np.clip(held, self.emb.min, self.emb.max, out=held)
             events = frame.events
         return {"frame": PartialFrame(held, np.ones_like(self.emb.continuous_mask), events)}
 
@@ -284,10 +294,15 @@ class GainOffset(Operator):
 
     def configure(self) -> None:
         self.sel = channel_mask(self.emb, self.params.dofs, continuous_only=True)
+        self._kernel = entry_point(gain_offset_tick, GAIN_OFFSET_SIG) if self.ctx.compiled else None
 
     def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
         d = self.driven(inputs)
         rest = self.emb.rest
+        if self._kernel is not None and self.ctx.compiled and plain_frame(frame, self.emb.n_channels):
+            out = np.empty(self.emb.n_channels)
+            self._kernel(frame.values, rest, self.sel, float(d.gain), float(d.offset), out)
+            return {"out": PartialFrame(out, frame.mask.copy(), frame.events)}
         scaled = rest + d.gain * (frame.values - rest) + d.offset
         return {"out": PartialFrame(np.where(self.sel, scaled, frame.values), frame.mask.copy(), frame.events)}
 
@@ -356,6 +371,7 @@ class SafetyLimiter(Block):
         self.lo = e.min + self.params.margin * span
         self.hi = e.max - self.params.margin * span
         self.vmax = np.where(e.continuous_mask, e.vel_limit * self.params.velocity_scale, np.inf)
+        self._kernel = entry_point(limiter_tick, LIMITER_SIG) if self.ctx.compiled else None
 
     def reset(self) -> None:
         self.state = self.State(last=self.emb.rest.copy())
@@ -363,6 +379,13 @@ class SafetyLimiter(Block):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         frame: PartialFrame | None = inputs.get("in")
         s = self.state
+        if self._kernel is not None and self.ctx.compiled and (frame is None or plain_frame(frame, self.emb.n_channels)):
+            if frame is None:
+                self._kernel(s.last, self.emb.continuous_mask, False, s.last, self.lo, self.hi, self.vmax, float(dt))
+            else:
+                self._kernel(frame.values, frame.mask, True, s.last, self.lo, self.hi, self.vmax, float(dt))
+            return {"out": PartialFrame(s.last.copy(), np.ones(self.emb.n_channels, dtype=bool),
+                                        frame.events if frame is not None else [])}
         target = s.last if frame is None else np.where(frame.mask, frame.values, s.last)
         target = np.clip(target, self.lo, self.hi)
         step = self.vmax * dt

@@ -131,11 +131,23 @@ class Led(Source):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         s = self.state
         # A wired colour wins; a malformed one falls back to the last command, else the parameter.
-        d = self.driven(inputs, colour=s.commanded if s.commanded is not None else self.params.colour)
+        fallback = s.commanded if s.commanded is not None else self.params.colour
+        if "colour" in inputs:
+            d = self.driven(inputs, colour=fallback)
+            colour = d.colour
+        else:  # unwired, the colour is the fallback's, converted once per command or parameter change
+            d = self.driven(inputs)
+            seen = self.__dict__.get("_fallback")
+            if seen is None or seen[0] is not fallback:
+                seen = self._fallback = (fallback, self.drivables["colour"].resolve(None, fallback))
+            colour = seen[1]
         factor = brightness(self.params.mode, s.cycles % 1.0, d.depth)
         s.cycles = (s.cycles + d.frequency * dt) % 1.0
         values = self.emb.rest.copy()
-        values[self.dof.channels] = np.clip(d.colour * factor, 0.0, 1.0)
+        # np.clip(colour * factor, 0, 1) on three numbers, without numpy's per-call cost
+        rgb = colour.tolist() if type(colour) is np.ndarray and colour.ndim == 1 else \
+            np.asarray(colour, dtype=float).ravel().tolist()
+        values[self.dof.channels] = [min(max(c * factor, 0.0), 1.0) for c in rgb]
         return {"out": PartialFrame(values, self.mask.copy(), [])}
 
 
@@ -196,7 +208,8 @@ class Face(Source):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         commanded = self.state.commanded
         index = commanded if commanded is not None else self.default_index
-        wired = self.driven(inputs, expression=None).expression  # unknown names are ignored
+        # unknown names are ignored; unconnected, the expression resolves to None
+        wired = self.driven(inputs, expression=None).expression if "expression" in inputs else None
         if isinstance(wired, str) and wired in self.options:
             index = self.options.index(wired)
         values = self.emb.rest.copy()

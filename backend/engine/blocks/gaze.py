@@ -10,6 +10,8 @@ import numpy as np
 from pydantic import Field
 
 from backend.engine.blocks.base import FRAME_OUT, BlockParams, Port, PortType, Source, drivable, register_block
+from backend.engine.compiled import entry_point
+from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_tick
 from backend.engine.embodiment import Dimension, DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for, joint_depths
@@ -124,6 +126,15 @@ class Gaze(Source):
         state = getattr(self, "state", None)
         if state is not None and state.x.shape != (n,):  # a new DoF set: start from rest (no old state fits)
             state.x = np.zeros(n)
+        self.mask = np.zeros(emb.n_channels, dtype=bool)
+        self.mask[self.idx] = True
+        self._kernel = entry_point(gaze_tick, GAZE_SIG) if self.ctx.compiled else None
+        chain = self.chain
+        self._kernel_args = (
+            emb.rest, self.idx.astype(np.int64), self.axis.astype(np.int64), self.leader, self.gain, self.share,
+            self.follow_share, self.follow_total, self.tau, self.lo, self.hi, self.vmax, p.arc_dip, p.arc_max,
+            ARC_SMOOTHING, p.tolerance, self.eye_offset, *chain.channel_map(), *chain_args(chain))
+        self._dip = np.zeros(1)
 
     def _dofs(self, given: list[str] | None, default: list[str] | None, label: str) -> list[str]:
         emb = self.emb
@@ -166,6 +177,13 @@ class Gaze(Source):
         p, emb, s = self.params, self.emb, self.state
         d = self.driven(inputs)
         target, strength = d.target, d.strength
+        if self._kernel is not None and self.ctx.compiled:  # the compiled twin of the lines below
+            out, dip = np.empty(emb.n_channels), self._dip
+            dip[0] = s.dip
+            x = s.x.copy()  # a new array each tick, as below (an adopted state never shares it)
+            on_target = self._kernel(x, dip, out, target, float(strength), float(dt), *self._kernel_args)
+            s.x, s.dip = x, float(dip[0])
+            return {"out": PartialFrame(out, self.mask.copy(), []), "on_target": bool(on_target)}
         # Where the eyes are and look now (the gaze pose without the arc dip, other joints at rest).
         values = emb.rest.copy()
         values[self.idx] += s.x

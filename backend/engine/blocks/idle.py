@@ -16,6 +16,8 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from backend.engine.blocks.base import BlockContext, BlockParams, DofSelection, Source, drivable, register_block
+from backend.engine.compiled import entry_point
+from backend.engine.compiled.idle import BREATHE_SIG, NOISE_SIG, OFFSET_SIG, breathe_tick, noise_tick, offset_tick
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask
@@ -96,6 +98,7 @@ class Breathe(Source):
         index = np.cumsum(self.mask) - 1
         phase = np.where(self.mask, index * p.phase_spread + phase_vec, 0.0)
         self.offset_cycles = -phase / (2 * math.pi)  # a positive phase lags behind
+        self._kernel = entry_point(breathe_tick, BREATHE_SIG) if self.ctx.compiled else None
 
     def wave(self, u: np.ndarray) -> np.ndarray:
         """The breath shape on cycle fraction u in [0, 1): -1 at u=0, +1 at the end of the inhale."""
@@ -106,6 +109,13 @@ class Breathe(Source):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         p, d, s = self.params, self.driven(inputs), self.state
         scale = d.amplitude / p.amplitude if p.amplitude > 0 else 1.0
+        emb = self.emb
+        if self._kernel is not None and self.ctx.compiled:  # the compiled twin of the lines below
+            out = np.empty(emb.n_channels)
+            self._kernel(s.phi, self.offset_cycles, self.amp_override, self.amp_values, float(scale),
+                         float(d.amplitude), float(p.inhale_ratio), emb.rest, emb.min, emb.max, self.mask, out)
+            s.phi = (s.phi + d.frequency * dt) % 1.0
+            return {"out": PartialFrame(out, self.mask.copy(), [])}
         amps = np.where(self.amp_override, self.amp_values * scale, d.amplitude)
         u = np.mod(s.phi + self.offset_cycles, 1.0)
         emb = self.emb
@@ -154,6 +164,7 @@ class Noise(Source):
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
         self._dt: float | None = None
         self._tau_s: tuple[float, float] | None = None
+        self._kernel = entry_point(noise_tick, NOISE_SIG) if self.ctx.compiled else None
 
     def reset(self) -> None:
         n = self.emb.n_channels
@@ -180,11 +191,14 @@ class Noise(Source):
         l21 = q21 / l11 if l11 > 1e-15 else 0.0
         l22 = math.sqrt(max(q22 - l21 * l21, 0.0))
         self._coef = (a, b, c, l11, l21, l22, 1.0 / math.sqrt(var_y))
+        self._coef_array = np.array(self._coef[:6])
         self._dt, self._tau_s = dt, (tau, s)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         amp = self.driven(inputs).amplitude
         emb, st = self.emb, self.state
+        if self._kernel is not None and self.ctx.compiled:
+            return self._tick_compiled(dt, amp)
         if dt > 0:
             self._transition(dt)
             a, b, c, l11, l21, l22, _ = self._coef
@@ -199,6 +213,24 @@ class Noise(Source):
         norm = math.sqrt((tau + s) / tau)  # the low-pass stage shrinks the variance by tau / (tau + s)
         values = np.clip(emb.rest + amp * norm * st.y, emb.min, emb.max)
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
+
+    def _tick_compiled(self, dt: float, amp: float) -> dict[str, Any]:
+        """The compiled twin of `tick` (same random draws, same arithmetic)."""
+        emb, st, p = self.emb, self.state, self.params
+        step = dt > 0
+        if step:
+            self._transition(dt)
+            e = st.rng.standard_normal((2, emb.n_channels))
+        else:
+            e = np.zeros((2, emb.n_channels))
+        if st.y is st.x:  # without smoothing the reference leaves y and x one array; keep them apart
+            st.y = st.y.copy()
+        norm = math.sqrt((p.tau + p.smoothing) / p.tau)
+        out = np.empty(emb.n_channels)
+        coef = self._coef_array if step else np.zeros(6)  # without a step the coefficients are not read
+        self._kernel(st.x, st.y, e, coef, step, p.smoothing > 0.0, float(amp * norm), emb.rest, emb.min,
+                     emb.max, self.mask, out)
+        return {"out": PartialFrame(out, self.mask.copy(), [])}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -247,6 +279,7 @@ class WeightShift(Source):
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
+        self._kernel = entry_point(offset_tick, OFFSET_SIG) if self.ctx.compiled else None
 
     def reset(self) -> None:
         n = self.emb.n_channels
@@ -273,7 +306,13 @@ class WeightShift(Source):
         s.elapsed += dt
         u = min(s.elapsed / p.shift_duration, 1.0)
         k = 0.5 - 0.5 * math.cos(math.pi * u)
-        s.offset = s.start + k * (s.target - s.start)
         emb = self.emb
+        if self._kernel is not None and self.ctx.compiled:  # the compiled twin of the lines below
+            out = np.empty(emb.n_channels)
+            if s.offset is s.start or s.offset is s.target:  # written in place: never one of its inputs
+                s.offset = s.offset.copy()
+            self._kernel(s.start, s.target, k, s.offset, emb.rest, emb.min, emb.max, self.mask, out)
+            return {"out": PartialFrame(out, self.mask.copy(), [])}
+        s.offset = s.start + k * (s.target - s.start)
         values = np.clip(emb.rest + s.offset, emb.min, emb.max)
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}

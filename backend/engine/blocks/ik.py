@@ -9,6 +9,8 @@ import numpy as np
 from pydantic import Field
 
 from backend.engine.blocks.base import BlockParams, Operator, PortType, Role, drivable, register_block
+from backend.engine.compiled import entry_point, plain_frame
+from backend.engine.compiled.chain import IK_SIG, chain_args, ik_tick
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for
 from backend.engine.selectors import select_dofs
@@ -98,15 +100,29 @@ class InverseKinematics(Operator):
         state = getattr(self, "state", None)
         if state is not None and state.delta.shape != self.var.shape:
             state.delta = np.zeros(len(self.var))
+        self._kernel = entry_point(ik_tick, IK_SIG) if self.ctx.compiled else None
+        self._kernel_args = (
+            np.ascontiguousarray(self.j_rows), np.ascontiguousarray(self.j_off), chain.lower, chain.upper,
+            self.var.astype(np.int64), self.var_ch.astype(np.int64), self.dof_lo, self.dof_hi, self.offset,
+            self.axis, p.mode == "look_at", p.damping ** 2 + 1e-12, p.iterations, MAX_STEP, CONVERGED,
+            NULL_GAIN, NULL_RANGE, *chain_args(chain))
 
     def reset(self) -> None:
         self.state = self.State(held=self.emb.rest.copy(), delta=np.zeros(len(self.var)))
 
     def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
         s = self.state
-        s.held = np.where(frame.mask, frame.values, s.held)
         d = self.driven(inputs)
         target, weight = d.target, d.weight
+        n = self.emb.n_channels
+        if target is not None and weight > 0.0 and len(self.var) and self._kernel is not None \
+                and self.ctx.compiled and plain_frame(frame, n) and s.held.shape == (n,):
+            # the compiled twin of the reference below
+            out, mask = np.empty(n), np.empty(n, dtype=bool)
+            self._kernel(frame.values, frame.mask, s.held, target, float(weight), s.delta, out, mask, self.mask_add,
+                         *self._kernel_args)
+            return {"out": PartialFrame(out, mask, list(frame.events))}
+        s.held = np.where(frame.mask, frame.values, s.held)
         if target is None or weight <= 0.0 or len(self.var) == 0:
             if target is None:
                 s.delta = np.zeros(len(self.var))

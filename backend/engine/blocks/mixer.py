@@ -12,6 +12,8 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from backend.engine.blend import BlendMode, advance_fades, blend_layers
 from backend.engine.blocks.base import (Block, BlockCommandError, BlockParams, Port, PortRule, PortType, Role,
                                         register_block)
+from backend.engine.compiled import entry_point
+from backend.engine.compiled.blend import MIXER_SIG, MODE_CODES, mixer_tick
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
 
@@ -109,6 +111,12 @@ class LayerMixer(Block):
         self._masks = np.zeros((len(layers), self.emb.n_channels), dtype=bool)
         self.weight_ports = [f"{name}_weight" for name in self.names]
         self.signal_weights = np.ones(len(layers))
+        # The compiled tick: layers concatenated, a missing frame as zeros with an empty mask.
+        self._kernel = entry_point(mixer_tick, MIXER_SIG) if self.ctx.compiled else None
+        self._mode_codes = np.array([MODE_CODES[m] for m in self.modes], dtype=np.int64)
+        self._no_values = np.zeros(self.emb.n_channels)
+        self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)
+        self._w = np.zeros(len(layers))
 
     def reset(self) -> None:
         active = np.array([1.0 if layer.active else 0.0 for layer in self.params.layers])
@@ -129,11 +137,43 @@ class LayerMixer(Block):
         return self.weights * self.state.fade_level * self.signal_weights
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        if self._kernel is not None and self.ctx.compiled:
+            frames = [inputs.get(name) for name in self.names]
+            try:
+                vals = np.concatenate([self._no_values if f is None else f.values for f in frames])
+                masks = np.concatenate([self._no_mask if f is None else f.mask for f in frames])
+            except ValueError:  # frames of other shapes: the reference broadcasts them (or says why not)
+                vals = masks = None
+            if vals is not None and vals.dtype == np.float64 and masks.dtype == np.bool_ \
+                    and vals.shape == masks.shape == (self._values.size,):
+                return self._tick_compiled(dt, inputs, frames, vals, masks)
+        return self._tick_reference(dt, inputs)
+
+    def _read_weight_ports(self, inputs: dict[str, Any]) -> None:
+        # An unconnected weight port stays at 1 (configure); only connected ones are in `inputs`.
+        for i, port in enumerate(self.weight_ports):
+            if port in inputs:
+                self.signal_weights[i] = min(max(float(self.signal(inputs, port, 1.0)), 0.0), 1.0)
+
+    def _tick_compiled(self, dt: float, inputs: dict[str, Any], frames: list, vals: np.ndarray,
+                       masks: np.ndarray) -> dict[str, Any]:
+        s, emb, w = self.state, self.emb, self._w
+        self._read_weight_ports(inputs)
+        values, mask = np.empty(emb.n_channels), np.empty(emb.n_channels, dtype=bool)
+        self._kernel(vals, masks, self.layer_masks, self.weights, s.fade_level, s.fade_target, self.fade_time,
+                     self.signal_weights, float(dt), self._mode_codes, emb.rest, emb.rest, emb.enum_mask, values,
+                     mask, w)
+        events = []
+        for i, frame in enumerate(frames):
+            if frame is not None and frame.events and w[i] > 0.0:
+                events.extend(frame.events)
+        return {"out": PartialFrame(values, mask, events)}
+
+    def _tick_reference(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        """The numpy definition of a tick (the compiled kernel's reference)."""
         s = self.state
         s.fade_level = advance_fades(s.fade_level, s.fade_target, self.fade_time, dt)
-        for i, port in enumerate(self.weight_ports):
-            w = self.signal(inputs, port, 1.0)
-            self.signal_weights[i] = min(max(float(w), 0.0), 1.0)
+        self._read_weight_ports(inputs)
         w = self.effective_weights()
         events = []
         self._masks[:] = False

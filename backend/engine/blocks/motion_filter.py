@@ -19,6 +19,8 @@ import numpy as np
 from pydantic import Field
 
 from backend.engine.blocks.base import Block, BlockParams, DofSelection, Port, PortType, Role, drivable, register_block
+from backend.engine.compiled import entry_point, plain_frame
+from backend.engine.compiled.frames import FILTER_SIG, filter_tick
 from backend.engine.embodiment import ChannelKind
 from backend.engine.frames import PartialFrame
 from backend.engine.nmf import MotionFilter, preset
@@ -108,6 +110,12 @@ class _FilterBlock(Block):
         else:
             self._new_filter()
         self._sigma_rho = (sigma, rho)
+        # The compiled tick calls the filter's own kernel on its buffers (when it runs compiled code).
+        f = self.filter
+        self._kernel = entry_point(filter_tick, FILTER_SIG) if self.ctx.compiled and f is not None and f.compiled \
+            else None
+        self._idx64 = self.idx.astype(np.int64)
+        self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)
 
     def _new_filter(self) -> None:
         p = self.params
@@ -132,12 +140,15 @@ class _FilterBlock(Block):
         frame: PartialFrame | None = inputs.get("in")
         if self.filter is None:
             return {"out": frame if frame is not None else self.empty()}
-        wired = self.driven(inputs, sigma=None, rho=None)  # wired values only (clamped to 0..1), else None
-        if wired.sigma is not None or wired.rho is not None:
-            s, r, _ = self._character(wired.sigma, wired.rho)
-            if (s, r) != self._sigma_rho:
-                self.filter.set_params(sigma=s, rho=r)
-                self._sigma_rho = (s, r)
+        if "sigma" in inputs or "rho" in inputs:  # unwired, both resolve to None: nothing to change
+            wired = self.driven(inputs, sigma=None, rho=None)  # wired values only (clamped to 0..1), else None
+            if wired.sigma is not None or wired.rho is not None:
+                s, r, _ = self._character(wired.sigma, wired.rho)
+                if (s, r) != self._sigma_rho:
+                    self.filter.set_params(sigma=s, rho=r)
+                    self._sigma_rho = (s, r)
+        if self._kernel is not None and self.ctx.compiled and (frame is None or plain_frame(frame, self.emb.n_channels)):
+            return self._tick_compiled(frame)
         sp = self._sp
         if frame is not None:
             np.copyto(sp, frame.values[self.idx])
@@ -152,6 +163,15 @@ class _FilterBlock(Block):
         values[self.idx] = pos
         mask[self.idx] = True
         return {"out": PartialFrame(values, mask, events)}
+
+    def _tick_compiled(self, frame: PartialFrame | None) -> dict[str, Any]:
+        """The compiled twin of the end of `tick`: set-points, one filter step, the frame out."""
+        emb, f = self.emb, self.filter
+        values, mask = np.empty(emb.n_channels), np.empty(emb.n_channels, dtype=bool)
+        has = frame is not None
+        self._kernel(frame.values if has else emb.rest, frame.mask if has else self._no_mask, has, self._idx64,
+                     self._sp, *f.kernel_buffers(), emb.rest, values, mask)
+        return {"out": PartialFrame(values, mask, frame.events if has else [])}
 
 
 @register_block

@@ -241,10 +241,14 @@ class Emotion(SignalBlock):
         primed: bool = False
 
     def _nearest(self, v: float, a: float) -> str:
-        dist = {n: math.hypot(v - pv, a - pa) for n, (pv, pa) in self.params.postures.items()}
-        best = min(dist, key=dist.get)  # type: ignore[arg-type]
-        current = dist.get(self.state.posture)
-        if current is not None and dist[best] > current - self.params.hysteresis:
+        best, best_d, current = next(iter(self.params.postures)), math.inf, None
+        for name, (pv, pa) in self.params.postures.items():
+            d = math.hypot(v - pv, a - pa)
+            if d < best_d:  # the first of equally near postures, as min() picks it
+                best, best_d = name, d
+            if name == self.state.posture:
+                current = d
+        if current is not None and best_d > current - self.params.hysteresis:
             return self.state.posture
         return best
 
@@ -265,4 +269,6 @@ class Emotion(SignalBlock):
             s.v += k * (d.valence - s.v)
             s.a += k * (d.arousal - s.a)
         s.posture = self._nearest(s.v, s.a)
-        return {**self.outputs_for(s.v, s.a), "posture": s.posture}
+        out = self.outputs_for(s.v, s.a)
+        out["posture"] = s.posture
+        return out

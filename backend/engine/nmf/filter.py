@@ -174,6 +174,16 @@ class MotionFilter:
                 "sigma": b[_SIGMA].copy(), "rho": b[_RHO].copy(), "beta": b[_BETA].copy(),
                 "bypass": b[_BYPASS] != 0, "pmin": b[_LO].copy(), "pmax": b[_HI].copy()}
 
+    @property
+    def compiled(self) -> bool:
+        """Whether `step` runs the compiled kernels (False: the numpy reference)."""
+        return self._use_numba
+
+    def kernel_buffers(self) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(state buffer, configuration, one-pass) as the compiled step kernels take them, so a compiled
+        caller can step this filter in place (what `step` does, without the Python call)."""
+        return self._buf, self._cfg, self._one_pass
+
     # --- stepping -------------------------------------------------------------------------------------
     def step(self, setpoints: Any) -> np.ndarray:
         """One output sample. `setpoints` (n,): new set-points, NaN for "no new set-point" (hold).

@@ -83,10 +83,12 @@ def _params(state: CheckState, node: Node, i: int, cls: type[Block]) -> BlockPar
 def _probe(state: CheckState, node: Node, i: int, cls: type[Block], params: BlockParams) -> None:
     """Configure the block once on this robot, to hear whether it accepts its parameters as a whole.
 
-    The probe is thrown away: `Plan.instantiate` builds fresh blocks.
+    The probe is a fresh block with its own copy of the parameters, as `Plan.instantiate` would build
+    it: kept in `state.probes`, the first APU instantiated in the same context takes it over instead of
+    building the block a second time.
     """
     try:
-        cls(params, state.ctx, node.id)
+        state.probes[node.id] = cls(params.model_copy(deep=True), state.ctx, node.id)
     except SelectorError as exc:
         where = find_value(params.model_dump(mode="json"), exc.selector) or ()
         parts = walk_loc(cls.Params, where)[0] if where else []

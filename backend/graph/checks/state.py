@@ -42,6 +42,7 @@ class CheckState:
     node_index: dict[str, int] = field(default_factory=dict)
     params: dict[str, BlockParams] = field(default_factory=dict)  # nodes whose parameters are valid
     ports: dict[str, Ports | None] = field(default_factory=dict)  # None: the node exists, its ports are unknown
+    probes: dict[str, Block] = field(default_factory=dict)  # blocks built to check their parameters
     # --- edges (checks.edges) ---
     incoming: dict[tuple[str, str], tuple[int, Edge]] = field(default_factory=dict)  # (node, port) -> edge
     graph: dict[str, set[str]] = field(default_factory=lambda: defaultdict(set))  # node -> downstream

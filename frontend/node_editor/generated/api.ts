@@ -62,6 +62,7 @@ export interface NuttyApi {
   Issue?: Issue;
   ParamsApplied?: ParamsApplied;
   PrevizInfo?: PrevizInfo;
+  Profile?: Profile;
   ProgramLoaded?: ProgramLoaded;
   RobotDescription?: RobotDescription;
   RunningProgram?: RunningProgram;
@@ -328,6 +329,49 @@ export interface PrevizInfo {
   url: string | null;
 }
 /**
+ * GET /api/profile (and `profile` in /ws/telemetry messages, about once a second): how long each
+ * node of the running program takes per tick. One tick in `every` is timed; `samples` timed ticks
+ * (at most `window`) are summarised. Nodes come in tick order.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "Profile".
+ */
+export interface Profile {
+  apu: CookTime;
+  every: number;
+  nodes: NodeCookTime[];
+  samples: number;
+  window: number;
+}
+/**
+ * Cook time of one node (or of the whole APU tick) over the profile's window, in µs.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "CookTime".
+ */
+export interface CookTime {
+  max_us: number;
+  mean_us: number;
+  p50_us: number;
+  p99_us: number;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "NodeCookTime".
+ */
+export interface NodeCookTime {
+  max_us: number;
+  mean_us: number;
+  node: string;
+  p50_us: number;
+  p99_us: number;
+  /**
+   * this node's part of the mean APU tick (0..1)
+   */
+  share: number;
+  type: string;
+}
+/**
  * PUT /api/program.
  *
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -490,6 +534,7 @@ export interface Telemetry {
   layers?: {
     [k: string]: LayerState[];
   } | null;
+  profile?: Profile | null;
   seq: number;
   /**
    * 'node.port' -> value (frames as {mask, values})

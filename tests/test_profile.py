@@ -1,0 +1,116 @@
+"""Per-node cook times: sampled by the APU, served by /api/profile and /ws/telemetry, printed by
+`nutty run --profile`; and the measurement window /api/status reports."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from backend.api import create_app
+from backend.api_types import Profile, Telemetry
+from backend.cli import main
+from backend.engine.profile import CookTimes, format_table
+from backend.routes.telemetry import PROFILE_PERIOD, Subscription
+from backend.session import EngineSession
+
+PROGRAMS = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs"
+
+
+@pytest.fixture()
+def session(desk):
+    s = EngineSession.create(desk, program=json.loads((PROGRAMS / "interactive.json").read_text()))
+    yield s
+    s.engine.close()
+
+
+def test_one_tick_in_every_is_timed_node_by_node(session):
+    apu = session.engine.apu
+    assert apu.cook.every == 10
+    session.engine.run_ticks(95)
+    summary = session.engine.profile()
+    assert summary["samples"] == 9  # ticks 10, 20, ... 90
+    assert [n["node"] for n in summary["nodes"]] == [s.node_id for s in apu.steps]  # tick order
+    look_at = next(n for n in summary["nodes"] if n["node"] == "look_at")
+    assert look_at["type"] == "ik" and 0 < look_at["p50_us"] <= look_at["p99_us"] <= look_at["max_us"]
+    assert sum(n["share"] for n in summary["nodes"]) == pytest.approx(1.0, abs=0.2)  # the APU's own loop aside
+    assert summary["apu"]["mean_us"] >= max(n["mean_us"] for n in summary["nodes"])
+    Profile.model_validate(summary)
+
+
+def test_profiling_every_tick_and_a_fresh_window(session):
+    session.engine.set_profiling(every=1, window=50)
+    session.engine.run_ticks(80)
+    summary = session.engine.profile()
+    assert summary["every"] == 1 and summary["window"] == 50 and summary["samples"] == 50
+    session.engine.reset_stats()
+    assert session.engine.profile()["samples"] == 0
+    assert session.engine.stats()["tick_cost"]["samples"] == 0
+    assert session.engine.ticks == 80  # the counters go on
+    session.load_program(json.loads((PROGRAMS / "idle.json").read_text()))  # a new program keeps the setting
+    session.engine.run_ticks(3)
+    assert session.engine.profile()["samples"] == 3
+
+
+def test_cook_time_table_most_expensive_first():
+    cook = CookTimes(["a", "b"], ["sine", "ik"], every=1, window=4)
+    for costs in ([1000, 9000, 10500], [3000, 7000, 10400]):
+        cook.row[:] = costs
+        cook.record()
+    table = format_table(cook.summary()).splitlines()
+    assert table[1].split()[:3] == ["b", "ik", "8.0"] and table[2].split()[0] == "a"
+    assert table[-1].startswith("APU tick") and "2 timed ticks" in table[-1]
+
+
+def test_profile_routes_and_telemetry(session):
+    session.engine.run_ticks(30)
+    with TestClient(create_app(session, frontend_dir=None)) as client:
+        got = client.get("/api/profile").json()
+        Profile.model_validate(got)
+        assert got["samples"] == 3 and len(got["nodes"]) == len(session.engine.apu.steps)
+        fresh = client.delete("/api/profile").json()
+        assert fresh["samples"] == 0 and client.get("/api/status").json()["tick_cost"]["samples"] == 0
+        status = client.get("/api/status").json()
+        assert {"tick_cpu", "started_at", "clock_priority"} <= status.keys()
+    session.engine.run_ticks(20)
+    sub = Subscription()
+    sub.update({"type": "subscribe", "signals": [{"node": "mix", "port": "out"}], "frames": True, "rate": 30})
+    frame = session.engine.last_frame
+    seq, text = sub.text(session, frame, slot=("a", 1))
+    message = json.loads(text)
+    assert seq == frame.seq and message["profile"]["samples"] == 2  # the first message carries the cook times
+    Telemetry.model_validate(message)
+    _, again = sub.text(session, frame, slot=("a", 1))
+    assert "profile" not in json.loads(again)  # then about once every PROFILE_PERIOD seconds
+    sub.profile_at -= PROFILE_PERIOD
+    assert "profile" in json.loads(sub.text(session, frame, slot=("a", 2))[1])
+
+
+def test_clients_subscribed_alike_share_one_message_per_slot(session):
+    session.engine.run_ticks(5)
+    subs = []
+    for _ in range(3):
+        sub = Subscription()
+        sub.update({"type": "subscribe", "signals": [{"node": "gaze", "port": "on_target"}], "frames": True,
+                    "rate": 30})
+        sub.profile_at = float("inf")  # no cook times in these messages
+        subs.append(sub)
+    first = subs[0].text(session, session.engine.last_frame, slot=(30.0, 7))
+    session.engine.run_ticks(1)  # a newer frame: the same slot still gets the same message
+    assert all(s.text(session, session.engine.last_frame, slot=(30.0, 7)) == first for s in subs[1:])
+    newer = subs[1].text(session, session.engine.last_frame, slot=(30.0, 8))
+    assert newer[0] == first[0] + 1
+
+
+def test_run_profile_prints_a_table(capsys, tmp_path):
+    out = tmp_path / "out.csv"
+    code = main(["run", str(PROGRAMS / "interactive.json"), "--seconds", "0.3", "--out", str(out), "--profile"])
+    printed = capsys.readouterr().out.splitlines()
+    assert code == 0 and printed[0].split()[:2] == ["node", "type"]
+    rows = [line.split() for line in printed[1:-1]]
+    assert len(rows) == 26 and {r[0] for r in rows} >= {"look_at", "mix", "gaze"}
+    means = [float(r[2]) for r in rows]
+    assert means == sorted(means, reverse=True)
+    assert "30 timed ticks, 1 in 1" in printed[-1]
