@@ -201,7 +201,17 @@ def as_nutty_error(answer: dict[str, Any]) -> NuttyError:
     return NuttyError(int(answer.get("status") or 500), detail)
 
 
-class FleetRobot(NuttyClient):
+class _OverZenoh(NuttyClient):
+    """NuttyClient's methods carried by a Fleet's Zenoh session: no HTTP client to make or close."""
+
+    def close(self) -> None:
+        pass  # the fleet owns the session
+
+    def _waiting(self, seconds: float) -> dict[str, Any]:
+        return {}  # no HTTP timeouts; tool calls are not carried over Zenoh (they answer not_on_zenoh)
+
+
+class FleetRobot(_OverZenoh):
     """One robot of a fleet with NuttyClient's methods; each call goes over Zenoh to that robot's engine.
 
     Errors raise `NuttyError` (status, code, message, field as over REST). There is no HTTP
@@ -212,12 +222,6 @@ class FleetRobot(NuttyClient):
         self.fleet = fleet
         self.robot_id = keys.check_robot_id(robot_id)
 
-    def close(self) -> None:
-        pass
-
-    def _waiting(self, seconds: float) -> dict[str, Any]:
-        return {}  # no HTTP client: tool calls are not carried over Zenoh (they answer not_on_zenoh)
-
     def _call(self, method: str, path: str, **kw: Any) -> Any:
         answer = self.fleet.call(self.robot_id, method, path, kw.get("json"))[self.robot_id]
         if is_error(answer):
@@ -225,19 +229,13 @@ class FleetRobot(NuttyClient):
         return answer
 
 
-class FleetGroup(NuttyClient):
+class FleetGroup(_OverZenoh):
     """Every robot a pattern matches, with NuttyClient's methods: each returns {robot id: result}, and
     `{"error": {status, code, message, ...}}` for a robot that refused or did not answer."""
 
     def __init__(self, fleet: Fleet, pattern: str):
         self.fleet = fleet
         self.pattern = keys.check_pattern(pattern)
-
-    def close(self) -> None:
-        pass
-
-    def _waiting(self, seconds: float) -> dict[str, Any]:
-        return {}
 
     def _call(self, method: str, path: str, **kw: Any) -> Any:
         answers = self.fleet.call(self.pattern, method, path, kw.get("json"))
