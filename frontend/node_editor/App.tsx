@@ -17,12 +17,16 @@ import { useSignals, useTelemetry } from "./hooks/useTelemetry";
 import { Layout } from "./Layout";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
 import type { Position } from "./store/state";
+import type { FlowNode } from "./graph";
+
+const NO_NODES: FlowNode[] = [];
 
 /** Telemetry for its children, apart from the store: only what shows live values re-renders with it. */
 function Telemetry({ children }: { children: ReactNode }) {
-  const { nodes } = useEditor().state.history.present;
+  const { history, live: isLive } = useEditor().state;
   const { sendCommand } = useActions();
-  const { live, samples } = useTelemetry(useSignals(nodes));
+  // a draft's nodes are not running: only the live graph subscribes to values
+  const { live, samples } = useTelemetry(useSignals(isLive ? history.present.nodes : NO_NODES));
   const value = useMemo(() => ({
     ...live, setLayer: (mixer: string, layer: string, active: boolean) => sendCommand({ type: "set_layer", mixer, layer, active }),
   }), [live, sendCommand]);
@@ -38,7 +42,8 @@ function Editor() {
   const { state, dispatch } = useEditor();
   const { say, log } = useNotices();
   useBootstrap(say);
-  const editParams = useProgramSync(say);
+  const { editParams, goLive } = useProgramSync(say);
+  const detach = useCallback(() => dispatch({ type: "draftStarted" }), [dispatch]);
   const sendCommand = useControlSocket(log);
   const library = useLibrary(say);
   const { copy, paste } = useClipboard();
@@ -57,8 +62,8 @@ function Editor() {
   }, [dispatch, say]);
 
   const actions: EditorActions = useMemo(() => ({
-    say, log, sendCommand, editParams, setInput, setGhost, addBlock, copy, paste, fitView, ...library,
-  }), [say, log, sendCommand, editParams, setInput, setGhost, addBlock, copy, paste, fitView, library]);
+    say, log, sendCommand, editParams, goLive, detach, setInput, setGhost, addBlock, copy, paste, fitView, ...library,
+  }), [say, log, sendCommand, editParams, goLive, detach, setInput, setGhost, addBlock, copy, paste, fitView, library]);
   useShortcuts(actions);
 
   return (
