@@ -214,17 +214,34 @@ def test_quick_add_at_the_cursor(page, server):
         search = page.get_by_label("quick add search")
         search.wait_for()
         qa = page.get_by_test_id("quick-add").bounding_box()
-        assert abs(qa["x"] - x) < 40 and abs(qa["y"] - y) < 40, "the search opens at the pointer"
+        # at the pointer (a corner of it there: it opens left of / above the pointer near the canvas's edges)
+        assert min(abs(qa["x"] - x), abs(qa["x"] + qa["width"] - x)) < 40, "the search opens at the pointer"
+        assert min(abs(qa["y"] - y), abs(qa["y"] + qa["height"] - y)) < 40, "the search opens at the pointer"
         search.type(block)
         search.press("Enter")
         wait_until(lambda: block in node_types(server), what=f"{block} on the server")
         box = _flow_pos(page, block)
         assert box["x"] - 60 <= x <= box["x"] + box["width"] + 60, f"{block} near the pointer (x)"
         assert box["y"] - 60 <= y <= box["y"] + box["height"] + 60, f"{block} near the pointer (y)"
+    # a tap of Space too: all blocks, grouped by category; Escape closes it
+    page.mouse.move(*canvas_point(page, 0.6, 0.5))
+    page.keyboard.press("Space")
+    page.get_by_label("quick add search").wait_for()
+    assert page.locator(".qa-group").count() >= 4
+    page.keyboard.press("Escape")
+    assert page.get_by_test_id("quick-add").count() == 0
     # not while typing in a field
     page.get_by_label("program name").focus()
     page.keyboard.press("Shift+A")
+    page.keyboard.press("Tab")
     assert page.get_by_test_id("quick-add").count() == 0
+    # a palette double-click adds the block in the visible part of the canvas
+    page.get_by_test_id("palette-breathe").dblclick()
+    wait_until(lambda: "breathe" in node_types(server), what="breathe on the server")
+    pane = page.locator(".react-flow__pane").bounding_box()
+    box = page.get_by_test_id("node-breathe").bounding_box()
+    assert pane["x"] <= box["x"] and box["x"] + box["width"] <= pane["x"] + pane["width"]
+    assert pane["y"] <= box["y"] and box["y"] + box["height"] <= pane["y"] + pane["height"]
 
 
 def test_drop_on_occupied_input_replaces_the_wire(page, server):

@@ -1,6 +1,6 @@
 // The quick-add search at the pointer: blocks that fit what it was opened for (a dragged port, a wire,
 // or anything), filtered as one types; arrows + Enter or a click picks, Escape closes.
-import { useEffect, useMemo, useRef, useState } from "react";
+import { useEffect, useLayoutEffect, useMemo, useRef, useState } from "react";
 import { CATEGORY_COLOURS } from "./BlockNode";
 import { CATEGORIES } from "./ports";
 import { matching, offers, type Offer, type QuickAddMode } from "./quickAdd";
@@ -44,10 +44,17 @@ export function QuickAdd({ x, y, mode, onPick, onClose }: {
     e.stopPropagation();
   };
 
-  // keep the popup inside the canvas
-  const parent = box.current?.parentElement?.getBoundingClientRect();
-  const left = Math.max(4, Math.min(x, (parent?.width ?? 10000) - 324));
-  const top = Math.max(4, Math.min(y, (parent?.height ?? 10000) - 364));
+  // at the pointer, moved to stay inside the canvas (measured once rendered)
+  const [place, setPlace] = useState({ left: x, top: y });
+  useLayoutEffect(() => {
+    const el = box.current, parent = el?.parentElement;
+    if (!el || !parent) return;
+    // right of and below the pointer, or left of / above it when there is no room
+    const left = Math.max(4, x + el.offsetWidth + 4 <= parent.clientWidth ? x : Math.min(x - el.offsetWidth, parent.clientWidth - el.offsetWidth - 4));
+    const top = Math.max(4, y + el.offsetHeight + 4 <= parent.clientHeight ? y : Math.min(y - el.offsetHeight, parent.clientHeight - el.offsetHeight - 4));
+    setPlace((p) => (p.left === left && p.top === top ? p : { left, top }));
+  }, [x, y, shown.length]);
+  const { left, top } = place;
   let lastCategory = "";
   return (
     <div ref={box} className="quick-add" data-testid="quick-add" style={{ left, top }} onContextMenu={(e) => e.preventDefault()}>

@@ -28,17 +28,22 @@ export function useProgramSync(say: (message: string) => void) {
     if (key === synced.current) return;
     const timer = window.setTimeout(async () => {
       dispatch({ type: "syncing", on: true });
+      // what the server has from now on: an edit made while this PUT is in flight (an undo back to the
+      // previous program) must be sent too, not compared with what the server had before this one
+      const previous = synced.current;
+      synced.current = key;
       try {
         const res = await api.putProgram(flowToProgram(graph.nodes, graph.edges, meta));
-        synced.current = key;
         dispatch({ type: "reportReceived", report: res.report });
         refreshInputs(dispatch);
       } catch (e) {
         // the report now describes this graph (the robot keeps the last valid program)
         if (e instanceof ApiError && e.detail?.report) {
-          synced.current = key;
           dispatch({ type: "reportReceived", report: e.detail.report });
-        } else say(String(e));
+        } else {
+          if (synced.current === key) synced.current = previous;  // not sent: the next edit sends it again
+          say(String(e));
+        }
       } finally {
         dispatch({ type: "syncing", on: false });
       }
