@@ -1,5 +1,5 @@
 // A context menu at the pointer: a list of entries, closed by a pick, Escape or a click elsewhere.
-import { useEffect, useRef } from "react";
+import { useEffect, useLayoutEffect, useRef, useState } from "react";
 
 export interface MenuEntry {
   label: string;
@@ -20,8 +20,17 @@ export function ContextMenu({ x, y, title, entries, onClose }: {
     ref.current?.querySelector<HTMLButtonElement>("button:not(:disabled)")?.focus();
     return () => { window.removeEventListener("pointerdown", away, true); window.removeEventListener("keydown", key, true); };
   }, [onClose]);
+  // at the pointer, or left of / above it when the canvas has no room
+  const [place, setPlace] = useState({ left: x, top: y });
+  useLayoutEffect(() => {
+    const el = ref.current, parent = el?.parentElement;
+    if (!el || !parent) return;
+    const left = Math.max(4, x + el.offsetWidth + 4 <= parent.clientWidth ? x : x - el.offsetWidth);
+    const top = Math.max(4, y + el.offsetHeight + 4 <= parent.clientHeight ? y : y - el.offsetHeight);
+    setPlace({ left, top });
+  }, [x, y]);
   return (
-    <div ref={ref} className="canvas-menu" role="menu" data-testid="context-menu" style={{ left: x, top: y }}
+    <div ref={ref} className="canvas-menu" role="menu" data-testid="context-menu" style={place}
          onContextMenu={(e) => e.preventDefault()}>
       {title && <div className="canvas-menu-title">{title}</div>}
       {entries.map((e) => (

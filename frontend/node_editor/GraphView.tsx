@@ -83,7 +83,8 @@ export function GraphView() {
     const sizes = Object.fromEntries(g.nodes.map((n) => [n.id, fullSize(n, measured[n.id])]));
     const positions = await layoutGraph(g.nodes, g.edges, state.catalog, sizes);
     dispatch({ type: "laidOut", positions, undoable });
-    window.setTimeout(() => fitReadable(flow, undoable ? 200 : 0), FIT_AFTER_LOAD_MS);
+    // framed as on opening: all of it when readable, else the output chain and what feeds it
+    window.setTimeout(() => frameOpening(flow, graphRef.current.nodes, graphRef.current.edges, state.catalog), FIT_AFTER_LOAD_MS);
   }, [flow, dispatch, state.catalog]);
 
   useEffect(() => {

@@ -42,7 +42,7 @@ export async function layoutGraph(
       "elk.partitioning.activate": "true",
       "elk.layered.spacing.nodeNodeBetweenLayers": "90",
       "elk.spacing.nodeNode": "36",
-      "elk.layered.nodePlacement.strategy": "BRANDES_KOEPF",
+      "elk.layered.nodePlacement.strategy": "NETWORK_SIMPLEX",
       "elk.layered.crossingMinimization.semiInteractive": "true",
       "elk.edgeRouting": "SPLINES",
     },
@@ -68,6 +68,8 @@ export async function layoutGraph(
     }),
     edges: edges.filter((e) => ids.has(e.source) && ids.has(e.target)).map((e): ElkExtendedEdge => ({
       id: e.id, sources: [`${e.source}\u0000out\u0000${e.sourceHandle}`], targets: [`${e.target}\u0000in\u0000${e.targetHandle}`],
+      // the frame path (what the robot does) runs straight; signal wires bend around it
+      layoutOptions: { "elk.layered.priority.straightness": (e.data?.type ?? "frame") === "frame" ? "10" : "0" },
     })),
   };
   const out = await elk.layout(graph);
