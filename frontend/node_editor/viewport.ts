@@ -97,12 +97,13 @@ export function frameOpening(flow: ReactFlowInstance, nodes: FlowNode[], edges: 
   centreOn(flow, cx, cy, zoom);
 }
 
-/** Fit: the selection if any, else the whole graph, never below a readable zoom. */
+/** Fit: the whole graph, never below a readable zoom; with a selection, frame it close enough to see its
+ * values (like Blender's View Selected). */
 export function fitReadable(flow: ReactFlowInstance, duration = 200) {
   const nodes = flow.getNodes();
   const selected = nodes.filter((n) => n.selected);
   const rect = boundsOf(flow, new Set((selected.length ? selected : nodes).map((n) => n.id)));
-  if (rect) frame(flow, rect, READABLE_ZOOM, MAX_FIT_ZOOM, duration);
+  if (rect) frame(flow, rect, selected.length ? LOD_ZOOM : READABLE_ZOOM, MAX_FIT_ZOOM, duration);
 }
 
 /** A spot for a new block in the visible part of the canvas, off the other blocks (flow coordinates). */
