@@ -5,6 +5,7 @@ import blocks from "./generated/blocks.json";
 import { programToFlow } from "./graph";
 import { layoutGraph, partitions } from "./autoLayout";
 import { matching, offers } from "./quickAdd";
+import { outputChain } from "./viewport";
 
 const catalog: Record<string, BlockEntry> = Object.fromEntries((blocks as unknown as BlockEntry[]).map((b) => [b.type, b]));
 const program = {
@@ -82,5 +83,11 @@ describe("auto-layout", () => {
   it("never puts a block left of what feeds it", () => {
     const part = partitions(nodes, [...edges, { id: "x", source: "nmf", sourceHandle: "out", target: "wave", targetHandle: "amplitude" }], catalog);
     expect(part.wave).toBe(part.nmf);
+  });
+});
+
+describe("opening frame", () => {
+  it("follows the output's frame feeds back to the first block mixing several", () => {
+    expect(outputChain(nodes, edges, catalog)).toEqual(["output", "nmf", "mix"]);
   });
 });
