@@ -195,7 +195,8 @@ export function GraphView() {
         return { title: m.ids.length === 1 ? m.ids[0] : `${m.ids.length} blocks`, entries: [
           { label: "Duplicate", run: () => dispatch({ type: "pasted", clip: clipOf(graph, m.ids) }) },
           { label: "Copy", hint: "Ctrl+C", run: copy },
-          { label: "Disconnect all", run: () => m.ids.forEach((id) => dispatch({ type: "disconnected", node: id })) },
+          { label: "Disconnect all", run: () => dispatch({ type: "deleted", nodes: [],  // one undo step, however many blocks
+            edges: graph.edges.filter((e) => m.ids.includes(e.source) || m.ids.includes(e.target)).map((e) => e.id) }) },
           { label: "Delete", hint: "Del", run: () => dispatch({ type: "deleted", nodes: m.ids, edges: [] }) },
           ...nodeMenuExtras.flatMap((x) => extras.filter((n) => !x.when || x.when(n)).map((n) => ({ label: x.label, run: () => x.run(n) }))),
         ] };
