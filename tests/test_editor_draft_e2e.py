@@ -150,6 +150,9 @@ def test_unsaved_edits_ask_before_new(page, server):
     assert page.get_by_test_id("node-rest").count() == 0  # nothing replaced
     page.keyboard.press("Control+z")
     page.get_by_test_id("node-far").wait_for()
+    # live since Go live: the delete and its undo reached the robot; let the undo's swap land
+    wait_until(lambda: any(n["id"] == "far" for n in _running(server)["nodes"]), what="the undo on the server")
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
 
 
 def test_a_slider_drag_is_throttled_patches_only(page, server):
@@ -192,9 +195,9 @@ def test_a_slider_drag_is_throttled_patches_only(page, server):
 def test_save_as_names_the_program(page, server):
     page.once("dialog", lambda d: d.accept("calm_idle"))
     page.get_by_role("button", name="Save as").click()
-    wait_until(lambda: (server["robot"] / "programs" / "calm_idle.json").exists(), what="the saved file")
-    saved = json.loads((server["robot"] / "programs" / "calm_idle.json").read_text())
-    assert saved["name"] == "calm_idle"
+    path = server["robot"] / "programs" / "calm_idle.json"
+    wait_until(lambda: path.exists() and json.loads(path.read_text())["name"] == "calm_idle",
+               what=f"the saved file, named calm_idle ({path.read_text()[:80] if path.exists() else 'absent'})")
     assert page.get_by_label("program name").input_value() == "calm_idle"
 
 

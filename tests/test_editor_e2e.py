@@ -80,6 +80,10 @@ def drag(page, src, dst):
 
 def test_running_program_is_shown_live(page):
     page.get_by_test_id("node-mix").wait_for()
+    # the 28-block program opens zoomed out, blocks collapsed to their titles: frame the mixer (F) to
+    # see values and layer toggles
+    page.get_by_test_id("node-mix").click()
+    page.keyboard.press("f")
     live = page.get_by_test_id("live-breathe.out")
     first = live.inner_text()
     wait_until(lambda: live.inner_text() != first, what="live values to move")

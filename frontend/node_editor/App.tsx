@@ -5,7 +5,6 @@ import "@xyflow/react/dist/style.css";
 import { useCallback, useMemo, type ReactNode } from "react";
 import { api } from "./api";
 import { CatalogContext, LiveContext, SamplesContext } from "./context";
-import { FIT_VIEW } from "./GraphView";
 import { useBootstrap } from "./hooks/useBootstrap";
 import { useClipboard } from "./hooks/useClipboard";
 import { useControlSocket } from "./hooks/useControlSocket";
@@ -18,6 +17,7 @@ import { Layout } from "./Layout";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
 import type { Position } from "./store/state";
 import type { FlowNode } from "./graph";
+import { fitReadable, visibleSpot } from "./viewport";
 
 const NO_NODES: FlowNode[] = [];
 
@@ -48,11 +48,12 @@ function Editor() {
   const library = useLibrary(say);
   const { copy, paste } = useClipboard();
 
-  const fitView = useCallback(() => { flow.fitView(FIT_VIEW); }, [flow]);
+  const fitView = useCallback(() => fitReadable(flow), [flow]);
+  // without a position (a palette click): a free spot in the visible part of the canvas
+  const nodes = state.history.present.nodes;
   const addBlock = useCallback((type: string, position?: Position) => dispatch({
-    type: "blockAdded", blockType: type,
-    position: position ?? flow.screenToFlowPosition({ x: window.innerWidth * 0.4, y: window.innerHeight * 0.3 }),
-  }), [flow, dispatch]);
+    type: "blockAdded", blockType: type, position: position ?? visibleSpot(flow, nodes),
+  }), [flow, dispatch, nodes]);
   const setInput = useCallback((name: string, value: unknown) => {
     dispatch({ type: "inputSet", name, value });
     api.setInput(name, value).catch((e) => log(`error ${e}`));

@@ -1,9 +1,13 @@
 // One block on the graph: a header coloured by category, typed ports (frame ports wide and white,
 // one colour per signal type), the live value of each output, and error badges from the server.
-import { Handle, Position, type NodeProps } from "@xyflow/react";
-import { memo, useContext } from "react";
+import { Handle, Position, useUpdateNodeInternals, type NodeProps } from "@xyflow/react";
+import { memo, useContext, useEffect } from "react";
 import type { NodeData } from "./graph";
 import { LiveContext, CatalogContext } from "./context";
+import { useCompact } from "./viewport";
+
+/** Port row pitch (px) of a collapsed block. */
+const COMPACT_ROW = 20;
 
 export const PORT_COLOURS: Record<string, string> = {
   frame: "#f2f2f2",
@@ -60,6 +64,29 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
   const rows = Math.max(ins.length, outs.length, 1);
   const liveTop = rows * 22 + 6;
   const layers = live.layers[id];
+  // level of detail: zoomed out, a block is its enlarged title and its ports (no labels, values, layers)
+  const compact = useCompact();
+  const updateInternals = useUpdateNodeInternals();
+  useEffect(() => updateInternals(id), [compact, id, updateInternals]);
+  if (compact) return (
+    <div className={`block compact ${selected ? "selected" : ""} ${data.errors.length ? "has-error" : ""}`} data-testid={`node-${id}`}
+         aria-label={`${entry?.title ?? data.type} ${id}`} title={`${entry?.title ?? data.type} · ${id}`}>
+      <div className="block-header" style={{ background: colour }}>
+        <span className="block-title">{entry?.title ?? data.type}</span>
+        {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
+      </div>
+      <div className="block-body" style={{ height: rows * COMPACT_ROW + 8 }}>
+        {ins.map(([name, p], i) => (
+          <Handle key={`in-${name}`} type="target" position={Position.Left} id={name} className={`handle ${p.type}`}
+                  style={{ background: PORT_COLOURS[p.type], top: 4 + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
+        ))}
+        {outs.map(([name, p], i) => (
+          <Handle key={`out-${name}`} type="source" position={Position.Right} id={name} className={`handle ${p.type}`}
+                  style={{ background: PORT_COLOURS[p.type], top: 4 + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
+        ))}
+      </div>
+    </div>
+  );
   return (
     <div className={`block ${selected ? "selected" : ""} ${data.errors.length ? "has-error" : ""}`} data-testid={`node-${id}`}
          aria-label={`${entry?.title ?? data.type} ${id}`} title={entry?.doc}>

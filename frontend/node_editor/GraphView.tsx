@@ -1,13 +1,22 @@
 // The graph: the program's blocks and edges on a React Flow canvas. Edits go to the store; a wire the
-// rules refuse is not drawn, and dropping it says why.
+// rules refuse is not drawn, and dropping it says why; one dropped on an occupied input replaces its wire.
+// Dropping a wire in empty space, Tab / Shift+A / Space, and the context menus open the quick-add search.
 import {
-  Background, MiniMap, ReactFlow, useReactFlow, type Connection as FlowConnection, type EdgeChange, type NodeChange,
+  Background, MiniMap, ReactFlow, SelectionMode, useReactFlow, type Connection as FlowConnection, type EdgeChange, type NodeChange,
 } from "@xyflow/react";
-import { useCallback, useEffect, useMemo, useRef } from "react";
+import { useCallback, useEffect, useMemo, useRef, useState } from "react";
+import { layoutGraph } from "./autoLayout";
 import { BlockNode, PORT_COLOURS } from "./BlockNode";
-import { connectionProblem, type FlowEdge, type FlowNode } from "./graph";
+import { CanvasControls } from "./CanvasControls";
+import { nodeMenuExtras, wireMenuExtras } from "./canvasMenus";
+import { ContextMenu, type MenuEntry } from "./ContextMenu";
+import { type FlowEdge, type FlowNode } from "./graph";
+import { useCanvasKeys } from "./hooks/useCanvasKeys";
+import { QuickAdd } from "./QuickAdd";
+import { replacingProblem, type Offer, type PortRef, type QuickAddMode } from "./quickAdd";
 import { useActions, useEditor } from "./store/EditorStore";
-import { errorsByNode } from "./store/state";
+import { errorsByNode, type Graph, type Position } from "./store/state";
+import { fitReadable, frameOpening } from "./viewport";
 
 const nodeTypes = { block: BlockNode };
 export const FIT_VIEW = { padding: 0.15, maxZoom: 1.1 };
@@ -40,50 +49,197 @@ function Toast() {
   return toast ? <div className="toast" role="alert" data-testid="toast">{toast}</div> : null;
 }
 
+/** Size of a block when not collapsed (what the layout makes room for, whatever the zoom now). */
+function fullSize(n: FlowNode, measured?: { width?: number; height?: number }) {
+  const ins = Object.keys(n.data.inputs).length, outs = Object.keys(n.data.outputs).length;
+  const layers = Array.isArray(n.data.params.layers) ? n.data.params.layers.length * 18 + 12 : 0;
+  const height = 34 + Math.max(ins, outs, 1) * 22 + 6 + outs * 18 + 8 + layers;
+  return { width: Math.max(240, measured?.width ?? 0), height };
+}
+
+type QuickState = { x: number; y: number; at: Position; mode: QuickAddMode };
+type MenuTarget = { kind: "pane" } | { kind: "node"; ids: string[] } | { kind: "port"; port: PortRef } | { kind: "wire"; edge: string };
+type MenuState = { x: number; y: number; at: Position; client: Position } & MenuTarget;
+
 export function GraphView() {
   const flow = useReactFlow();
   const { state, dispatch } = useEditor();
-  const { addBlock, say } = useActions();
+  const { addBlock, say, copy, paste } = useActions();
   const graph = state.history.present;
   const errors = useMemo(() => errorsByNode(state.report), [state.report]);
   const nodes = useMemo(() => withErrors(graph.nodes, errors), [graph.nodes, errors]);
   const edges = useMemo(() => graph.edges.map(styled), [graph.edges]);
+  const canvas = useRef<HTMLElement>(null);
+  const [quick, setQuick] = useState<QuickState | null>(null);
+  const [menu, setMenu] = useState<MenuState | null>(null);
+  const closeQuick = useCallback(() => setQuick(null), []);
+  const closeMenu = useCallback(() => setMenu(null), []);
+  const graphRef = useRef(graph);
+  graphRef.current = graph;
+
+  const autoLayout = useCallback(async (undoable = true) => {
+    const g = graphRef.current;
+    const measured = Object.fromEntries(flow.getNodes().map((n) => [n.id, n.measured]));
+    const sizes = Object.fromEntries(g.nodes.map((n) => [n.id, fullSize(n, measured[n.id])]));
+    const positions = await layoutGraph(g.nodes, g.edges, state.catalog, sizes);
+    dispatch({ type: "laidOut", positions, undoable });
+    // framed as on opening: all of it when readable, else the output chain and what feeds it
+    window.setTimeout(() => frameOpening(flow, graphRef.current.nodes, graphRef.current.edges, state.catalog), FIT_AFTER_LOAD_MS);
+  }, [flow, dispatch, state.catalog]);
 
   useEffect(() => {
     if (!state.loaded.count) return;
-    const timer = window.setTimeout(() => flow.fitView(FIT_VIEW), FIT_AFTER_LOAD_MS);
+    const timer = window.setTimeout(() => {
+      const g = graphRef.current;
+      // a program without positions is laid out (not an undo step: it is how it arrives)
+      if (g.nodes.some((n) => typeof n.data.ui.x !== "number" || typeof n.data.ui.y !== "number")) autoLayout(false);
+      else frameOpening(flow, g.nodes, g.edges, state.catalog);
+    }, FIT_AFTER_LOAD_MS);
     return () => window.clearTimeout(timer);
-  }, [state.loaded.count, flow]);
+  }, [state.loaded.count, flow]);  // eslint-disable-line react-hooks/exhaustive-deps
 
-  const onNodesChange = useCallback((changes: NodeChange[]) => dispatch({ type: "nodesChanged", changes }), [dispatch]);
-  const onEdgesChange = useCallback((changes: EdgeChange[]) => dispatch({ type: "edgesChanged", changes }), [dispatch]);
+  // deletions come as one `deleted` action (onDelete): a node and its wires are one undo step
+  const onNodesChange = useCallback((changes: NodeChange[]) => {
+    const rest = changes.filter((c) => c.type !== "remove");
+    if (rest.length) dispatch({ type: "nodesChanged", changes: rest });
+  }, [dispatch]);
+  const onEdgesChange = useCallback((changes: EdgeChange[]) => {
+    const rest = changes.filter((c) => c.type !== "remove");
+    if (rest.length) dispatch({ type: "edgesChanged", changes: rest });
+  }, [dispatch]);
+  const onDelete = useCallback(({ nodes: ns, edges: es }: { nodes: { id: string }[]; edges: { id: string }[] }) => {
+    dispatch({ type: "deleted", nodes: ns.map((n) => n.id), edges: es.map((e) => e.id) });
+  }, [dispatch]);
   const onConnect = useCallback((c: FlowConnection) => dispatch({
     type: "connected", connection: { source: c.source, sourceHandle: c.sourceHandle!, target: c.target, targetHandle: c.targetHandle! },
   }), [dispatch]);
   const lastProblem = useRef<string | null>(null);
   const isValidConnection = useCallback((c: any) => {
-    lastProblem.current = connectionProblem(graph.nodes, graph.edges, c.source, c.sourceHandle, c.target, c.targetHandle);
+    lastProblem.current = replacingProblem(graph.nodes, graph.edges, c.source, c.sourceHandle, c.target, c.targetHandle);
     return lastProblem.current === null;
   }, [graph]);
-  const onConnectEnd = useCallback((_: unknown, end: any) => {
+
+  const openQuick = useCallback((clientX: number, clientY: number, mode: QuickAddMode) => {
+    const r = canvas.current!.getBoundingClientRect();
+    setMenu(null);
+    setQuick({ x: clientX - r.left, y: clientY - r.top, at: flow.screenToFlowPosition({ x: clientX, y: clientY }), mode });
+  }, [flow]);
+  const pick = useCallback((o: Offer) => {
+    const q = quick;
+    setQuick(null);
+    if (!q) return;
+    const { at, mode } = q;
+    if (mode.kind === "any") dispatch({ type: "blockAdded", blockType: o.type, position: { x: at.x - 120, y: at.y - 20 } });
+    else if (mode.kind === "insert") dispatch({ type: "blockInserted", blockType: o.type, position: { x: at.x - 120, y: at.y - 40 }, edge: mode.edge });
+    else dispatch({
+      type: "blockAddedFrom", blockType: o.type, port: mode.port,
+      position: mode.port.side === "source" ? { x: at.x + 40, y: at.y - 45 } : { x: at.x - 280, y: at.y - 45 },
+    });
+  }, [quick, dispatch]);
+
+  const onConnectEnd = useCallback((event: MouseEvent | TouchEvent, end: any) => {
     // dropped on a port that refused the wire: say why
-    if (end && end.isValid === false && end.toHandle && lastProblem.current) say(`refused: ${lastProblem.current}`);
-  }, [say]);
+    if (end && end.isValid === false && end.toHandle && lastProblem.current) { say(`refused: ${lastProblem.current}`); return; }
+    // dropped in empty space: the search for a block to wire it to, there
+    const target = event.target as Element | null;
+    if (!end?.fromHandle || end.toHandle || target?.closest?.(".react-flow__node")) return;
+    const p = "changedTouches" in event ? event.changedTouches[0] : event;
+    const h = end.fromHandle;
+    openQuick(p.clientX, p.clientY, { kind: "from", port: { node: h.nodeId, handle: h.id, side: h.type } });
+  }, [say, openQuick]);
   const onDrop = (e: React.DragEvent) => {
     const type = e.dataTransfer.getData("application/nutty-block");
     if (type) addBlock(type, flow.screenToFlowPosition({ x: e.clientX, y: e.clientY }));
   };
 
+  const selectAll = useCallback(() => dispatch({ type: "selectedAll" }), [dispatch]);
+  const quickAtPointer = useCallback((x: number, y: number) => openQuick(x, y, { kind: "any" }), [openQuick]);
+  useCanvasKeys(canvas, { quickAdd: quickAtPointer, selectAll, busy: quick !== null || menu !== null });
+
+  const openMenu = (e: React.MouseEvent | MouseEvent, what: MenuTarget) => {
+    e.preventDefault();
+    const r = canvas.current!.getBoundingClientRect();
+    setQuick(null);
+    setMenu({ ...what, x: e.clientX - r.left, y: e.clientY - r.top, client: { x: e.clientX, y: e.clientY },
+              at: flow.screenToFlowPosition({ x: e.clientX, y: e.clientY }) } as MenuState);
+  };
+  const onNodeContextMenu = (e: React.MouseEvent, node: { id: string; selected?: boolean }) => {
+    const handle = (e.target as Element).closest?.(".react-flow__handle") as HTMLElement | null;
+    if (handle?.dataset.handleid) {
+      const side = handle.classList.contains("source") ? "source" : "target";
+      return openMenu(e, { kind: "port", port: { node: node.id, handle: handle.dataset.handleid, side } });
+    }
+    const selected = graph.nodes.filter((n) => n.selected).map((n) => n.id);
+    const ids = node.selected && selected.length ? selected : [node.id];
+    if (!node.selected) dispatch({ type: "selectedOnly", nodes: ids });
+    openMenu(e, { kind: "node", ids });
+  };
+
+  const clipOf = (g: Graph, ids: string[]): Graph => {
+    const keep = new Set(ids);
+    return { nodes: g.nodes.filter((n) => keep.has(n.id)), edges: g.edges.filter((e) => keep.has(e.source) && keep.has(e.target)) };
+  };
+  const entries = (m: MenuState): { title?: string; entries: MenuEntry[] } => {
+    const fit = () => fitReadable(flow);
+    switch (m.kind) {
+      case "pane":
+        return { entries: [
+          { label: "Add block…", hint: "Tab", run: () => openQuick(m.client.x, m.client.y, { kind: "any" }) },
+          { label: "Paste", hint: "Ctrl+V", run: paste },
+          { label: "Select all", hint: "Ctrl+A", run: selectAll },
+          { label: "Auto-layout", run: () => autoLayout(true) },
+          { label: "Fit view", hint: "F", run: fit },
+        ] };
+      case "node": {
+        const extras = m.ids.length === 1 ? graph.nodes.filter((n) => n.id === m.ids[0]) : [];
+        return { title: m.ids.length === 1 ? m.ids[0] : `${m.ids.length} blocks`, entries: [
+          { label: "Duplicate", run: () => dispatch({ type: "pasted", clip: clipOf(graph, m.ids) }) },
+          { label: "Copy", hint: "Ctrl+C", run: copy },
+          { label: "Disconnect all", run: () => dispatch({ type: "deleted", nodes: [],  // one undo step, however many blocks
+            edges: graph.edges.filter((e) => m.ids.includes(e.source) || m.ids.includes(e.target)).map((e) => e.id) }) },
+          { label: "Delete", hint: "Del", run: () => dispatch({ type: "deleted", nodes: m.ids, edges: [] }) },
+          ...nodeMenuExtras.flatMap((x) => extras.filter((n) => !x.when || x.when(n)).map((n) => ({ label: x.label, run: () => x.run(n) }))),
+        ] };
+      }
+      case "port": {
+        const wired = graph.edges.some((e) => (m.port.side === "source" ? e.source === m.port.node && e.sourceHandle === m.port.handle
+          : e.target === m.port.node && e.targetHandle === m.port.handle));
+        return { title: `${m.port.node}.${m.port.handle}`, entries: [
+          { label: "Disconnect", disabled: !wired, run: () => dispatch({ type: "disconnected", node: m.port.node, handle: m.port.handle, side: m.port.side }) },
+          { label: m.port.side === "source" ? "Add block fed from here…" : "Add block feeding this…",
+            run: () => openQuick(m.client.x, m.client.y, { kind: "from", port: m.port }) },
+        ] };
+      }
+      case "wire": {
+        const edge = graph.edges.find((e) => e.id === m.edge);
+        return { title: "wire", entries: [
+          { label: "Insert block…", run: () => openQuick(m.client.x, m.client.y, { kind: "insert", edge: m.edge }) },
+          { label: "Delete wire", hint: "Del", run: () => dispatch({ type: "deleted", nodes: [], edges: [m.edge] }) },
+          ...(edge ? wireMenuExtras.filter((x) => !x.when || x.when(edge)).map((x) => ({ label: x.label, run: () => x.run(edge) })) : []),
+        ] };
+      }
+    }
+  };
+
   return (
-    <main className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
+    <main ref={canvas} className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
       <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any}
-                 onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect}
+                 onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect} onDelete={onDelete}
                  onConnectEnd={onConnectEnd as any} isValidConnection={isValidConnection}
                  deleteKeyCode={["Delete", "Backspace"]} multiSelectionKeyCode="Shift"
-                 minZoom={0.2} fitView fitViewOptions={FIT_VIEW} proOptions={{ hideAttribution: true }}>
+                 // Blender/Unreal hands: left-drag on empty canvas box-selects, middle-drag (or Space+drag) pans, wheel zooms
+                 selectionOnDrag panOnDrag={[1]} selectionMode={SelectionMode.Partial}
+                 onPaneContextMenu={(e) => openMenu(e, { kind: "pane" })}
+                 onNodeContextMenu={onNodeContextMenu as any}
+                 onSelectionContextMenu={(e) => openMenu(e, { kind: "node", ids: graph.nodes.filter((n) => n.selected).map((n) => n.id) })}
+                 onEdgeContextMenu={(e, edge) => openMenu(e, { kind: "wire", edge: edge.id })}
+                 minZoom={0.2} maxZoom={2.5} proOptions={{ hideAttribution: true }}>
         <Background color="#2b313b" gap={22} />
         <MiniMap pannable zoomable nodeColor="#3a4150" maskColor="rgba(10,12,16,0.6)" style={{ width: 180, height: 110 }} />
+        <CanvasControls fit={() => fitReadable(flow)} autoLayout={() => autoLayout(true)} />
       </ReactFlow>
+      {quick && <QuickAdd x={quick.x} y={quick.y} mode={quick.mode} onPick={pick} onClose={closeQuick} />}
+      {menu && <ContextMenu x={menu.x} y={menu.y} {...entries(menu)} onClose={closeMenu} />}
       <Toast />
     </main>
   );

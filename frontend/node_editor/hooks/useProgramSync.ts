@@ -6,13 +6,17 @@ import { useCallback, useEffect, useMemo, useRef } from "react";
 import { api, ApiError, type Program } from "../api";
 import { flowToProgram } from "../graph";
 import { useEditor } from "../store/EditorStore";
-import { structureKey, withParams } from "../store/state";
+import type { Meta } from "../graph";
+import { structureKey, withParams, type Graph } from "../store/state";
 import { refreshInputs } from "./useBootstrap";
 
 /** Edits closer together than this (ms) go to the server as one program. */
 const SYNC_DELAY_MS = 90;
 /** A parameter drag sends at most one PATCH per node this often (ms); the last value is always sent. */
 export const PATCH_INTERVAL_MS = 50;
+
+/** What the server has of a graph: run (live) or only judged (draft). */
+const syncKey = (live: boolean, graph: Graph, meta: Meta | null) => (live ? "live:" : "draft:") + structureKey(graph, meta);
 
 /** Sends `params` of a node at most every PATCH_INTERVAL_MS, always ending with the latest ones. */
 class PatchThrottle {
@@ -45,16 +49,20 @@ export function useProgramSync(say: (message: string) => void) {
   const program = useCallback((): Program => flowToProgram(graph.nodes, graph.edges, meta!), [graph, meta]);
 
   useEffect(() => {
-    synced.current = loaded.fromServer ? structureKey(graph, meta) : "";
+    synced.current = loaded.fromServer ? syncKey(true, graph, meta) : "";
     // only when a program arrives: the graph and meta are the loaded ones then
   }, [loaded]);
 
   useEffect(() => {
     if (!meta) return;
-    const key = (live ? "live:" : "draft:") + structureKey(graph, meta);
+    const key = syncKey(live, graph, meta);
     if (key === synced.current) return;
     const timer = window.setTimeout(async () => {
       dispatch({ type: "syncing", on: true });
+      // what the server has from now on: an edit made while this PUT is in flight (an undo back to the
+      // previous program) must be sent too, not compared with what the server had before this one
+      const previous = synced.current;
+      synced.current = key;
       try {
         if (live) {
           const res = await api.putProgram(program());
@@ -63,13 +71,14 @@ export function useProgramSync(say: (message: string) => void) {
         } else {
           dispatch({ type: "reportReceived", report: await api.validate(program()) });
         }
-        synced.current = key;
       } catch (e) {
         // the report now describes this graph (the robot keeps the last valid program)
         if (e instanceof ApiError && e.detail?.report) {
-          synced.current = key;
           dispatch({ type: "reportReceived", report: e.detail.report });
-        } else say(String(e));
+        } else {
+          if (synced.current === key) synced.current = previous;  // not sent: the next edit sends it again
+          say(String(e));
+        }
       } finally {
         dispatch({ type: "syncing", on: false });
       }
@@ -97,7 +106,7 @@ export function useProgramSync(say: (message: string) => void) {
     dispatch({ type: "paramsEdited", node: id, params, at: performance.now() });
     const unset = Object.keys(before).some((k) => !(k in next.params));
     if (!live || next.structural || unset || !report?.valid) return;
-    synced.current = "live:" + structureKey(next.graph, meta);  // before the sync effect runs
+    synced.current = syncKey(true, next.graph, meta);  // before the sync effect runs
     throttle.push(id, next.params);
   }, [graph, catalog, report, meta, live, throttle, dispatch]);
 
@@ -108,7 +117,7 @@ export function useProgramSync(say: (message: string) => void) {
     dispatch({ type: "syncing", on: true });
     try {
       const res = await api.putProgram(program());
-      synced.current = "live:" + structureKey(graph, meta);
+      synced.current = syncKey(true, graph, meta);
       dispatch({ type: "wentLive", report: res.report });
       refreshInputs(dispatch);
       say(`'${meta.name}' is live`);

@@ -185,3 +185,76 @@ describe("drafts", () => {
     expect(reducer(loaded(), { type: "saved", name: "file" }).meta?.name).toBe("p");
   });
 });
+
+describe("canvas", () => {
+  const edgeIds = (s: EditorState) => present(s).edges.map((e) => e.id).sort();
+  it("replaces the wire on an occupied input (one undo step), and keeps other refusals", () => {
+    const before = loaded();
+    const s = run([{ type: "connected", connection: { source: "wave", sourceHandle: "out", target: "mix", targetHandle: "base" } }], before);
+    expect(edgeIds(s)).toEqual(["mix.out->output.in", "wave.out->mix.base", "wave.out->mix.idle"].sort());
+    expect(s.history.past).toHaveLength(1);
+    expect(edgeIds(run([{ type: "undo" }], s))).toEqual(edgeIds(before));
+    const wrong = run([{ type: "connected", connection: { source: "in_level", sourceHandle: "value", target: "mix", targetHandle: "base" } }], before);
+    expect(wrong.toast).toMatch(/^refused: cannot connect float output/);
+    expect(wrong.history).toBe(before.history);
+    const cycle = run([{ type: "connected", connection: { source: "mix", sourceHandle: "out", target: "mix", targetHandle: "base" } }], before);
+    expect(cycle.toast).toMatch(/^refused: a block cannot feed itself/);
+  });
+  it("deletes nodes with their wires as one undo step, and undo restores both", () => {
+    const before = loaded();
+    const s = run([{ type: "deleted", nodes: ["mix"], edges: ["rest.out->mix.base"] }], before);
+    expect(present(s).nodes.map((n) => n.id)).not.toContain("mix");
+    expect(present(s).edges).toEqual([]);
+    expect(s.history.past).toHaveLength(1);
+    const undone = run([{ type: "undo" }], s);
+    expect(present(undone)).toBe(present(before));
+    expect(run([{ type: "deleted", nodes: [], edges: [] }], before)).toBe(before);
+  });
+  it("adds a block wired from a dragged output to its first input that fits, in one step", () => {
+    const s = run([{ type: "blockAddedFrom", blockType: "motion_filter", position: { x: 900, y: 300 }, port: { node: "wave", handle: "out", side: "source" } }], loaded());
+    expect(present(s).nodes.at(-1)!.id).toBe("motion_filter");
+    expect(present(s).edges.at(-1)).toMatchObject({ source: "wave", sourceHandle: "out", target: "motion_filter", targetHandle: "in" });
+    expect(s.history.past).toHaveLength(1);
+  });
+  it("adds a block feeding a dragged input, replacing that input's wire", () => {
+    const s = run([{ type: "blockAddedFrom", blockType: "lfo", position: { x: 0, y: 600 }, port: { node: "mix", handle: "base_weight", side: "target" } }], loaded());
+    expect(present(s).edges.at(-1)).toMatchObject({ source: "lfo", sourceHandle: "value", target: "mix", targetHandle: "base_weight" });
+    const t = run([{ type: "blockAddedFrom", blockType: "pose", position: { x: 0, y: 600 }, port: { node: "mix", handle: "base", side: "target" } }], loaded());
+    expect(edgeIds(t)).toContain("pose.out->mix.base");
+    expect(edgeIds(t)).not.toContain("rest.out->mix.base");
+  });
+  it("refuses a block with no port that fits, changing nothing", () => {
+    const before = loaded();
+    const s = run([{ type: "blockAddedFrom", blockType: "rest_pose", position: { x: 0, y: 0 }, port: { node: "wave", handle: "out", side: "source" } }], before);
+    expect(s.toast).toMatch(/^refused/);
+    expect(s.history).toBe(before.history);
+  });
+  it("inserts a block on a wire, between its ends, as one undo step", () => {
+    const before = loaded();
+    const s = run([{ type: "blockInserted", blockType: "safety_limiter", position: { x: 450, y: 0 }, edge: "mix.out->output.in" }], before);
+    expect(edgeIds(s)).toContain("mix.out->safety_limiter.in");
+    expect(edgeIds(s)).toContain("safety_limiter.out->output.in");
+    expect(edgeIds(s)).not.toContain("mix.out->output.in");
+    expect(s.history.past).toHaveLength(1);
+    expect(present(run([{ type: "undo" }], s))).toBe(present(before));
+  });
+  it("disconnects a node, or one of its ports", () => {
+    const s = run([{ type: "disconnected", node: "mix" }], loaded());
+    expect(present(s).edges).toEqual([]);
+    const one = run([{ type: "disconnected", node: "mix", handle: "idle", side: "target" }], loaded());
+    expect(edgeIds(one)).toEqual(["mix.out->output.in", "rest.out->mix.base"]);
+  });
+  it("lays out as one undo step (or none, for a program that arrived without positions)", () => {
+    const s = run([{ type: "laidOut", positions: { rest: { x: 10, y: 20 } }, undoable: true }], loaded());
+    expect(present(s).nodes[1].position).toEqual({ x: 10, y: 20 });
+    expect(s.history.past).toHaveLength(1);
+    expect(run([{ type: "laidOut", positions: { rest: { x: 1, y: 2 } }, undoable: false }], loaded()).history.past).toHaveLength(0);
+  });
+  it("selects all nodes, or only some, without an undo step", () => {
+    const s = run([{ type: "selectedAll" }], loaded());
+    expect(present(s).nodes.every((n) => n.selected)).toBe(true);
+    expect(s.history.past).toHaveLength(0);
+    const only = run([{ type: "selectedOnly", nodes: ["wave"] }], s);
+    expect(present(only).nodes.filter((n) => n.selected).map((n) => n.id)).toEqual(["wave"]);
+  });
+});

@@ -9,6 +9,7 @@ import {
 } from "../graph";
 import * as H from "../history";
 import { defaultParams, portsOf } from "../ports";
+import { firstInputFor, firstOutputFor, replacingProblem, withoutOccupant, type PortRef } from "../quickAdd";
 
 export type Graph = { nodes: FlowNode[]; edges: FlowEdge[] };
 export type Connection = { source: string; sourceHandle: string; target: string; targetHandle: string };
@@ -65,7 +66,15 @@ export type Action =
   | { type: "ghostShown"; visible: boolean }
   | { type: "toast"; message: string }
   | { type: "toastExpired"; message: string }
-  | { type: "logged"; line: string };
+  | { type: "logged"; line: string }
+  // the canvas: deletion as one step, quick-add wired to a port or inserted on a wire, layout, selection
+  | { type: "deleted"; nodes: string[]; edges: string[] }
+  | { type: "blockAddedFrom"; blockType: string; position: Position; port: PortRef }
+  | { type: "blockInserted"; blockType: string; position: Position; edge: string }
+  | { type: "disconnected"; node: string; handle?: string; side?: "source" | "target" }
+  | { type: "laidOut"; positions: Record<string, Position>; undoable: boolean }
+  | { type: "selectedAll" }
+  | { type: "selectedOnly"; nodes: string[] };
 
 /** Parameter edits of one node closer together than this (ms) are one undo step. */
 export const COALESCE_MS = 600;
@@ -117,12 +126,13 @@ function edit(state: EditorState, next: Graph, push = true): EditorState {
   return { ...state, history: push ? H.push(state.history, next) : H.replace(state.history, next), dirty: state.dirty || push };
 }
 
-function addBlock(state: EditorState, type: string, position: Position): EditorState {
+/** A new block of `type` at `position` (moved off other blocks), or why none may be added. */
+function newBlock(state: EditorState, type: string, position: Position): FlowNode | string | null {
   const entry = state.catalog[type];
-  if (!entry) return state;
+  if (!entry) return null;
   const graph = state.history.present;
   if (entry.role === "output" && graph.nodes.some((n) => state.catalog[n.data.type]?.role === "output"))
-    return { ...state, toast: "a program has exactly one output" };
+    return "a program has exactly one output";
   const params = defaultParams(entry);
   const { inputs, outputs } = portsOf(entry, params);
   const pos = { ...position };
@@ -132,16 +142,78 @@ function addBlock(state: EditorState, type: string, position: Position): EditorS
     id: freshId(graph.nodes, type), type: "block", position: pos, selected: true,
     data: { type, params, ui: {}, inputs, outputs, errors: [] },
   };
+  return node;
+}
+
+function addBlock(state: EditorState, type: string, position: Position): EditorState {
+  const node = newBlock(state, type, position);
+  if (node === null) return state;
+  if (typeof node === "string") return { ...state, toast: node };
+  const graph = state.history.present;
   return edit(state, { nodes: [...deselected(graph.nodes), node], edges: graph.edges });
 }
 
+function wire(nodes: FlowNode[], c: Connection): FlowEdge {
+  const src = nodes.find((n) => n.id === c.source)!;
+  return { ...c, id: edgeId(c), data: { type: src.data.outputs[c.sourceHandle].type } };
+}
+
+/** A new block wired to a dragged port (its first port that fits), as one undo step. */
+function addBlockFrom(state: EditorState, type: string, position: Position, port: PortRef): EditorState {
+  const node = newBlock(state, type, position);
+  if (node === null) return state;
+  if (typeof node === "string") return { ...state, toast: node };
+  const graph = state.history.present;
+  const nodes = [...deselected(graph.nodes), node];
+  let c: Connection | null = null;
+  if (port.side === "source") {
+    const input = firstInputFor(nodes, graph.edges, node, port.node, port.handle);
+    if (input) c = { source: port.node, sourceHandle: port.handle, target: node.id, targetHandle: input };
+  } else {
+    const output = firstOutputFor(nodes, graph.edges, node, port.node, port.handle);
+    if (output) c = { source: node.id, sourceHandle: output, target: port.node, targetHandle: port.handle };
+  }
+  if (!c) return { ...state, toast: `refused: no port of ${type} fits ${port.node}.${port.handle}` };
+  return edit(state, { nodes, edges: [...withoutOccupant(graph.edges, c.target, c.targetHandle), wire(nodes, c)] });
+}
+
+/** A new block on a wire: the wire's source feeds it, it feeds the wire's target; one undo step. */
+function insertBlock(state: EditorState, type: string, position: Position, edgeIdent: string): EditorState {
+  const graph = state.history.present;
+  const old = graph.edges.find((e) => e.id === edgeIdent);
+  if (!old) return state;
+  const node = newBlock(state, type, position);
+  if (node === null) return state;
+  if (typeof node === "string") return { ...state, toast: node };
+  const nodes = [...deselected(graph.nodes), node];
+  const rest = graph.edges.filter((e) => e.id !== old.id);
+  const input = firstInputFor(nodes, rest, node, old.source, old.sourceHandle);
+  const output = firstOutputFor(nodes, rest, node, old.target, old.targetHandle);
+  if (!input || !output) return { ...state, toast: `refused: ${type} does not fit on that wire` };
+  const a = wire(nodes, { source: old.source, sourceHandle: old.sourceHandle, target: node.id, targetHandle: input });
+  const b = wire(nodes, { source: node.id, sourceHandle: output, target: old.target, targetHandle: old.targetHandle });
+  return edit(state, { nodes, edges: [...rest, a, b] });
+}
+
+/** Nodes and edges removed together (with every edge of a removed node): one undo step. */
+function deleteElements(state: EditorState, nodeIds: string[], edgeIds: string[]): EditorState {
+  const graph = state.history.present;
+  const gone = new Set(nodeIds);
+  const cut = new Set(edgeIds);
+  const nodes = graph.nodes.filter((n) => !gone.has(n.id));
+  const edges = graph.edges.filter((e) => !cut.has(e.id) && !gone.has(e.source) && !gone.has(e.target));
+  if (nodes.length === graph.nodes.length && edges.length === graph.edges.length) return state;
+  return edit(state, { nodes, edges });
+}
+
+/** A new wire; one onto an input that has a wire replaces that wire (one undo step). */
 function connect(state: EditorState, c: Connection): EditorState {
   const graph = state.history.present;
-  const problem = connectionProblem(graph.nodes, graph.edges, c.source, c.sourceHandle, c.target, c.targetHandle);
+  const problem = replacingProblem(graph.nodes, graph.edges, c.source, c.sourceHandle, c.target, c.targetHandle);
   if (problem) return { ...state, toast: `refused: ${problem}` };
-  const src = graph.nodes.find((n) => n.id === c.source)!;
-  const edge: FlowEdge = { ...c, id: edgeId(c), data: { type: src.data.outputs[c.sourceHandle].type } };
-  return edit(state, { ...graph, edges: [...graph.edges, edge] });
+  const edge = wire(graph.nodes, c);
+  if (graph.edges.some((e) => e.id === edge.id)) return state;
+  return edit(state, { ...graph, edges: [...withoutOccupant(graph.edges, c.target, c.targetHandle), edge] });
 }
 
 export function reducer(state: EditorState, action: Action): EditorState {
@@ -223,5 +295,31 @@ export function reducer(state: EditorState, action: Action): EditorState {
       return state.toast === action.message ? { ...state, toast: null } : state;
     case "logged":
       return { ...state, consoleLines: [...state.consoleLines.slice(-(CONSOLE_LINES - 1)), action.line] };
+    case "deleted":
+      return deleteElements(state, action.nodes, action.edges);
+    case "blockAddedFrom":
+      return addBlockFrom(state, action.blockType, action.position, action.port);
+    case "blockInserted":
+      return insertBlock(state, action.blockType, action.position, action.edge);
+    case "disconnected": {
+      const { node, handle, side } = action;
+      const edges = graph.edges.filter((e) => {
+        const asSource = e.source === node && (side !== "target") && (handle === undefined || e.sourceHandle === handle);
+        const asTarget = e.target === node && (side !== "source") && (handle === undefined || e.targetHandle === handle);
+        return !(asSource || asTarget);
+      });
+      return edges.length === graph.edges.length ? state : edit(state, { ...graph, edges });
+    }
+    case "laidOut": {
+      const nodes = graph.nodes.map((n) => (action.positions[n.id] ? { ...n, position: { ...action.positions[n.id] } } : n));
+      return edit(state, { ...graph, nodes }, action.undoable);
+    }
+    case "selectedAll":
+      return edit(state, { ...graph, nodes: graph.nodes.map((n) => (n.selected ? n : { ...n, selected: true })) }, false);
+    case "selectedOnly": {
+      const keep = new Set(action.nodes);
+      const nodes = graph.nodes.map((n) => (!!n.selected === keep.has(n.id) ? n : { ...n, selected: keep.has(n.id) }));
+      return edit(state, { ...graph, nodes }, false);
+    }
   }
 }
