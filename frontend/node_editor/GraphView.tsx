@@ -4,12 +4,20 @@ import {
   Background, MiniMap, ReactFlow, useReactFlow, type Connection as FlowConnection, type EdgeChange, type NodeChange,
 } from "@xyflow/react";
 import { useCallback, useEffect, useMemo, useRef } from "react";
+import { withRoutes } from "./annotations";
 import { BlockNode, PORT_COLOURS } from "./BlockNode";
+import { CommentFrame } from "./CommentFrame";
 import { connectionProblem, type FlowEdge, type FlowNode } from "./graph";
+import { OrganiseContext } from "./organise/context";
+import { useOrganise } from "./organise/useOrganise";
+import { SubgraphBar } from "./panels/SubgraphBar";
+import { RerouteNode, RoutedEdge } from "./Reroute";
 import { useActions, useEditor } from "./store/EditorStore";
 import { errorsByNode } from "./store/state";
+import { SubgraphNode } from "./SubgraphNode";
 
-const nodeTypes = { block: BlockNode };
+const nodeTypes = { block: BlockNode, subgraph: SubgraphNode, comment: CommentFrame, reroute: RerouteNode };
+const edgeTypes = { routed: RoutedEdge };
 export const FIT_VIEW = { padding: 0.15, maxZoom: 1.1 };
 /** A freshly loaded program is fitted into view once React Flow has measured its nodes. */
 const FIT_AFTER_LOAD_MS = 50;
@@ -45,9 +53,11 @@ export function GraphView() {
   const { state, dispatch } = useEditor();
   const { addBlock, say } = useActions();
   const graph = state.history.present;
-  const errors = useMemo(() => errorsByNode(state.report), [state.report]);
+  const inside = state.meta?.inside?.path;
+  const errors = useMemo(() => errorsByNode(state.report, inside), [state.report, inside]);
   const nodes = useMemo(() => withErrors(graph.nodes, errors), [graph.nodes, errors]);
-  const edges = useMemo(() => graph.edges.map(styled), [graph.edges]);
+  const edges = useMemo(() => withRoutes(graph.edges.map(styled), graph.nodes), [graph.edges, graph.nodes]);
+  const organise = useOrganise();
 
   useEffect(() => {
     if (!state.loaded.count) return;
@@ -76,7 +86,9 @@ export function GraphView() {
 
   return (
     <main className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
-      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any}
+      <OrganiseContext.Provider value={organise.context}>
+      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any} edgeTypes={edgeTypes as any}
+                 onEdgeDoubleClick={organise.onEdgeDoubleClick} onNodeDoubleClick={organise.onNodeDoubleClick}
                  onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect}
                  onConnectEnd={onConnectEnd as any} isValidConnection={isValidConnection}
                  deleteKeyCode={["Delete", "Backspace"]} multiSelectionKeyCode="Shift"
@@ -84,6 +96,8 @@ export function GraphView() {
         <Background color="#2b313b" gap={22} />
         <MiniMap pannable zoomable nodeColor="#3a4150" maskColor="rgba(10,12,16,0.6)" style={{ width: 180, height: 110 }} />
       </ReactFlow>
+      <SubgraphBar />
+      </OrganiseContext.Provider>
       <Toast />
     </main>
   );

@@ -51,7 +51,9 @@ export function useProgramSync(say: (message: string) => void) {
     const next = withParams(graph, catalog, id, params);
     if (!next) return;
     dispatch({ type: "paramsEdited", node: id, params, at: performance.now() });
-    if (!live || next.structural || !report?.valid) return;
+    // Inside an open subgraph the definition is shared by every node using it: the hot swap (a
+    // parameter-only one on the server, nothing rebuilt) changes them all, a PATCH would change one.
+    if (!live || next.structural || !report?.valid || meta?.inside) return;
     // The patch brings the server to this graph: no hot swap for it (set now, before the sync effect runs).
     synced.current = structureKey(next.graph, meta);
     try {

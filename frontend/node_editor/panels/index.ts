@@ -10,6 +10,7 @@ import { Palette } from "./Palette";
 import { ParamPanel } from "./ParamPanel";
 import { PrevizPanel } from "./PrevizPanel";
 import { ProgramInfoPanel } from "./ProgramInfoPanel";
+import { SubgraphLibrary } from "./SubgraphLibrary";
 
 /** Places in the layout (../Layout.tsx): the side bars, the Pre-Viz corner and the live column's rows. */
 export type Area = "left" | "right" | "previz" | "live" | "controls" | "log";
@@ -22,6 +23,7 @@ export interface Panel {
 
 export const PANELS: Panel[] = [
   { id: "palette", area: "left", Component: Palette },
+  { id: "subgraphs", area: "left", Component: SubgraphLibrary },
   { id: "params", area: "right", Component: ParamPanel },
   { id: "previz", area: "previz", Component: PrevizPanel },
   { id: "curves", area: "live", Component: CurvePanel },
