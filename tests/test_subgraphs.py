@@ -283,3 +283,17 @@ def test_library_subgraphs_save_list_get_delete(desk, tmp_path):
             assert client.get("/api/subgraphs/idle").status_code == 404
     finally:
         session.engine.close()
+
+
+def test_a_hot_swap_keeps_the_state_of_inner_blocks(desk):
+    session = EngineSession.create(desk, rate=100, program=grouped())
+    try:
+        session.run_headless(50)
+        phase = session.engine.apu.block("idle/breathe").state
+        doc = grouped()
+        doc["nodes"].append({"id": "spare", "type": "sine", "params": {"dofs": ["head_yaw"], "amplitude": 0.01}})
+        _, kept = session.load_program(doc)  # a structural change: a new APU
+        assert {f"idle/{i}" for i in IDLE} <= set(kept)
+        assert session.engine.apu.block("idle/breathe").state == phase
+    finally:
+        session.engine.close()

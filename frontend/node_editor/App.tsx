@@ -15,17 +15,22 @@ import { useProgramSync } from "./hooks/useProgramSync";
 import { useShortcuts } from "./hooks/useShortcuts";
 import { useSignals, useTelemetry } from "./hooks/useTelemetry";
 import { Layout } from "./Layout";
+import { liveInside, signalsInside } from "./organise/liveInside";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
 import type { Position } from "./store/state";
 
 /** Telemetry for its children, apart from the store: only what shows live values re-renders with it. */
 function Telemetry({ children }: { children: ReactNode }) {
-  const { nodes } = useEditor().state.history.present;
+  const { history, meta } = useEditor().state;
+  const { nodes } = history.present;
   const { sendCommand } = useActions();
-  const { live, samples } = useTelemetry(useSignals(nodes));
+  const path = meta?.inside?.path;  // an open subgraph: its blocks run as `<path>/<id>`
+  const signals = useSignals(nodes);
+  const { live, samples } = useTelemetry(useMemo(() => signalsInside(signals, path), [signals, path]));
   const value = useMemo(() => ({
-    ...live, setLayer: (mixer: string, layer: string, active: boolean) => sendCommand({ type: "set_layer", mixer, layer, active }),
-  }), [live, sendCommand]);
+    ...liveInside(live, path), setLayer: (mixer: string, layer: string, active: boolean) =>
+      sendCommand({ type: "set_layer", mixer: path ? `${path}/${mixer}` : mixer, layer, active }),
+  }), [live, path, sendCommand]);
   return (
     <LiveContext.Provider value={value}>
       <SamplesContext.Provider value={samples}>{children}</SamplesContext.Provider>

@@ -5,6 +5,7 @@ import type { BlockEntry } from "./api";
 import { annotationsFromFlow, withRoutes } from "./annotations";
 import { flowToProgram, programToFlow, type FlowNode } from "./graph";
 import { initialState, reducer, structureKey, type EditorState } from "./store/state";
+import { liveInside, signalsInside } from "./organise/liveInside";
 import { breadcrumb, groupCandidates, groupSelection, nodePorts, openDefinition } from "./subgraphs";
 
 const catalog: Record<string, BlockEntry> = Object.fromEntries((blocks as unknown as BlockEntry[]).map((b) => [b.type, b]));
@@ -100,7 +101,7 @@ describe("opening a subgraph", () => {
     const p = flowToProgram(edited.history.present.nodes, edited.history.present.edges, edited.meta!) as any;
     expect(p.nodes.some((n: any) => n.id === "idle")).toBe(true);
     expect(p.subgraphs.idle.nodes.find((n: any) => n.id === "breathe").params.frequency).toBe(0.4);
-    expect(openDefinition(edited.history.present, edited.meta)?.definition.nodes.find((n: any) => n.id === "breathe")?.params?.frequency).toBe(0.4);
+    expect(openDefinition(edited.history.present, edited.meta)!.definition.nodes!.find((n: any) => n.id === "breathe")!.params!.frequency).toBe(0.4);
     const back = reducer(edited, { type: "subgraphClosed" });
     expect(back.meta?.inside).toBeUndefined();
     expect(back.history.present.nodes.some((n) => n.id === "idle")).toBe(true);
@@ -163,5 +164,14 @@ describe("comment frames and reroutes round-trip through ui", () => {
     const p = flowToProgram(s.history.present.nodes, s.history.present.edges, s.meta!) as any;
     expect(p.ui.reroutes).toHaveLength(2);
     expect(p.edges).toHaveLength(1);
+  });
+});
+
+describe("live values inside an open subgraph", () => {
+  it("subscribes to the flat ids and shows them under the inner ids", () => {
+    expect(signalsInside([{ node: "breathe", port: "out" }], "idle")).toEqual([{ node: "idle/breathe", port: "out" }]);
+    expect(signalsInside([{ node: "breathe", port: "out" }], undefined)).toEqual([{ node: "breathe", port: "out" }]);
+    const live = { values: { "idle/breathe.out": 1, "mix.out": 2 }, history: { "idle/breathe.out": [1] }, layers: { "idle/m": [] } };
+    expect(liveInside(live as any, "idle")).toEqual({ values: { "breathe.out": 1 }, history: { "breathe.out": [1] }, layers: { m: [] } });
   });
 });
