@@ -134,6 +134,12 @@ def test_open_the_subgraph_and_go_back(page, server):
     first = live.inner_text()
     wait_until(lambda: live.inner_text() != first, what="the inner block's live value to move")
     page.screenshot(path=str(ARTIFACTS / "organise-inside.png"))
+    # its ports can be edited from inside: the exposed ones are checked
+    page.get_by_test_id("edit-ports").click()
+    page.get_by_test_id("group-dialog").wait_for()
+    assert page.get_by_test_id("expose-output-eyelid_filter.out").is_checked()
+    assert not page.get_by_test_id("expose-input-breathe.frequency").is_checked()
+    page.get_by_role("button", name="Cancel").click()
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()  # the program did not change
     assert running(server)["report"]["valid"]
     page.get_by_test_id("crumb-0").click()

@@ -156,7 +156,11 @@ export function flowToProgram(nodes: FlowNode[], edges: FlowEdge[], meta: Meta):
       ...(def.ui && Object.keys(def.ui).length ? { ui: def.ui } : {}),
     };
     const outer = inside.outer.present;
-    return flowToProgram(outer.nodes, outer.edges,
+    // wires of the enclosing graph to ports this definition no longer exposes are cut
+    const mine = new Set(outer.nodes.filter((n) => n.data.type === SUBGRAPH && n.data.params.subgraph === inside.name).map((n) => n.id));
+    const wired = outer.edges.filter((e) => (!mine.has(e.target) || inside.inputs.some((p) => p.name === e.targetHandle))
+      && (!mine.has(e.source) || inside.outputs.some((p) => p.name === e.sourceHandle)));
+    return flowToProgram(outer.nodes, wired,
       { ...inside.outerMeta, name: plain.name, subgraphs: { ...(plain.subgraphs ?? {}), [inside.name]: definition } } as Meta);
   }
   const notes = annotationsFromFlow(nodes, edges);

@@ -6,7 +6,7 @@ import { annotationsFromFlow, withRoutes } from "./annotations";
 import { flowToProgram, programToFlow, type FlowNode } from "./graph";
 import { initialState, reducer, structureKey, type EditorState } from "./store/state";
 import { liveInside, signalsInside } from "./organise/liveInside";
-import { breadcrumb, groupCandidates, groupSelection, nodePorts, openDefinition } from "./subgraphs";
+import { breadcrumb, exposedCandidates, groupCandidates, groupSelection, nodePorts, openDefinition } from "./subgraphs";
 
 const catalog: Record<string, BlockEntry> = Object.fromEntries((blocks as unknown as BlockEntry[]).map((b) => [b.type, b]));
 const IDLE = ["breathe", "wander", "wander_filter", "weight_shift", "blink", "eyelid_filter"];
@@ -173,5 +173,32 @@ describe("live values inside an open subgraph", () => {
     expect(signalsInside([{ node: "breathe", port: "out" }], undefined)).toEqual([{ node: "breathe", port: "out" }]);
     const live = { values: { "idle/breathe.out": 1, "mix.out": 2 }, history: { "idle/breathe.out": [1] }, layers: { "idle/m": [] } };
     expect(liveInside(live as any, "idle")).toEqual({ values: { "breathe.out": 1 }, history: { "breathe.out": [1] }, layers: { m: [] } });
+  });
+});
+
+describe("editing an open subgraph's ports", () => {
+  it("renames a port keeping its wires, and cuts the wires of a port no longer exposed", () => {
+    const inside = reducer(grouped(), { type: "subgraphOpened", node: "idle" });
+    const cands = exposedCandidates(inside.history.present, inside.meta);
+    expect(cands.filter((c) => c.checked).map((c) => c.name).sort()).toEqual(
+      ["blink_gaze", "breathe_amplitude", "breathe_out", "eyelid_filter_out", "wander_filter_out", "weight_shift_out"]);
+    expect(cands.some((c) => c.node === "wander_filter" && c.port === "in")).toBe(false);  // fed inside
+    const ports = cands.filter((c) => c.checked && c.name !== "weight_shift_out")
+      .map((c) => (c.name === "breathe_out" ? { ...c, name: "breath" } : c));
+    const edited = reducer(inside, { type: "exposedEdited", ports, description: "idle motion" });
+    const back = reducer(edited, { type: "subgraphClosed" });
+    const p = flowToProgram(back.history.present.nodes, back.history.present.edges, back.meta!) as any;
+    expect(p.subgraphs.idle.description).toBe("idle motion");
+    expect(p.subgraphs.idle.outputs.map((o: any) => o.name)).toEqual(["breath", "wander_filter_out", "eyelid_filter_out"]);
+    expect(p.edges).toContainEqual({ from: { node: "idle", port: "breath" }, to: { node: "mix", port: "idle" } });
+    expect(p.edges.some((e: any) => e.to.node === "mix" && e.to.port === "shift")).toBe(false);
+    expect(Object.keys(back.history.present.nodes.find((n) => n.id === "idle")!.data.outputs)).toEqual(["breath", "wander_filter_out", "eyelid_filter_out"]);
+  });
+
+  it("reuses the name of a definition nothing uses any more (a grouping undone)", () => {
+    const undone = reducer(grouped(), { type: "undo" });
+    const again = reducer(select(undone, IDLE), { type: "grouped", name: "idle", ports: groupCandidates(undone.history.present, IDLE).filter((c) => c.crossing) });
+    expect(Object.keys(again.meta!.subgraphs!)).toEqual(["idle"]);
+    expect(again.history.present.nodes.find((n) => n.id === "idle")!.data.params).toEqual({ subgraph: "idle" });
   });
 });

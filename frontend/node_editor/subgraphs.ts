@@ -21,10 +21,34 @@ export type OrganiseAction =
   | { type: "subgraphClosed"; levels?: number }
   | { type: "subgraphInserted"; name: string; definition: SubgraphDef; position: Position }
   | { type: "commentAdded"; position: Position; size?: { w: number; h: number } }
-  | { type: "rerouteAdded"; edge: string; position: Position };
+  | { type: "rerouteAdded"; edge: string; position: Position }
+  | { type: "exposedEdited"; ports: Candidate[]; description?: string };
 
 /** A port that grouping can expose: an inner block's port, and whether a wire crosses the group's edge there. */
-export interface Candidate { kind: "input" | "output"; node: string; port: string; name: string; type: string; crossing: boolean }
+export interface Candidate {
+  kind: "input" | "output"; node: string; port: string; name: string; type: string; crossing: boolean;
+  /** Exposed already (editing an open subgraph's ports). */
+  checked?: boolean;
+}
+
+/** Every port of the open subgraph's blocks it could expose (inputs that an inner wire feeds cannot be),
+ * those it exposes now checked and under their names. */
+export function exposedCandidates(graph: Graph, meta: Meta | null): Candidate[] {
+  const inside = meta?.inside;
+  if (!inside) return [];
+  const out: Candidate[] = [];
+  for (const n of graph.nodes) {
+    if (isAnnotation(n)) continue;
+    for (const [kind, ports, list] of [["input", n.data.inputs, inside.inputs], ["output", n.data.outputs, inside.outputs]] as const) {
+      for (const [port, spec] of Object.entries(ports)) {
+        if (kind === "input" && graph.edges.some((e) => e.target === n.id && e.targetHandle === port)) continue;
+        const current = list.find((p) => p.node === n.id && p.port === port);
+        out.push({ kind, node: n.id, port, name: current?.name ?? `${n.id}_${port}`, type: spec.type, crossing: false, checked: !!current });
+      }
+    }
+  }
+  return out;
+}
 
 /** The blocks of a selection (not comments or reroutes). */
 export function selectedBlocks(graph: Graph): FlowNode[] {
@@ -76,7 +100,9 @@ export function groupSelection(graph: Graph, meta: Meta, catalog: Catalog, name:
   if (!VALID_NAME.test(name)) return `'${name}' is not a valid name (a letter or _, then letters, digits, _ - .)`;
   const ids = new Set(blocks.map((n) => n.id));
   const defs = { ...(meta.subgraphs ?? {}) } as Record<string, SubgraphDef>;
-  const defName = freshName(Object.keys(defs), name);
+  // a name whose definition nothing uses any more (e.g. a grouping undone) is free again
+  const used = usedDefinitions(graph.nodes, defs);
+  const defName = freshName(Object.keys(defs).filter((k) => used.has(k)), name);
   const inputs: ExposedPort[] = [];
   const outputs: ExposedPort[] = [];
   const names = { input: new Set<string>(), output: new Set<string>() };
@@ -127,6 +153,19 @@ export function groupSelection(graph: Graph, meta: Meta, catalog: Catalog, name:
     meta: { ...meta, subgraphs: defs } as Meta,
     node: nodeId,
   };
+}
+
+/** Names of the definitions the graph's subgraph nodes use, directly or through other definitions. */
+export function usedDefinitions(nodes: FlowNode[], defs: Record<string, SubgraphDef>): Set<string> {
+  const used = new Set<string>();
+  const stack = nodes.filter((n) => n.data.type === SUBGRAPH).map((n) => String(n.data.params.subgraph));
+  while (stack.length) {
+    const name = stack.pop()!;
+    if (used.has(name)) continue;
+    used.add(name);
+    for (const n of defs[name]?.nodes ?? []) if (n.type === SUBGRAPH) stack.push(String((n.params as any)?.subgraph));
+  }
+  return used;
 }
 
 /** Reroutes of wires inside the group move into the definition's `ui`. */
@@ -194,8 +233,11 @@ function closeSubgraph(state: EditorState, levels = 1): EditorState {
     const outer = ctx.outer.present;
     const nodes = outer.nodes.map((n) => n.data.type === SUBGRAPH
       ? { ...n, data: { ...n.data, ...nodePorts(SUBGRAPH, n.data.params, defs, next.catalog) } } : n);
+    // wires to ports a definition no longer exposes are cut
+    const byId = new Map(nodes.map((n) => [n.id, n]));
+    const edges = outer.edges.filter((e) => byId.get(e.source)?.data.outputs[e.sourceHandle] && byId.get(e.target)?.data.inputs[e.targetHandle]);
     next = {
-      ...next, meta: outerMeta, history: H.replace(ctx.outer, { ...outer, nodes }), lastParamEdit: null, dirty: true,
+      ...next, meta: outerMeta, history: H.replace(ctx.outer, { nodes, edges }), lastParamEdit: null, dirty: true,
       loaded: { count: next.loaded.count + 1, fromServer: false },
     };
   }
@@ -244,6 +286,39 @@ export function organise(state: EditorState, action: OrganiseAction): EditorStat
       const colour = COMMENT_COLOURS[graph.nodes.filter((n) => n.type === "comment").length % COMMENT_COLOURS.length];
       const node = { ...commentNode({ id, x: action.position.x, y: action.position.y, ...size, title: "Comment", colour }), selected: true };
       return { ...state, dirty: true, history: H.push(state.history, { nodes: [node, ...graph.nodes.map((n) => ({ ...n, selected: false }))], edges: graph.edges }) };
+    }
+    case "exposedEdited": {
+      const inside = state.meta?.inside;
+      if (!inside) return state;
+      const pick = (kind: Candidate["kind"]) => {
+        const names = new Set<string>();
+        return action.ports.filter((c) => c.kind === kind).map((c) => {
+          const name = freshName(names, VALID_NAME.test(c.name) ? c.name : `${c.node}_${c.port}`.replace(/[^A-Za-z0-9_\-.]/g, "_"));
+          names.add(name);
+          return { name, node: c.node, port: c.port };
+        });
+      };
+      const inputs = pick("input"), outputs = pick("output");
+      // a port renamed keeps the wires of the enclosing graph: they follow the new name
+      const renamed = (before: ExposedPort[], after: ExposedPort[]) => Object.fromEntries(before.flatMap((p) => {
+        const now = after.find((q) => q.node === p.node && q.port === p.port);
+        return now && now.name !== p.name ? [[p.name, now.name]] : [];
+      }));
+      const ins = renamed(inside.inputs, inputs), outs = renamed(inside.outputs, outputs);
+      const outer = inside.outer.present;
+      const mine = new Set(outer.nodes.filter((n) => n.data.type === SUBGRAPH && n.data.params.subgraph === inside.name).map((n) => n.id));
+      const edges = outer.edges.map((e) => {
+        const fe = {
+          source: e.source, sourceHandle: mine.has(e.source) ? outs[e.sourceHandle] ?? e.sourceHandle : e.sourceHandle,
+          target: e.target, targetHandle: mine.has(e.target) ? ins[e.targetHandle] ?? e.targetHandle : e.targetHandle,
+        };
+        return fe.sourceHandle === e.sourceHandle && fe.targetHandle === e.targetHandle ? e : { ...e, ...fe, id: edgeId(fe) };
+      });
+      const next = {
+        ...inside, inputs, outputs, description: action.description ?? inside.description,
+        outer: H.replace(inside.outer, { ...outer, edges }),
+      };
+      return { ...state, meta: { ...state.meta!, inside: next }, dirty: true };
     }
     case "rerouteAdded": {
       if (!graph.edges.some((e) => e.id === action.edge)) return state;

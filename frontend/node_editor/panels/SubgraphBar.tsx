@@ -6,17 +6,20 @@ import { useCallback, useEffect, useMemo, useState } from "react";
 import { api, ApiError } from "../api";
 import { useActions, useEditor } from "../store/EditorStore";
 import {
-  breadcrumb, frameAround, groupCandidates, openDefinition, selectedBlocks, SUBGRAPH, type Candidate, type SubgraphDef,
+  breadcrumb, exposedCandidates, frameAround, groupCandidates, openDefinition, selectedBlocks, SUBGRAPH, type Candidate, type SubgraphDef,
 } from "../subgraphs";
 
 /** Sent on `window` when the library's subgraphs change (the palette lists them again). */
 export const SUBGRAPHS_CHANGED = "nutty:subgraphs-changed";
 
-function GroupDialog({ candidates, onGroup, onCancel }: {
+/** The ports dialog: grouping (a name, wired ports locked on) or editing an open subgraph's ports
+ * (`editing`: its description instead of a name). */
+function GroupDialog({ candidates, onGroup, onCancel, editing }: {
   candidates: Candidate[]; onGroup: (name: string, ports: Candidate[]) => void; onCancel: () => void;
+  editing?: { description: string };
 }) {
-  const [name, setName] = useState("group");
-  const [chosen, setChosen] = useState(() => candidates.map((c) => c.crossing));
+  const [name, setName] = useState(editing ? editing.description : "group");
+  const [chosen, setChosen] = useState(() => candidates.map((c) => c.crossing || !!c.checked));
   const [names, setNames] = useState(() => candidates.map((c) => c.name));
   const row = (c: Candidate, i: number) => (
     <label key={`${c.kind}:${c.node}.${c.port}`} className={`port-choice ${c.crossing ? "wired" : ""}`}>
@@ -33,11 +36,13 @@ function GroupDialog({ candidates, onGroup, onCancel }: {
     <div className="modal-backdrop" onMouseDown={onCancel}>
       <div className="modal group-dialog" role="dialog" aria-label="group into a block" data-testid="group-dialog"
            onMouseDown={(e) => e.stopPropagation()}>
-        <h3>Group into a block</h3>
-        <label className="field"><span className="field-name">Name</span>
+        <h3>{editing ? "Ports of the subgraph" : "Group into a block"}</h3>
+        <label className="field"><span className="field-name">{editing ? "Description" : "Name"}</span>
           <input autoFocus value={name} data-testid="group-name" onChange={(e) => setName(e.target.value)}
                  onKeyDown={(e) => e.key === "Enter" && submit()} /></label>
-        <p className="muted">Ports the new block shows. Wired ports (a wire crosses the selection's edge) are always exposed.</p>
+        <p className="muted">{editing
+          ? "Ports the subgraph's nodes show. Wires to a port no longer exposed are cut; a renamed port keeps its wires."
+          : "Ports the new block shows. Wired ports (a wire crosses the selection's edge) are always exposed."}</p>
         {(["input", "output"] as const).map((kind) => (
           <div key={kind} className="port-list">
             <div className="group-title">{kind === "input" ? "Inputs" : "Outputs"}</div>
@@ -46,7 +51,7 @@ function GroupDialog({ candidates, onGroup, onCancel }: {
         ))}
         <div className="modal-buttons">
           <button onClick={onCancel}>Cancel</button>
-          <button className="primary" data-testid="group-confirm" onClick={submit}>Group</button>
+          <button className="primary" data-testid="group-confirm" onClick={submit}>{editing ? "Apply" : "Group"}</button>
         </div>
       </div>
     </div>
@@ -63,6 +68,7 @@ export function SubgraphBar() {
   const blocks = selectedBlocks(graph);
   const selectedSubgraph = blocks.length === 1 && blocks[0].data.type === SUBGRAPH ? blocks[0] : null;
   const [grouping, setGrouping] = useState<Candidate[] | null>(null);
+  const [editingPorts, setEditingPorts] = useState<Candidate[] | null>(null);
 
   const startGrouping = useCallback(() => {
     const ids = selectedBlocks(graph).map((n) => n.id);
@@ -124,7 +130,13 @@ export function SubgraphBar() {
       <button onClick={startGrouping} disabled={blocks.length < 2} data-testid="group" title="Ctrl+G">Group into a block</button>
       {selectedSubgraph && <button data-testid="open-subgraph" onClick={() => dispatch({ type: "subgraphOpened", node: selectedSubgraph.id })}>Open</button>}
       {toLibrary && <button data-testid="save-subgraph" onClick={saveToLibrary} title="reuse it in other programs">Save '{toLibrary.name}' to library</button>}
+      {meta?.inside && <button data-testid="edit-ports" onClick={() => setEditingPorts(exposedCandidates(graph, meta))}
+                               title="choose the ports the subgraph shows">Ports…</button>}
       <button data-testid="add-comment" onClick={addComment} title="a frame around the selected blocks">Comment</button>
+      {editingPorts && meta?.inside && (
+        <GroupDialog candidates={editingPorts} editing={{ description: meta.inside.description }} onCancel={() => setEditingPorts(null)}
+                     onGroup={(description, ports) => { setEditingPorts(null); dispatch({ type: "exposedEdited", ports, description }); }} />
+      )}
       {grouping && (
         <GroupDialog candidates={grouping} onCancel={() => setGrouping(null)}
                      onGroup={(name, ports) => { setGrouping(null); dispatch({ type: "grouped", name, ports }); }} />
