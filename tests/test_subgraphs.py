@@ -297,3 +297,26 @@ def test_a_hot_swap_keeps_the_state_of_inner_blocks(desk):
         assert session.engine.apu.block("idle/breathe").state == phase
     finally:
         session.engine.close()
+
+
+def test_grouping_a_running_program_keeps_every_block_going(desk):
+    """Hot-swapping the flat program for the grouped one: each grouped block takes over the state of
+    the block it was (`breathe` -> `idle/breathe`), so the robot moves on exactly as if nothing had
+    changed (random generators included)."""
+    a = EngineSession.create(desk, rate=100, program=interactive())
+    b = EngineSession.create(desk, rate=100, program=interactive())
+    try:
+        fa = list(a.run_headless(150))
+        _, kept = a.load_program(grouped())
+        assert set(kept) == {s.node_id for s in a.engine.apu.steps}  # every block, grouped ones included
+        fa += list(a.run_headless(250))
+        fb = list(b.run_headless(400))
+        # the program's own frames are the same; the robot's only through the swap's (blended) transition
+        np.testing.assert_array_equal(np.array([f.program for f in fa]), np.array([f.program for f in fb]))
+        np.testing.assert_allclose(np.array([f.position for f in fa]), np.array([f.position for f in fb]), atol=1e-3)
+        # and back: ungrouped again, the blocks keep going too
+        _, kept = a.load_program(interactive())
+        assert set(IDLE) <= set(kept)
+    finally:
+        a.engine.close()
+        b.engine.close()
