@@ -277,6 +277,9 @@ def test_library_subgraphs_save_list_get_delete(desk, tmp_path):
             assert r.json()["detail"]["report"]["errors"][0]["code"] == "unknown_block_type"
             r = client.put("/api/subgraphs/bad", json={"nodes": "nope"})
             assert r.status_code == 422
+            nested = {"nodes": [{"id": "inner", "type": "subgraph", "params": {"subgraph": "idle"}}]}
+            r = client.put("/api/subgraphs/bad", json=nested)
+            assert r.status_code == 422 and "self-contained" in r.json()["detail"]["report"]["errors"][0]["message"]
             assert client.get("/api/subgraphs").json() == ["idle"]
             assert client.delete("/api/subgraphs/idle").status_code == 200
             assert client.get("/api/subgraphs").json() == []

@@ -259,6 +259,12 @@ def standalone_issues(name: str, definition: Any, embodiment: Any, ctx: Any) -> 
                       for e in exc.errors()]
     doc = {"format": "nutty-program/1", "name": name, "subgraphs": {name: sub.model_dump(mode="json", by_alias=True)},
            "nodes": [{"id": name, "type": SUBGRAPH_TYPE, "params": {SUBGRAPH_PARAM: name}}]}
+    nested = [n.id for n in sub.nodes if n.type == SUBGRAPH_TYPE]
+    if nested:
+        return sub, [Issue(code="unknown_subgraph", node=f"{name}/{nested[0]}", port=SUBGRAPH_PARAM,
+                           path=f"nodes[{[n.id for n in sub.nodes].index(nested[0])}].params.{SUBGRAPH_PARAM}",
+                           message=f"a subgraph in the library is self-contained: it cannot use other subgraphs "
+                                   f"(node '{nested[0]}' does); save the inner one separately")]
     state = run_checks(doc, embodiment, max_level=3, ctx=ctx)
     exposed_in = {(f"{name}/{p.node}", p.port) for p in sub.inputs}
     issues = [i for i in state.errors
