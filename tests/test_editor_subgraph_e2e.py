@@ -122,6 +122,10 @@ def test_group_the_idle_layer_into_a_subgraph(page, server):
 
 
 def test_open_the_subgraph_and_go_back(page, server):
+    page.locator("[data-testid=node-idle] .block-header").click()
+    info = page.get_by_test_id("subgraph-info")
+    info.wait_for()  # the selected subgraph node's ports, in the side panel
+    assert "breathe_amplitude" in info.inner_text() and "eyelid_filter.out" in info.inner_text()
     page.get_by_test_id("open-idle").click()
     page.get_by_test_id("node-breathe").wait_for()
     assert page.get_by_test_id("node-mix").count() == 0
