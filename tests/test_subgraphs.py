@@ -323,3 +323,13 @@ def test_grouping_a_running_program_keeps_every_block_going(desk):
     finally:
         a.engine.close()
         b.engine.close()
+
+
+def test_duplicate_ids_inside_a_definition_point_into_it(desk):
+    doc = grouped()
+    nodes = doc["subgraphs"]["idle"]["nodes"]
+    nodes.append(dict(nodes[0]))
+    [err] = errors(desk, doc)
+    assert err.code == "duplicate_node" and err.node == f"idle/{nodes[0]['id']}"
+    assert err.path == f"subgraphs.idle.nodes[{len(nodes) - 1}].id"
+    assert f"(subgraphs.idle.nodes[0] and subgraphs.idle.nodes[{len(nodes) - 1}])" in err.message
