@@ -189,7 +189,8 @@ def test_comment_and_reroute_survive_save_and_reopen(page, server):
     page.get_by_test_id("save").click()
     wait_until(lambda: "e2e_organise" in server["client"]._call("GET", "/api/programs"), what="the saved program")
     saved = server["client"]._call("GET", "/api/programs/e2e_organise")
-    assert saved["ui"]["reroutes"][0]["edge"] == {"from": {"node": "rest", "port": "out"}, "to": {"node": "output", "port": "in"}}
+    wire = {"from": {"node": "rest", "port": "out"}, "to": {"node": "output", "port": "in"}}
+    assert saved["ui"]["reroutes"][0]["edge"] == wire
     assert saved["ui"]["comments"][0]["title"] == "Comment"
     assert "idle_layer" in saved["subgraphs"]
     page.get_by_role("button", name="New").click()

@@ -177,7 +177,8 @@ def test_nested_subgraphs_flatten_with_paths(desk):
         "nodes": [{"id": "idle", "type": "subgraph", "params": {"subgraph": "idle"}}],
         "inputs": [{"name": "amp", "node": "idle", "port": "breathe_amplitude"},
                    {"name": "gaze", "node": "idle", "port": "blink_gaze"}],
-        "outputs": [{"name": o["name"], "node": "idle", "port": o["name"]} for o in doc["subgraphs"]["idle"]["outputs"]],
+        "outputs": [{"name": o["name"], "node": "idle", "port": o["name"]}
+                    for o in doc["subgraphs"]["idle"]["outputs"]],
     }
     node = next(n for n in doc["nodes"] if n["id"] == "idle")
     node.update(id="life", params={"subgraph": "outer"})
