@@ -1,6 +1,6 @@
 """End-to-end: the editor in headless Chromium against a real `nutty serve`.
 
-Covers: the running program shown live; σ slider of the motion filter changing the running program
+Covers: the running program shown live; New opening a draft that reaches the robot only on Go live; σ slider of the motion filter changing the running program
 without a rebuild; a mixer's `<layer>_weight` port (a port the backend derives from the parameters)
 wired by dragging and then running on the server; adding a sine from the palette and wiring it to the
 output; an invalid connection refused with a reason and an invalid parameter shown on its node;
@@ -191,6 +191,13 @@ def test_add_sine_connect_errors_undo_redo_and_save(page, server):
          page.locator("[data-testid=node-output] .react-flow__handle.target").first)
     page.screenshot(path=str(ARTIFACTS / "editor-after-drag.png"))
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    # New opened a draft: the robot runs its program until Go live
+    assert page.get_by_test_id("mode").inner_text().startswith("draft")
+    assert not any(n["id"] == "sine" for n in server["client"].program()["program"]["nodes"])
+    page.get_by_test_id("go-live").click()
+    page.get_by_test_id("mode").filter(has_text="live").wait_for()
+    wait_until(lambda: any(n["id"] == "sine" for n in server["client"].program()["program"]["nodes"]),
+               what="the program to go live")
     live = page.get_by_test_id("live-sine.out")
     first = live.inner_text()
     page.screenshot(path=str(ARTIFACTS / "editor-wired.png"))

@@ -163,6 +163,8 @@ def test_save_to_library_and_add_it_to_another_program(page, server):
     wait_until(lambda: page.get_by_test_id("node-mix").count() == 0, what="a blank program")
     page.get_by_test_id("add-subgraph-idle_layer").click()
     page.get_by_test_id("node-idle_layer").wait_for()
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    page.get_by_test_id("go-live").click()  # New opened a draft: the robot runs it from Go live on
 
     def added():
         prog = running(server)["program"]

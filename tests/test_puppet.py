@@ -119,3 +119,28 @@ def test_puppet_over_the_control_socket(session):
             assert "outside its limits" in error["message"]
     finally:
         session.engine.close()
+
+
+def test_the_envelope_is_the_mixer_fade_law(desk):
+    """The block's scalar envelope follows blend.advance_fades exactly, through fade-in, the watchdog's
+    fade-out and a fresh stream (it was computed with that array function before it was made scalar)."""
+    from backend.engine.blend import advance_fades
+    from backend.engine.blocks.puppet import Puppet, PuppetParams
+    from backend.engine.blocks.base import BlockContext
+
+    block = Puppet(PuppetParams(timeout=0.2, fade_in=0.3, fade_out=0.45), BlockContext(desk, 100.0), "p")
+    env, silence, live, seen, expected = np.zeros(1), 0.0, False, [], []
+    for k in range(200):
+        if k in (0, 5, 10, 120):  # messages; silence between 10 and 120 trips the watchdog
+            block.handle("set", {"channels": [0], "values": [0.1]})
+            silence, live = 0.0, True
+        out = block.tick(0.01, {})
+        silence += 0.01
+        live = live and silence <= 0.2
+        env = advance_fades(env, np.array([1.0 if live else 0.0]), np.array([0.3 if live else 0.45]), 0.01)
+        e = float(env[0])
+        expected.append(e * e * (3.0 - 2.0 * e))
+        seen.append(out["weight"])
+        assert out["live"] is live
+    assert seen == expected
+    assert 0.0 < max(seen) and seen[100] == 0.0 and seen[135] > 0.0 and seen[-1] == 0.0

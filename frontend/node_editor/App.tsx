@@ -18,14 +18,17 @@ import { Layout } from "./Layout";
 import { liveInside, signalsInside } from "./organise/liveInside";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
 import type { Position } from "./store/state";
+import type { FlowNode } from "./graph";
+
+const NO_NODES: FlowNode[] = [];
 
 /** Telemetry for its children, apart from the store: only what shows live values re-renders with it. */
 function Telemetry({ children }: { children: ReactNode }) {
-  const { history, meta } = useEditor().state;
-  const { nodes } = history.present;
+  const { history, meta, live: isLive } = useEditor().state;
   const { sendCommand } = useActions();
   const path = meta?.inside?.path;  // an open subgraph: its blocks run as `<path>/<id>`
-  const signals = useSignals(nodes);
+  // a draft's nodes are not running: only the live graph subscribes to values
+  const signals = useSignals(isLive ? history.present.nodes : NO_NODES);
   const { live, samples } = useTelemetry(useMemo(() => signalsInside(signals, path), [signals, path]));
   const value = useMemo(() => ({
     ...liveInside(live, path), setLayer: (mixer: string, layer: string, active: boolean) =>
@@ -43,7 +46,8 @@ function Editor() {
   const { state, dispatch } = useEditor();
   const { say, log } = useNotices();
   useBootstrap(say);
-  const editParams = useProgramSync(say);
+  const { editParams, goLive } = useProgramSync(say);
+  const detach = useCallback(() => dispatch({ type: "draftStarted" }), [dispatch]);
   const sendCommand = useControlSocket(log);
   const library = useLibrary(say);
   const { copy, paste } = useClipboard();
@@ -62,8 +66,8 @@ function Editor() {
   }, [dispatch, say]);
 
   const actions: EditorActions = useMemo(() => ({
-    say, log, sendCommand, editParams, setInput, setGhost, addBlock, copy, paste, fitView, ...library,
-  }), [say, log, sendCommand, editParams, setInput, setGhost, addBlock, copy, paste, fitView, library]);
+    say, log, sendCommand, editParams, goLive, detach, setInput, setGhost, addBlock, copy, paste, fitView, ...library,
+  }), [say, log, sendCommand, editParams, goLive, detach, setInput, setGhost, addBlock, copy, paste, fitView, library]);
   useShortcuts(actions);
 
   return (

@@ -1,18 +1,34 @@
-// The top bar: the program's name and status, files, undo/redo, fit.
+// The top bar: the program's name and status, live or draft, files, undo/redo, fit.
 import { useActions, useEditor } from "./store/EditorStore";
 import { statusText } from "./store/state";
 
 export function Toolbar() {
   const { state, dispatch } = useEditor();
-  const { newProgram, open, save, saveAs, importJson, exportJson, fitView } = useActions();
-  const { meta, dirty, report, syncing, library, history } = state;
+  const { newProgram, open, openRunning, save, saveAs, importJson, exportJson, fitView, goLive, detach } = useActions();
+  const { meta, dirty, report, syncing, library, history, live, runningName } = state;
   return (
     <header className="topbar">
       <span className="logo">Nutty</span>
       <input className="prog-name" aria-label="program name" value={meta?.name ?? ""}
              onChange={(e) => dispatch({ type: "renamed", name: e.target.value })} />
       {dirty && <span className="dirty" title="unsaved changes">●</span>}
-      <span className={`status ${report?.valid ? "ok" : "bad"}`} data-testid="status">{statusText(report, syncing)}</span>
+      <span className={`status ${report?.valid ? "ok" : "bad"}`} data-testid="status">{statusText(report, syncing, live)}</span>
+      {live ? (
+        <>
+          <span className="mode live" data-testid="mode" title="edits reach the robot as you make them">● live</span>
+          <button onClick={detach} title="keep editing without moving the robot">Edit as draft</button>
+        </>
+      ) : (
+        <>
+          <span className="mode draft" data-testid="mode"
+                title="edits are validated but do not reach the robot until Go live">
+            draft{runningName ? ` · robot runs '${runningName}'` : ""}
+          </span>
+          <button className="go-live" data-testid="go-live" onClick={() => goLive()} disabled={!report?.valid || syncing}
+                  title="swap this program into the robot (Ctrl+Enter); it moves there smoothly, within its limits">Go live</button>
+          <button onClick={openRunning} title="discard the draft and show what the robot runs">Back to running</button>
+        </>
+      )}
       <span className="spacer" />
       <button onClick={newProgram}>New</button>
       <select aria-label="open program" value="" onChange={(e) => e.target.value && open(e.target.value)}>

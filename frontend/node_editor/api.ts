@@ -21,12 +21,39 @@ export class ApiError extends Error {
   }
 }
 
+const TOKEN_KEY = "nutty.token";
+
+/** The server's access token (`nutty serve --token T`), if this page was given one: from the page's
+ * `?token=` (then dropped from the address bar, so it is not shared with a copied link) or typed in
+ * when the server asked. Kept for this tab's session only. */
+export function accessToken(): string | null {
+  const fromUrl = new URLSearchParams(location.search).get("token");
+  if (fromUrl) {
+    sessionStorage.setItem(TOKEN_KEY, fromUrl);
+    const url = new URL(location.href);
+    url.searchParams.delete("token");
+    history.replaceState(history.state, "", url.toString());
+  }
+  return sessionStorage.getItem(TOKEN_KEY);
+}
+
+export function setAccessToken(token: string): void {
+  sessionStorage.setItem(TOKEN_KEY, token);
+}
+
+/** `url` with the token as `?token=` (WebSockets and pages cannot carry an Authorization header). */
+export function withToken(url: string): string {
+  const token = accessToken();
+  if (!token) return url;
+  return `${url}${url.includes("?") ? "&" : "?"}token=${encodeURIComponent(token)}`;
+}
+
 async function call<T>(method: string, path: string, body?: unknown): Promise<T> {
-  const res = await fetch(path, {
-    method,
-    headers: body === undefined ? undefined : { "Content-Type": "application/json" },
-    body: body === undefined ? undefined : JSON.stringify(body),
-  });
+  const headers: Record<string, string> = {};
+  if (body !== undefined) headers["Content-Type"] = "application/json";
+  const token = accessToken();
+  if (token) headers.Authorization = `Bearer ${token}`;
+  const res = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
   const text = await res.text();
   const data = text ? JSON.parse(text) : null;
   if (!res.ok) throw new ApiError(res.status, data?.detail ?? data);
@@ -56,5 +83,5 @@ export const api = {
 
 export function wsUrl(path: string): string {
   const proto = location.protocol === "https:" ? "wss:" : "ws:";
-  return `${proto}//${location.host}${path}`;
+  return withToken(`${proto}//${location.host}${path}`);
 }

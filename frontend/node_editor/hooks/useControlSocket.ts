@@ -1,7 +1,9 @@
 // The control WebSocket: commands go out on it (over REST while it is not open), and its acks, errors
-// and events become console lines.
+// and events become console lines. It reconnects when the server goes away.
 import { useCallback, useEffect, useRef } from "react";
 import { api, wsUrl, type Command, type ControlMessage } from "../api";
+
+const RECONNECT_MS = 1000;
 
 /** A console line for a message of /ws/control. */
 export function describeControlMessage(m: ControlMessage): string {
@@ -18,10 +20,16 @@ export function describeControlMessage(m: ControlMessage): string {
 export function useControlSocket(log: (line: string) => void): (command: Command) => void {
   const socket = useRef<WebSocket | null>(null);
   useEffect(() => {
-    const ws = new WebSocket(wsUrl("/ws/control"));
-    socket.current = ws;
-    ws.onmessage = (ev) => log(describeControlMessage(JSON.parse(ev.data) as ControlMessage));
-    return () => ws.close();
+    let closed = false;
+    const connect = () => {
+      const ws = new WebSocket(wsUrl("/ws/control"));
+      socket.current = ws;
+      ws.onmessage = (ev) => log(describeControlMessage(JSON.parse(ev.data) as ControlMessage));
+      // a restarted server, or a token typed in after a refusal (4401): connect again
+      ws.onclose = () => { if (!closed) window.setTimeout(connect, RECONNECT_MS); };
+    };
+    connect();
+    return () => { closed = true; socket.current?.close(); };
   }, [log]);
   return useCallback((command: Command) => {
     const ws = socket.current;

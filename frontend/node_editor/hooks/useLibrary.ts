@@ -1,5 +1,6 @@
-// Programs as files: save to and open from the robot's library, start afresh, import and export JSON;
-// and a warning before leaving with unsaved changes.
+// Programs as files: save to and open from the robot's library, start afresh, import and export JSON,
+// go back to what the robot runs; and a warning before leaving with unsaved changes. New, Open and
+// Import open drafts: the robot keeps its program until "Go live" (../hooks/useProgramSync).
 import { useCallback, useEffect, useMemo } from "react";
 import { api, ApiError, type Program } from "../api";
 import { flowToProgram } from "../graph";
@@ -17,6 +18,9 @@ const BLANK_PROGRAM = {
 
 const DISCARD = "Discard unsaved changes?";
 
+/** A library file name from a program's name (letters, digits, _ . -). */
+const fileName = (name: string | null | undefined) => (name ?? "program").replace(/[^A-Za-z0-9_.-]+/g, "_");
+
 export function useLibrary(say: (message: string) => void) {
   const { state, dispatch } = useEditor();
   const { history, meta, libName, dirty } = state;
@@ -24,11 +28,15 @@ export function useLibrary(say: (message: string) => void) {
   const current = useCallback(() => flowToProgram(graph.nodes, graph.edges, meta!), [graph, meta]);
 
   const save = useCallback(async (asName?: string) => {
-    const name = asName ?? libName ?? window.prompt("Save program as", meta?.name?.replace(/[^A-Za-z0-9_.-]+/g, "_") ?? "program");
+    const prompted = asName === undefined && !libName;
+    const name = asName ?? libName ?? window.prompt("Save program as", fileName(meta?.name));
     if (!name) return;
+    // a program saved under a new name is called by that name (its title follows the file)
+    const rename = asName !== undefined || prompted;
     try {
-      await api.saveProgram(name, current());
-      dispatch({ type: "saved", name });
+      const program = current();
+      await api.saveProgram(name, rename ? { ...program, name } : program);
+      dispatch({ type: "saved", name, rename });
       dispatch({ type: "libraryListed", names: await api.list("programs") });
       say(`saved '${name}'`);
     } catch (e) {
@@ -37,9 +45,9 @@ export function useLibrary(say: (message: string) => void) {
   }, [libName, meta, current, dispatch, say]);
 
   const saveAs = useCallback(() => {
-    const name = window.prompt("Save as");
+    const name = window.prompt("Save as", fileName(libName ?? meta?.name));
     if (name) save(name);
-  }, [save]);
+  }, [save, libName, meta]);
 
   const open = useCallback(async (name: string) => {
     if (dirty && !window.confirm(DISCARD)) return;
@@ -55,6 +63,16 @@ export function useLibrary(say: (message: string) => void) {
     dispatch({ type: "programLoaded", program: structuredClone(BLANK_PROGRAM), libName: null });
   }, [dirty, dispatch]);
 
+  const openRunning = useCallback(async () => {
+    if (dirty && !window.confirm(DISCARD)) return;
+    try {
+      const running = await api.program();
+      if (running.program) dispatch({ type: "programLoaded", program: running.program, fromServer: true, report: running.report, libName: null });
+    } catch (e) {
+      say(`cannot read the running program: ${e}`);
+    }
+  }, [dirty, dispatch, say]);
+
   const exportJson = useCallback(() => {
     const blob = new Blob([JSON.stringify(current(), null, 2)], { type: "application/json" });
     const a = document.createElement("a");
@@ -64,6 +82,7 @@ export function useLibrary(say: (message: string) => void) {
   }, [current, meta]);
 
   const importJson = useCallback(async (file: File) => {
+    if (dirty && !window.confirm(DISCARD)) return;
     try {
       const program = JSON.parse(await file.text()) as Program;
       const report = await api.validate(program);
@@ -72,7 +91,7 @@ export function useLibrary(say: (message: string) => void) {
     } catch (e) {
       say(`cannot import: ${e}`);
     }
-  }, [dispatch, say]);
+  }, [dirty, dispatch, say]);
 
   useEffect(() => {
     const warn = (e: BeforeUnloadEvent) => { if (dirty) { e.preventDefault(); e.returnValue = ""; } };
@@ -80,6 +99,6 @@ export function useLibrary(say: (message: string) => void) {
     return () => window.removeEventListener("beforeunload", warn);
   }, [dirty]);
 
-  return useMemo(() => ({ save, saveAs, open, newProgram, exportJson, importJson }),
-    [save, saveAs, open, newProgram, exportJson, importJson]);
+  return useMemo(() => ({ save, saveAs, open, openRunning, newProgram, exportJson, importJson }),
+    [save, saveAs, open, openRunning, newProgram, exportJson, importJson]);
 }

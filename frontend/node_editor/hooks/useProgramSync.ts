@@ -1,8 +1,9 @@
-// Keeps the server's running program in step with the graph: every structural edit is validated and
-// hot-swapped (PUT, shortly after the last edit), a parameter drag is applied live (PATCH, nothing
-// rebuilt), and the server's validation report comes back into the store.
-import { useCallback, useEffect, useRef } from "react";
-import { api, ApiError } from "../api";
+// Keeps the server in step with the graph. Live: every structural edit is validated and hot-swapped
+// (PUT, shortly after the last edit) and a parameter drag is applied live (PATCH, throttled, nothing
+// rebuilt). Draft: edits are only validated (POST /api/program/validate) and the robot keeps its
+// program until "Go live" swaps the draft in (the engine blends the swap within the robot's limits).
+import { useCallback, useEffect, useMemo, useRef } from "react";
+import { api, ApiError, type Program } from "../api";
 import { flowToProgram } from "../graph";
 import { useEditor } from "../store/EditorStore";
 import { structureKey, withParams } from "../store/state";
@@ -10,29 +11,59 @@ import { refreshInputs } from "./useBootstrap";
 
 /** Edits closer together than this (ms) go to the server as one program. */
 const SYNC_DELAY_MS = 90;
+/** A parameter drag sends at most one PATCH per node this often (ms); the last value is always sent. */
+export const PATCH_INTERVAL_MS = 50;
+
+/** Sends `params` of a node at most every PATCH_INTERVAL_MS, always ending with the latest ones. */
+class PatchThrottle {
+  private pending = new Map<string, Record<string, unknown>>();
+  private timers = new Map<string, number>();
+  constructor(private send: (node: string, params: Record<string, unknown>) => Promise<void>) {}
+
+  push(node: string, params: Record<string, unknown>): void {
+    this.pending.set(node, params);
+    if (this.timers.has(node)) return;
+    this.flush(node);
+  }
+
+  private flush(node: string): void {
+    const params = this.pending.get(node);
+    if (!params) { this.timers.delete(node); return; }
+    this.pending.delete(node);
+    this.send(node, params).finally(() => {
+      this.timers.set(node, window.setTimeout(() => this.flush(node), PATCH_INTERVAL_MS));
+    });
+    this.timers.set(node, -1);  // in flight
+  }
+}
 
 export function useProgramSync(say: (message: string) => void) {
   const { state, dispatch } = useEditor();
-  const { history, meta, catalog, report, loaded } = state;
+  const { history, meta, catalog, report, loaded, live } = state;
   const graph = history.present;
-  const synced = useRef("");  // structure key of what the server runs (or has judged)
+  const synced = useRef("");  // structure key of what the server runs (live) or has judged (draft)
+  const program = useCallback((): Program => flowToProgram(graph.nodes, graph.edges, meta!), [graph, meta]);
 
   useEffect(() => {
-    if (loaded.fromServer) synced.current = structureKey(graph, meta);
+    synced.current = loaded.fromServer ? structureKey(graph, meta) : "";
     // only when a program arrives: the graph and meta are the loaded ones then
   }, [loaded]);
 
   useEffect(() => {
     if (!meta) return;
-    const key = structureKey(graph, meta);
+    const key = (live ? "live:" : "draft:") + structureKey(graph, meta);
     if (key === synced.current) return;
     const timer = window.setTimeout(async () => {
       dispatch({ type: "syncing", on: true });
       try {
-        const res = await api.putProgram(flowToProgram(graph.nodes, graph.edges, meta));
+        if (live) {
+          const res = await api.putProgram(program());
+          dispatch({ type: "reportReceived", report: res.report });
+          refreshInputs(dispatch);
+        } else {
+          dispatch({ type: "reportReceived", report: await api.validate(program()) });
+        }
         synced.current = key;
-        dispatch({ type: "reportReceived", report: res.report });
-        refreshInputs(dispatch);
       } catch (e) {
         // the report now describes this graph (the robot keeps the last valid program)
         if (e instanceof ApiError && e.detail?.report) {
@@ -44,23 +75,56 @@ export function useProgramSync(say: (message: string) => void) {
       }
     }, SYNC_DELAY_MS);
     return () => window.clearTimeout(timer);
-  }, [graph, meta, dispatch, say]);
+  }, [graph, meta, live, program, dispatch, say]);
 
-  /** Change a node's parameters; `live` (a slider drag) patches the running program when its ports stay. */
-  return useCallback(async (id: string, params: Record<string, unknown>, live: boolean) => {
-    const next = withParams(graph, catalog, id, params);
-    if (!next) return;
-    dispatch({ type: "paramsEdited", node: id, params, at: performance.now() });
-    // Inside an open subgraph the definition is shared by every node using it: the hot swap (a
-    // parameter-only one on the server, nothing rebuilt) changes them all, a PATCH would change one.
-    if (!live || next.structural || !report?.valid || meta?.inside) return;
-    // The patch brings the server to this graph: no hot swap for it (set now, before the sync effect runs).
-    synced.current = structureKey(next.graph, meta);
+  const throttle = useMemo(() => new PatchThrottle(async (node, params) => {
     try {
-      await api.patchParams(id, next.params);  // applied at the next tick, nothing rebuilt
+      await api.patchParams(node, params);  // applied at the next tick, nothing rebuilt
     } catch (e) {
       if (e instanceof ApiError && e.detail?.report) dispatch({ type: "reportReceived", report: { ...e.detail.report, valid: false } });
       else say(String(e));
     }
-  }, [graph, catalog, report, meta, dispatch, say]);
+  }), [dispatch, say]);
+
+  /** Change a node's parameters (a drag's steps and its release alike). Live, a change that keeps the
+   * node's ports is a throttled PATCH: the server is then at this graph with no hot swap. One that
+   * changes ports, or returns a parameter to its default (a PATCH merges, it cannot unset), is
+   * structural and goes as a PUT with the next sync. */
+  const editParams = useCallback((id: string, params: Record<string, unknown>) => {
+    const before = graph.nodes.find((n) => n.id === id)?.data.params ?? {};
+    const next = withParams(graph, catalog, id, params);
+    if (!next) return;
+    dispatch({ type: "paramsEdited", node: id, params, at: performance.now() });
+    const unset = Object.keys(before).some((k) => !(k in next.params));
+    // Inside an open subgraph the definition is shared by every node using it: the hot swap (a
+    // parameter-only one on the server, nothing rebuilt) changes them all, a PATCH would change one.
+    if (!live || next.structural || unset || !report?.valid || meta?.inside) return;
+    synced.current = "live:" + structureKey(next.graph, meta);  // before the sync effect runs
+    throttle.push(id, next.params);
+  }, [graph, catalog, report, meta, live, throttle, dispatch]);
+
+  /** Swap the draft into the robot; false (and the reasons on the nodes) when the server refuses it. */
+  const goLive = useCallback(async (): Promise<boolean> => {
+    if (!meta) return false;
+    if (live) return true;  // already the robot's program
+    dispatch({ type: "syncing", on: true });
+    try {
+      const res = await api.putProgram(program());
+      synced.current = "live:" + structureKey(graph, meta);
+      dispatch({ type: "wentLive", report: res.report });
+      refreshInputs(dispatch);
+      say(`'${meta.name}' is live`);
+      return true;
+    } catch (e) {
+      if (e instanceof ApiError && e.detail?.report) {
+        dispatch({ type: "reportReceived", report: e.detail.report });
+        say(`not live: ${e.detail.report.errors.length} error(s), shown on the nodes; the robot keeps its program`);
+      } else say(`not live: ${e}`);
+      return false;
+    } finally {
+      dispatch({ type: "syncing", on: false });
+    }
+  }, [meta, live, graph, program, dispatch, say]);
+
+  return { editParams, goLive };
 }

@@ -1,10 +1,10 @@
-// Keyboard shortcuts (not while typing in a field): undo/redo, copy/paste, save, fit the view.
+// Keyboard shortcuts (not while typing in a field): undo/redo, copy/paste, save, go live, fit the view.
 import { useEffect } from "react";
 import { useEditor, type EditorActions } from "../store/EditorStore";
 
 const TYPING = ["INPUT", "TEXTAREA", "SELECT"];
 
-export function useShortcuts({ copy, paste, save, fitView }: Pick<EditorActions, "copy" | "paste" | "save" | "fitView">): void {
+export function useShortcuts({ copy, paste, save, fitView, goLive }: Pick<EditorActions, "copy" | "paste" | "save" | "fitView" | "goLive">): void {
   const { dispatch } = useEditor();
   useEffect(() => {
     const onKey = (e: KeyboardEvent) => {
@@ -17,9 +17,10 @@ export function useShortcuts({ copy, paste, save, fitView }: Pick<EditorActions,
       else if (mod && key === "c") copy();
       else if (mod && key === "v") paste();
       else if (mod && key === "s") { e.preventDefault(); save(); }
+      else if (mod && e.key === "Enter") { e.preventDefault(); goLive(); }
       else if (e.key === "f" && !mod) fitView();
     };
     window.addEventListener("keydown", onKey);
     return () => window.removeEventListener("keydown", onKey);
-  }, [dispatch, copy, paste, save, fitView]);
+  }, [dispatch, copy, paste, save, fitView, goLive]);
 }

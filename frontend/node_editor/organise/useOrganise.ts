@@ -2,15 +2,17 @@
 // reroute point where a wire is double-clicked.
 import { useReactFlow } from "@xyflow/react";
 import { useCallback, useMemo } from "react";
-import { useActions, useEditor } from "../store/EditorStore";
+import { useEditor } from "../store/EditorStore";
 import type { Organise } from "./context";
 
 export function useOrganise() {
   const { dispatch } = useEditor();
-  const { editParams } = useActions();
   const flow = useReactFlow();
   const openSubgraph = useCallback((node: string) => dispatch({ type: "subgraphOpened", node }), [dispatch]);
-  const editComment = useCallback((node: string, params: Record<string, unknown>) => editParams(node, params, false), [editParams]);
+  // a comment is no block: its title and colour are an edit of the graph (synced with the program's ui),
+  // never a live parameter change of the server
+  const editComment = useCallback((node: string, params: Record<string, unknown>) =>
+    dispatch({ type: "paramsEdited", node, params, at: performance.now() }), [dispatch]);
   const context: Organise = useMemo(() => ({ openSubgraph, editComment }), [openSubgraph, editComment]);
   const onEdgeDoubleClick = useCallback((event: React.MouseEvent, edge: { id: string }) => {
     event.stopPropagation();

@@ -1,10 +1,11 @@
 // The 3D Pre-Viz (the server's viser page) with its ghost toggle (the stage-1 pose).
+import { withToken } from "../api";
 import { useActions, useEditor } from "../store/EditorStore";
 
 export function PrevizPanel() {
   const { previz } = useEditor().state;
   const { setGhost } = useActions();
-  const url = previz?.url ?? null;
+  const url = previz?.url ? withToken(previz.url) : null;
   return (
     <>
       <div className="previz-head">

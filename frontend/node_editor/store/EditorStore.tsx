@@ -27,7 +27,12 @@ export interface EditorActions {
   say: (message: string) => void;
   log: (line: string) => void;
   sendCommand: (command: Command) => void;
-  editParams: (node: string, params: Record<string, unknown>, live: boolean) => void;
+  /** New parameters of a node (a drag step or a committed value; `live` is kept for callers, unused). */
+  editParams: (node: string, params: Record<string, unknown>, live?: boolean) => void;
+  /** Swap the draft into the robot (false when the server refuses it). */
+  goLive: () => Promise<boolean>;
+  /** Keep editing the running program as a draft: edits no longer reach the robot. */
+  detach: () => void;
   setInput: (name: string, value: unknown) => void;
   setGhost: (visible: boolean) => void;
   addBlock: (type: string, position?: Position) => void;
@@ -37,6 +42,8 @@ export interface EditorActions {
   save: (asName?: string) => void;
   saveAs: () => void;
   open: (name: string) => void;
+  /** Back to the program the robot runs (discarding the draft). */
+  openRunning: () => void;
   newProgram: () => void;
   importJson: (file: File) => void;
   exportJson: () => void;

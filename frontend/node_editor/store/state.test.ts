@@ -161,3 +161,27 @@ describe("telemetry", () => {
     expect(samples.final.a.at(-1)).toBe(99);
   });
 });
+
+describe("drafts", () => {
+  const report = { valid: true, level: 2, errors: [], warnings: [] } as unknown as ValidationReport;
+  it("the running program is live; a program opened or imported is a draft until it goes live", () => {
+    const s = loaded();
+    expect(s.live).toBe(true);
+    expect(s.runningName).toBe("p");
+    const draft = reducer(s, { type: "programLoaded", program: { ...program, name: "other" }, libName: "other" });
+    expect(draft.live).toBe(false);
+    expect(draft.runningName).toBe("p");  // the robot still runs p
+    expect(statusText({ ...report, valid: false, errors: [{ message: "x" }] } as any, false, false)).toContain("to go live");
+    const live = reducer(draft, { type: "wentLive", report });
+    expect(live.live).toBe(true);
+    expect(live.runningName).toBe("other");
+    expect(live.report).toBe(report);
+    expect(reducer(live, { type: "draftStarted" }).live).toBe(false);
+  });
+  it("saving under a new name names the program after it; a plain save keeps the name", () => {
+    const s = reducer(loaded(), { type: "saved", name: "calm_idle", rename: true });
+    expect(s.meta?.name).toBe("calm_idle");
+    expect(s.libName).toBe("calm_idle");
+    expect(reducer(loaded(), { type: "saved", name: "file" }).meta?.name).toBe("p");
+  });
+});

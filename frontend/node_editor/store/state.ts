@@ -35,6 +35,11 @@ export interface EditorState {
   loaded: { count: number; fromServer: boolean };
   /** The last parameter edit: edits of one node in quick succession are one undo step. */
   lastParamEdit: { node: string; at: number } | null;
+  /** Live: the graph is the robot's running program and edits reach it. Draft: edits are only validated
+   * until "Go live" swaps the graph in (New, Open and Import open drafts). */
+  live: boolean;
+  /** Name of the program the robot runs (shown while a draft is edited). */
+  runningName: string | null;
 }
 
 export type Action =
@@ -51,7 +56,9 @@ export type Action =
   | { type: "renamed"; name: string }
   | { type: "syncing"; on: boolean }
   | { type: "reportReceived"; report: ValidationReport | null }
-  | { type: "saved"; name: string }
+  | { type: "saved"; name: string; rename?: boolean }
+  | { type: "wentLive"; report: ValidationReport }
+  | { type: "draftStarted" }
   | { type: "libraryListed"; names: string[] }
   | { type: "clipsListed"; names: string[] }
   | { type: "inputsLoaded"; decls: ExposedInput[]; values: Record<string, unknown> }
@@ -70,6 +77,7 @@ export const initialState: EditorState = {
   catalog: {}, robot: null, previz: null, meta: null, history: H.init({ nodes: [], edges: [] }), report: null,
   syncing: false, dirty: false, libName: null, library: [], clips: [], inputs: { decls: [], values: {} },
   toast: null, consoleLines: [], loaded: { count: 0, fromServer: false }, lastParamEdit: null,
+  live: false, runningName: null,
 };
 
 /** The program's structure (no positions): what the server must have; equal keys need no sync. */
@@ -112,12 +120,12 @@ export function errorsByNode(report: ValidationReport | null, inside?: string): 
   return out;
 }
 
-export function statusText(report: ValidationReport | null, syncing: boolean): string {
+export function statusText(report: ValidationReport | null, syncing: boolean, live = true): string {
   if (syncing) return "syncing…";
   if (!report) return "…";
-  return report.valid
-    ? `valid · level ${report.level}${report.warnings.length ? ` · ${report.warnings.length} warning(s)` : ""}`
-    : `${report.errors.length} error(s) — the robot keeps the last valid program`;
+  if (!report.valid) return live ? `${report.errors.length} error(s) — the robot keeps the last valid program`
+    : `${report.errors.length} error(s) — fix them to go live`;
+  return `valid · level ${report.level}${report.warnings.length ? ` · ${report.warnings.length} warning(s)` : ""}`;
 }
 
 const deselected = (nodes: FlowNode[]) => nodes.map((n) => ({ ...n, selected: false }));
@@ -166,6 +174,7 @@ export function reducer(state: EditorState, action: Action): EditorState {
         libName: action.libName === undefined ? state.libName : action.libName,
         report: action.report === undefined ? state.report : action.report,
         loaded: { count: state.loaded.count + 1, fromServer: action.fromServer ?? false },
+        live: action.fromServer ?? false, runningName: action.fromServer ? meta.name ?? null : state.runningName,
       };
     }
     case "nodesChanged": {
@@ -209,7 +218,14 @@ export function reducer(state: EditorState, action: Action): EditorState {
     case "reportReceived":
       return { ...state, report: action.report };
     case "saved":
-      return { ...state, libName: action.name, dirty: false };
+      return {
+        ...state, libName: action.name, dirty: false,
+        meta: action.rename && state.meta ? { ...state.meta, name: action.name } : state.meta,
+      };
+    case "wentLive":
+      return { ...state, live: true, report: action.report, runningName: state.meta?.name ?? null };
+    case "draftStarted":
+      return { ...state, live: false };
     case "libraryListed":
       return { ...state, library: action.names };
     case "clipsListed":
