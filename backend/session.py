@@ -22,6 +22,7 @@ from backend.engine.library import RobotLibrary
 from backend.engine.runtime import Engine
 from backend.graph.compiler import Issue, ValidationReport, compile_program
 from backend.graph.schema import Program
+from backend.graph.subgraphs import inner_definition_node
 
 
 class SessionError(ValueError):
@@ -48,7 +49,8 @@ class EngineSession:
         self.embodiment: Embodiment = engine.embodiment
         self.library = library or RobotLibrary(_robot_folder(engine.embodiment), engine.embodiment)
         engine.ctx.resources = self.library
-        self.program: Program | None = None
+        self.program: Program | None = None  # the running document (with its subgraphs, if any)
+        self.flat: Program | None = None  # the running program with subgraphs flattened: the APU's node ids
         self.report: ValidationReport | None = None
         self.notes: list[dict[str, Any]] = []
         self._lock = threading.RLock()  # serialises program changes from concurrent requests
@@ -95,6 +97,13 @@ class EngineSession:
         return compile_program(source, self.embodiment, max_level=self.engine.max_level,
                                ctx=self._scratch_ctx(), rate=self.engine.rate).report
 
+    def validate_subgraph(self, name: str, doc: Any) -> ValidationReport:
+        """Check a standalone subgraph definition (a library entry) against this robot."""
+        from backend.graph.subgraphs import standalone_issues
+
+        _, issues = standalone_issues(name, doc, self.embodiment, self._scratch_ctx())
+        return ValidationReport(valid=not issues, errors=issues)
+
     def _scratch_ctx(self):
         from backend.engine.blocks.base import BlockContext
 
@@ -134,24 +143,27 @@ class EngineSession:
                             pass
                     live[name] = inp.coerce(inp.default)
 
-            if self._same_structure(result.program):
+            if self._same_structure(result.flat):
                 # Parameter-only change: keep the running APU and every block, update parameters live.
-                changed = self._changed_params(result.program, result.params)
+                changed = self._changed_params(result.flat, result.params)
 
                 def apply_params() -> list[str]:
                     for node_id, params in changed.items():
                         self.engine.apu.block(node_id).update_params(params)
                     install_inputs()
+                    self.engine.apu.source = result.program  # its editor data and subgraphs as sent
                     return [st.node_id for st in self.engine.apu.steps]
 
                 kept = self.engine.call(apply_params)
                 self.program = result.program
+                self.flat = result.flat
                 self.report = result.report
                 return result.report, list(kept)
 
             # One tick boundary for the swap and the inputs, so no tick runs the new program without them.
             kept = self.engine.load(apu, also=install_inputs)
             self.program = result.program
+            self.flat = result.flat
             self.report = result.report
             return result.report, list(kept)  # type: ignore[arg-type]
 
@@ -182,7 +194,7 @@ class EngineSession:
 
     def _same_structure(self, program: Program | None) -> bool:
         """Whether `program` differs from the running one in parameters (and editor data) only."""
-        cur = self.program
+        cur = self.flat
         if cur is None or program is None or self.engine.apu is None:
             return False
         if [(n.id, n.type) for n in cur.nodes] != [(n.id, n.type) for n in program.nodes]:
@@ -205,7 +217,7 @@ class EngineSession:
         return True
 
     def _changed_params(self, program: Program, params: dict[str, Any]) -> dict[str, Any]:
-        cur = self.program
+        cur = self.flat
         assert cur is not None  # guarded by _same_structure; typing aid only
         return {n.id: params[n.id] for n in program.nodes
                 if (old := cur.node(n.id)) is not None and old.params != n.params}
@@ -217,9 +229,9 @@ class EngineSession:
         the block's model and applied at a tick boundary. Raises SessionError naming the field.
         """
         with self._lock:
-            if self.program is None or self.engine.apu is None:
+            if self.program is None or self.flat is None or self.engine.apu is None:
                 raise SessionError("no program is running", code="no_program")
-            node = self.program.node(node_id)
+            node = self.flat.node(node_id)
             if node is None:
                 raise SessionError(f"the running program has no node '{node_id}'", code="unknown_node")
             cls = BLOCKS[node.type]
@@ -236,11 +248,11 @@ class EngineSession:
                                    code=code) from exc
             if cls.ports(p) != cls.ports(cls.Params.model_validate(node.params)):
                 # Ports changed (e.g. a layer added): that is a structural edit, so swap the program.
-                doc = self.program.to_json_dict()
-                for n in doc["nodes"]:
-                    if n["id"] == node_id:
-                        n["params"] = p.model_dump(mode="json")
-                self.load_program(doc)
+                doc = self.program.model_copy(deep=True)
+                written = inner_definition_node(doc, node_id)  # the node as written (in a subgraph: its definition)
+                if written is not None:
+                    written.params = p.model_dump(mode="json")
+                self.load_program(doc.to_json_dict())
                 return p.model_dump(mode="json")
             try:
                 cls(p, self._scratch_ctx(), node_id)  # dry run: configure() errors surface here
@@ -250,6 +262,8 @@ class EngineSession:
             block = self.engine.apu.block(node_id)
             self.engine.call(lambda: block.update_params(p))
             node.params = merged  # as the author wrote them: defaults stay implicit
+            if "/" not in node_id and (written := self.program.node(node_id)) is not None and written is not node:
+                written.params = merged
             return node.params
 
     # --- inputs -------------------------------------------------------------------------------------

@@ -119,16 +119,35 @@ class APU:
         self.cook.record()
 
     def adopt_state_from(self, old: "APU") -> list[str]:
-        """Blocks whose id and type survive keep their state. Returns the ids that kept it."""
+        """Blocks whose id and type survive keep their state. Returns the ids that kept it.
+
+        A block moved into or out of a subgraph changes only the path of its id (`breathe` grouped
+        into `idle` runs as `idle/breathe`): a block whose id is new takes the state of the one old
+        block of its type whose id is gone and ends with the same name, when there is exactly one.
+        """
         kept = []
+        unmatched = []
         for step in self.steps:
             j = old.index.get(step.node_id)
             if j is None:
+                unmatched.append(step)
                 continue
             prev = old.steps[j].block
             if type(prev) is type(step.block):
                 step.block.adopt_state(prev)
                 kept.append(step.node_id)
+        if unmatched:
+            gone: dict[tuple[str, type], list[Any]] = {}
+            for st in old.steps:
+                if st.node_id not in self.index:
+                    gone.setdefault((st.node_id.rsplit("/", 1)[-1], type(st.block)), []).append(st.block)
+            wanted: dict[tuple[str, type], list[Step]] = {}
+            for step in unmatched:
+                wanted.setdefault((step.node_id.rsplit("/", 1)[-1], type(step.block)), []).append(step)
+            for key, steps in wanted.items():
+                if len(steps) == 1 and len(gone.get(key, [])) == 1:
+                    steps[0].block.adopt_state(gone[key][0])
+                    kept.append(steps[0].node_id)
         self._stage1_held = old._stage1_held.copy() if old._stage1_held.shape == self._stage1_held.shape else self._stage1_held
         return kept
 

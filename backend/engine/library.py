@@ -24,7 +24,7 @@ from typing import Any, Callable, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-KINDS = ("clips", "postures", "programs")
+KINDS = ("clips", "postures", "programs", "subgraphs")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-\.]{0,79}$")
 POSTURE_FORMAT = "nutty-posture/1"
 
@@ -120,6 +120,20 @@ def validate_program_doc(doc: Any) -> dict[str, Any]:
     return doc
 
 
+def validate_subgraph_doc(doc: Any) -> dict[str, Any]:
+    """A standalone subgraph definition (what `Program.subgraphs` holds by name); the API also checks
+    its blocks and wiring against the robot."""
+    from backend.graph.schema import Subgraph
+
+    if not isinstance(doc, dict):
+        raise LibraryError("invalid subgraph: a subgraph is a JSON object")
+    try:
+        Subgraph.model_validate(doc)
+    except ValidationError as exc:
+        raise LibraryError(f"invalid subgraph: {_first_error(exc)}") from exc
+    return doc
+
+
 class RobotLibrary:
     """Clips, postures and programs of one robot folder. Thread-safe for concurrent API requests.
 
@@ -203,6 +217,8 @@ class RobotLibrary:
             return validate_posture_doc(doc, self.embodiment, name)
         if kind == "programs":
             doc = validate_program_doc(doc)
+        if kind == "subgraphs":
+            doc = validate_subgraph_doc(doc)
         validate = self.validators.get(kind)
         if validate is None and kind == "clips":
             from backend.engine.clips import validate_clip_doc  # registers itself; import for the check

@@ -38,8 +38,9 @@ __all__ = ["ERROR_CODES", "WARNING_CODES", "CompileResult", "Issue", "Plan", "Pr
 class CompileResult:
     report: ValidationReport
     apu: APU | None = None
-    program: Program | None = None
-    params: dict[str, BlockParams] = field(default_factory=dict)
+    program: Program | None = None  # the document (with its subgraphs, if any)
+    params: dict[str, BlockParams] = field(default_factory=dict)  # by flat node id
+    flat: Program | None = None  # the document with its subgraphs flattened: the APU's nodes (ids `idle/breathe`)
 
     @property
     def ok(self) -> bool:
@@ -85,9 +86,10 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
     ctx = ctx or BlockContext(embodiment=embodiment, rate=rate)
     state, report, plan = _check(source, embodiment, max_level, ctx, rate)
     if plan is None:
-        return CompileResult(report, program=state.program)
-    params = {node.id: plan.params[node.id] for node in plan.program.nodes}
-    return CompileResult(report, apu=plan.instantiate(embodiment, ctx), program=plan.program, params=params)
+        return CompileResult(report, program=state.document, flat=state.program)
+    params = {node.id: plan.params[node.id] for node in (plan.flat or plan.program).nodes}
+    return CompileResult(report, apu=plan.instantiate(embodiment, ctx), program=plan.program, params=params,
+                         flat=plan.flat)
 
 
 def compile_or_raise(source: Any, embodiment: Embodiment, **kw: Any) -> CompileResult:

@@ -32,6 +32,10 @@ ERROR_CODES: dict[str, str] = {
     "unknown_exposed_input": "an `input` node reads an exposed input the program does not declare",
     "duplicate_input": "two exposed inputs share a name",
     "invalid_input": "an exposed input's declaration is inconsistent (range, default)",
+    "unknown_subgraph": "a `subgraph` node names a subgraph the program does not define",
+    "subgraph_cycle": "a subgraph contains itself (directly or through other subgraphs)",
+    "unknown_exposed_port": "a subgraph exposes a port of a node it does not have, or an edge uses a port a "
+                            "subgraph node does not expose",
 }
 WARNING_CODES: dict[str, str] = {
     "unconnected_node": "a node does not feed the output",

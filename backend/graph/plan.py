@@ -40,6 +40,9 @@ class Plan:
     stage1_tap: tuple[int, str] | None  # (step, port) of the frame entering stage 2
     # The blocks the checks built (fresh, never ticked) and the context they were built in: the first
     # APU instantiated in that context takes them over (building a block twice doubled compile time).
+    # The program the steps were planned from: `program` with its subgraphs flattened (the same
+    # document when it uses none); its node ids are the APU's.
+    flat: Program | None = field(default=None, compare=False)
     _probes: dict = field(default_factory=dict, compare=False, repr=False)
     _probe_ctx: BlockContext | None = field(default=None, compare=False, repr=False)
 
@@ -87,7 +90,7 @@ class Plan:
             assert block is not None  # every node of a valid program has a known type
             steps.append(PlannedStep(n, block, state.params[n], wires))
         out = index[state.outputs[0]]
-        return cls(program=state.program, robot=state.embodiment.name, steps=tuple(steps), output=out,
+        return cls(program=state.document or state.program, flat=state.program, robot=state.embodiment.name, steps=tuple(steps), output=out,
                    level=state.level or 0, stage1_tap=stage1_tap(steps, out), _probes=dict(state.probes),
                    _probe_ctx=state.ctx)
 

@@ -14,7 +14,8 @@ from typing import Any
 
 from backend.engine.apu import APU
 from backend.engine.blocks import BLOCKS
-from backend.graph.schema import Edge, Endpoint, Node, Program
+from backend.graph.schema import SUBGRAPH_TYPE, Edge, Endpoint, Node, Program
+from backend.graph.subgraphs import flatten, uses_subgraphs
 
 
 class RoundTripError(ValueError):
@@ -34,11 +35,40 @@ def _live_params(node: Node, block: Any) -> dict[str, Any]:
     return block.params.model_dump(mode="json", exclude_unset=True)
 
 
+def _with_subgraphs(apu: APU, source: Program) -> Program:
+    """The document of a program that uses subgraphs: top-level nodes with their live parameters, and
+    each definition's inner nodes with the live parameters of their blocks when every instance of the
+    definition agrees (a definition is shared; one instance's tweak alone cannot be written back)."""
+    flat = flatten(source, list(range(len(source.nodes))), list(range(len(source.edges))), [])
+    nodes = []
+    for node in source.nodes:
+        block = apu.block(node.id) if node.id in apu.index and node.type != SUBGRAPH_TYPE else None
+        nodes.append(node.model_copy(update={"params": _live_params(node, block), "ui": dict(node.ui)}, deep=True))
+    blocks: dict[tuple[str, str], list[Any]] = {}
+    for fid, (name, inner) in flat.inner_of.items():
+        if fid in apu.index:
+            blocks.setdefault((name, inner), []).append(apu.block(fid))
+    subgraphs = {}
+    for name, sub in (source.subgraphs or {}).items():
+        inner_nodes = []
+        for node in sub.nodes:
+            found = blocks.get((name, node.id), [])
+            live = [_live_params(node, b) for b in found]
+            params = live[0] if live and all(p == live[0] for p in live) else dict(node.params)
+            inner_nodes.append(node.model_copy(update={"params": params}, deep=True))
+        subgraphs[name] = sub.model_copy(update={"nodes": inner_nodes}, deep=True)
+    return source.model_copy(update={"nodes": nodes, "subgraphs": subgraphs,
+                                     "edges": [e.model_copy(deep=True) for e in source.edges],
+                                     "inputs": [i.model_copy(deep=True) for i in source.inputs]}, deep=True)
+
+
 def apu_to_program(apu: APU) -> Program:
     """The program document of a compiled (possibly running and live-tuned) APU."""
     source = apu.source
     if not isinstance(source, Program):
         raise RoundTripError("this APU has no source program to rebuild")
+    if uses_subgraphs(source):
+        return _with_subgraphs(apu, source)
     nodes = []
     for node in source.nodes:
         block = apu.block(node.id) if node.id in apu.index else None

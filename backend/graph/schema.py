@@ -17,6 +17,9 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 FORMAT = "nutty-program/1"
 ID_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-\.]{0,63}$"
+# Node ids may also contain '/': the ids of blocks inside subgraphs (`idle/breathe`), which a program
+# written flat can spell out; a subgraph node's own id and its inner ids are plain ID_PATTERN names.
+NODE_ID_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-\.]{0,63}(/[A-Za-z_][A-Za-z0-9_\-\.]{0,63}){0,7}$"
 SignalType = Literal["float", "int", "bool", "string", "vec3", "colour", "event"]
 
 
@@ -44,7 +47,8 @@ class Edge(_Strict):
 class Node(_Strict):
     """A block instance: its id, block type, parameters by name, and editor-only data."""
 
-    id: str = Field(..., pattern=ID_PATTERN, description="unique within the program")
+    id: str = Field(..., pattern=NODE_ID_PATTERN, description="unique within the program ('/' is for the "
+                                                             "blocks of subgraphs: `idle/breathe`)")
     type: str = Field(..., min_length=1, description="block type name (see GET /api/blocks)")
     params: dict[str, Any] = Field(default_factory=dict, description="parameters by name; omitted = default")
     ui: dict[str, Any] = Field(default_factory=dict, description="editor data (x, y, colour, collapsed, …)")
@@ -124,6 +128,40 @@ def coerce_signal(name: str, kind: str, value: Any, lo: float | None = None, hi:
     raise ValueError(f"input '{name}': unknown type '{kind}'")
 
 
+class ExposedPort(_Strict):
+    """A port of a subgraph: an inner node's port, shown on the subgraph's node under `name`."""
+
+    name: str = Field(..., pattern=ID_PATTERN, description="the port's name on the subgraph node")
+    node: str = Field(..., min_length=1, description="the inner node whose port this is")
+    port: str = Field(..., min_length=1, description="the inner node's port")
+
+
+SUBGRAPH_TYPE = "subgraph"  # the `type` of a node that uses a subgraph (`params.subgraph` names it)
+SUBGRAPH_PARAM = "subgraph"
+
+
+class Subgraph(_Strict):
+    """A reusable group of blocks (like a Blender node group): inner nodes and edges, and which inner
+    ports the group exposes. A node `{"type": "subgraph", "params": {"subgraph": NAME}}` uses it; its
+    inner nodes run as `<that node's id>/<inner id>`."""
+
+    description: str = ""
+    nodes: list[Node] = Field(default_factory=list)
+    edges: list[Edge] = Field(default_factory=list)
+    inputs: list[ExposedPort] = Field(default_factory=list, description="exposed inner input ports")
+    outputs: list[ExposedPort] = Field(default_factory=list, description="exposed inner output ports")
+    ui: dict[str, Any] = Field(default_factory=dict, description="editor view data of the inside")
+
+    @model_validator(mode="after")
+    def _unique_ports(self) -> "Subgraph":
+        for kind, ports in (("input", self.inputs), ("output", self.outputs)):
+            names = [p.name for p in ports]
+            dup = sorted({n for n in names if names.count(n) > 1})
+            if dup:
+                raise ValueError(f"exposed {kind} name(s) {dup} used more than once")
+        return self
+
+
 class Program(_Strict):
     """An Animation Program document."""
 
@@ -136,7 +174,19 @@ class Program(_Strict):
     inputs: list[ExposedInput] = Field(default_factory=list, description="exposed inputs")
     nodes: list[Node] = Field(default_factory=list)
     edges: list[Edge] = Field(default_factory=list)
-    ui: dict[str, Any] = Field(default_factory=dict, description="editor view data (viewport, …)")
+    subgraphs: dict[str, Subgraph] | None = Field(
+        None, description="subgraph definitions by name, used by nodes of type 'subgraph'")
+    ui: dict[str, Any] = Field(default_factory=dict, description="editor view data (viewport, comments, reroutes, …)")
+
+    @field_validator("subgraphs")
+    @classmethod
+    def _subgraph_names(cls, v: dict[str, Subgraph] | None) -> dict[str, Subgraph] | None:
+        import re
+
+        for name in v or {}:
+            if not re.match(ID_PATTERN, name):
+                raise ValueError(f"subgraph name '{name}' must be a letter or _ then letters, digits, _ - .")
+        return v
 
     @field_validator("format")
     @classmethod

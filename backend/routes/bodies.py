@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, RootModel, SkipValidation
 from backend import control
 from backend.engine.clips import Clip
 from backend.engine.library import Posture
-from backend.graph.schema import Program
+from backend.graph.schema import Program, Subgraph
 
 
 class InputValue(BaseModel):
@@ -52,5 +52,6 @@ CommandDoc = SkipValidation[CommandBody]
 ProgramDoc = SkipValidation[Program]
 ClipDoc = SkipValidation[Clip]
 PostureDoc = SkipValidation[Posture]
+SubgraphDoc = SkipValidation[Subgraph]
 ParamValues = SkipValidation[dict[str, Any]]
 ToolArguments = SkipValidation[dict[str, Any]]  # checked by the tool (its enums) and its command's model

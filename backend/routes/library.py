@@ -1,4 +1,4 @@
-"""The robot's library on disk: programs, clips and postures (list, read, save validated, delete).
+"""The robot's library on disk: programs, clips, postures and subgraphs (list, read, save validated, delete).
 
 (No `from __future__ import annotations` here: `add_kind` annotates its routes' bodies with a type
 chosen per kind, which FastAPI must see as the type itself, not as a name to look up later.)
@@ -11,7 +11,7 @@ from typing import Any, Iterator
 from fastapi import APIRouter
 
 from backend.engine.library import LibraryError, NotFound
-from backend.routes.bodies import ClipDoc, PostureDoc, ProgramDoc
+from backend.routes.bodies import ClipDoc, PostureDoc, ProgramDoc, SubgraphDoc
 from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
 from backend.routes.state import HubDep, SessionDep
@@ -31,7 +31,7 @@ def _lookup_errors() -> Iterator[None]:
         raise api_error(422, "invalid_name", str(exc)) from exc
 
 
-def add_kind(kind: str, doc_type: Any, validate_program: bool = False) -> None:
+def add_kind(kind: str, doc_type: Any, validate_program: bool = False, validate_subgraph: bool = False) -> None:
     """GET/PUT/DELETE routes for one kind of asset; a PUT body is documented as `doc_type`."""
 
     @router.get(f"/{kind}", summary=f"Names of the robot's {kind}")
@@ -55,6 +55,10 @@ def add_kind(kind: str, doc_type: Any, validate_program: bool = False) -> None:
             report = await asyncio.to_thread(session.validate, doc)
             if not report.valid:
                 raise api_error(422, "invalid_program", "program is invalid", report=report.model_dump())
+        if validate_subgraph:
+            report = await asyncio.to_thread(session.validate_subgraph, name, doc)
+            if not report.valid:
+                raise api_error(422, "invalid_subgraph", "subgraph is invalid", report=report.model_dump())
         try:
             await asyncio.to_thread(session.library.save, kind, name, doc)
         except LibraryError as exc:
@@ -73,3 +77,4 @@ def add_kind(kind: str, doc_type: Any, validate_program: bool = False) -> None:
 add_kind("programs", ProgramDoc, validate_program=True)
 add_kind("clips", ClipDoc)
 add_kind("postures", PostureDoc)
+add_kind("subgraphs", SubgraphDoc, validate_subgraph=True)

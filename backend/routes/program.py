@@ -78,7 +78,7 @@ async def put_program(doc: ProgramDoc, session: SessionDep, hub: HubDep) -> dict
     return {"report": report.model_dump(), "kept": kept}
 
 
-@router.patch("/program/nodes/{node_id}/params",
+@router.patch("/program/nodes/{node_id:path}/params",
               summary="Change one node's parameters live, without rebuilding the program")
 async def patch_params(node_id: str, params: ParamValues, session: SessionDep, hub: HubDep) -> dict[str, Any]:
     if not isinstance(params, dict):

@@ -14,6 +14,7 @@ import { useProgramSync } from "./hooks/useProgramSync";
 import { useShortcuts } from "./hooks/useShortcuts";
 import { useSignals, useTelemetry } from "./hooks/useTelemetry";
 import { Layout } from "./Layout";
+import { liveInside, signalsInside } from "./organise/liveInside";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
 import type { Position } from "./store/state";
 import type { FlowNode } from "./graph";
@@ -23,13 +24,16 @@ const NO_NODES: FlowNode[] = [];
 
 /** Telemetry for its children, apart from the store: only what shows live values re-renders with it. */
 function Telemetry({ children }: { children: ReactNode }) {
-  const { history, live: isLive } = useEditor().state;
+  const { history, meta, live: isLive } = useEditor().state;
   const { sendCommand } = useActions();
+  const path = meta?.inside?.path;  // an open subgraph: its blocks run as `<path>/<id>`
   // a draft's nodes are not running: only the live graph subscribes to values
-  const { live, samples } = useTelemetry(useSignals(isLive ? history.present.nodes : NO_NODES));
+  const signals = useSignals(isLive ? history.present.nodes : NO_NODES);
+  const { live, samples } = useTelemetry(useMemo(() => signalsInside(signals, path), [signals, path]));
   const value = useMemo(() => ({
-    ...live, setLayer: (mixer: string, layer: string, active: boolean) => sendCommand({ type: "set_layer", mixer, layer, active }),
-  }), [live, sendCommand]);
+    ...liveInside(live, path), setLayer: (mixer: string, layer: string, active: boolean) =>
+      sendCommand({ type: "set_layer", mixer: path ? `${path}/${mixer}` : mixer, layer, active }),
+  }), [live, path, sendCommand]);
   return (
     <LiveContext.Provider value={value}>
       <SamplesContext.Provider value={samples}>{children}</SamplesContext.Provider>

@@ -5,20 +5,28 @@ import {
   Background, MiniMap, ReactFlow, SelectionMode, useReactFlow, type Connection as FlowConnection, type EdgeChange, type NodeChange,
 } from "@xyflow/react";
 import { useCallback, useEffect, useMemo, useRef, useState } from "react";
+import { withRoutes } from "./annotations";
 import { layoutGraph } from "./autoLayout";
 import { BlockNode, PORT_COLOURS } from "./BlockNode";
 import { CanvasControls } from "./CanvasControls";
 import { nodeMenuExtras, wireMenuExtras } from "./canvasMenus";
+import { CommentFrame } from "./CommentFrame";
 import { ContextMenu, type MenuEntry } from "./ContextMenu";
 import { type FlowEdge, type FlowNode } from "./graph";
 import { useCanvasKeys } from "./hooks/useCanvasKeys";
+import { OrganiseContext } from "./organise/context";
+import { useOrganise } from "./organise/useOrganise";
+import { SubgraphBar } from "./panels/SubgraphBar";
 import { QuickAdd } from "./QuickAdd";
 import { replacingProblem, type Offer, type PortRef, type QuickAddMode } from "./quickAdd";
+import { RerouteNode, RoutedEdge } from "./Reroute";
 import { useActions, useEditor } from "./store/EditorStore";
 import { errorsByNode, type Graph, type Position } from "./store/state";
+import { SubgraphNode } from "./SubgraphNode";
 import { fitReadable, frameOpening } from "./viewport";
 
-const nodeTypes = { block: BlockNode };
+const nodeTypes = { block: BlockNode, subgraph: SubgraphNode, comment: CommentFrame, reroute: RerouteNode };
+const edgeTypes = { routed: RoutedEdge };
 export const FIT_VIEW = { padding: 0.15, maxZoom: 1.1 };
 /** A freshly loaded program is fitted into view once React Flow has measured its nodes. */
 const FIT_AFTER_LOAD_MS = 50;
@@ -66,9 +74,11 @@ export function GraphView() {
   const { state, dispatch } = useEditor();
   const { addBlock, say, copy, paste } = useActions();
   const graph = state.history.present;
-  const errors = useMemo(() => errorsByNode(state.report), [state.report]);
+  const inside = state.meta?.inside?.path;
+  const errors = useMemo(() => errorsByNode(state.report, inside), [state.report, inside]);
   const nodes = useMemo(() => withErrors(graph.nodes, errors), [graph.nodes, errors]);
-  const edges = useMemo(() => graph.edges.map(styled), [graph.edges]);
+  const edges = useMemo(() => withRoutes(graph.edges.map(styled), graph.nodes), [graph.edges, graph.nodes]);
+  const organise = useOrganise();
   const canvas = useRef<HTMLElement>(null);
   const [quick, setQuick] = useState<QuickState | null>(null);
   const [menu, setMenu] = useState<MenuState | null>(null);
@@ -81,7 +91,9 @@ export function GraphView() {
     const g = graphRef.current;
     const measured = Object.fromEntries(flow.getNodes().map((n) => [n.id, n.measured]));
     const sizes = Object.fromEntries(g.nodes.map((n) => [n.id, fullSize(n, measured[n.id])]));
-    const positions = await layoutGraph(g.nodes, g.edges, state.catalog, sizes);
+    // blocks and subgraph nodes are laid out; comment frames and reroute points stay where they were put
+    const blocks = g.nodes.filter((n) => n.type === "block" || n.type === "subgraph");
+    const positions = await layoutGraph(blocks, g.edges, state.catalog, sizes);
     dispatch({ type: "laidOut", positions, undoable });
     // framed as on opening: all of it when readable, else the output chain and what feeds it
     window.setTimeout(() => frameOpening(flow, graphRef.current.nodes, graphRef.current.edges, state.catalog), FIT_AFTER_LOAD_MS);
@@ -223,7 +235,9 @@ export function GraphView() {
 
   return (
     <main ref={canvas} className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
-      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any}
+      <OrganiseContext.Provider value={organise.context}>
+      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any} edgeTypes={edgeTypes as any}
+                 onEdgeDoubleClick={organise.onEdgeDoubleClick} onNodeDoubleClick={organise.onNodeDoubleClick}
                  onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect} onDelete={onDelete}
                  onConnectEnd={onConnectEnd as any} isValidConnection={isValidConnection}
                  deleteKeyCode={["Delete", "Backspace"]} multiSelectionKeyCode="Shift"
@@ -240,6 +254,8 @@ export function GraphView() {
       </ReactFlow>
       {quick && <QuickAdd x={quick.x} y={quick.y} mode={quick.mode} onPick={pick} onClose={closeQuick} />}
       {menu && <ContextMenu x={menu.x} y={menu.y} {...entries(menu)} onClose={closeMenu} />}
+      <SubgraphBar />
+      </OrganiseContext.Provider>
       <Toast />
     </main>
   );

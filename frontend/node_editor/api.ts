@@ -5,7 +5,7 @@ import type {
   RobotDescription, RunningProgram, Saved, ValidationReport,
 } from "./generated/api";
 import type { Command } from "./generated/commands";
-import type { Program } from "./generated/program";
+import type { Program, Subgraph as SubgraphDef } from "./generated/program";
 
 export type * from "./generated/api";
 export type { Command } from "./generated/commands";
@@ -71,6 +71,9 @@ export const api = {
   list: (kind: "programs" | "clips" | "postures") => call<string[]>("GET", `/api/${kind}`),
   getProgram: (name: string) => call<Program>("GET", `/api/programs/${encodeURIComponent(name)}`),
   saveProgram: (name: string, p: Program) => call<Saved>("PUT", `/api/programs/${encodeURIComponent(name)}`, p),
+  subgraphs: () => call<string[]>("GET", "/api/subgraphs"),
+  getSubgraph: (name: string) => call<SubgraphDef>("GET", `/api/subgraphs/${encodeURIComponent(name)}`),
+  saveSubgraph: (name: string, d: SubgraphDef) => call<Saved>("PUT", `/api/subgraphs/${encodeURIComponent(name)}`, d),
   command: (c: Command) => call<CommandAccepted>("POST", "/api/commands", c),
   setInput: (name: string, value: unknown) => call<InputSet>("PUT", `/api/inputs/${encodeURIComponent(name)}`, { value }),
   inputs: () => call<ExposedInputs>("GET", "/api/inputs"),

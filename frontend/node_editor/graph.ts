@@ -1,8 +1,10 @@
 // Program document <-> React Flow graph, connection checks, auto-layout and paste.
 // Pure functions (tested with vitest); ports and type rules come from the backend (./ports), and the
 // server stays the judge of validity.
+import { annotationsFromFlow, annotationsToFlow, isAnnotation } from "./annotations";
 import type { Catalog, PortSpec, PortType, Program } from "./api";
-import { accepts, portsOf } from "./ports";
+import type { History } from "./history";
+import { accepts, portsOf, type Ports } from "./ports";
 
 export interface NodeData {
   type: string;
@@ -16,10 +18,15 @@ export interface NodeData {
 
 export interface FlowNode {
   id: string;
-  type: "block";
+  /** "subgraph": a node using a subgraph; "comment", "reroute": editor annotations (./annotations). */
+  type: "block" | "subgraph" | "comment" | "reroute";
   position: { x: number; y: number };
   data: NodeData;
   selected?: boolean;
+  width?: number;
+  height?: number;
+  zIndex?: number;
+  measured?: { width?: number; height?: number };
 }
 
 export interface FlowEdge {
@@ -31,7 +38,52 @@ export interface FlowEdge {
   data?: { type: PortType };
 }
 
-export type Meta = Omit<Program, "nodes" | "edges">;
+/** The `type` of a node that uses a subgraph (`params.subgraph` names its definition). */
+export const SUBGRAPH = "subgraph";
+export interface ExposedPort { name: string; node: string; port: string }
+export interface SubgraphDef {
+  description?: string;
+  nodes: Program["nodes"];
+  edges: Program["edges"];
+  inputs: ExposedPort[];
+  outputs: ExposedPort[];
+  ui?: Record<string, unknown>;
+}
+
+/** While a subgraph is open, the canvas shows its inside and `meta.inside` says where it sits: the
+ * enclosing graph (with its undo history) and meta, to compose the whole program from (flowToProgram). */
+export interface Inside {
+  name: string;
+  instance: string;
+  /** The instance's flat id on the server (`idle`, nested `life/idle`): inner blocks run as `<path>/<id>`. */
+  path: string;
+  outer: History<{ nodes: FlowNode[]; edges: FlowEdge[] }>;
+  outerMeta: Meta;
+  description: string;
+  inputs: ExposedPort[];
+  outputs: ExposedPort[];
+}
+
+export type Meta = Omit<Program, "nodes" | "edges"> & { inside?: Inside };
+
+/** Ports of a node: a block's from the catalog; a subgraph node's are its definition's exposed ports
+ * with the types of the inner ports they stand for (nested subgraphs followed, loops cut). */
+export function nodePorts(type: string, params: Record<string, unknown>, defs: Record<string, unknown> | undefined | null,
+  catalog: Catalog, seen: string[] = []): Ports {
+  if (type !== SUBGRAPH) return portsOf(catalog[type], params);
+  const name = String(params.subgraph ?? "");
+  const def = (defs ?? {})[name] as SubgraphDef | undefined;
+  if (!def || seen.includes(name)) return { inputs: {}, outputs: {} };
+  const inner = (node: string) => {
+    const n = (def.nodes ?? []).find((x) => x.id === node);
+    return n ? nodePorts(n.type, (n.params ?? {}) as Record<string, unknown>, defs, catalog, [...seen, name]) : null;
+  };
+  const side = (list: ExposedPort[], kind: keyof Ports) => Object.fromEntries(list.flatMap((p) => {
+    const spec = inner(p.node)?.[kind][p.port];
+    return spec ? [[p.name, { ...spec, doc: `${p.node}.${p.port}${spec.doc ? " — " + spec.doc : ""}` }]] : [];
+  }));
+  return { inputs: side(def.inputs ?? [], "inputs"), outputs: side(def.outputs ?? [], "outputs") };
+}
 
 /** Why a connection is refused, or null when it is allowed. */
 export function connectionProblem(
@@ -72,13 +124,18 @@ export function edgeId(e: { source: string; sourceHandle: string; target: string
 export function programToFlow(program: Program, catalog: Catalog): { nodes: FlowNode[]; edges: FlowEdge[]; meta: Meta } {
   const { nodes: pnodes = [], edges: pedges = [], ...meta } = program;
   const positions = needsLayout(program) ? autoLayout(program) : null;
-  const nodes: FlowNode[] = pnodes.map((n) => {
+  const blocks: FlowNode[] = pnodes.map((n) => {
     const ui = (n.ui ?? {}) as Record<string, unknown>;
     const params = (n.params ?? {}) as Record<string, unknown>;
-    const { inputs, outputs } = portsOf(catalog[n.type], params);
+    const { inputs, outputs } = nodePorts(n.type, params, meta.subgraphs, catalog);
     const pos = positions?.[n.id] ?? { x: Number(ui.x ?? 0), y: Number(ui.y ?? 0) };
-    return { id: n.id, type: "block", position: pos, data: { type: n.type, params, ui, inputs, outputs, errors: [] } };
+    const type = n.type === SUBGRAPH ? "subgraph" : "block";
+    return { id: n.id, type, position: pos, data: { type: n.type, params, ui, inputs, outputs, errors: [] } };
   });
+  // comment frames first (drawn behind), reroutes last; the rest of `ui` stays in meta
+  const notes = annotationsToFlow(meta.ui as Record<string, unknown> | undefined);
+  if (meta.ui) meta.ui = notes.rest;
+  const nodes = [...notes.nodes.filter((n) => n.type === "comment"), ...blocks, ...notes.nodes.filter((n) => n.type === "reroute")];
   const edges: FlowEdge[] = (pedges ?? []).map((e: any) => {
     const src = nodes.find((n) => n.id === e.from.node);
     const t = src?.data.outputs[e.from.port]?.type ?? "frame";
@@ -88,11 +145,33 @@ export function programToFlow(program: Program, catalog: Catalog): { nodes: Flow
   return { nodes, edges, meta: meta as Meta };
 }
 
-/** Graph -> program document (editor positions go to `ui`, semantics stay apart). */
+/** Graph -> program document (editor positions go to `ui`, semantics stay apart). While a subgraph is
+ * open (`meta.inside`), the graph is its inside: the whole program is composed around it. */
 export function flowToProgram(nodes: FlowNode[], edges: FlowEdge[], meta: Meta): Program {
+  const { inside, ...plain } = meta;
+  if (inside) {
+    const def = flowToProgram(nodes, edges, { ui: plain.ui } as Meta);
+    const definition: SubgraphDef = {
+      description: inside.description, nodes: def.nodes, edges: def.edges, inputs: inside.inputs, outputs: inside.outputs,
+      ...(def.ui && Object.keys(def.ui).length ? { ui: def.ui } : {}),
+    };
+    const outer = inside.outer.present;
+    // wires of the enclosing graph to ports this definition no longer exposes are cut
+    const mine = new Set(outer.nodes.filter((n) => n.data.type === SUBGRAPH && n.data.params.subgraph === inside.name).map((n) => n.id));
+    const wired = outer.edges.filter((e) => (!mine.has(e.target) || inside.inputs.some((p) => p.name === e.targetHandle))
+      && (!mine.has(e.source) || inside.outputs.some((p) => p.name === e.sourceHandle)));
+    return flowToProgram(outer.nodes, wired,
+      { ...inside.outerMeta, name: plain.name, subgraphs: { ...(plain.subgraphs ?? {}), [inside.name]: definition } } as Meta);
+  }
+  const notes = annotationsFromFlow(nodes, edges);
+  const ui = { ...(plain.ui ?? {}) } as Record<string, unknown>;
+  if (notes.comments.length) ui.comments = notes.comments;
+  if (notes.reroutes.length) ui.reroutes = notes.reroutes;
+  const hasUi = plain.ui !== undefined || notes.comments.length || notes.reroutes.length;
   return {
-    ...meta,
-    nodes: nodes.map((n) => ({
+    ...plain,
+    ...(hasUi ? { ui } : {}),
+    nodes: nodes.filter((n) => !isAnnotation(n)).map((n) => ({
       id: n.id,
       type: n.data.type,
       params: n.data.params,

@@ -4,7 +4,9 @@
 |---|---|---|
 | read the document | document | malformed_json, wrong_format, schema, invalid_input (shape) |
 | exposed input declarations | inputs | duplicate_input, invalid_input |
+| subgraphs flattened (with reading the document) | subgraphs | unknown_subgraph, subgraph_cycle, unknown_exposed_port |
 | nodes (incl. the block classes' `check` hooks) | nodes | duplicate_node, unknown_block_type, unknown_param, invalid_param, block_config, unknown_dof, + the hooks' codes |
+| exposed ports of subgraphs | subgraphs | unknown_port |
 | edges | edges | unknown_node, unknown_port, port_type_mismatch, multiple_edges |
 | required inputs | edges | missing_input |
 | loops | graph | cycle |
@@ -34,12 +36,14 @@ from backend.graph.checks import edges, graph, inputs, nodes
 from backend.graph.checks.document import read_document
 from backend.graph.checks.hooks import NodeCheck
 from backend.graph.checks.state import CheckState
+from backend.graph.subgraphs import check_exposed
 
 Pass = Callable[[CheckState], None]
 
 PASSES: tuple[Pass, ...] = (
     inputs.check_declarations,
     nodes.check_nodes,
+    check_exposed,
     edges.check_edges,
     edges.check_required_inputs,
     graph.check_cycles,
@@ -61,6 +65,7 @@ def run_checks(source: Any, embodiment: Embodiment, *, max_level: int, ctx: Bloc
         return state
     for check in PASSES:
         check(state)
+    state.relocate()
     return state
 
 

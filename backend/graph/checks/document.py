@@ -15,6 +15,7 @@ from backend.graph.checks.state import CheckState
 from backend.graph.checks.text import loc, phrase, short
 from backend.graph.issues import Issue
 from backend.graph.schema import FORMAT, Edge, ExposedInput, Node, Program
+from backend.graph.subgraphs import flatten, uses_subgraphs
 
 
 def parse_document(source: Any, errors: list[Issue]) -> dict[str, Any] | None:
@@ -113,3 +114,10 @@ def read_document(state: CheckState) -> None:
     state.doc = parse_document(state.source, state.errors)
     if state.doc is not None:
         state.program, state.broken, state.doc_index = parse_program(state.doc, state.errors)
+    state.document = state.program
+    if state.program is not None and uses_subgraphs(state.program):
+        # The checks see the flat program: subgraph nodes replaced by their inner blocks.
+        state.flat = flatten(state.program, state.doc_index["nodes"], state.doc_index["edges"], state.errors)
+        state.program = state.flat.program
+        state.doc_index = {**state.doc_index, "nodes": state.flat.node_index, "edges": state.flat.edge_index}
+        state.broken = {**state.broken, **state.flat.broken}

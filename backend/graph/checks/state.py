@@ -30,7 +30,9 @@ class CheckState:
     warnings: list[Issue] = field(default_factory=list)
     # --- the document (checks.document) ---
     doc: dict[str, Any] | None = None
-    program: Program | None = None
+    program: Program | None = None  # what the passes check: the document with its subgraphs flattened
+    document: Program | None = None  # the document as written (with its subgraphs)
+    flat: Any = None  # backend.graph.subgraphs.Flat when the document uses subgraphs
     broken: dict[str, int] = field(default_factory=dict)  # ids of nodes left out as malformed -> index
     doc_index: dict[str, list[int]] = field(default_factory=dict)  # nodes/edges/inputs kept -> doc index
     # --- exposed inputs (checks.inputs) ---
@@ -55,6 +57,12 @@ class CheckState:
 
     def block_class(self, node_id: str) -> type[Block] | None:
         return BLOCKS.get(self.node_by_id[node_id].type)
+
+    def relocate(self) -> None:
+        """Point issues about the inside of subgraphs at their place in the document (once, at the end)."""
+        if self.flat is not None:
+            self.errors = [self.flat.relocate(i) for i in self.errors]
+            self.warnings = [self.flat.relocate(i) for i in self.warnings]
 
     def report(self) -> ValidationReport:
         if self.errors:

@@ -28,7 +28,7 @@ export type Inputs = ExposedInput[];
 export type MaxLevel = number;
 export type Name1 = string;
 /**
- * unique within the program
+ * unique within the program ('/' is for the blocks of subgraphs: `idle/breathe`)
  */
 export type Id = string;
 /**
@@ -44,6 +44,35 @@ export type Rate = number | null;
  * the robot it was written for (informative)
  */
 export type Robot = string | null;
+/**
+ * subgraph definitions by name, used by nodes of type 'subgraph'
+ */
+export type Subgraphs = {
+  [k: string]: Subgraph;
+} | null;
+export type Description2 = string;
+export type Edges1 = Edge[];
+/**
+ * the port's name on the subgraph node
+ */
+export type Name2 = string;
+/**
+ * the inner node whose port this is
+ */
+export type Node2 = string;
+/**
+ * the inner node's port
+ */
+export type Port1 = string;
+/**
+ * exposed inner input ports
+ */
+export type Inputs1 = ExposedPort[];
+export type Nodes1 = Node1[];
+/**
+ * exposed inner output ports
+ */
+export type Outputs = ExposedPort[];
 
 /**
  * An Animation Program document.
@@ -58,7 +87,8 @@ export interface Program {
   nodes?: Nodes;
   rate?: Rate;
   robot?: Robot;
-  ui?: Ui1;
+  subgraphs?: Subgraphs;
+  ui?: Ui2;
 }
 /**
  * A connection from an output port to an input port. Each input takes at most one edge.
@@ -108,8 +138,35 @@ export interface Ui {
   [k: string]: unknown;
 }
 /**
- * editor view data (viewport, …)
+ * A reusable group of blocks (like a Blender node group): inner nodes and edges, and which inner
+ * ports the group exposes. A node `{"type": "subgraph", "params": {"subgraph": NAME}}` uses it; its
+ * inner nodes run as `<that node's id>/<inner id>`.
+ */
+export interface Subgraph {
+  description?: Description2;
+  edges?: Edges1;
+  inputs?: Inputs1;
+  nodes?: Nodes1;
+  outputs?: Outputs;
+  ui?: Ui1;
+}
+/**
+ * A port of a subgraph: an inner node's port, shown on the subgraph's node under `name`.
+ */
+export interface ExposedPort {
+  name: Name2;
+  node: Node2;
+  port: Port1;
+}
+/**
+ * editor view data of the inside
  */
 export interface Ui1 {
+  [k: string]: unknown;
+}
+/**
+ * editor view data (viewport, comments, reroutes, …)
+ */
+export interface Ui2 {
   [k: string]: unknown;
 }

@@ -105,7 +105,9 @@ export function useProgramSync(say: (message: string) => void) {
     if (!next) return;
     dispatch({ type: "paramsEdited", node: id, params, at: performance.now() });
     const unset = Object.keys(before).some((k) => !(k in next.params));
-    if (!live || next.structural || unset || !report?.valid) return;
+    // Inside an open subgraph the definition is shared by every node using it: the hot swap (a
+    // parameter-only one on the server, nothing rebuilt) changes them all, a PATCH would change one.
+    if (!live || next.structural || unset || !report?.valid || meta?.inside) return;
     synced.current = syncKey(true, next.graph, meta);  // before the sync effect runs
     throttle.push(id, next.params);
   }, [graph, catalog, report, meta, live, throttle, dispatch]);

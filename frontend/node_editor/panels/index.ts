@@ -10,6 +10,8 @@ import { Palette } from "./Palette";
 import { ParamPanel } from "./ParamPanel";
 import { PrevizPanel } from "./PrevizPanel";
 import { ProgramInfoPanel } from "./ProgramInfoPanel";
+import { SubgraphInfo } from "./SubgraphInfo";
+import { SubgraphLibrary } from "./SubgraphLibrary";
 
 /** Places in the layout (../Layout.tsx): the side bars, the Pre-Viz corner and the live column's rows. */
 export type Area = "left" | "right" | "previz" | "live" | "controls" | "log";
@@ -22,7 +24,9 @@ export interface Panel {
 
 export const PANELS: Panel[] = [
   { id: "palette", area: "left", Component: Palette },
+  { id: "subgraphs", area: "left", Component: SubgraphLibrary },
   { id: "params", area: "right", Component: ParamPanel },
+  { id: "subgraph-info", area: "right", Component: SubgraphInfo },
   { id: "previz", area: "previz", Component: PrevizPanel },
   { id: "curves", area: "live", Component: CurvePanel },
   { id: "inputs", area: "controls", Component: InputsPanel },

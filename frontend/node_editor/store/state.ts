@@ -10,6 +10,7 @@ import {
 import * as H from "../history";
 import { defaultParams, portsOf } from "../ports";
 import { firstInputFor, firstOutputFor, replacingProblem, withoutOccupant, type PortRef } from "../quickAdd";
+import { organise, type OrganiseAction } from "../subgraphs";
 
 export type Graph = { nodes: FlowNode[]; edges: FlowEdge[] };
 export type Connection = { source: string; sourceHandle: string; target: string; targetHandle: string };
@@ -74,7 +75,8 @@ export type Action =
   | { type: "disconnected"; node: string; handle?: string; side?: "source" | "target" }
   | { type: "laidOut"; positions: Record<string, Position>; undoable: boolean }
   | { type: "selectedAll" }
-  | { type: "selectedOnly"; nodes: string[] };
+  | { type: "selectedOnly"; nodes: string[] }
+  | OrganiseAction;
 
 /** Parameter edits of one node closer together than this (ms) are one undo step. */
 export const COALESCE_MS = 600;
@@ -89,7 +91,11 @@ export const initialState: EditorState = {
 
 /** The program's structure (no positions): what the server must have; equal keys need no sync. */
 export function structureKey(g: Graph, meta: Meta | null): string {
-  return JSON.stringify(flowToProgram(g.nodes.map((n) => ({ ...n, position: { x: 0, y: 0 } })), g.edges, meta ?? ({} as Meta)));
+  const p = flowToProgram(g.nodes.map((n) => ({ ...n, position: { x: 0, y: 0 } })), g.edges, meta ?? ({} as Meta)) as any;
+  // inside an open subgraph the enclosing graph (and every definition) is in it too: no positions there either
+  const still = (nodes: any[] = []) => nodes.map((n) => ({ ...n, ui: { ...n.ui, x: 0, y: 0 } }));
+  if (p.subgraphs) p.subgraphs = Object.fromEntries(Object.entries(p.subgraphs).map(([k, d]: [string, any]) => [k, { ...d, nodes: still(d.nodes) }]));
+  return JSON.stringify({ ...p, nodes: still(p.nodes) });
 }
 
 /** The graph with one node's parameters replaced (unset ones dropped) and its ports derived again;
@@ -104,10 +110,22 @@ export function withParams(g: Graph, catalog: Catalog, id: string, params: Recor
   return { graph, params: clean, structural };
 }
 
-/** Errors of the report by node, each as `port: message`. */
-export function errorsByNode(report: ValidationReport | null): Record<string, string[]> {
+/** Errors of the report by node, each as `port: message`. Blocks inside subgraphs run as
+ * `<subgraph node>/<inner id>`: their errors show on the subgraph node, or on the inner block while
+ * that subgraph (`inside`, its flat path) is open. */
+export function errorsByNode(report: ValidationReport | null, inside?: string): Record<string, string[]> {
   const out: Record<string, string[]> = {};
-  for (const e of report?.errors ?? []) if (e.node) (out[e.node] ??= []).push(`${e.port ? e.port + ": " : ""}${e.message}`);
+  for (const e of report?.errors ?? []) {
+    if (!e.node) continue;
+    let node = e.node;
+    if (inside) {
+      if (!node.startsWith(inside + "/")) continue;
+      node = node.slice(inside.length + 1);
+    }
+    const cut = node.indexOf("/");
+    const port = cut >= 0 ? `${node.slice(cut + 1)}${e.port ? "." + e.port : ""}` : e.port;
+    (out[cut >= 0 ? node.slice(0, cut) : node] ??= []).push(`${port ? port + ": " : ""}${e.message}`);
+  }
   return out;
 }
 
@@ -236,7 +254,8 @@ export function reducer(state: EditorState, action: Action): EditorState {
       const removed = new Set(action.changes.flatMap((c) => (c.type === "remove" ? [c.id] : [])));
       const edges = removed.size ? graph.edges.filter((e) => !removed.has(e.source) && !removed.has(e.target)) : graph.edges;
       // selection and drag steps are not edits; a drop or a removal is
-      const meaningful = action.changes.some((c) => c.type === "remove" || (c.type === "position" && c.dragging === false));
+      const meaningful = action.changes.some((c) => c.type === "remove" || (c.type === "position" && c.dragging === false)
+        || (c.type === "dimensions" && c.resizing === false));
       return edit(state, { nodes, edges }, meaningful);
     }
     case "edgesChanged": {
@@ -321,5 +340,7 @@ export function reducer(state: EditorState, action: Action): EditorState {
       const nodes = graph.nodes.map((n) => (!!n.selected === keep.has(n.id) ? n : { ...n, selected: keep.has(n.id) }));
       return edit(state, { ...graph, nodes }, false);
     }
+    default:
+      return organise(state, action);  // subgraphs, comment frames, reroutes (../subgraphs)
   }
 }

@@ -1,0 +1,44 @@
+// A node using a subgraph: the definition's name, its exposed ports (typed like the inner ports they
+// stand for), error badges for problems inside, and a button to open it (or double-click).
+import { Handle, Position, type NodeProps } from "@xyflow/react";
+import { memo, useContext } from "react";
+import { PORT_COLOURS } from "./BlockNode";
+import { OrganiseContext } from "./organise/context";
+import type { NodeData } from "./graph";
+
+export const SubgraphNode = memo(function SubgraphNode({ id, data, selected }: NodeProps & { data: NodeData }) {
+  const { openSubgraph } = useContext(OrganiseContext);
+  const ins = Object.entries(data.inputs);
+  const outs = Object.entries(data.outputs);
+  const rows = Math.max(ins.length, outs.length, 1);
+  const name = String(data.params.subgraph ?? "?");
+  return (
+    <div className={`block subgraph-node ${selected ? "selected" : ""} ${data.errors.length ? "has-error" : ""}`}
+         data-testid={`node-${id}`} aria-label={`subgraph ${name} ${id}`} onDoubleClick={() => openSubgraph(id)}>
+      <div className="block-header subgraph-header">
+        <span className="block-title">▣ {name}</span>
+        <span className="block-id">{id}</span>
+        {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
+        <button className="nodrag open-subgraph" data-testid={`open-${id}`} title="Open the subgraph to edit its blocks"
+                onClick={(e) => { e.stopPropagation(); openSubgraph(id); }}>Open</button>
+      </div>
+      <div className="block-body" style={{ minHeight: rows * 22 + 8 }}>
+        {ins.map(([port, p], i) => (
+          <div key={`in-${port}`} className="port-row in" style={{ top: 6 + i * 22 }}>
+            <Handle type="target" position={Position.Left} id={port} className={`handle ${p.type}`}
+                    style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${port}: ${p.type} — ${p.doc}`} />
+            <span className="port-label">{port}</span>
+          </div>
+        ))}
+        {outs.map(([port, p], i) => (
+          <div key={`out-${port}`} className="port-row out" style={{ top: 6 + i * 22 }}>
+            <span className="port-label">{port}</span>
+            <Handle type="source" position={Position.Right} id={port} className={`handle ${p.type}`}
+                    style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${port}: ${p.type} — ${p.doc}`} />
+          </div>
+        ))}
+      </div>
+      {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
+    </div>
+  );
+});
