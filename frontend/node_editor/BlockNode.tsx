@@ -4,6 +4,7 @@ import { Handle, Position, type NodeProps } from "@xyflow/react";
 import { memo, useContext } from "react";
 import type { NodeData } from "./graph";
 import { LiveContext, CatalogContext } from "./context";
+import { CookBadge, WarningBadge, WarningLine } from "./live/NodeBadges";
 
 export const PORT_COLOURS: Record<string, string> = {
   frame: "#f2f2f2",
@@ -67,6 +68,8 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         <span className="block-title">{entry?.title ?? data.type}</span>
         <span className="block-id">{id}</span>
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
+        <WarningBadge id={id} />
+        <CookBadge id={id} />
       </div>
       <div className="block-body" style={{ minHeight: liveTop + outs.length * 18 + 4 }}>
         {ins.map(([name, p], i) => (
@@ -112,6 +115,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         )}
       </div>
       {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
+      <WarningLine id={id} hidden={data.errors.length > 0} />
     </div>
   );
 });

@@ -8,6 +8,9 @@ import { BlockNode, PORT_COLOURS } from "./BlockNode";
 import { connectionProblem, type FlowEdge, type FlowNode } from "./graph";
 import { useActions, useEditor } from "./store/EditorStore";
 import { errorsByNode } from "./store/state";
+import { warningsByNode } from "./live/logic";
+import { WarningsContext } from "./live/NodeBadges";
+import { WireOverlay, wireHoverHandlers } from "./live/WireProbes";
 
 const nodeTypes = { block: BlockNode };
 export const FIT_VIEW = { padding: 0.15, maxZoom: 1.1 };
@@ -48,6 +51,7 @@ export function GraphView() {
   const errors = useMemo(() => errorsByNode(state.report), [state.report]);
   const nodes = useMemo(() => withErrors(graph.nodes, errors), [graph.nodes, errors]);
   const edges = useMemo(() => graph.edges.map(styled), [graph.edges]);
+  const warnings = useMemo(() => warningsByNode(state.report), [state.report]);
 
   useEffect(() => {
     if (!state.loaded.count) return;
@@ -76,14 +80,17 @@ export function GraphView() {
 
   return (
     <main className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
-      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any}
+      <WarningsContext.Provider value={warnings}>
+      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any} {...wireHoverHandlers}
                  onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect}
                  onConnectEnd={onConnectEnd as any} isValidConnection={isValidConnection}
                  deleteKeyCode={["Delete", "Backspace"]} multiSelectionKeyCode="Shift"
                  minZoom={0.2} fitView fitViewOptions={FIT_VIEW} proOptions={{ hideAttribution: true }}>
         <Background color="#2b313b" gap={22} />
         <MiniMap pannable zoomable nodeColor="#3a4150" maskColor="rgba(10,12,16,0.6)" style={{ width: 180, height: 110 }} />
+        <WireOverlay edges={graph.edges} />
       </ReactFlow>
+      </WarningsContext.Provider>
       <Toast />
     </main>
   );
