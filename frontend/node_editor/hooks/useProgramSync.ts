@@ -10,12 +10,15 @@ import { refreshInputs } from "./useBootstrap";
 
 /** Edits closer together than this (ms) go to the server as one program. */
 const SYNC_DELAY_MS = 90;
+/** After a live parameter patch, the report is asked for again once edits pause this long (ms). */
+const REVALIDATE_MS = 300;
 
 export function useProgramSync(say: (message: string) => void) {
   const { state, dispatch } = useEditor();
   const { history, meta, catalog, report, loaded } = state;
   const graph = history.present;
   const synced = useRef("");  // structure key of what the server runs (or has judged)
+  const revalidate = useRef<number | undefined>(undefined);
 
   useEffect(() => {
     if (loaded.fromServer) synced.current = structureKey(graph, meta);
@@ -56,6 +59,13 @@ export function useProgramSync(say: (message: string) => void) {
     synced.current = structureKey(next.graph, meta);
     try {
       await api.patchParams(id, next.params);  // applied at the next tick, nothing rebuilt
+      // the patch answers no report: judge the patched graph once the drag pauses (its warnings, e.g. a
+      // layer's weight dragged to 0, show on the graph)
+      window.clearTimeout(revalidate.current);
+      const program = flowToProgram(next.graph.nodes, next.graph.edges, meta ?? ({} as any));
+      revalidate.current = window.setTimeout(() => {
+        api.validate(program).then((r) => { if (r.valid) dispatch({ type: "reportReceived", report: r }); }).catch(() => {});
+      }, REVALIDATE_MS);
     } catch (e) {
       if (e instanceof ApiError && e.detail?.report) dispatch({ type: "reportReceived", report: { ...e.detail.report, valid: false } });
       else say(String(e));
