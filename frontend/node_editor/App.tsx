@@ -14,15 +14,16 @@ import { useNotices } from "./hooks/useNotices";
 import { useProgramSync } from "./hooks/useProgramSync";
 import { useShortcuts } from "./hooks/useShortcuts";
 import { useSignals, useTelemetry } from "./hooks/useTelemetry";
+import { useWatchedSignals, withWatched } from "./live/WireProbes";
 import { Layout } from "./Layout";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
 import type { Position } from "./store/state";
 
 /** Telemetry for its children, apart from the store: only what shows live values re-renders with it. */
 function Telemetry({ children }: { children: ReactNode }) {
-  const { nodes } = useEditor().state.history.present;
+  const { nodes, edges } = useEditor().state.history.present;
   const { sendCommand } = useActions();
-  const { live, samples } = useTelemetry(useSignals(nodes));
+  const { live, samples } = useTelemetry(withWatched(useSignals(nodes), useWatchedSignals(edges)));
   const value = useMemo(() => ({
     ...live, setLayer: (mixer: string, layer: string, active: boolean) => sendCommand({ type: "set_layer", mixer, layer, active }),
   }), [live, sendCommand]);

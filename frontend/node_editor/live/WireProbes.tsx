@@ -4,7 +4,8 @@
 // DoF count and first DoFs. Also the canvas's live bar: the warning count (a click frames the first
 // node concerned) and the cook-time heat toggle.
 import { Panel, useInternalNode, useViewport, type Edge } from "@xyflow/react";
-import { useContext, useEffect, useRef, useSyncExternalStore } from "react";
+import { useContext, useEffect, useMemo, useRef, useSyncExternalStore } from "react";
+import type { SignalRef } from "../api";
 import { LiveContext } from "../context";
 import type { FlowEdge } from "../graph";
 import { useEditor } from "../store/EditorStore";
@@ -51,6 +52,23 @@ export const wireHoverHandlers = {
 };
 
 const signalOf = (e: FlowEdge) => `${e.source}.${e.sourceHandle}`;
+
+/** The signals the wire overlays watch (the hovered wire's source, the probes'), first in the telemetry
+ * subscription so that the server's signal cap never leaves them out. */
+export function useWatchedSignals(edges: FlowEdge[]): SignalRef[] {
+  const h = useHover();
+  const { probes } = useLiveUi();
+  const ids = [...probes, ...(h ? [h.edge] : [])];
+  const key = ids.join("|") + "#" + edges.length;
+  return useMemo(() => {
+    const out: SignalRef[] = [];
+    for (const id of ids) {
+      const e = edges.find((x) => x.id === id);
+      if (e && !out.some((s) => s.node === e.source && s.port === e.sourceHandle)) out.push({ node: e.source, port: e.sourceHandle });
+    }
+    return out;
+  }, [key]);
+}
 
 function WireTooltip({ edges }: { edges: FlowEdge[] }) {
   const h = useHover();
@@ -171,4 +189,24 @@ function LiveBar() {
       {profile && <span className="tick-time" title="the whole program's median cook time per tick">tick {cookText(profile.apu.p50_us)}</span>}
     </Panel>
   );
+}
+
+/** How many signals the server follows per subscription (backend/routes/telemetry.py MAX_SIGNALS). */
+const SERVER_SIGNAL_CAP = 200;
+const watchedCache = new WeakMap<SignalRef[], Map<SignalRef[], SignalRef[]>>();
+
+/** `all` with the `watched` signals first (the same list object while both stay the same). */
+export function withWatched(all: SignalRef[], watched: SignalRef[]): SignalRef[] {
+  const has = (w: SignalRef) => all.some((s) => s.node === w.node && s.port === w.port);
+  if (!watched.length || (all.length <= SERVER_SIGNAL_CAP && watched.every(has))) return all;  // already subscribed
+  let byWatched = watchedCache.get(all);
+  if (!byWatched) watchedCache.set(all, (byWatched = new Map()));
+  let out = byWatched.get(watched);
+  if (!out) {
+    const seen = new Set(watched.map((s) => `${s.node}.${s.port}`));
+    out = [...watched, ...all.filter((s) => !seen.has(`${s.node}.${s.port}`))];
+    byWatched.clear();
+    byWatched.set(watched, out);
+  }
+  return out;
 }
