@@ -1,7 +1,7 @@
 // The 3D Pre-Viz (the server's viser page) with its ghost toggle (the stage-1 pose). Embedded, the page
 // is asked (`?embed=1`) to hide viser's own control panel and notices, which would cover the robot; it
 // can be enlarged over the graph, or popped out into its own window (with viser's panel).
-import { useState } from "react";
+import { useEffect, useState } from "react";
 import { useActions, useEditor } from "../store/EditorStore";
 
 /** The Pre-Viz URL with `embed=1` added to its query. */
@@ -14,6 +14,12 @@ export function PrevizPanel() {
   const { setGhost } = useActions();
   const [big, setBig] = useState(false);
   const url = previz?.url ?? null;
+  useEffect(() => {  // Esc puts the enlarged Pre-Viz back in its corner
+    if (!big) return;
+    const onKey = (e: KeyboardEvent) => { if (e.key === "Escape") setBig(false); };
+    window.addEventListener("keydown", onKey);
+    return () => window.removeEventListener("keydown", onKey);
+  }, [big]);
   return (
     <div className={`previz-box ${big ? "previz-big" : ""}`} data-testid="previz-box">
       <div className="previz-head">
@@ -22,7 +28,7 @@ export function PrevizPanel() {
           <label><input type="checkbox" checked={previz?.ghost ?? false} disabled={url === null}
                         onChange={(e) => setGhost(e.target.checked)} /> ghost</label>
           <button type="button" data-testid="previz-enlarge" aria-pressed={big} title={big ? "back to the corner (Esc)" : "enlarge over the graph"}
-                  onClick={() => setBig(!big)} onKeyDown={(e) => e.key === "Escape" && setBig(false)}>{big ? "⤡ shrink" : "⤢ enlarge"}</button>
+                  onClick={() => setBig(!big)}>{big ? "⤡ shrink" : "⤢ enlarge"}</button>
           <button type="button" data-testid="previz-popout" disabled={url === null} title="open the Pre-Viz in its own window"
                   onClick={() => url && window.open(url, "nutty-previz", "width=1100,height=800")}>↗ pop out</button>
         </span>
