@@ -190,23 +190,3 @@ function LiveBar() {
     </Panel>
   );
 }
-
-/** How many signals the server follows per subscription (backend/routes/telemetry.py MAX_SIGNALS). */
-const SERVER_SIGNAL_CAP = 200;
-const watchedCache = new WeakMap<SignalRef[], Map<SignalRef[], SignalRef[]>>();
-
-/** `all` with the `watched` signals first (the same list object while both stay the same). */
-export function withWatched(all: SignalRef[], watched: SignalRef[]): SignalRef[] {
-  const has = (w: SignalRef) => all.some((s) => s.node === w.node && s.port === w.port);
-  if (!watched.length || (all.length <= SERVER_SIGNAL_CAP && watched.every(has))) return all;  // already subscribed
-  let byWatched = watchedCache.get(all);
-  if (!byWatched) watchedCache.set(all, (byWatched = new Map()));
-  let out = byWatched.get(watched);
-  if (!out) {
-    const seen = new Set(watched.map((s) => `${s.node}.${s.port}`));
-    out = [...watched, ...all.filter((s) => !seen.has(`${s.node}.${s.port}`))];
-    byWatched.clear();
-    byWatched.set(watched, out);
-  }
-  return out;
-}

@@ -120,3 +120,26 @@ describe("layer stack", () => {
     expect(maskSummary(["a", "b", "c", "d", "e"])).toBe("a, b, c +2");
   });
 });
+
+describe("telemetry", () => {
+  it("keeps the last cook times between the messages that carry them", async () => {
+    const { emptyLive, nextLive } = await import("../telemetry");
+    const profile = { apu: { mean_us: 1, p50_us: 1, p99_us: 1, max_us: 1 }, every: 10, window: 300, samples: 3, nodes: [] };
+    let live = nextLive(emptyLive, { type: "telemetry", t: 1, seq: 1, profile });
+    live = nextLive(live, { type: "telemetry", t: 2, seq: 2 });
+    expect(live.profile).toBe(profile);
+    expect(live.t).toBe(2);
+  });
+  it("puts watched signals first only when the plain subscription could miss them", async () => {
+    const { withWatched } = await import("./logic");
+    const all = [{ node: "a", port: "out" }, { node: "b", port: "out" }];
+    expect(withWatched(all, [])).toBe(all);
+    expect(withWatched(all, [{ node: "b", port: "out" }])).toBe(all);  // already subscribed
+    const extra = [{ node: "c", port: "value" }];
+    const merged = withWatched(all, extra);
+    expect(merged).toEqual([{ node: "c", port: "value" }, ...all]);
+    expect(withWatched(all, extra)).toBe(merged);  // the same list: no new subscription
+    const many = Array.from({ length: 250 }, (_, i) => ({ node: `n${i}`, port: "out" }));
+    expect(withWatched(many, [{ node: "n240", port: "out" }])[0]).toEqual({ node: "n240", port: "out" });
+  });
+});

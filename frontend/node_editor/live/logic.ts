@@ -1,7 +1,7 @@
 // Pure logic of the editor's live views (tested with vitest): numbers with their sign, the summary of
 // a signal value, the cook-time heat scale, which wire drives a parameter, warnings by node, and the
 // layer stack's solo/mute/reorder plans.
-import type { ValidationReport } from "../api";
+import type { SignalRef, ValidationReport } from "../api";
 import type { FlowEdge } from "../graph";
 
 /** The typographic minus (U+2212): visible and as wide as a plus. */
@@ -172,4 +172,26 @@ export function maskSummary(mask: unknown): string {
   if (!list.length) return "nothing";
   if (list.length === 1 && list[0] === "*") return "all DoFs";
   return list.length > 3 ? `${list.slice(0, 3).join(", ")} +${list.length - 3}` : list.join(", ");
+}
+
+// ---- telemetry subscription ---------------------------------------------------------------------
+
+/** How many signals the server follows per subscription (backend/routes/telemetry.py MAX_SIGNALS). */
+const SERVER_SIGNAL_CAP = 200;
+const watchedCache = new WeakMap<SignalRef[], Map<SignalRef[], SignalRef[]>>();
+
+/** `all` with the `watched` signals first (the same list object while both stay the same). */
+export function withWatched(all: SignalRef[], watched: SignalRef[]): SignalRef[] {
+  const has = (w: SignalRef) => all.some((s) => s.node === w.node && s.port === w.port);
+  if (!watched.length || (all.length <= SERVER_SIGNAL_CAP && watched.every(has))) return all;  // already subscribed
+  let byWatched = watchedCache.get(all);
+  if (!byWatched) watchedCache.set(all, (byWatched = new Map()));
+  let out = byWatched.get(watched);
+  if (!out) {
+    const seen = new Set(watched.map((s) => `${s.node}.${s.port}`));
+    out = [...watched, ...all.filter((s) => !seen.has(`${s.node}.${s.port}`))];
+    byWatched.clear();
+    byWatched.set(watched, out);
+  }
+  return out;
 }
