@@ -4,7 +4,7 @@ works with them.
 Covers: hovering a wire shows its live value; pinned probes plot it (several, unpinned with ×); every
 node shows its cook time (the nodes of GET /api/profile) and the heat can be hidden; a warning shows
 on its node and the warning count frames it; a parameter driven by a wire says so (slider disabled,
-jump to the source); the layer stack mutes, solos and re-weights layers on the server; the Pre-Viz
+jump to the source); the layer stack mutes, solos, re-weights and reorders layers on the server; the Pre-Viz
 pane enlarges and shrinks; the console follows new lines and resizes; the
 curve axis shows minus signs; an input slider does not jump when pressed on its thumb.
 Screenshots go to test-artifacts/.
@@ -224,6 +224,14 @@ def test_layer_stack_mutes_solos_and_weights_layers_on_the_server(page, server):
     wait_until(lambda: layer().get("weight") == 0.4, what="the wander layer's weight on the server")
     live = page.get_by_test_id("ls-live-wander")
     wait_until(lambda: abs(float(live.get_attribute("data-effective") or 0) - 0.4) < 0.02, what="the live weight bar")
+    # reorder: shift one up (a program edit: the server runs the new order), then back
+    order = lambda: [l["name"] for l in running_node(server, "mix")["params"]["layers"]]
+    names = order()
+    i = names.index("shift")
+    page.get_by_test_id("ls-up-shift").click()
+    wait_until(lambda: order() == names[:i - 1] + ["shift", names[i - 1]] + names[i + 1:], what="shift moved up on the server")
+    page.get_by_test_id("ls-down-shift").click()
+    wait_until(lambda: order() == names, what="the original order back")
 
 
 def test_a_warning_shows_on_its_node_and_the_count_frames_it(page, server):
