@@ -41,6 +41,17 @@ PROXY_HEADER = "X-Nutty-Previz-Proxy"
 MAX_PAGE = 64 * 1024 * 1024  # bytes of one proxied file (viser's page is about 1 MB)
 MAX_PREVIZ_MESSAGE = 64 * 1024 * 1024
 
+# The page embedded in the editor (`/previz/?embed=1`) hides viser's own control panel (a floating dock
+# window: the editor has the ghost toggle) and its notifications (e.g. "Software WebGL rendering
+# detected"), which would cover the robot in a small pane. The popped-out page keeps them.
+EMBED_STYLE = (b"<style id=\"nutty-embed\">[data-floating-window], .mantine-Notifications-root "
+               b"{ display: none !important; }</style>")
+
+# The camera looks at the robot from its front-left, a little above (a three-quarter view).
+CAMERA_DIRECTION = (0.62, 0.42, 0.21)
+CAMERA_FOV = 75.0 * math.pi / 180.0  # viser's default (vertical) field of view
+CAMERA_MARGIN = 1.1
+
 MAX_RATE = 60.0
 CAPTION_SECONDS = 4.0
 GHOST_COLOUR = (0.45, 0.75, 1.0, 0.35)
@@ -52,6 +63,26 @@ def _yaw_pitch_roll_to_wxyz(yaw: float, pitch: float, roll: float) -> tuple[floa
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
     return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
             cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
+
+
+def embed_page(html: bytes) -> bytes:
+    """viser's index page with EMBED_STYLE in its head (unchanged when it has no </head>)."""
+    head = html.find(b"</head>")
+    return html if head < 0 else html[:head] + EMBED_STYLE + html[head:]
+
+
+def framing(bounds: Any, direction: tuple[float, float, float] = CAMERA_DIRECTION, fov: float = CAMERA_FOV,
+            margin: float = CAMERA_MARGIN) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """(camera position, look-at point) that frame a box `bounds` ([[x0, y0, z0], [x1, y1, z1]], metres):
+    from `direction`, far enough that the box's bounding sphere fits the field of view with `margin`."""
+    lo, hi = np.asarray(bounds, dtype=float)
+    centre = (lo + hi) / 2
+    radius = max(float(np.linalg.norm(hi - lo)) / 2, 0.05)
+    d = np.asarray(direction, dtype=float)
+    d /= np.linalg.norm(d)
+    distance = margin * radius / math.sin(fov / 2)
+    position = centre + d * distance
+    return (tuple(round(float(v), 4) for v in position), tuple(round(float(v), 4) for v in centre))  # type: ignore[return-value]
 
 
 def _poser(robot: Any) -> UrdfPoser | None:
@@ -202,10 +233,18 @@ class PreViz:
         return None
 
     def _set_camera_on_connect(self) -> None:
+        # a three-quarter view that frames the robot (its bounding box at the rest configuration)
+        try:
+            bounds = self._urdf.scene.bounds if self._urdf.scene is not None else None
+        except Exception:  # a URDF without meshes has no bounds
+            bounds = None
+        position, look_at = framing(bounds) if bounds is not None else ((0.62, 0.42, 0.48), (0.0, 0.0, 0.27))
+        self.camera = {"position": position, "look_at": look_at}
+
         @self.server.on_client_connect
-        def _(client) -> None:  # a three-quarter view that frames the desk robot
-            client.camera.position = (0.62, 0.42, 0.48)
-            client.camera.look_at = (0.0, 0.0, 0.27)
+        def _(client) -> None:
+            client.camera.position = position
+            client.camera.look_at = look_at
 
     # --- live updates -----------------------------------------------------------------------------
     def set_ghost(self, visible: bool) -> None:

@@ -137,3 +137,34 @@ def test_only_moved_joint_frames_are_sent_and_poses_match_viser(previz):
     assert poser.update(cfg) == 0  # nothing moved: nothing sent
     cfg[0] += 0.1
     assert poser.update(cfg) == 1
+
+
+def test_the_editor_embeds_the_page_without_viser_panel_and_notices(previz):
+    from fastapi.testclient import TestClient
+
+    from backend.api import create_app
+
+    with TestClient(create_app(previz.session, previz=previz, frontend_dir=None)) as c:
+        embedded, alone = c.get("/previz/?embed=1"), c.get("/previz/")
+    assert embedded.status_code == alone.status_code == 200
+    style = embedded.text.split('<style id="nutty-embed">', 1)[1].split("</style>", 1)[0]
+    assert "[data-floating-window]" in style and ".mantine-Notifications-root" in style and "display: none" in style
+    assert embedded.text.index("nutty-embed") < embedded.text.index("</head>")
+    assert "nutty-embed" not in alone.text  # popped out, the page keeps viser's own panel
+
+
+def test_the_camera_frames_the_robot():
+    import math
+
+    from backend.previz import CAMERA_FOV, framing
+
+    bounds = [[-0.13, -0.14, 0.0], [0.13, 0.14, 0.53]]
+    position, look_at = framing(bounds)
+    assert look_at == pytest.approx((0.0, 0.0, 0.265))
+    radius = float(np.linalg.norm(np.subtract(bounds[1], bounds[0]))) / 2
+    distance = float(np.linalg.norm(np.subtract(position, look_at)))
+    assert radius / distance < math.sin(CAMERA_FOV / 2)  # the whole bounding sphere is in view
+    assert radius / distance > 0.8 * math.sin(CAMERA_FOV / 2)  # and fills it (not a speck far away)
+    assert position[0] > 0 and position[1] > 0 and position[2] > look_at[2]  # front-left, from above
+    far, _ = framing([[-1, -1, 0], [1, 1, 2]])
+    assert np.linalg.norm(far) > np.linalg.norm(position)  # a bigger robot, a farther camera

@@ -76,12 +76,17 @@ def previz_redirect(request: Request) -> Response:
 async def previz_page(path: str, request: Request, hub: HubDep) -> Response:
     if hub.previz is None:
         raise _no_previz()
-    from backend.previz import fetch_page
+    from backend.previz import embed_page, fetch_page
 
+    # `?embed=1` (the editor's pane): the page without viser's control panel and notifications
+    embed = path in ("", "index.html") and request.query_params.get("embed") not in (None, "", "0")
     try:
-        status_code, headers, body = await fetch_page(hub.previz.port, path, request.headers.get("accept-encoding", ""))
+        status_code, headers, body = await fetch_page(hub.previz.port, path,
+                                                      "" if embed else request.headers.get("accept-encoding", ""))
     except Exception as exc:  # refused, reset, truncated, timed out, malformed: the same to the client
         raise api_error(502, "previz_unavailable", f"the Pre-Viz did not answer: {type(exc).__name__}") from exc
+    if embed and status_code == 200 and headers.get("content-encoding", "identity") == "identity":
+        body = embed_page(body)
     response = Response(body, status_code=status_code, headers=headers)
     if hub.token is not None:  # the page's WebSocket (same path, no query) then carries the cookie
         response.set_cookie(security.PREVIZ_COOKIE, security.previz_cookie_value(hub.token), path="/previz",

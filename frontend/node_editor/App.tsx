@@ -13,11 +13,14 @@ import { useNotices } from "./hooks/useNotices";
 import { useProgramSync } from "./hooks/useProgramSync";
 import { useShortcuts } from "./hooks/useShortcuts";
 import { useSignals, useTelemetry } from "./hooks/useTelemetry";
+import { withWatched } from "./live/logic";
+import { useWatchedSignals } from "./live/WireProbes";
 import { Layout } from "./Layout";
 import { liveInside, signalsInside } from "./organise/liveInside";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
 import type { Position } from "./store/state";
-import type { FlowNode } from "./graph";
+import type { FlowNode, SubgraphDef } from "./graph";
+import { subgraphAliases, withAliasedSignals, withAliasedValues } from "./live/subgraphLive";
 import { fitReadable, visibleSpot } from "./viewport";
 
 const NO_NODES: FlowNode[] = [];
@@ -28,12 +31,20 @@ function Telemetry({ children }: { children: ReactNode }) {
   const { sendCommand } = useActions();
   const path = meta?.inside?.path;  // an open subgraph: its blocks run as `<path>/<id>`
   // a draft's nodes are not running: only the live graph subscribes to values
-  const signals = useSignals(isLive ? history.present.nodes : NO_NODES);
-  const { live, samples } = useTelemetry(useMemo(() => signalsInside(signals, path), [signals, path]));
+  const nodes = isLive ? history.present.nodes : NO_NODES;
+  const signals = useSignals(nodes);
+  const watched = useWatchedSignals(history.present.edges);  // hovered and probed wires first
+  // a subgraph node's outputs are inner ports the engine runs under flat ids
+  const defs = (meta?.subgraphs ?? meta?.inside?.outerMeta.subgraphs) as Record<string, SubgraphDef> | undefined;
+  const aliasKey = JSON.stringify(subgraphAliases(nodes, defs));
+  const aliases = useMemo(() => JSON.parse(aliasKey) as ReturnType<typeof subgraphAliases>, [aliasKey]);
+  const wanted = useMemo(() => signalsInside(withAliasedSignals(withWatched(signals, watched), aliases), path),
+    [signals, watched, aliases, path]);
+  const { live, samples } = useTelemetry(wanted);
   const value = useMemo(() => ({
-    ...liveInside(live, path), setLayer: (mixer: string, layer: string, active: boolean) =>
+    ...withAliasedValues(liveInside(live, path), aliases), setLayer: (mixer: string, layer: string, active: boolean) =>
       sendCommand({ type: "set_layer", mixer: path ? `${path}/${mixer}` : mixer, layer, active }),
-  }), [live, path, sendCommand]);
+  }), [live, path, aliases, sendCommand]);
   return (
     <LiveContext.Provider value={value}>
       <SamplesContext.Provider value={samples}>{children}</SamplesContext.Provider>

@@ -4,6 +4,7 @@ import { Handle, Position, useUpdateNodeInternals, type NodeProps } from "@xyflo
 import { memo, useContext, useEffect } from "react";
 import type { NodeData } from "./graph";
 import { LiveContext, CatalogContext } from "./context";
+import { CookBadge, WarningBadge, WarningLine } from "./live/NodeBadges";
 import { useCompact } from "./viewport";
 
 /** Port row pitch (px) of a collapsed block. */
@@ -54,6 +55,25 @@ function formatValue(v: unknown): string {
   return String(v);
 }
 
+/** The live value and sparkline of each output port, in rows from `top` (px) down. */
+export function LiveRows({ id, ports, top }: { id: string; ports: string[]; top: number }) {
+  const live = useContext(LiveContext);
+  return (
+    <>
+      {ports.map((name, i) => {
+        const key = `${id}.${name}`;
+        return (
+          <div key={`live-${name}`} className="live-row" style={{ top: top + i * 18 }}>
+            <span className="live-port">{name}</span>
+            <span className="live" data-testid={`live-${key}`}>{formatValue(live.values[key])}</span>
+            <Sparkline values={live.history[key] ?? []} />
+          </div>
+        );
+      })}
+    </>
+  );
+}
+
 export const BlockNode = memo(function BlockNode({ id, data, selected }: NodeProps & { data: NodeData }) {
   const catalog = useContext(CatalogContext);
   const live = useContext(LiveContext);
@@ -74,8 +94,10 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
       <div className="block-header" style={{ background: colour }}>
         <span className="block-title">{entry?.title ?? data.type}</span>
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
+        <WarningBadge id={id} />
       </div>
-      <div className="block-body" style={{ height: rows * COMPACT_ROW + 8 }}>
+      <div className="block-body" style={{ height: Math.max(rows * COMPACT_ROW + 8, 36) }}>
+        <div className="compact-cook"><CookBadge id={id} /></div>
         {ins.map(([name, p], i) => (
           <Handle key={`in-${name}`} type="target" position={Position.Left} id={name} className={`handle ${p.type}`}
                   style={{ background: PORT_COLOURS[p.type], top: 4 + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
@@ -94,6 +116,8 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         <span className="block-title">{entry?.title ?? data.type}</span>
         <span className="block-id">{id}</span>
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
+        <WarningBadge id={id} />
+        <CookBadge id={id} />
       </div>
       <div className="block-body" style={{ minHeight: liveTop + outs.length * 18 + 4 }}>
         {ins.map(([name, p], i) => (
@@ -113,16 +137,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
             </div>
           );
         })}
-        {outs.map(([name], i) => {
-          const key = `${id}.${name}`;
-          return (
-            <div key={`live-${name}`} className="live-row" style={{ top: liveTop + i * 18 }}>
-              <span className="live-port">{name}</span>
-              <span className="live" data-testid={`live-${key}`}>{formatValue(live.values[key])}</span>
-              <Sparkline values={live.history[key] ?? []} />
-            </div>
-          );
-        })}
+        <LiveRows id={id} ports={outs.map(([name]) => name)} top={liveTop} />
         {layers && (
           <div className="layers" style={{ marginTop: liveTop + outs.length * 18 }}>
             {layers.map((l) => (
@@ -139,6 +154,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         )}
       </div>
       {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
+      <WarningLine id={id} hidden={data.errors.length > 0} />
     </div>
   );
 });

@@ -21,6 +21,9 @@ import { QuickAdd } from "./QuickAdd";
 import { replacingProblem, type Offer, type PortRef, type QuickAddMode } from "./quickAdd";
 import { RerouteNode, RoutedEdge } from "./Reroute";
 import { useActions, useEditor } from "./store/EditorStore";
+import { warningsByNode } from "./live/logic";
+import { WarningsContext } from "./live/NodeBadges";
+import { WireOverlay, wireHoverHandlers } from "./live/WireProbes";
 import { errorsByNode, type Graph, type Position } from "./store/state";
 import { SubgraphNode } from "./SubgraphNode";
 import { fitReadable, frameOpening } from "./viewport";
@@ -98,6 +101,7 @@ export function GraphView() {
     // framed as on opening: all of it when readable, else the output chain and what feeds it
     window.setTimeout(() => frameOpening(flow, graphRef.current.nodes, graphRef.current.edges, state.catalog), FIT_AFTER_LOAD_MS);
   }, [flow, dispatch, state.catalog]);
+  const warnings = useMemo(() => warningsByNode(state.report), [state.report]);
 
   useEffect(() => {
     if (!state.loaded.count) return;
@@ -236,7 +240,8 @@ export function GraphView() {
   return (
     <main ref={canvas} className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
       <OrganiseContext.Provider value={organise.context}>
-      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any} edgeTypes={edgeTypes as any}
+      <WarningsContext.Provider value={warnings}>
+      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any} edgeTypes={edgeTypes as any} {...wireHoverHandlers}
                  onEdgeDoubleClick={organise.onEdgeDoubleClick} onNodeDoubleClick={organise.onNodeDoubleClick}
                  onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect} onDelete={onDelete}
                  onConnectEnd={onConnectEnd as any} isValidConnection={isValidConnection}
@@ -251,10 +256,12 @@ export function GraphView() {
         <Background color="#2b313b" gap={22} />
         <MiniMap pannable zoomable nodeColor="#3a4150" maskColor="rgba(10,12,16,0.6)" style={{ width: 180, height: 110 }} />
         <CanvasControls fit={() => fitReadable(flow)} autoLayout={() => autoLayout(true)} />
+        <WireOverlay edges={graph.edges} />
       </ReactFlow>
       {quick && <QuickAdd x={quick.x} y={quick.y} mode={quick.mode} onPick={pick} onClose={closeQuick} />}
       {menu && <ContextMenu x={menu.x} y={menu.y} {...entries(menu)} onClose={closeMenu} />}
       <SubgraphBar />
+      </WarningsContext.Provider>
       </OrganiseContext.Provider>
       <Toast />
     </main>

@@ -2,7 +2,8 @@
 // stand for), error badges for problems inside, and a button to open it (or double-click).
 import { Handle, Position, type NodeProps } from "@xyflow/react";
 import { memo, useContext } from "react";
-import { PORT_COLOURS } from "./BlockNode";
+import { LiveRows, PORT_COLOURS } from "./BlockNode";
+import { CookBadge, WarningBadge } from "./live/NodeBadges";
 import { OrganiseContext } from "./organise/context";
 import type { NodeData } from "./graph";
 
@@ -19,10 +20,12 @@ export const SubgraphNode = memo(function SubgraphNode({ id, data, selected }: N
         <span className="block-title">▣ {name}</span>
         <span className="block-id">{id}</span>
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
+        <WarningBadge id={id} />
+        <CookBadge id={id} />
         <button className="nodrag open-subgraph" data-testid={`open-${id}`} title="Open the subgraph to edit its blocks"
                 onClick={(e) => { e.stopPropagation(); openSubgraph(id); }}>Open</button>
       </div>
-      <div className="block-body" style={{ minHeight: rows * 22 + 8 }}>
+      <div className="block-body" style={{ minHeight: rows * 22 + 8 + outs.length * 18 }}>
         {ins.map(([port, p], i) => (
           <div key={`in-${port}`} className="port-row in" style={{ top: 6 + i * 22 }}>
             <Handle type="target" position={Position.Left} id={port} className={`handle ${p.type}`}
@@ -37,6 +40,7 @@ export const SubgraphNode = memo(function SubgraphNode({ id, data, selected }: N
                     style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${port}: ${p.type} — ${p.doc}`} />
           </div>
         ))}
+        <LiveRows id={id} ports={outs.map(([port]) => port)} top={rows * 22 + 6} />
       </div>
       {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
     </div>

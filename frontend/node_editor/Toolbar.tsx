@@ -1,10 +1,10 @@
-// The top bar: the program's name and status, live or draft, files, undo/redo, fit.
+// The top bar: the program's name and status, live or draft, files, undo/redo (zoom and Fit are on the canvas).
 import { useActions, useEditor } from "./store/EditorStore";
 import { statusText } from "./store/state";
 
 export function Toolbar() {
   const { state, dispatch } = useEditor();
-  const { newProgram, open, openRunning, save, saveAs, importJson, exportJson, fitView, goLive, detach } = useActions();
+  const { newProgram, open, openRunning, save, saveAs, importJson, exportJson, goLive, detach } = useActions();
   const { meta, dirty, report, syncing, library, history, live, runningName } = state;
   return (
     <header className="topbar">
@@ -41,7 +41,6 @@ export function Toolbar() {
       <button onClick={exportJson}>Export</button>
       <button onClick={() => dispatch({ type: "undo" })} disabled={!history.past.length} data-testid="undo" title="Ctrl+Z">Undo</button>
       <button onClick={() => dispatch({ type: "redo" })} disabled={!history.future.length} data-testid="redo" title="Ctrl+Shift+Z">Redo</button>
-      <button onClick={fitView} title="F">Fit</button>
     </header>
   );
 }

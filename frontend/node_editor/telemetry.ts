@@ -1,7 +1,7 @@
 // What the editor keeps of the telemetry stream: the live value and short history of every
 // subscribed output, the mixers' layer states, and the last seconds of frames for the curve panel.
 // Pure functions of the previous state and one message (tested with vitest).
-import type { LayerState, SignalRef, Telemetry, TelemetrySubscribe } from "./api";
+import type { LayerState, Profile, SignalRef, Telemetry, TelemetrySubscribe } from "./api";
 
 export const TELEMETRY_HZ = 30;
 export const CURVE_SECONDS = 8;
@@ -11,6 +11,10 @@ export interface Live {
   values: Record<string, unknown>;
   history: Record<string, number[]>;
   layers: Record<string, LayerState[]>;
+  /** The engine time of the last message (s). */
+  t: number;
+  /** The last per-node cook times (they come about once a second). */
+  profile: Profile | null;
 }
 
 export interface Samples {
@@ -21,7 +25,7 @@ export interface Samples {
   classes: Record<string, number>[];
 }
 
-export const emptyLive: Live = { values: {}, history: {}, layers: {} };
+export const emptyLive: Live = { values: {}, history: {}, layers: {}, t: 0, profile: null };
 export const emptySamples: Samples = { t: [], final: {}, stage1: {}, classes: [] };
 
 export function subscription(signals: SignalRef[]): TelemetrySubscribe {
@@ -41,7 +45,7 @@ export function nextLive(prev: Live, msg: Telemetry): Live {
     const num = plottable(v);
     if (typeof num === "number") history[k] = [...(history[k] ?? []).slice(-(SPARKLINE_POINTS - 1)), num];
   }
-  return { values: msg.signals ?? {}, history, layers: msg.layers ?? {} };
+  return { values: msg.signals ?? {}, history, layers: msg.layers ?? {}, t: msg.t, profile: msg.profile ?? prev.profile };
 }
 
 const appended = <T,>(list: T[], item: T, keep: number) => [...list.slice(-keep + 1), item];

@@ -41,12 +41,16 @@ class PatchThrottle {
   }
 }
 
+/** After a live parameter patch, the report is asked for again once edits pause this long (ms). */
+const REVALIDATE_MS = 300;
+
 export function useProgramSync(say: (message: string) => void) {
   const { state, dispatch } = useEditor();
   const { history, meta, catalog, report, loaded, live } = state;
   const graph = history.present;
   const synced = useRef("");  // structure key of what the server runs (live) or has judged (draft)
   const program = useCallback((): Program => flowToProgram(graph.nodes, graph.edges, meta!), [graph, meta]);
+  const revalidate = useRef<number | undefined>(undefined);
 
   useEffect(() => {
     synced.current = loaded.fromServer ? syncKey(true, graph, meta) : "";
@@ -110,6 +114,13 @@ export function useProgramSync(say: (message: string) => void) {
     if (!live || next.structural || unset || !report?.valid || meta?.inside) return;
     synced.current = syncKey(true, next.graph, meta);  // before the sync effect runs
     throttle.push(id, next.params);
+    // a PATCH answers no report: judge the patched graph once the edits pause, so its warnings (a layer's
+    // weight dragged to 0) show on the graph
+    window.clearTimeout(revalidate.current);
+    const patched = flowToProgram(next.graph.nodes, next.graph.edges, meta!);
+    revalidate.current = window.setTimeout(() => {
+      api.validate(patched).then((r) => { if (r.valid) dispatch({ type: "reportReceived", report: r }); }).catch(() => {});
+    }, REVALIDATE_MS);
   }, [graph, catalog, report, meta, live, throttle, dispatch]);
 
   /** Swap the draft into the robot; false (and the reasons on the nodes) when the server refuses it. */

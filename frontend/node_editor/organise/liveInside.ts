@@ -16,5 +16,11 @@ function strip<T>(record: Record<string, T>, prefix: string): Record<string, T> 
 export function liveInside(live: Live, path: string | undefined): Live {
   if (!path) return live;
   const prefix = `${path}/`;
-  return { values: strip(live.values, prefix), history: strip(live.history, prefix), layers: strip(live.layers, prefix) };
+  const profile = live.profile && {
+    ...live.profile,
+    nodes: live.profile.nodes.filter((n) => n.node.startsWith(prefix)).map((n) => ({ ...n, node: n.node.slice(prefix.length) })),
+  };
+  return {
+    ...live, values: strip(live.values, prefix), history: strip(live.history, prefix), layers: strip(live.layers, prefix), profile,
+  };
 }

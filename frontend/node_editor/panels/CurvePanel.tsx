@@ -10,6 +10,9 @@ import { SamplesContext } from "../context";
 import { useEditor } from "../store/EditorStore";
 import { TELEMETRY_HZ, type Samples } from "../telemetry";
 import { classify, CLASS_COLOURS, CLASS_NAMES } from "../trajectory";
+import { ticks } from "../live/logic";
+
+const AXIS_FONT_PX = 7;  // about one character of the axis font
 
 export function CurvePanel() {
   const samples = useContext(SamplesContext);
@@ -37,7 +40,17 @@ function CurvePlot({ samples, dof, info, rate, onDof, dofs }: {
       scales: { x: { time: false } },
       axes: [
         { stroke: "#9aa4b2", grid: { stroke: "#2a2f38" }, ticks: { stroke: "#2a2f38" } },
-        { stroke: "#9aa4b2", grid: { stroke: "#2a2f38" }, ticks: { stroke: "#2a2f38" }, size: 50 },
+        {
+          stroke: "#9aa4b2", grid: { stroke: "#2a2f38" }, ticks: { stroke: "#2a2f38" },
+          // negative values with a visible minus (U+2212), and an axis wide enough for the longest label
+          // (uPlot right-aligns them against the plot: a label wider than the axis loses its sign)
+          values: (_u, splits) => {
+            const labels = ticks(splits);
+            box.current?.setAttribute("data-y-ticks", labels.join(" "));
+            return labels;
+          },
+          size: (_u, values) => Math.max(44, ...(values ?? []).map((v) => String(v).length * AXIS_FONT_PX + 20)),
+        },
       ],
       series: [
         {},

@@ -1,5 +1,6 @@
 // The running program's exposed inputs as controls: a slider per number, a box per flag, a top-view
 // pad per 3D point (e.g. a gaze target).
+import { useState } from "react";
 import type { ExposedInput } from "../api";
 import { useActions, useEditor } from "../store/EditorStore";
 
@@ -39,19 +40,35 @@ function GazePad({ decl, value, onSet }: { decl: ExposedInput; value: unknown; o
   );
 }
 
+/** A number input's slider. While the pointer holds it, the slider shows its own value: nothing else
+ * (a refresh of the inputs after a program swap, an older value arriving late) moves the thumb under
+ * the user's hand. The range is the declared one, with a step that divides it exactly, and the value
+ * shown is clamped into it (an out-of-range value would sit at an end and leap at the first touch). */
+function InputSlider({ decl, value, onSet }: { decl: ExposedInput; value: unknown; onSet: (v: number) => void }) {
+  const min = decl.min ?? -1, max = decl.max ?? 1;
+  const step = decl.type === "int" ? 1 : (max - min) / 200;
+  const [held, setHeld] = useState<number | null>(null);
+  const stored = Number(value ?? decl.default ?? 0);
+  const shown = held ?? Math.min(max, Math.max(min, Number.isFinite(stored) ? stored : 0));
+  const release = () => setHeld(null);
+  return (
+    <label className="input-slider">
+      <span>{decl.name}</span>
+      <input type="range" min={min} max={max} step={step} value={shown} aria-label={`input ${decl.name}`}
+             onPointerDown={() => setHeld(shown)} onPointerUp={release} onPointerCancel={release} onBlur={release}
+             onChange={(e) => {
+               const v = Number(e.target.value);
+               if (held !== null) setHeld(v);
+               onSet(v);
+             }} />
+      <span className="num">{shown.toFixed(2)}</span>
+    </label>
+  );
+}
+
 function InputControl({ decl, value, onSet }: { decl: ExposedInput; value: unknown; onSet: (v: unknown) => void }) {
   if (decl.type === "vec3") return <GazePad decl={decl} value={value} onSet={onSet} />;
-  if (decl.type === "float" || decl.type === "int") {
-    const min = decl.min ?? -1, max = decl.max ?? 1;
-    return (
-      <label className="input-slider">
-        <span>{decl.name}</span>
-        <input type="range" min={min} max={max} step={decl.type === "int" ? 1 : (max - min) / 200} value={Number(value ?? decl.default ?? 0)}
-               aria-label={`input ${decl.name}`} onChange={(e) => onSet(Number(e.target.value))} />
-        <span className="num">{Number(value ?? 0).toFixed(2)}</span>
-      </label>
-    );
-  }
+  if (decl.type === "float" || decl.type === "int") return <InputSlider decl={decl} value={value} onSet={onSet} />;
   if (decl.type === "bool") return <label><input type="checkbox" checked={Boolean(value)} onChange={(e) => onSet(e.target.checked)} /> {decl.name}</label>;
   return null;
 }

@@ -5,6 +5,8 @@ import type { RobotDescription } from "../api";
 import { fieldsFromSchema, hexToRgb, rgbToHex, type Field } from "../schemaForm";
 import { useActions, useEditor } from "../store/EditorStore";
 import { errorsByNode } from "../store/state";
+import { drivenBy } from "../live/logic";
+import { DrivenBy, LayerStack } from "../live/ParamExtras";
 
 function DofPicker({ value, robot, onChange }: { value: string[]; robot: RobotDescription | null; onChange: (v: string[]) => void }) {
   const [text, setText] = useState("");
@@ -109,14 +111,28 @@ export function ParamPanel() {
       <h3>{entry.title} <span className="muted">{node.id}</span></h3>
       <p className="doc">{entry.doc}</p>
       {errors.map((e, i) => <div key={i} className="error-line">{e}</div>)}
-      {fields.map((f) => (
-        <label key={f.name} className={`field ${errors.some((e) => e.includes(`'${f.name}'`)) ? "bad" : ""}`} title={f.description}>
-          <span className="field-name">{f.label}</span>
-          <FieldEditor f={f} value={params[f.name]} robot={robot} clips={clips}
-                       onChange={(val, live) => onChange(node.id, { ...params, [f.name]: val }, live)} />
-          {f.description && <span className="hint">{f.description}</span>}
-        </label>
-      ))}
+      {fields.map((f) => {
+        const bad = errors.some((e) => e.includes(`'${f.name}'`)) ? "bad" : "";
+        if (node.data.type === "layer_mixer" && f.name === "layers" && Array.isArray(params.layers))
+          return (
+            <div key={f.name} className={`field ${bad}`}>
+              <span className="field-name">{f.label}</span>
+              <LayerStack node={node.id} layers={params.layers as any}
+                          onChange={(layers, live) => onChange(node.id, { ...params, layers }, live)} />
+            </div>
+          );
+        const driver = drivenBy(history.present.edges, node.id, f.name);
+        const editor = <FieldEditor f={f} value={params[f.name]} robot={robot} clips={clips}
+                                    onChange={(val, live) => onChange(node.id, { ...params, [f.name]: val }, live)} />;
+        return (
+          <label key={f.name} className={`field ${bad} ${driver ? "driven" : ""}`} title={f.description}>
+            <span className="field-name">{f.label}</span>
+            {driver && <DrivenBy param={f.name} driver={driver} />}
+            {driver ? <fieldset disabled className="driven-editor" title="overridden by the wire">{editor}</fieldset> : editor}
+            {f.description && <span className="hint">{f.description}</span>}
+          </label>
+        );
+      })}
     </div>
   );
 }

@@ -258,3 +258,14 @@ describe("canvas", () => {
     expect(present(only).nodes.filter((n) => n.selected).map((n) => n.id)).toEqual(["wave"]);
   });
 });
+
+describe("layers", () => {
+  it("removing a mixer layer removes its ports and the wires to them, in one undo step", () => {
+    const s = loaded();
+    const next = reducer(s, { type: "paramsEdited", node: "mix", params: { layers: [{ name: "base" }] }, at: 0 });
+    const mix = present(next).nodes.find((n) => n.id === "mix")!;
+    expect(Object.keys(mix.data.inputs)).toEqual(["base", "base_weight"]);
+    expect(present(next).edges.map((e) => e.id)).not.toContain("wave.out->mix.idle");
+    expect(present(reducer(next, { type: "undo" })).edges.map((e) => e.id)).toContain("wave.out->mix.idle");
+  });
+});

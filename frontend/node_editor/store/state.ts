@@ -106,8 +106,10 @@ export function withParams(g: Graph, catalog: Catalog, id: string, params: Recor
   const clean = Object.fromEntries(Object.entries(params).filter(([, v]) => v !== null && v !== undefined));
   const { inputs, outputs } = portsOf(catalog[node.data.type], clean);
   const structural = JSON.stringify(inputs) !== JSON.stringify(node.data.inputs) || JSON.stringify(outputs) !== JSON.stringify(node.data.outputs);
-  const graph = { ...g, nodes: g.nodes.map((n) => (n.id === id ? { ...n, data: { ...n.data, params: clean, inputs, outputs } } : n)) };
-  return { graph, params: clean, structural };
+  const nodes = g.nodes.map((n) => (n.id === id ? { ...n, data: { ...n.data, params: clean, inputs, outputs } } : n));
+  // a port the new parameters remove (e.g. a mixer's layer) takes its wires with it
+  const edges = structural ? g.edges.filter((e) => (e.target !== id || e.targetHandle in inputs) && (e.source !== id || e.sourceHandle in outputs)) : g.edges;
+  return { graph: { ...g, nodes, edges }, params: clean, structural };
 }
 
 /** Errors of the report by node, each as `port: message`. Blocks inside subgraphs run as

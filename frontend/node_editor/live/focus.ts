@@ -1,0 +1,18 @@
+// Selecting a node and bringing it into view (the warning count and "driven by" jump there).
+import { useReactFlow } from "@xyflow/react";
+import { useCallback } from "react";
+import { useEditor } from "../store/EditorStore";
+
+export function useFocusNode(): (id: string) => void {
+  const flow = useReactFlow();
+  const { state, dispatch } = useEditor();
+  const nodes = state.history.present.nodes;
+  return useCallback((id: string) => {
+    if (!nodes.some((n) => n.id === id)) return;
+    dispatch({
+      type: "nodesChanged",
+      changes: nodes.filter((n) => n.id === id || n.selected).map((n) => ({ type: "select" as const, id: n.id, selected: n.id === id })),
+    });
+    flow.fitView({ nodes: [{ id }], padding: 0.25, maxZoom: 1.1 });
+  }, [nodes, dispatch, flow]);
+}

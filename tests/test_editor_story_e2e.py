@@ -1,0 +1,200 @@
+"""End-to-end, in Chromium against a real `nutty serve`: a new user's whole session with the editor.
+
+From an empty draft, the idle layer of the interactive program (breathing, and a filtered noise
+wander, as additive layers over the rest pose) is built with the two fast ways only: dragging a
+wire into empty space and picking from the search, and quick-add (Tab) at the pointer. Its blocks are
+grouped into a reusable "idle" subgraph saved in the robot's library; the draft goes live without
+the robot jumping (every recorded frame within the velocity, acceleration and jerk limits); and every
+block on the graph then shows what it costs and what it outputs.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from server_process import running_server
+from test_editor_e2e import ARGS, ARTIFACTS, CHROMIUM, DIST, ROOT, VALID, wait_until
+from test_safe_swaps import assert_smooth
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
+]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    scratch = tmp_path_factory.mktemp("story")
+    robot = scratch / "nutty_desk"
+    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)
+    record = scratch / "frames.jsonl"
+    with running_server("--robot", str(robot), "--no-previz", "--record", str(record)) as (url, _, client):
+        yield {"url": url, "client": client, "record": record, "robot": robot}
+
+
+@pytest.fixture(scope="module")
+def page(server):
+    from playwright.sync_api import sync_playwright
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
+        pg.set_default_timeout(25000)
+        pg.on("dialog", lambda d: d.accept("idle") if d.type == "prompt" else d.accept())
+        pg.goto(server["url"] + "/")
+        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+        yield pg
+        browser.close()
+
+
+def centre(box):
+    return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+
+
+def handle(page, node, port, kind):
+    return page.locator(f"[data-testid=node-{node}] .react-flow__handle.{kind}[data-handleid='{port}']")
+
+
+def pane_point(page, fx, fy):
+    box = page.locator(".react-flow__pane").bounding_box()
+    return box["x"] + box["width"] * fx, box["y"] + box["height"] * fy
+
+
+def drag_to(page, src, x, y):
+    sx, sy = centre(src.bounding_box())
+    page.mouse.move(sx, sy)
+    page.mouse.down()
+    page.mouse.move(sx + 20, sy + 5)  # React Flow drops the first move of a drag
+    page.mouse.move(x, y, steps=8)
+    page.mouse.up()
+
+
+def pick(page, text, block):
+    """Type in the open quick-add search and take `block`."""
+    search = page.get_by_label("quick add search")
+    search.wait_for()
+    search.type(text)
+    page.get_by_test_id(f"qa-{block}").wait_for()
+    search.press("Enter")
+    page.get_by_test_id(f"node-{block}").wait_for()
+
+
+def fit(page):
+    page.locator(".react-flow__pane").click(position={"x": 5, "y": 5})  # nothing selected: Fit frames all
+    page.get_by_test_id("canvas-controls").get_by_role("button", name="Fit").click()
+    time.sleep(0.4)
+
+
+def draft_edges(page) -> set[tuple[str, str, str, str]]:
+    """The draft's wires as the graph draws them (`rf__edge-<from>.<port>-><to>.<port>`)."""
+    ids = page.locator(".react-flow__edge").evaluate_all("els => els.map(e => e.dataset.testid)")
+    out = set()
+    for i in ids:
+        m = re.match(r"rf__edge-(.+)\.(.+)->(.+)\.(.+)$", i or "")
+        if m:
+            out.add(m.groups())
+    return out
+
+
+def test_build_group_and_go_live(page, server):
+    from backend.engine.embodiment import load_embodiment
+
+    client = server["client"]
+    swaps = client.status()["swaps"]
+    page.get_by_role("button", name="New").click()
+    page.get_by_test_id("node-rest").wait_for()
+    assert page.get_by_test_id("mode").inner_text().startswith("draft")
+    fit(page)
+    # 1. a wire from the rest pose into empty space -> "layer mixer": the rest pose is its base layer
+    drag_to(page, handle(page, "rest", "out", "source"), *pane_point(page, 0.45, 0.8))
+    pick(page, "layer mix", "layer_mixer")
+    assert ("rest", "out", "layer_mixer", "base") in draft_edges(page)
+    fit(page)
+    # the mixer's output dropped on the output's occupied input replaces the rest pose's wire
+    drag_to(page, handle(page, "layer_mixer", "out", "source"), *centre(handle(page, "output", "in", "target").bounding_box()))
+    wait_until(lambda: ("layer_mixer", "out", "output", "in") in draft_edges(page), what="the mixer on the output")
+    assert ("rest", "out", "output", "in") not in draft_edges(page)
+    # two additive layers on the mixer, from its layer stack
+    page.locator("[data-testid=node-layer_mixer] .block-header").click()
+    for layer in ("idle", "wander"):
+        page.get_by_test_id("ls-new-name").fill(layer)
+        page.get_by_test_id("ls-add").click()
+        handle(page, "layer_mixer", layer, "target").wait_for()
+    fit(page)
+    # 2. from the idle layer's input into empty space -> "breathing", which feeds it
+    drag_to(page, handle(page, "layer_mixer", "idle", "target"), *pane_point(page, 0.12, 0.25))
+    pick(page, "breath", "breathe")
+    # 3. quick-add (Tab) at the pointer: a smooth noise, then from its output -> a motion filter
+    fit(page)
+    page.mouse.move(*pane_point(page, 0.1, 0.85))
+    page.keyboard.press("Tab")
+    pick(page, "smooth noise", "noise")
+    fit(page)
+    drag_to(page, handle(page, "noise", "out", "source"), *pane_point(page, 0.3, 0.9))
+    pick(page, "motion filter", "motion_filter")
+    fit(page)
+    drag_to(page, handle(page, "motion_filter", "out", "source"),
+            *centre(handle(page, "layer_mixer", "wander", "target").bounding_box()))
+    wait_until(lambda: {("breathe", "out", "layer_mixer", "idle"), ("noise", "out", "motion_filter", "in"),
+                        ("motion_filter", "out", "layer_mixer", "wander")} <= draft_edges(page), what="the idle wiring")
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    assert client.status()["swaps"] == swaps  # a draft: the robot has not been touched
+    page.screenshot(path=str(ARTIFACTS / "story-built.png"))
+
+    # 4. group the idle blocks into a reusable "idle" subgraph, and keep it in the robot's library
+    fit(page)
+    for i, node in enumerate(("breathe", "noise", "motion_filter")):
+        page.locator(f"[data-testid=node-{node}] .block-header").click(modifiers=["Shift"] if i else [])
+    page.get_by_test_id("group").click()
+    page.get_by_test_id("group-name").fill("idle")
+    page.get_by_test_id("group-confirm").click()
+    page.get_by_test_id("node-idle").wait_for()
+    assert page.get_by_test_id("node-breathe").count() == 0
+    assert {("idle", "idle", "layer_mixer", "idle"), ("idle", "out", "layer_mixer", "wander")} & draft_edges(page) \
+        or len([e for e in draft_edges(page) if e[0] == "idle"]) == 2, draft_edges(page)
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    page.locator("[data-testid=node-idle] .block-header").click()
+    page.get_by_test_id("save-subgraph").click()
+    wait_until(lambda: "idle" in client._call("GET", "/api/subgraphs"), what="the subgraph in the library")
+    page.get_by_test_id("palette-subgraph-idle").wait_for()
+
+    # 5. go live: the robot moves to the new program within its limits
+    desk = load_embodiment("nutty_desk")
+    rows = lambda: [json.loads(x) for x in server["record"].read_text().splitlines() if x.strip()]  # noqa: E731
+    start = len(rows())
+    page.get_by_test_id("go-live").click()
+    page.get_by_test_id("mode").filter(has_text="live").wait_for()
+    wait_until(lambda: any(n["type"] == "subgraph" for n in client.program()["program"]["nodes"]), timeout=30,
+               what="the program on the robot")
+    assert client.status()["swaps"] == swaps + 1
+    time.sleep(2.5)  # the swap's transition and then some
+    frames = rows()[max(0, start - 5):]
+    assert np.all(np.diff([r["seq"] for r in frames]) == 1)
+    cont = [d for d in desk.dofs if d.type.value == "continuous"]
+    full = np.tile(desk.rest, (len(frames), 1))
+    full[:, [d.channels.start for d in cont]] = [[r["dofs"][d.name]["position"] for d in cont] for r in frames]
+    assert_smooth(desk, full, 100.0)
+
+    # 6. every block shows its cost, and (zoomed in) its output moving
+    ids = ["rest", "layer_mixer", "idle", "output"]
+    for node in ids:
+        badge = page.get_by_test_id(f"cook-{node}")
+        wait_until(lambda: re.search(r"\d+(\.\d+)?\s*(µs|ms)", badge.inner_text() or ""), timeout=20,
+                   what=f"the cook time of {node}")
+    page.get_by_test_id("canvas-controls").get_by_role("button", name="1:1").click()
+    page.locator("[data-testid=node-idle] .block-header").click()
+    page.keyboard.press("f")  # frame the subgraph node: its output's value and sparkline show
+    value = page.get_by_test_id("live-idle.out")
+    value.wait_for()
+    first = value.inner_text()
+    wait_until(lambda: value.inner_text() not in (first, "–"), what="the idle subgraph's output to move")
+    page.screenshot(path=str(ARTIFACTS / "story-live.png"))
