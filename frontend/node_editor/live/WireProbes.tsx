@@ -183,7 +183,7 @@ function LiveBar() {
   const count = report?.warnings.length ?? 0;
   const first = firstWarnedNode(report);
   return (
-    <Panel position="top-center" className="live-bar">
+    <Panel position="bottom-center" className="live-bar">
       {count > 0 && (
         <button className="warn-count" data-testid="warning-count" disabled={!first}
                 title={report!.warnings.map((w) => `${w.node ?? "program"}: ${w.message}`).join("\n")}
