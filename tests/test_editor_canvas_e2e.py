@@ -11,30 +11,16 @@ selects every block. Screenshots go to test-artifacts/.
 from __future__ import annotations
 
 import json
-import re
-import shutil
 import time
-from pathlib import Path
 
 import pytest
 
+from editor_browser import ARTIFACTS, BROWSER, VALID, centre, drag, drag_to_point, editor_page, handle, scratch_robot, wait_until
 from server_process import running_server
 
-ROOT = Path(__file__).resolve().parents[1]
-DIST = ROOT / "frontend" / "dist" / "index.html"
-CHROMIUM = "/usr/bin/chromium"
-ARTIFACTS = ROOT / "test-artifacts"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync", "--enable-unsafe-swiftshader"]
-
-VALID = re.compile(r"^valid ·")
 READABLE_PX = 11.0
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
-]
+pytestmark = BROWSER
 
 # A small chain the wiring tests start from (loaded on the server, then the page reloads it).
 CHAIN = {
@@ -60,59 +46,16 @@ CHAIN = {
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    robot = tmp_path_factory.mktemp("robot") / "nutty_desk"
-    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)  # a scratch copy of the robot
-    for p in (robot / "programs").glob("*.json"):
-        if p.stem != "interactive":
-            p.unlink()
+    robot = scratch_robot(tmp_path_factory, keep=("interactive",))
     with running_server("--robot", str(robot), "--no-previz") as (url, _, client):
         yield {"url": url, "client": client}
 
 
 @pytest.fixture(scope="module")
 def page(server):
-    from playwright.sync_api import sync_playwright
-
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
-        pg.set_default_timeout(25000)
-        pg.on("dialog", lambda d: d.accept())  # leaving with unsaved changes on reload
-        pg.goto(server["url"] + "/")
-        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    # leaving with unsaved changes on reload: accepted
+    with editor_page(server["url"], on_dialog=lambda d: d.accept()) as pg:
         yield pg
-        browser.close()
-
-
-def wait_until(fn, timeout=10.0, what="condition"):
-    end = time.time() + timeout
-    while time.time() < end:
-        if fn():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
-def centre(box):
-    return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-
-
-def drag_to_point(page, src, x, y):
-    sx, sy = centre(src.bounding_box())
-    page.mouse.move(sx, sy)
-    page.mouse.down()
-    page.mouse.move(sx + 20, sy + 5)  # React Flow drops the first move of a drag
-    page.mouse.move(x, y, steps=8)
-    page.mouse.up()
-
-
-def drag(page, src, dst):
-    drag_to_point(page, src, *centre(dst.bounding_box()))
-
-
-def handle(page, node, port, kind):
-    return page.locator(f"[data-testid=node-{node}] .react-flow__handle.{kind}[data-handleid='{port}']")
 
 
 def program(server):

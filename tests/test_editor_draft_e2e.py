@@ -11,22 +11,16 @@ editor given `?token=` edits the robot and one without it cannot.
 from __future__ import annotations
 
 import json
-import shutil
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from editor_browser import ARTIFACTS, BROWSER, VALID, editor_page, scratch_robot, wait_until
 from server_process import running_server
-from test_editor_e2e import ARGS, ARTIFACTS, CHROMIUM, DIST, ROOT, VALID, wait_until
 from test_safe_swaps import assert_smooth
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
-]
+pytestmark = BROWSER
 
 # The head and body far from where the interactive program holds them: a swap to it has a big jump
 # to blend out.
@@ -43,34 +37,16 @@ FAR_POSE = {
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    scratch = tmp_path_factory.mktemp("draft")
-    robot = scratch / "nutty_desk"
-    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)
-    for p in (robot / "programs").glob("*.json"):
-        if p.stem != "interactive":
-            p.unlink()
-    record = scratch / "frames.jsonl"
+    robot = scratch_robot(tmp_path_factory, keep=("interactive",))
+    record = robot.parent / "frames.jsonl"
     with running_server("--robot", str(robot), "--no-previz", "--record", str(record)) as (url, _, client):
-        yield {"url": url, "client": client, "record": record, "robot": robot, "scratch": scratch}
-
-
-def _browser(p):
-    return p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        yield {"url": url, "client": client, "record": record, "robot": robot, "scratch": robot.parent}
 
 
 @pytest.fixture(scope="module")
 def page(server):
-    from playwright.sync_api import sync_playwright
-
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as p:
-        browser = _browser(p)
-        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
-        pg.set_default_timeout(25000)
-        pg.goto(server["url"] + "/")
-        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    with editor_page(server["url"]) as pg:
         yield pg
-        browser.close()
 
 
 def _running(server) -> dict:

@@ -10,72 +10,25 @@ Screenshots go to test-artifacts/.
 
 from __future__ import annotations
 
-import re
-import shutil
-import time
-from pathlib import Path
-
 import pytest
 
+from editor_browser import ARTIFACTS, BROWSER, VALID, drag, editor_page, handle, scratch_robot, wait_until
 from server_process import running_server
 
-ROOT = Path(__file__).resolve().parents[1]
-DIST = ROOT / "frontend" / "dist" / "index.html"
-CHROMIUM = "/usr/bin/chromium"
-ARTIFACTS = ROOT / "test-artifacts"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync", "--enable-unsafe-swiftshader"]
-
-VALID = re.compile(r"^valid ·")
-
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
-]
+pytestmark = BROWSER
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    robot = tmp_path_factory.mktemp("robot") / "nutty_desk"
-    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)  # saves go to a scratch copy of the robot
-    for p in (robot / "programs").glob("*.json"):
-        p.unlink()
+    robot = scratch_robot(tmp_path_factory, keep=())  # saves go to a scratch copy of the robot
     with running_server("--robot", str(robot), "--no-previz") as (url, _, client):
         yield {"url": url, "client": client}
 
 
 @pytest.fixture(scope="module")
 def page(server):
-    from playwright.sync_api import sync_playwright
-
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
-        pg.set_default_timeout(25000)
-        pg.goto(server["url"] + "/")
-        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    with editor_page(server["url"]) as pg:
         yield pg
-        browser.close()
-
-
-def wait_until(fn, timeout=10.0, what="condition"):
-    end = time.time() + timeout
-    while time.time() < end:
-        if fn():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
-def drag(page, src, dst):
-    a, b = src.bounding_box(), dst.bounding_box()
-    page.mouse.move(a["x"] + a["width"] / 2, a["y"] + a["height"] / 2)
-    page.mouse.down()
-    page.mouse.move(a["x"] + 20, a["y"] + 5)  # React Flow drops the first move of a drag
-    page.mouse.move(b["x"] + b["width"] / 2, b["y"] + b["height"] / 2, steps=8)
-    page.mouse.up()
 
 
 def test_running_program_is_shown_live(page):
@@ -146,10 +99,6 @@ WEIGHTED_LAYER = {
 }
 
 
-def _handle(page, node, port, kind):
-    return page.locator(f"[data-testid=node-{node}] .react-flow__handle.{kind}[data-handleid='{port}']")
-
-
 def test_mixer_weight_port_is_wired_in_the_browser(page, server):
     server["client"].load_program(WEIGHTED_LAYER)
     def leave(dialog):  # the σ edit left the editor with unsaved changes: it asks before reloading
@@ -159,9 +108,9 @@ def test_mixer_weight_port_is_wired_in_the_browser(page, server):
     page.reload()
     page.remove_listener("dialog", leave)
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
-    weight = _handle(page, "mix", "idle_weight", "target")
+    weight = handle(page, "mix", "idle_weight", "target")
     weight.wait_for()
-    drag(page, _handle(page, "swell", "value", "source"), weight)
+    drag(page, handle(page, "swell", "value", "source"), weight)
     wire = {"from": {"node": "swell", "port": "value"}, "to": {"node": "mix", "port": "idle_weight"}}
     wait_until(lambda: wire in server["client"].program()["program"]["edges"], what="the weight edge on the server")
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()

@@ -14,36 +14,22 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 import time
-from pathlib import Path
 
 import pytest
 
+from editor_browser import ARTIFACTS, BROWSER, editor_page, scratch_robot, wait_until
 from server_process import running_server
 
-ROOT = Path(__file__).resolve().parents[1]
-DIST = ROOT / "frontend" / "dist" / "index.html"
-CHROMIUM = "/usr/bin/chromium"
-ARTIFACTS = ROOT / "test-artifacts"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync", "--enable-unsafe-swiftshader"]
-
-VALID = re.compile(r"^valid ·")
 COOK = re.compile(r"^\d+(\.\d)? (µs|ms)$")
 MINUS = "\u2212"
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
-]
+pytestmark = BROWSER
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    robot = tmp_path_factory.mktemp("robot") / "nutty_desk"
-    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)
+    robot = scratch_robot(tmp_path_factory)
     # without viser: its page (same origin, so the editor's renderer thread) rendering in software GL
     # would starve this page's frames; its embedded form is tested in tests/test_previz.py
     with running_server("--robot", str(robot), "--no-previz") as (url, _, client):
@@ -52,27 +38,9 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(server):
-    from playwright.sync_api import sync_playwright
-
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
-        pg.set_default_timeout(20000)
-        pg.goto(server["url"] + "/")
-        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    with editor_page(server["url"], timeout_ms=20000) as pg:
         pg.get_by_test_id("node-mix").wait_for()
         yield pg
-        browser.close()
-
-
-def wait_until(fn, timeout=10.0, what="condition"):
-    end = time.time() + timeout
-    while time.time() < end:
-        if fn():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def wire_point(page, edge_id, frac=0.5):

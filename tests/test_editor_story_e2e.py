@@ -12,70 +12,36 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from editor_browser import ARTIFACTS, BROWSER, VALID, centre, drag_to_point, editor_page, handle, scratch_robot, wait_until
 from server_process import running_server
-from test_editor_e2e import ARGS, ARTIFACTS, CHROMIUM, DIST, ROOT, VALID, wait_until
 from test_safe_swaps import assert_smooth
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
-]
+pytestmark = BROWSER
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    scratch = tmp_path_factory.mktemp("story")
-    robot = scratch / "nutty_desk"
-    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)
-    record = scratch / "frames.jsonl"
+    robot = scratch_robot(tmp_path_factory)
+    record = robot.parent / "frames.jsonl"
     with running_server("--robot", str(robot), "--no-previz", "--record", str(record)) as (url, _, client):
         yield {"url": url, "client": client, "record": record, "robot": robot}
 
 
 @pytest.fixture(scope="module")
 def page(server):
-    from playwright.sync_api import sync_playwright
-
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
-        pg.set_default_timeout(25000)
-        pg.on("dialog", lambda d: d.accept("idle") if d.type == "prompt" else d.accept())
-        pg.goto(server["url"] + "/")
-        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    # prompts (the library's name for the subgraph) are answered "idle"
+    with editor_page(server["url"], on_dialog=lambda d: d.accept("idle") if d.type == "prompt" else d.accept()) as pg:
         yield pg
-        browser.close()
-
-
-def centre(box):
-    return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-
-
-def handle(page, node, port, kind):
-    return page.locator(f"[data-testid=node-{node}] .react-flow__handle.{kind}[data-handleid='{port}']")
 
 
 def pane_point(page, fx, fy):
     box = page.locator(".react-flow__pane").bounding_box()
     return box["x"] + box["width"] * fx, box["y"] + box["height"] * fy
-
-
-def drag_to(page, src, x, y):
-    sx, sy = centre(src.bounding_box())
-    page.mouse.move(sx, sy)
-    page.mouse.down()
-    page.mouse.move(sx + 20, sy + 5)  # React Flow drops the first move of a drag
-    page.mouse.move(x, y, steps=8)
-    page.mouse.up()
 
 
 def pick(page, text, block):
@@ -115,12 +81,12 @@ def test_build_group_and_go_live(page, server):
     assert page.get_by_test_id("mode").inner_text().startswith("draft")
     fit(page)
     # 1. a wire from the rest pose into empty space -> "layer mixer": the rest pose is its base layer
-    drag_to(page, handle(page, "rest", "out", "source"), *pane_point(page, 0.45, 0.8))
+    drag_to_point(page, handle(page, "rest", "out", "source"), *pane_point(page, 0.45, 0.8))
     pick(page, "layer mix", "layer_mixer")
     assert ("rest", "out", "layer_mixer", "base") in draft_edges(page)
     fit(page)
     # the mixer's output dropped on the output's occupied input replaces the rest pose's wire
-    drag_to(page, handle(page, "layer_mixer", "out", "source"), *centre(handle(page, "output", "in", "target").bounding_box()))
+    drag_to_point(page, handle(page, "layer_mixer", "out", "source"), *centre(handle(page, "output", "in", "target").bounding_box()))
     wait_until(lambda: ("layer_mixer", "out", "output", "in") in draft_edges(page), what="the mixer on the output")
     assert ("rest", "out", "output", "in") not in draft_edges(page)
     # two additive layers on the mixer, from its layer stack
@@ -131,7 +97,7 @@ def test_build_group_and_go_live(page, server):
         handle(page, "layer_mixer", layer, "target").wait_for()
     fit(page)
     # 2. from the idle layer's input into empty space -> "breathing", which feeds it
-    drag_to(page, handle(page, "layer_mixer", "idle", "target"), *pane_point(page, 0.12, 0.25))
+    drag_to_point(page, handle(page, "layer_mixer", "idle", "target"), *pane_point(page, 0.12, 0.25))
     pick(page, "breath", "breathe")
     # 3. quick-add (Tab) at the pointer: a smooth noise, then from its output -> a motion filter
     fit(page)
@@ -139,10 +105,10 @@ def test_build_group_and_go_live(page, server):
     page.keyboard.press("Tab")
     pick(page, "smooth noise", "noise")
     fit(page)
-    drag_to(page, handle(page, "noise", "out", "source"), *pane_point(page, 0.3, 0.9))
+    drag_to_point(page, handle(page, "noise", "out", "source"), *pane_point(page, 0.3, 0.9))
     pick(page, "motion filter", "motion_filter")
     fit(page)
-    drag_to(page, handle(page, "motion_filter", "out", "source"),
+    drag_to_point(page, handle(page, "motion_filter", "out", "source"),
             *centre(handle(page, "layer_mixer", "wander", "target").bounding_box()))
     wait_until(lambda: {("breathe", "out", "layer_mixer", "idle"), ("noise", "out", "motion_filter", "in"),
                         ("motion_filter", "out", "layer_mixer", "wander")} <= draft_edges(page), what="the idle wiring")

@@ -9,39 +9,22 @@ reopen. Screenshots go to test-artifacts/.
 
 from __future__ import annotations
 
-import re
-import shutil
-import time
-from pathlib import Path
-
 import pytest
 
+from editor_browser import ARTIFACTS, BROWSER, ROOT, VALID, editor_page, scratch_robot
+from editor_browser import wait_until as wait
 from server_process import running_server
 
-ROOT = Path(__file__).resolve().parents[1]
-DIST = ROOT / "frontend" / "dist" / "index.html"
-CHROMIUM = "/usr/bin/chromium"
-ARTIFACTS = ROOT / "test-artifacts"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync", "--enable-unsafe-swiftshader"]
-
-VALID = re.compile(r"^valid ·")
 IDLE = ["breathe", "wander", "wander_filter", "weight_shift", "blink", "eyelid_filter"]
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
-]
+pytestmark = BROWSER
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    robot = tmp_path_factory.mktemp("robot") / "nutty_desk"
-    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)  # saves go to a scratch copy of the robot
-    for kind in ("programs", "subgraphs"):
-        for p in (robot / kind).glob("*.json"):
-            p.unlink()
+    robot = scratch_robot(tmp_path_factory, keep=())  # saves go to a scratch copy of the robot
+    for p in (robot / "subgraphs").glob("*.json"):
+        p.unlink()
     program = ROOT / "robots" / "nutty_desk" / "programs" / "interactive.json"
     with running_server("--robot", str(robot), "--program", str(program), "--no-previz") as (url, _, client):
         yield {"url": url, "client": client, "robot": robot}
@@ -49,35 +32,21 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(server):
-    from playwright.sync_api import sync_playwright
+    answers: dict[str, str] = {}
 
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        pg = browser.new_page(viewport={"width": 1600, "height": 1000})
-        pg.set_default_timeout(25000)
-        answers: dict[str, str] = {}
-        pg.answers = answers  # what the next prompt is answered with, by its message's first word
-        def answer(dialog):
-            if dialog.type == "prompt":
-                key = next((k for k in answers if k in dialog.message), None)
-                dialog.accept(answers.get(key, dialog.default_value) if key else dialog.default_value)
-            else:
-                dialog.accept()
-        pg.on("dialog", answer)
-        pg.goto(server["url"] + "/")
-        pg.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    def answer(dialog):  # a prompt is answered by its message's first matching key in `answers`
+        if dialog.type == "prompt":
+            key = next((k for k in answers if k in dialog.message), None)
+            dialog.accept(answers.get(key, dialog.default_value) if key else dialog.default_value)
+        else:
+            dialog.accept()
+    with editor_page(server["url"], on_dialog=answer) as pg:
+        pg.answers = answers  # what the next prompt is answered with
         yield pg
-        browser.close()
 
 
 def wait_until(fn, timeout=15.0, what="condition"):
-    end = time.time() + timeout
-    while time.time() < end:
-        if fn():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
+    wait(fn, timeout, what)
 
 
 def running(server):

@@ -1,0 +1,92 @@
+"""What the editor's browser tests share: headless Chromium on a page of a real `nutty serve`, a
+scratch copy of the bundled robot (saves never touch the repository), waiting, and mouse drags."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Callable, Iterator
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DIST = ROOT / "frontend" / "dist" / "index.html"
+CHROMIUM = "/usr/bin/chromium"
+ARTIFACTS = ROOT / "test-artifacts"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync", "--enable-unsafe-swiftshader"]
+VALID = re.compile(r"^valid ·")
+
+#: The marks of every browser test module (`pytestmark = BROWSER`).
+BROWSER = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not DIST.exists(), reason="frontend/dist is not built (make test builds it)"),
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="/usr/bin/chromium is not installed"),
+]
+
+
+def scratch_robot(tmp_path_factory, keep: tuple[str, ...] | None = None) -> Path:
+    """A copy of the bundled robot in a temporary folder; with `keep`, only those programs stay."""
+    robot = tmp_path_factory.mktemp("robot") / "nutty_desk"
+    shutil.copytree(ROOT / "robots" / "nutty_desk", robot)
+    if keep is not None:
+        for p in (robot / "programs").glob("*.json"):
+            if p.stem not in keep:
+                p.unlink()
+    return robot
+
+
+@contextmanager
+def editor_page(url: str, timeout_ms: int = 25000, on_dialog: Callable | None = None) -> Iterator:
+    """A 1600×1000 page of the editor at `url`, once its status says the program is valid."""
+    from playwright.sync_api import sync_playwright
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            page.set_default_timeout(timeout_ms)
+            if on_dialog is not None:
+                page.on("dialog", on_dialog)
+            page.goto(url + "/")
+            page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+            yield page
+        finally:
+            browser.close()
+
+
+def wait_until(fn, timeout: float = 10.0, what: str = "condition") -> None:
+    """Poll `fn` until it is true; the timeout only bounds a hang."""
+    end = time.time() + timeout
+    while time.time() < end:
+        if fn():
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def centre(box) -> tuple[float, float]:
+    return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+
+
+def drag_to_point(page, src, x: float, y: float) -> None:
+    """Press on `src`, move to (x, y) in steps, release (a wire dragged by hand)."""
+    sx, sy = centre(src.bounding_box())
+    page.mouse.move(sx, sy)
+    page.mouse.down()
+    page.mouse.move(sx + 20, sy + 5)  # React Flow drops the first move of a drag
+    page.mouse.move(x, y, steps=8)
+    page.mouse.up()
+
+
+def drag(page, src, dst) -> None:
+    drag_to_point(page, src, *centre(dst.bounding_box()))
+
+
+def handle(page, node: str, port: str, kind: str):
+    """The port `port` of block `node`; `kind` is "source" (an output) or "target" (an input)."""
+    return page.locator(f"[data-testid=node-{node}] .react-flow__handle.{kind}[data-handleid='{port}']")
