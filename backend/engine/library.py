@@ -107,17 +107,22 @@ def validate_posture_doc(doc: Any, embodiment: Any = None, name: str = "") -> di
     return out
 
 
+def _validate_with(model: Any, what: str, doc: Any) -> dict[str, Any]:
+    """`doc` if it is a JSON object that `model` accepts, else LibraryError naming the first problem."""
+    if not isinstance(doc, dict):
+        raise LibraryError(f"invalid {what}: a {what} is a JSON object")
+    try:
+        model.model_validate(doc)
+    except ValidationError as exc:
+        raise LibraryError(f"invalid {what}: {_first_error(exc)}") from exc
+    return doc
+
+
 def validate_program_doc(doc: Any) -> dict[str, Any]:
     """The program format (`nutty-program/1`); the API also compiles it against the robot."""
     from backend.graph.schema import Program
 
-    if not isinstance(doc, dict):
-        raise LibraryError("invalid program: a program is a JSON object")
-    try:
-        Program.model_validate(doc)
-    except ValidationError as exc:
-        raise LibraryError(f"invalid program: {_first_error(exc)}") from exc
-    return doc
+    return _validate_with(Program, "program", doc)
 
 
 def validate_subgraph_doc(doc: Any) -> dict[str, Any]:
@@ -125,13 +130,7 @@ def validate_subgraph_doc(doc: Any) -> dict[str, Any]:
     its blocks and wiring against the robot."""
     from backend.graph.schema import Subgraph
 
-    if not isinstance(doc, dict):
-        raise LibraryError("invalid subgraph: a subgraph is a JSON object")
-    try:
-        Subgraph.model_validate(doc)
-    except ValidationError as exc:
-        raise LibraryError(f"invalid subgraph: {_first_error(exc)}") from exc
-    return doc
+    return _validate_with(Subgraph, "subgraph", doc)
 
 
 class RobotLibrary:
