@@ -121,6 +121,17 @@ def test_mixer_weight_port_is_wired_in_the_browser(page, server):
         seen.add(round(_layer(server, "idle")["effective"], 3))
         return len(seen) >= 3
     wait_until(swelling, what="the idle layer's weight to follow the LFO")
+    # the weight wire round-trips through the robot's library: saved, and drawn again when reopened
+    page.once("dialog", lambda d: d.accept("weighted"))
+    page.get_by_role("button", name="Save as").click()
+    wait_until(lambda: "weighted" in server["client"]._call("GET", "/api/programs"), what="the saved program")
+    assert wire in server["client"]._call("GET", "/api/programs/weighted")["edges"]
+    page.get_by_role("button", name="New").click()
+    wait_until(lambda: page.get_by_test_id("node-swell").count() == 0, what="a blank draft")
+    page.get_by_label("open program").select_option("weighted")
+    page.locator("[data-testid='rf__edge-swell.value->mix.idle_weight']").wait_for()
+    page.get_by_role("button", name="Back to running").click()
+    page.get_by_test_id("mode").filter(has_text="live").wait_for()
 
 
 def test_add_sine_connect_errors_undo_redo_and_save(page, server):
