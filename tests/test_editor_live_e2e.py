@@ -202,6 +202,20 @@ def test_layer_stack_mutes_solos_and_weights_layers_on_the_server(page, server):
     wait_until(lambda: layer().get("weight") == 0.4, what="the wander layer's weight on the server")
     live = page.get_by_test_id("ls-live-wander")
     wait_until(lambda: abs(float(live.get_attribute("data-effective") or 0) - 0.4) < 0.02, what="the live weight bar")
+    # a mask: typed as DoF globs, the running program's layer has it
+    mask = page.get_by_test_id("ls-mask-wander")
+    mask.fill("head_*, neck_pitch")
+    mask.press("Enter")
+    wait_until(lambda: layer().get("mask") == ["head_*", "neck_pitch"], what="the wander layer's mask on the server")
+    # adding a layer gives the mixer its input; removing it takes the input away again
+    page.get_by_test_id("ls-new-name").fill("extra")
+    page.get_by_test_id("ls-add").click()
+    page.locator("[data-testid=node-mix] .react-flow__handle.target[data-handleid='extra']").wait_for(state="attached")
+    wait_until(lambda: "extra" in [l["name"] for l in running_node(server, "mix")["params"]["layers"]],
+               what="the new layer on the server")
+    page.get_by_test_id("ls-remove-extra").click()
+    wait_until(lambda: "extra" not in [l["name"] for l in running_node(server, "mix")["params"]["layers"]],
+               what="the layer removed on the server")
     # reorder: shift one up (a program edit: the server runs the new order), then back
     order = lambda: [l["name"] for l in running_node(server, "mix")["params"]["layers"]]
     names = order()

@@ -93,7 +93,7 @@ export function LayerStack({ node, layers, onChange }: {
               <span className="ls-label">s</span>
             </div>
             <div className="ls-line">
-              <span className="ls-mask" title={`DoF mask: ${JSON.stringify(l.mask ?? ["*"])}`}>{maskSummary(l.mask)}</span>
+              <MaskField layer={l.name} mask={l.mask} onChange={(mask) => edit(i, { mask }, false)} />
               <span className="ls-bar" title={st ? `live weight ${st.effective.toFixed(2)} (fade ${st.fade.toFixed(2)})` : "not running"}>
                 <span data-testid={`ls-live-${l.name}`} data-effective={st ? st.effective.toFixed(3) : ""}
                       style={{ width: `${Math.round((st?.effective ?? 0) * 100)}%` }} />
@@ -104,6 +104,25 @@ export function LayerStack({ node, layers, onChange }: {
       })}
       <AddLayer names={layers.map((l) => l.name)} onAdd={(name, mode) => onChange([...layers, { name, mode }], false)} />
     </div>
+  );
+}
+
+/** A layer's DoF mask as text: names, globs (`head_*`) or dimensions (`stationary:*`), comma-separated;
+ * applied on Enter or when the field is left (the server says which entry the robot lacks). */
+function MaskField({ layer, mask, onChange }: { layer: string; mask: unknown; onChange: (mask: string[]) => void }) {
+  const text = (Array.isArray(mask) ? mask.map(String) : ["*"]).join(", ");
+  const [draft, setDraft] = useState<string | null>(null);
+  const commit = () => {
+    if (draft === null) return;
+    const list = draft.split(",").map((x) => x.trim()).filter(Boolean);
+    setDraft(null);
+    if (list.join(", ") !== text) onChange(list.length ? list : ["*"]);
+  };
+  return (
+    <input className="ls-mask" aria-label={`${layer} mask`} data-testid={`ls-mask-${layer}`} value={draft ?? text}
+           title={`DoF mask (${maskSummary(mask)}): DoF names, globs like head_* or stationary:*, comma-separated`}
+           onChange={(e) => setDraft(e.target.value)} onBlur={commit}
+           onKeyDown={(e) => { if (e.key === "Enter") commit(); if (e.key === "Escape") setDraft(null); }} />
   );
 }
 
