@@ -70,6 +70,9 @@ def test_a_draft_does_not_move_the_robot_until_go_live(page, server):
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     assert "draft" in page.get_by_test_id("mode").inner_text()
     assert "interactive" in page.get_by_test_id("mode").inner_text()  # what the robot runs
+    # nothing of the running program shows on the draft's blocks (its own 'output' is not running)
+    time.sleep(1.5)  # cook times arrive about once a second
+    assert page.get_by_test_id("cook-output").count() == 0
     # edits of the draft are validated, never sent to the robot
     page.get_by_test_id("node-far").click()
     page.keyboard.press("Delete")
@@ -91,6 +94,7 @@ def test_a_draft_does_not_move_the_robot_until_go_live(page, server):
     page.get_by_test_id("mode").filter(has_text="live").wait_for()
     wait_until(lambda: _running(server)["name"] == "far pose", what="the draft to go live")
     assert server["client"].status()["swaps"] == swaps + 1
+    page.get_by_test_id("cook-far").wait_for()  # live: the blocks show their cook times
 
     def arrived():
         rows = _recorded(server)[start:]

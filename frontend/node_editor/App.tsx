@@ -42,9 +42,10 @@ function Telemetry({ children }: { children: ReactNode }) {
     [signals, watched, aliases, path]);
   const { live, samples } = useTelemetry(wanted);
   const value = useMemo(() => ({
-    ...withAliasedValues(liveInside(live, path), aliases), setLayer: (mixer: string, layer: string, active: boolean) =>
+    // a draft is not running: the running program's cook times and layers are not its own
+    ...(isLive ? withAliasedValues(liveInside(live, path), aliases) : { ...live, layers: {}, profile: null }), setLayer: (mixer: string, layer: string, active: boolean) =>
       sendCommand({ type: "set_layer", mixer: path ? `${path}/${mixer}` : mixer, layer, active }),
-  }), [live, path, aliases, sendCommand]);
+  }), [live, isLive, path, aliases, sendCommand]);
   return (
     <LiveContext.Provider value={value}>
       <SamplesContext.Provider value={samples}>{children}</SamplesContext.Provider>
