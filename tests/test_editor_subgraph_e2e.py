@@ -138,7 +138,9 @@ def test_save_to_library_and_add_it_to_another_program(page, server):
     def added():
         prog = running(server)["program"]
         return "idle_layer" in (prog.get("subgraphs") or {}) and any(n["id"] == "idle_layer" for n in prog["nodes"])
-    wait_until(added, timeout=30, what="the server to run the program with the library's subgraph")
+    wait_until(added, timeout=30, what="the server to run the program with the library's subgraph "
+               f"(mode {page.get_by_test_id('mode').inner_text()!r}, status {page.get_by_test_id('status').inner_text()!r}, "
+               f"console {page.get_by_test_id('console').inner_text()[-300:]!r})")
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     page.screenshot(path=str(ARTIFACTS / "organise-from-library.png"))
 

@@ -11,8 +11,9 @@ export function Toolbar() {
       <span className="logo">Nutty</span>
       <input className="prog-name" aria-label="program name" value={meta?.name ?? ""}
              onChange={(e) => dispatch({ type: "renamed", name: e.target.value })} />
-      {dirty && <span className="dirty" title="unsaved changes">●</span>}
-      <span className={`status ${report?.valid ? "ok" : "bad"}`} data-testid="status">{statusText(report, syncing, live)}</span>
+      {/* the dot keeps its place when clean, the status sits after the buttons: a changing status or an
+          edit never moves a button from under the pointer */}
+      <span className="dirty" title="unsaved changes" style={{ visibility: dirty ? "visible" : "hidden" }}>●</span>
       {live ? (
         <>
           <span className="mode live" data-testid="mode" title="edits reach the robot as you make them">● live</span>
@@ -24,11 +25,12 @@ export function Toolbar() {
                 title="edits are validated but do not reach the robot until Go live">
             draft{runningName ? ` · robot runs '${runningName}'` : ""}
           </span>
-          <button className="go-live" data-testid="go-live" onClick={() => goLive()} disabled={!report?.valid || syncing}
+          <button className="go-live" data-testid="go-live" onClick={() => goLive()} disabled={!report?.valid}
                   title="swap this program into the robot (Ctrl+Enter); it moves there smoothly, within its limits">Go live</button>
           <button onClick={openRunning} title="discard the draft and show what the robot runs">Back to running</button>
         </>
       )}
+      <span className={`status ${report?.valid ? "ok" : "bad"}`} data-testid="status">{statusText(report, syncing, live)}</span>
       <span className="spacer" />
       <button onClick={newProgram}>New</button>
       <select aria-label="open program" value="" onChange={(e) => e.target.value && open(e.target.value)}>
