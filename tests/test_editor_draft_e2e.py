@@ -13,12 +13,11 @@ from __future__ import annotations
 import json
 import time
 
-import numpy as np
 import pytest
 
 from editor_browser import ARTIFACTS, BROWSER, VALID, editor_page, scratch_robot, wait_until
 from server_process import running_server
-from test_safe_swaps import assert_smooth
+from test_safe_swaps import assert_smooth, recorded_frames, recorded_positions
 
 pytestmark = BROWSER
 
@@ -54,7 +53,7 @@ def _running(server) -> dict:
 
 
 def _recorded(server) -> list[dict]:
-    return [json.loads(line) for line in server["record"].read_text().splitlines() if line.strip()]
+    return recorded_frames(server["record"])
 
 
 def test_a_draft_does_not_move_the_robot_until_go_live(page, server):
@@ -100,12 +99,8 @@ def test_a_draft_does_not_move_the_robot_until_go_live(page, server):
         rows = _recorded(server)[start:]
         return rows and abs(rows[-1]["dofs"]["body_yaw"]["position"] - 1.2) < 1e-6
     wait_until(arrived, timeout=20, what="the robot to reach the new program's pose")
-    rows = _recorded(server)[start - 5:]
-    assert np.all(np.diff([r["seq"] for r in rows]) == 1)  # every frame of the swap recorded
-    cont = [d for d in desk.dofs if d.type.value == "continuous"]
-    full = np.tile(desk.rest, (len(rows), 1))
-    full[:, [d.channels.start for d in cont]] = [[r["dofs"][d.name]["position"] for d in cont] for r in rows]
-    assert_smooth(desk, full, 100.0)  # no sample over a velocity, acceleration or jerk limit
+    rows = _recorded(server)[start - 5:]  # every frame of the swap (recorded_positions checks none is missing)
+    assert_smooth(desk, recorded_positions(desk, rows), 100.0)  # no sample over a velocity, acceleration or jerk limit
     # the curve panel shows the same: every sample of body_yaw in its window is within the limits
     panel = page.get_by_test_id("curve-panel")
     wait_until(lambda: "ok" in panel.inner_text(), what="the curve panel")

@@ -10,16 +10,14 @@ block on the graph then shows what it costs and what it outputs.
 
 from __future__ import annotations
 
-import json
 import re
 import time
 
-import numpy as np
 import pytest
 
 from editor_browser import ARTIFACTS, BROWSER, VALID, centre, drag_to_point, editor_page, handle, scratch_robot, wait_until
 from server_process import running_server
-from test_safe_swaps import assert_smooth
+from test_safe_swaps import assert_smooth, recorded_frames, recorded_positions
 
 pytestmark = BROWSER
 
@@ -136,7 +134,7 @@ def test_build_group_and_go_live(page, server):
 
     # 5. go live: the robot moves to the new program within its limits
     desk = load_embodiment("nutty_desk")
-    rows = lambda: [json.loads(x) for x in server["record"].read_text().splitlines() if x.strip()]  # noqa: E731
+    rows = lambda: recorded_frames(server["record"])  # noqa: E731
     start = len(rows())
     page.get_by_test_id("go-live").click()
     page.get_by_test_id("mode").filter(has_text="live").wait_for()
@@ -145,11 +143,7 @@ def test_build_group_and_go_live(page, server):
     assert client.status()["swaps"] == swaps + 1
     time.sleep(2.5)  # the swap's transition and then some
     frames = rows()[max(0, start - 5):]
-    assert np.all(np.diff([r["seq"] for r in frames]) == 1)
-    cont = [d for d in desk.dofs if d.type.value == "continuous"]
-    full = np.tile(desk.rest, (len(frames), 1))
-    full[:, [d.channels.start for d in cont]] = [[r["dofs"][d.name]["position"] for d in cont] for r in frames]
-    assert_smooth(desk, full, 100.0)
+    assert_smooth(desk, recorded_positions(desk, frames), 100.0)
 
     # 6. every block shows its cost, and (zoomed in) its output moving
     ids = ["rest", "layer_mixer", "idle", "output"]

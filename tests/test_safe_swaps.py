@@ -41,6 +41,21 @@ def worst_ratios(desk, positions: np.ndarray, rate: float) -> dict[str, float]:
             "outside": float(np.maximum(desk.min[cont] - p, p - desk.max[cont]).max())}
 
 
+def recorded_frames(path: Path) -> list[dict]:
+    """The frames a `--record F.jsonl` driver wrote, in order."""
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def recorded_positions(desk, rows: list[dict]) -> np.ndarray:
+    """Every channel's position per recorded frame (continuous DoFs as recorded, the rest at rest),
+    after checking that no frame is missing between the first and the last."""
+    assert np.all(np.diff([r["seq"] for r in rows]) == 1)  # every frame recorded
+    cont = [d for d in desk.dofs if d.type.value == "continuous"]
+    full = np.tile(desk.rest, (len(rows), 1))
+    full[:, [d.channels.start for d in cont]] = [[r["dofs"][d.name]["position"] for d in cont] for r in rows]
+    return full
+
+
 def assert_smooth(desk, positions, rate):
     r = worst_ratios(desk, positions, rate)
     assert r["v"] <= 1 + ROUNDING and r["a"] <= 1 + ROUNDING and r["j"] <= 1 + ROUNDING, r
@@ -159,11 +174,6 @@ def test_swaps_through_the_real_server_stay_within_limits(tmp_path):
     from backend.engine.embodiment import load_embodiment
 
     desk = load_embodiment("nutty_desk")
-    rows = [json.loads(line) for line in record.read_text().splitlines() if line.strip()]
-    cont = [d for d in desk.dofs if d.type.value == "continuous"]
-    pos = np.array([[r["dofs"][d.name]["position"] for d in cont] for r in rows])
-    seqs = np.array([r["seq"] for r in rows])
-    assert len(rows) > 300 and np.all(np.diff(seqs) == 1)  # every frame recorded
-    full = np.tile(desk.rest, (len(rows), 1))
-    full[:, [d.channels.start for d in cont]] = pos
-    assert_smooth(desk, full, 100.0)
+    rows = recorded_frames(record)
+    assert len(rows) > 300
+    assert_smooth(desk, recorded_positions(desk, rows), 100.0)
