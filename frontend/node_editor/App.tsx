@@ -36,7 +36,9 @@ function Telemetry({ children }: { children: ReactNode }) {
   const watched = useWatchedSignals(history.present.edges);  // hovered and probed wires first
   // a subgraph node's outputs are inner ports the engine runs under flat ids
   const defs = (meta?.subgraphs ?? meta?.inside?.outerMeta.subgraphs) as Record<string, SubgraphDef> | undefined;
-  const aliasKey = JSON.stringify(subgraphAliases(nodes, defs));
+  // computed when the graph changes, not on each telemetry message; compared by value, so moving a
+  // block does not resubscribe
+  const aliasKey = useMemo(() => JSON.stringify(subgraphAliases(nodes, defs)), [nodes, defs]);
   const aliases = useMemo(() => JSON.parse(aliasKey) as ReturnType<typeof subgraphAliases>, [aliasKey]);
   const wanted = useMemo(() => signalsInside(withAliasedSignals(withWatched(signals, watched), aliases), path),
     [signals, watched, aliases, path]);
