@@ -173,7 +173,8 @@ def test_save_as_names_the_program(page, server):
     path = server["robot"] / "programs" / "calm_idle.json"
     wait_until(lambda: path.exists() and json.loads(path.read_text())["name"] == "calm_idle",
                what=f"the saved file, named calm_idle ({path.read_text()[:80] if path.exists() else 'absent'})")
-    assert page.get_by_label("program name").input_value() == "calm_idle"
+    # the file is on disk before the server's answer reaches the page, which then renames the program
+    wait_until(lambda: page.get_by_label("program name").input_value() == "calm_idle", what="the program's new name")
 
 
 def test_the_editor_sends_the_servers_token(page):
