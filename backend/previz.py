@@ -85,6 +85,33 @@ def framing(bounds: Any, direction: tuple[float, float, float] = CAMERA_DIRECTIO
     return (tuple(round(float(v), 4) for v in position), tuple(round(float(v), 4) for v in centre))  # type: ignore[return-value]
 
 
+def check_loopback(host: str) -> None:
+    """Raise ValueError unless `host` is a loopback name (viser has no authentication)."""
+    if host not in LOOPBACK_NAMES:
+        raise ValueError(f"the Pre-Viz listens on loopback only, not {host!r}: "
+                         "it is served to the network through the API's /previz/ (behind its token)")
+
+
+def attach_previz_sink(session: Any, show: Any) -> Sink:
+    """The Pre-Viz sink: `show(frame)` on its own thread, at most MAX_RATE frames per second, a stale
+    frame dropped (never queued)."""
+    decimate = max(1, int(math.ceil(session.engine.rate / MAX_RATE)))
+    return session.engine.add_sink(Sink("previz", show, max_queue=1, decimate=decimate))
+
+
+def set_gaze_input(session: Any, target: list[float]) -> bool:
+    """Set `session`'s `gaze_target` input to a dragged target; False when its program has none or
+    refuses the value."""
+    prog = session.program
+    if prog is None or prog.input("gaze_target") is None:
+        return False
+    try:
+        session.set_input("gaze_target", target)
+    except ValueError:
+        return False
+    return True
+
+
 def _poser(robot: Any) -> UrdfPoser | None:
     """A cheap poser for a ViserUrdf (its joints and frames, as it made them); None when this viser
     version keeps them elsewhere (its own `update_cfg` is used then)."""
@@ -110,18 +137,17 @@ class PreViz:
     """A viser server showing a session's robot. `start()` attaches it to the engine as a sink."""
 
     def __init__(self, session: Any, host: str = "127.0.0.1", port: int = 8080,
-                 allowed_origins: list[str] | None = None):
+                 allowed_origins: list[str] | None = None, proxy_secret: str | None = None):
         import viser
         import yourdfpy
         from viser.extras import ViserUrdf
 
-        if host not in LOOPBACK_NAMES:
-            raise ValueError(f"the Pre-Viz listens on loopback only, not {host!r}: "
-                             "it is served to the network through the API's /previz/ (behind its token)")
+        check_loopback(host)
         self.session = session
         self.emb = session.embodiment
         self.host = host
-        self.proxy_secret = secrets.token_urlsafe(24)  # marks connections that came through the API's proxy
+        # marks connections that came through the API's proxy
+        self.proxy_secret = proxy_secret or secrets.token_urlsafe(24)
         self._trusted: set[int] = set()  # viser client ids whose gaze drags count
         self._allowed_origins = list(allowed_origins or [])
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
@@ -267,19 +293,18 @@ class PreViz:
         the program's `gaze_target` input. A drag by viser client `client_id` counts only when that
         client is trusted; None is this process, which always counts. Returns whether the input was
         set (False also when the program declares no `gaze_target`)."""
+        target = self.move_gaze(position, client_id)
+        return target is not None and set_gaze_input(self.session, target)
+
+    def move_gaze(self, position: Any, client_id: int | None = None) -> list[float] | None:
+        """The gizmo part of `drag_gaze`: the target [x, y, z] when the drag counts (the gizmo is
+        then there), else None."""
         if client_id is not None and client_id not in self._trusted:
-            return False
+            return None
         target = [float(v) for v in position]
         if not np.allclose(self.gaze.position, target):  # a client's own drag is already there
             self.gaze.position = tuple(target)
-        prog = self.session.program
-        if prog is None or prog.input("gaze_target") is None:
-            return False
-        try:
-            self.session.set_input("gaze_target", target)
-        except ValueError:
-            return False
-        return True
+        return target
 
     def _on_gaze_drag(self, event: Any) -> None:
         """viser's gizmo callback. A drag that names no client is nobody's and never counts."""
@@ -345,9 +370,7 @@ class PreViz:
             robot.update_cfg(cfg)
 
     def start(self) -> "PreViz":
-        rate = self.session.engine.rate
-        decimate = max(1, int(math.ceil(rate / MAX_RATE)))
-        self._sink = self.session.engine.add_sink(Sink("previz", self.show, max_queue=1, decimate=decimate))
+        self._sink = attach_previz_sink(self.session, self.show)
         return self
 
     def url(self, host: str | None = None) -> str:

@@ -150,7 +150,8 @@ async def _load(server: Server, rate: float, warm_up: float, seconds: float) -> 
         program = (await http.get("/api/program")).json()["program"]
         blocks = {b["type"]: b for b in (await http.get("/api/blocks")).json()}
         signals = [{"node": n["id"], "port": p} for n in program["nodes"] for p in blocks[n["type"]]["outputs"]]
-        previz_port = int((await http.get("/api/previz")).json()["direct"].rsplit(":", 1)[1])  # viser's own
+        direct = (await http.get("/api/previz")).json()["direct"]
+        previz_port = int(direct.rsplit(":", 1)[1]) if direct else 0  # viser's own (none with --no-previz)
         stop = asyncio.Event()
         tasks = [asyncio.create_task(_telemetry(ws_url, signals, stop, counts)) for _ in range(TELEMETRY_CLIENTS)]
         tasks += [asyncio.create_task(_driver(ws_url, max(1, round(rate / DRIVER_HZ)), stop, counts)),

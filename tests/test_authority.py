@@ -223,16 +223,30 @@ def test_the_token_is_needed_in_one_of_its_forms(guarded):
     assert _ws_close(ws + f"?token={TOKEN}", origin=EVIL)[0] == 4403
 
 
+def _family(pid: int) -> list[int]:
+    """`pid` and its descendants (the Pre-Viz runs in a child process of the server)."""
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        for task in Path(f"/proc/{p}/task").iterdir():
+            children = task / "children"
+            if children.exists():
+                todo += [int(c) for c in children.read_text().split()]
+    return out
+
+
 def _listening(pid: int) -> list[tuple[str, int]]:
-    """(address, port) of every TCP socket process `pid` listens on, from /proc."""
+    """(address, port) of every TCP socket process `pid` or one of its children listens on, from /proc."""
     inodes = set()
-    for fd in Path(f"/proc/{pid}/fd").iterdir():
-        try:
-            target = os.readlink(fd)
-        except OSError:
-            continue
-        if target.startswith("socket:["):
-            inodes.add(target[8:-1])
+    for member in _family(pid):
+        for fd in Path(f"/proc/{member}/fd").iterdir():
+            try:
+                target = os.readlink(fd)
+            except OSError:
+                continue
+            if target.startswith("socket:["):
+                inodes.add(target[8:-1])
     found = []
     for table, width in (("/proc/net/tcp", 4), ("/proc/net/tcp6", 16)):
         for line in Path(table).read_text().splitlines()[1:]:

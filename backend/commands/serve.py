@@ -127,6 +127,14 @@ def run(args) -> int:
         session.engine.close()
         return fail(str(exc))
     session.engine.start()
+    previz = None
+    if not args.no_previz:
+        from backend.previz_process import PreVizProcess, PreVizUnavailable
+
+        # Loopback only, always: the network reaches it through the API's /previz/ proxy and token. In
+        # its own process: viser never holds the clock's interpreter lock (backend/previz_process.py);
+        # it starts while the server imports.
+        previz = PreVizProcess(session, port=args.previz_port, allowed_origins=args.allowed_origin)
     # The server's own imports come after the first frame: the robot need not wait for them.
     import uvicorn
 
@@ -134,12 +142,14 @@ def run(args) -> int:
     # From here on SIGTERM/SIGINT/SIGHUP park the robot and close the drivers (see Shutdown).
     shutdown = Shutdown(session, args.shutdown_timeout)
     restore_signals = shutdown.install()
-    previz = None
-    if not args.no_previz:
-        from backend.previz import PreViz
-
-        # Loopback only, always: the network reaches it through the API's /previz/ proxy and token.
-        previz = PreViz(session, port=args.previz_port, allowed_origins=args.allowed_origin).start()
+    if previz is not None:
+        try:
+            previz.wait_ready()
+            previz.start()
+        except PreVizUnavailable as exc:  # the robot and the API go on without it
+            print(f"nutty: the Pre-Viz did not start ({exc}); serving without it", file=sys.stderr, flush=True)
+            previz.stop()
+            previz = None
     shown = "localhost" if args.host in LOCAL_HOSTS else args.host
     app = create_app(session, token=args.token, previz=previz, allowed_origins=args.allowed_origin,
                      host=args.host, port=args.port)
@@ -154,7 +164,7 @@ def run(args) -> int:
         shutdown.before_server_stops(hub.shutdown)  # WebSocket handlers close (1001) once the robot is at rest
     server = shutdown.attach(uvicorn_server(uvicorn.Config(
         ShutdownGate(app, shutdown.closing), host=args.host, port=args.port, log_level="warning",
-        timeout_graceful_shutdown=HTTP_GRACE), shutdown))
+        timeout_graceful_shutdown=HTTP_GRACE, ws_per_message_deflate=False), shutdown))
     try:
         if zenoh is not None:
             zenoh.start(hub, shutdown.closing)  # Zenoh commands are refused from the first signal on, as REST's

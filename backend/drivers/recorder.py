@@ -24,7 +24,7 @@ class FrameRecorder(Sink):
         self.path = Path(path)
         self._fh = self.path.open("w")
         self.frames = 0
-        super().__init__(f"recorder:{self.path.name}", max_queue=1024, decimate=decimate)
+        super().__init__(f"recorder:{self.path.name}", max_queue=1024, decimate=decimate, batch=0.01)
 
     @classmethod
     def from_option(cls, embodiment: Embodiment, path: str) -> "FrameRecorder":

@@ -68,7 +68,8 @@ class SimulatedServos(Sink):
         #: Step with the compiled kernel (False: the numpy reference, `consume_reference`).
         self.compiled = default_compiled()
         # A simulation wants every frame: a deep queue (live it keeps up easily; headless it catches up).
-        super().__init__("sim-servo", max_queue=4096, decimate=decimate)
+        # It wakes 100 times a second, whatever the clock's rate (`batch`).
+        super().__init__("sim-servo", max_queue=4096, decimate=decimate, batch=0.01)
 
     @classmethod
     def from_option(cls, embodiment: Embodiment, bandwidth_hz: float) -> "SimulatedServos":

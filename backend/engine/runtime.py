@@ -78,10 +78,11 @@ class Sink:
     """
 
     def __init__(self, name: str, consume: Callable[[AnimationFrame], None] | None = None,
-                 max_queue: int = 8, decimate: int = 1):
+                 max_queue: int = 8, decimate: int = 1, batch: float = 0.0):
         self.name = name
         self._consume = consume
         self.decimate = max(1, int(decimate))
+        self.batch = max(0.0, float(batch))
         self._queue: deque[AnimationFrame] = deque(maxlen=max_queue)
         self._signal = threading.Lock()  # locked: nothing new since the sink last looked
         self._signal.acquire()
@@ -132,6 +133,8 @@ class Sink:
                     self.last_error = f"{type(exc).__name__}: {exc}"
             if self._closed and not self._queue:
                 return
+            if self.batch and not self._closed:
+                time.sleep(self.batch)
 
     def close(self, timeout: float = 2.0) -> None:
         """Deliver what is queued, then stop the sink's thread."""
