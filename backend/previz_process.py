@@ -20,8 +20,10 @@ frames_shown, ghost, trusted ids) when they change (frames_shown at most 4 times
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import multiprocessing
+import os
 import secrets
 import signal
 import threading
@@ -39,6 +41,7 @@ from backend.previz import attach_previz_sink, check_loopback, set_gaze_input
 STATE_PERIOD = 0.25  # s between two frame-count reports of the child
 START_TIMEOUT = 120.0  # s for the child to import viser and load the URDF (twice) on a busy machine
 CALL_TIMEOUT = 10.0  # s for one call into the child
+CHILD_NICE = 10  # the Pre-Viz process yields the CPU to the server (whose clock runs at a higher priority)
 
 
 class PreVizUnavailable(RuntimeError):
@@ -77,6 +80,8 @@ def _child_main(conn: Any, embodiment: Any, host: str, port: int, allowed_origin
                 proxy_secret: str) -> None:
     """The Pre-Viz process: a PreViz fed from `conn` until the server says stop or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the server decides
+    with contextlib.suppress(AttributeError, OSError):
+        os.nice(CHILD_NICE)  # on a busy machine the preview lags, never the robot's clock
     lock = threading.Lock()
 
     def send(message: tuple) -> None:

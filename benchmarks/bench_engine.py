@@ -8,7 +8,7 @@ or a fast machine compare.
 1. Headless: `engine.tick()` timed one by one while the scripted AI (tests/scripted_ai.py) sends its
    commands; tick p50/p99 per program and rate. The interactive program also on the numpy reference
    path (NUTTY_REFERENCE / `Engine(compiled=False)`) for comparison.
-2. Served: `nutty serve` with the Pre-Viz on and its page open, 4 editor telemetry clients, a 100 Hz
+2. Served: `nutty serve` with the Pre-Viz on (in its own process) and its page open, 4 editor telemetry clients, a 100 Hz
    driver and the scripted AI over REST (benchmarks/served.py): tick p50/p99 (and the tick's own CPU
    time), lateness p99 (the period jitter: how late a tick starts), overruns, lost ticks, and the
    tick p50 as a ratio to the same program's headless p50. Peer row `alone`: the same program and
@@ -16,6 +16,9 @@ or a fast machine compare.
    finds colder caches than a tight headless loop, and the machine's other load delays any clock).
    The machine's load average is printed.
 3. Start-up of `nutty serve` to its first frame, with numba's cache warm (and cold: `--cold`).
+4. Where the server's cost comes from (`--long` or `--attribute`): the served figures at 500 Hz with
+   no clients, then each part of the load alone (the Pre-Viz and its page, the telemetry clients, the
+   driver and the AI), then all of it.
 
 Targets (issue 15; benchmarks, never tests): interactive tick p50 <= 3x a Ruckig update headless and
 <= 1.3x its headless cost in the server; 500 Hz in the server for 60 s (`--long`) with no overrun and
@@ -201,7 +204,7 @@ def run_served(peer: Peer, seconds: float, rates: tuple[float, ...], headless: d
         r.update(load=load, alone=alone)
         results.append(r)
     us = peer.round()
-    print(f"\nServed: nutty serve, interactive program, Pre-Viz on with its page open, {served.TELEMETRY_CLIENTS} "
+    print(f"\nServed: nutty serve, interactive program, Pre-Viz on (its own process) with its page open, {served.TELEMETRY_CLIENTS} "
           f"telemetry clients at {served.TELEMETRY_HZ} Hz, a {served.DRIVER_HZ} Hz driver, the scripted AI over "
           f"REST every {served.AI_PERIOD:g} s (Ruckig peer {us:.1f} µs)")
     print("(`alone`: the same program and rate on a clock in the benchmark's process with no server, just before; "
@@ -229,6 +232,39 @@ def run_served(peer: Peer, seconds: float, rates: tuple[float, ...], headless: d
     return results
 
 
+#: Where the server's extra cost comes from: the same server under one part of the load at a time.
+ATTRIBUTION = (
+    ("server, no clients", (), ("--no-previz",)),
+    ("+ Pre-Viz (its own process) and its page", ("previz",), ()),
+    ("+ 4 telemetry clients", ("telemetry",), ("--no-previz",)),
+    ("+ the driver and the AI", ("driver", "ai"), ("--no-previz",)),
+    ("everything", ("telemetry", "previz", "driver", "ai"), ()),
+)
+
+
+def run_attribution(peer: Peer, rate: float, seconds: float, headless: dict[float, float]) -> None:
+    """The served figures with each part of the load alone (and none, and all): where the server's
+    extra cost over the headless tick comes from."""
+    import served
+
+    rows = []
+    for label, clients, server_args in ATTRIBUTION:
+        peer.round()
+        rows.append((label, served.measure(rate, seconds, clients=clients, server_args=server_args)))
+    us = peer.round()
+    base = headless.get(rate)
+    print(f"\nWhere the server's cost comes from: nutty serve at {rate:g} Hz under one part of the load at a time "
+          f"({seconds:g} s each; Ruckig peer {us:.1f} µs)")
+    print(f"{'load':<42} {'tick p50 µs':>11} {'xRuckig':>7} {'cpu p50':>8} {'/headless':>9} {'p99 µs':>8} "
+          f"{'late p99 ms':>11} {'overruns':>8}")
+    for label, r in rows:
+        st = r["status"]
+        p50, p99 = st["tick_cost"]["p50_ms"] * 1e3, st["tick_cost"]["p99_ms"] * 1e3
+        vs = f"{p50 / base:8.2f}x" if base else f"{'-':>9}"
+        print(f"{label:<42} {fmt_ratio(p50, us)} {st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {p99:>8.0f} "
+              f"{st['jitter']['p99_ms']:>11.3f} {r['overruns']:>8}")
+
+
 def run_startup(cold: bool) -> None:
     import served
 
@@ -245,6 +281,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=8.0, help="measurement window of each served run (s)")
     ap.add_argument("--long", action="store_true", help="also serve at 500 Hz for 60 s (the steadiness target)")
+    ap.add_argument("--attribute", action="store_true", help="also serve at 500 Hz under each part of the load "
+                                                             "alone (where the server's cost comes from)")
     ap.add_argument("--no-server", action="store_true", help="headless figures only")
     ap.add_argument("--no-startup", action="store_true", help="skip the start-up measurement")
     ap.add_argument("--cold", action="store_true", help="also start with an empty numba cache (compiles every kernel: "
@@ -256,6 +294,8 @@ def main() -> None:
         run_served(peer, args.seconds, RATES, headless)
         if args.long:
             run_served(peer, 60.0, (500.0,), headless)
+        if args.long or args.attribute:
+            run_attribution(peer, 500.0, args.seconds, headless)
     if not args.no_startup:
         run_startup(args.cold or args.long)
 

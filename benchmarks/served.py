@@ -143,7 +143,12 @@ async def _ai(http: httpx.AsyncClient, stop: asyncio.Event, counts: dict) -> Non
             pass
 
 
-async def _load(server: Server, rate: float, warm_up: float, seconds: float) -> dict[str, Any]:
+#: The parts of the load (all of them by default): `measure(..., clients=...)` runs a subset.
+CLIENTS = ("telemetry", "previz", "driver", "ai")
+
+
+async def _load(server: Server, rate: float, warm_up: float, seconds: float,
+                clients: tuple[str, ...] = CLIENTS) -> dict[str, Any]:
     ws_url = f"ws://{HOST}:{server.port}"
     counts = {"telemetry": 0, "frames": 0, "previz": 0, "previz_reconnects": 0, "commands": 0}
     async with httpx.AsyncClient(base_url=server.url, timeout=10.0) as http:
@@ -153,10 +158,19 @@ async def _load(server: Server, rate: float, warm_up: float, seconds: float) -> 
         direct = (await http.get("/api/previz")).json()["direct"]
         previz_port = int(direct.rsplit(":", 1)[1]) if direct else 0  # viser's own (none with --no-previz)
         stop = asyncio.Event()
-        tasks = [asyncio.create_task(_telemetry(ws_url, signals, stop, counts)) for _ in range(TELEMETRY_CLIENTS)]
-        tasks += [asyncio.create_task(_driver(ws_url, max(1, round(rate / DRIVER_HZ)), stop, counts)),
-                  asyncio.create_task(_previz_page(previz_port, stop, counts)),
-                  asyncio.create_task(_ai(http, stop, counts))]
+        tasks, names = [], []
+        if "telemetry" in clients:
+            tasks += [asyncio.create_task(_telemetry(ws_url, signals, stop, counts)) for _ in range(TELEMETRY_CLIENTS)]
+            names += ["telemetry"] * TELEMETRY_CLIENTS
+        if "driver" in clients:
+            tasks.append(asyncio.create_task(_driver(ws_url, max(1, round(rate / DRIVER_HZ)), stop, counts)))
+            names.append("driver")
+        if "previz" in clients and previz_port:
+            tasks.append(asyncio.create_task(_previz_page(previz_port, stop, counts)))
+            names.append("previz page")
+        if "ai" in clients:
+            tasks.append(asyncio.create_task(_ai(http, stop, counts)))
+            names.append("AI")
         await asyncio.sleep(warm_up)
         await http.delete("/api/profile")  # a new window for the tick statistics and cook times
         before = (await http.get("/api/status")).json()
@@ -166,7 +180,6 @@ async def _load(server: Server, rate: float, warm_up: float, seconds: float) -> 
         profile = (await http.get("/api/profile")).json()
         elapsed = time.monotonic() - t0
         stop.set()
-        names = ["telemetry"] * TELEMETRY_CLIENTS + ["driver", "previz page", "AI"]
         failed = [(n, r) for n, r in zip(names, await asyncio.gather(*tasks, return_exceptions=True))
                   if isinstance(r, BaseException)]
         if failed:
@@ -176,15 +189,16 @@ async def _load(server: Server, rate: float, warm_up: float, seconds: float) -> 
             "lost_ticks": after["lost_ticks"] - before["lost_ticks"]}
 
 
-def measure(rate: float, seconds: float, warm_up: float = 4.0, program: str | None = None) -> dict[str, Any]:
+def measure(rate: float, seconds: float, warm_up: float = 4.0, program: str | None = None,
+            clients: tuple[str, ...] = CLIENTS, server_args: tuple[str, ...] = ()) -> dict[str, Any]:
     """Serve the bundled robot (its interactive program unless `program`) at `rate` Hz under the load
-    above; the figures of a `seconds` window after `warm_up` seconds."""
-    args = ["--rate", f"{rate:g}"] + (["--program", program] if program else [])
+    above (only the parts named in `clients`); the figures of a `seconds` window after `warm_up` seconds."""
+    args = ["--rate", f"{rate:g}", *server_args] + (["--program", program] if program else [])
     for attempt in range(ATTEMPTS):
         server = Server(*args)
         try:
             server.wait_ready()
-            return asyncio.run(_load(server, rate, warm_up, seconds))
+            return asyncio.run(_load(server, rate, warm_up, seconds, clients))
         except RuntimeError as exc:  # a busy shared machine: a port taken meanwhile, a handshake refused
             if attempt == ATTEMPTS - 1:
                 raise
