@@ -317,3 +317,41 @@ def test_clock_priority_restores_the_switch_interval_when_the_last_clock_stops()
     worker.join()
     raised.restore()
     assert raised.nice is None or raised.nice <= 0  # raised where the OS permits it, never lowered
+
+
+def test_clock_thread_runs_real_time_where_permitted_and_its_children_do_not(monkeypatch):
+    """The clock thread takes SCHED_FIFO where the OS allows it (here: root on Linux, or nothing);
+    threads it starts get the normal policy; the switch `NUTTY_CLOCK_REALTIME=0` keeps it off."""
+    import os
+    import sys
+    import threading
+
+    from backend.engine.gil import REALTIME_ENV, ClockPriority
+
+    seen: dict[str, int] = {}
+
+    def clock_thread(priority: ClockPriority) -> None:
+        priority.apply()
+        seen["clock"] = os.sched_getscheduler(0) & ~getattr(os, "SCHED_RESET_ON_FORK", 0)
+        child = threading.Thread(target=lambda: seen.__setitem__("child", os.sched_getscheduler(0)))
+        child.start()
+        child.join()
+        priority.restore()
+        seen["after"] = os.sched_getscheduler(0)
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("per-thread scheduling policies are Linux's")
+    rt = ClockPriority(nice_boost=0)
+    worker = threading.Thread(target=clock_thread, args=(rt,))
+    worker.start()
+    worker.join()
+    if rt.realtime_priority and seen["clock"] == os.SCHED_FIFO:  # permitted here
+        assert seen["child"] == os.SCHED_OTHER and seen["after"] == os.SCHED_OTHER
+    else:
+        assert seen["clock"] == os.SCHED_OTHER  # not permitted: unchanged, and no error
+    monkeypatch.setenv(REALTIME_ENV, "0")
+    off = ClockPriority(nice_boost=0)
+    worker = threading.Thread(target=clock_thread, args=(off,))
+    worker.start()
+    worker.join()
+    assert off.realtime is None and seen["clock"] == os.SCHED_OTHER

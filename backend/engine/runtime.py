@@ -546,6 +546,7 @@ class Engine:
             "jitter": self.lateness.summary(),
             "started_at": self.started_at,
             "clock_priority": None if self.clock_priority is None else {
-                "switch_interval_ms": self.clock_priority.interval * 1e3, "nice": self.clock_priority.nice},
+                "switch_interval_ms": self.clock_priority.interval * 1e3, "nice": self.clock_priority.nice,
+                "realtime": self.clock_priority.realtime},
             "sinks": [s.stats() for s in self.sinks],
         }
