@@ -148,7 +148,7 @@ class Led(Source):
         rgb = colour.tolist() if type(colour) is np.ndarray and colour.ndim == 1 else \
             np.asarray(colour, dtype=float).ravel().tolist()
         values[self.dof.channels] = [min(max(c * factor, 0.0), 1.0) for c in rgb]
-        return {"out": PartialFrame(values, self.mask.copy(), [])}
+        return {"out": PartialFrame(values, self.mask, [])}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -214,7 +214,7 @@ class Face(Source):
             index = self.options.index(wired)
         values = self.emb.rest.copy()
         values[self.channel] = index
-        return {"out": PartialFrame(values, self.mask.copy(), [])}
+        return {"out": PartialFrame(values, self.mask, [])}
 
 
 # --------------------------------------------------------------------------------------------------

@@ -183,7 +183,7 @@ class Gaze(Source):
             x = s.x.copy()  # a new array each tick, as below (an adopted state never shares it)
             on_target = self._kernel(x, dip, out, target, float(strength), float(dt), *self._kernel_args)
             s.x, s.dip = x, float(dip[0])
-            return {"out": PartialFrame(out, self.mask.copy(), []), "on_target": bool(on_target)}
+            return {"out": PartialFrame(out, self.mask, []), "on_target": bool(on_target)}
         # Where the eyes are and look now (the gaze pose without the arc dip, other joints at rest).
         values = emb.rest.copy()
         values[self.idx] += s.x

@@ -126,7 +126,7 @@ class InverseKinematics(Operator):
         if target is None or weight <= 0.0 or len(self.var) == 0:
             if target is None:
                 s.delta = np.zeros(len(self.var))
-            return {"out": PartialFrame(frame.values.copy(), frame.mask.copy(), list(frame.events))}
+            return {"out": PartialFrame(frame.values.copy(), frame.mask, list(frame.events))}
         values = s.held
         chain = self.chain
         q0 = np.clip(self.j_rows @ values + self.j_off, chain.lower, chain.upper)
