@@ -61,16 +61,32 @@ def _mul4(a, b):
 
 
 @njit(cache=True)
-def _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity):
-    """Joint frames before their motion (m, 4, 4) and the tip pose (4, 4) for chain positions q."""
+def _mul4_into(a, b, out):
+    """out = a @ b for 4x4 matrices, in the order of `_matmul`'s sums (the same result, bit for bit);
+    `out` must not be `a` or `b`."""
+    for i in range(4):
+        for j in range(4):
+            s = 0.0
+            for k in range(4):
+                s += a[i, k] * b[k, j]
+            out[i, j] = s
+
+
+@njit(cache=True)
+def _frames_into(q, k, k2, axes, rev, src, mult, off, pre, post, identity, frames, tip, t, motion, tmp):
+    """`_frames` into given buffers: joint frames (m, 4, 4) and tip pose (4, 4); t, motion, tmp: (4, 4)
+    scratch. The same arithmetic as `_frames`, without an allocation."""
     m = pre.shape[0]
-    frames = np.empty((m, 4, 4))
-    t = np.eye(4)
-    motion = np.eye(4)
+    for r in range(4):
+        for col in range(4):
+            t[r, col] = 1.0 if r == col else 0.0
+            motion[r, col] = 1.0 if r == col else 0.0
     for j in range(m):
         v = q[j] if identity else mult[j] * q[src[j]] + off[j]
-        t = _mul4(t, pre[j])
-        frames[j] = t
+        _mul4_into(t, pre[j], tmp)
+        for r in range(4):
+            for col in range(4):
+                frames[j, r, col] = tmp[r, col]
         if rev[j] != 0.0:  # R = I + sin(v) K + (1 - cos(v)) K²
             s, c1 = math.sin(v), 1.0 - math.cos(v)
             for r in range(3):
@@ -82,22 +98,31 @@ def _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity):
                 for col in range(3):
                     motion[r, col] = 1.0 if r == col else 0.0
                 motion[r, 3] = axes[j, r] * v
-        t = _mul4(t, motion)
-    return frames, _mul4(t, post)
+        _mul4_into(tmp, motion, t)
+    _mul4_into(t, post, tip)
 
 
 @njit(cache=True)
-def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
-    """Point p and direction d fixed in the tip frame, in the base frame, and their Jacobians (3, n)."""
-    frames, tip = _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity)
+def _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity):
+    """Joint frames before their motion (m, 4, 4) and the tip pose (4, 4) for chain positions q."""
+    frames = np.empty((pre.shape[0], 4, 4))
+    tip = np.empty((4, 4))
+    _frames_into(q, k, k2, axes, rev, src, mult, off, pre, post, identity, frames, tip, np.empty((4, 4)),
+                 np.empty((4, 4)), np.empty((4, 4)))
+    return frames, tip
+
+
+@njit(cache=True)
+def _kinematics_into(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity, frames,
+                     tip, t, motion, tmp, p, d, jp_m, jd_m):
+    """`_kinematics` into given buffers: p, d (3,); jp_m, jd_m (3, m): the Jacobians over the chain's
+    moving joints (the caller maps them by `select` unless `identity`); frames, tip, t, motion, tmp:
+    `_frames_into`'s. The same arithmetic as `_kinematics`."""
+    _frames_into(q, k, k2, axes, rev, src, mult, off, pre, post, identity, frames, tip, t, motion, tmp)
     m = pre.shape[0]
-    p = np.empty(3)
-    d = np.empty(3)
     for r in range(3):
         p[r] = tip[r, 0] * point[0] + tip[r, 1] * point[1] + tip[r, 2] * point[2] + tip[r, 3]
         d[r] = tip[r, 0] * direction[0] + tip[r, 1] * direction[1] + tip[r, 2] * direction[2]
-    jp_m = np.empty((3, m))
-    jd_m = np.empty((3, m))
     for j in range(m):
         z0 = frames[j, 0, 0] * axes[j, 0] + frames[j, 0, 1] * axes[j, 1] + frames[j, 0, 2] * axes[j, 2]
         z1 = frames[j, 1, 0] * axes[j, 0] + frames[j, 1, 1] * axes[j, 1] + frames[j, 1, 2] * axes[j, 2]
@@ -111,6 +136,19 @@ def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post
         else:
             jp_m[0, j], jp_m[1, j], jp_m[2, j] = z0, z1, z2
             jd_m[0, j] = jd_m[1, j] = jd_m[2, j] = 0.0
+
+
+@njit(cache=True)
+def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+    """Point p and direction d fixed in the tip frame, in the base frame, and their Jacobians (3, n)."""
+    m = pre.shape[0]
+    p = np.empty(3)
+    d = np.empty(3)
+    jp_m = np.empty((3, m))
+    jd_m = np.empty((3, m))
+    _kinematics_into(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity,
+                     np.empty((m, 4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)),
+                     p, d, jp_m, jd_m)
     if identity:
         return p, d, jp_m, jd_m
     return p, d, _matmul(jp_m, select), _matmul(jd_m, select)
@@ -191,9 +229,18 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
     jac = np.empty((3, nv))
     moved = np.empty(nv)
     err = np.empty(3)
+    # the forward kinematics' buffers, reused by every iteration
+    m = pre.shape[0]
+    frames, tip, t4, motion, tmp = np.empty((m, 4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), \
+        np.empty((4, 4))
+    point, d, jp_m, jd_m = np.empty(3), np.empty(3), np.empty((3, m)), np.empty((3, m))
     for _ in range(iterations):
-        point, d, jp, jd = _kinematics(q, offset, axis, k, k2, axes, rev, src, mult, off, pre, post, select,
-                                       identity)
+        _kinematics_into(q, offset, axis, k, k2, axes, rev, src, mult, off, pre, post, select, identity, frames,
+                         tip, t4, motion, tmp, point, d, jp_m, jd_m)
+        if identity:
+            jp, jd = jp_m, jd_m
+        else:
+            jp, jd = _matmul(jp_m, select), _matmul(jd_m, select)
         if look:
             r0, r1, r2 = target[0] - point[0], target[1] - point[1], target[2] - point[2]
             dist = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
