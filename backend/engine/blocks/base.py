@@ -263,19 +263,20 @@ class _DrivenMemo:
             return False
 
     def remember(self, key: tuple, result: SimpleNamespace) -> None:
-        exact = self.ports_compared
-        lists = False
+        exact, lists, zeros = self.ports_compared, False, False
         for value in key:
             kind = type(value)
-            if kind is list or kind is tuple:
+            if kind is float:
+                zeros = zeros or value == 0.0
+            elif kind is list or kind is tuple:
                 lists = lists or kind is list
                 exact = exact and all(type(x) in _NUMBERS for x in value)
-            else:
-                exact = exact and kind in _PLAIN
+            elif kind not in _PLAIN:
+                exact = False
         if lists:
             key = tuple([tuple(v) if type(v) is list else v for v in key])
         self.key, self.lists, self.exact, self.ns = key, lists, exact, result
-        self.zeros = _zero_signs(key) if exact and any(type(v) is float and v == 0.0 for v in key) else None
+        self.zeros = _zero_signs(key) if exact and zeros else None
 
 
 def _zero_signs(key: tuple) -> list[float]:
@@ -467,11 +468,14 @@ class Block:
             memo = self._driven_memo = _DrivenMemo(params, self.drivables)
         names, get = memo.names, inputs.get
         if fallbacks:
-            unknown = fallbacks.keys() - memo.name_set
-            if unknown:
+            if not memo.name_set.issuperset(fallbacks):
+                unknown = fallbacks.keys() - memo.name_set
                 raise TypeError(f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters")
             given = fallbacks.get
-            key = tuple([get(name) for name in names] + [given(name, _UNSET) for name in names])
+            if len(names) == 1:
+                key = (get(names[0]), given(names[0], _UNSET))
+            else:
+                key = tuple([get(name) for name in names] + [given(name, _UNSET) for name in names])
         elif memo.name_set.isdisjoint(inputs):
             return memo.static_ns  # nothing wired, nothing given: the parameters themselves, resolved once
         elif len(names) == 1:
@@ -482,30 +486,28 @@ class Block:
             key = tuple([get(name) for name in names])
         if memo.hit(key):
             return memo.ns
-        result = self._resolve_driven(inputs, fallbacks, memo.static, params)
+        result = self._resolve_driven(key, fallbacks, memo, params)
         memo.remember(key, result)
         return result
 
-    def _resolve_driven(self, inputs: dict[str, Any], fallbacks: dict[str, Any], static: dict[str, Any],
+    def _resolve_driven(self, key: tuple, fallbacks: dict[str, Any], memo: "_DrivenMemo",
                         params: BlockParams) -> SimpleNamespace:
-        """`driven` worked out: the static values, the fallbacks given, then the usable wired values."""
-        values = dict(static)
-        for name, fallback in fallbacks.items():
-            values[name] = self.drivables[name].resolve(None, fallback)
-        if inputs:
-            for name, d in self.drivables.items():
-                wired = inputs.get(name)
-                if wired is None:
-                    continue
-                if name in fallbacks:
-                    values[name] = d.resolve(wired, fallbacks[name])
-                elif type(wired) in (list, tuple):  # a vector signal: converted again only when it changes
-                    key, seen = tuple(wired), self.__dict__.setdefault("_wired_cache", {}).get(name)
-                    if seen is None or seen[1] is not params or seen[0] != key:
-                        seen = self._wired_cache[name] = (key, params, d.resolve(wired, getattr(params, name)))
-                    values[name] = seen[2]
-                else:
-                    values[name] = d.resolve(wired, getattr(params, name))
+        """`driven` worked out for `key` (its wired values first): the static values, then per parameter
+        the wired value resolved against the fallback given (or the parameter) when it is usable."""
+        values = memo.static.copy()
+        drivables = self.drivables
+        for name, wired in zip(memo.names, key):
+            if name in fallbacks:
+                values[name] = drivables[name].resolve(wired, fallbacks[name])  # the fallback when unwired
+            elif wired is None:
+                continue
+            elif type(wired) in (list, tuple):  # a vector signal: converted again only when it changes
+                vec, seen = tuple(wired), self.__dict__.setdefault("_wired_cache", {}).get(name)
+                if seen is None or seen[1] is not params or seen[0] != vec:
+                    seen = self._wired_cache[name] = (vec, params, drivables[name].resolve(wired, getattr(params, name)))
+                values[name] = seen[2]
+            else:
+                values[name] = drivables[name].resolve(wired, getattr(params, name))
         return SimpleNamespace(**values)
 
     def signal(self, inputs: dict[str, Any], name: str, default: Any) -> Any:
