@@ -392,6 +392,8 @@ class ClipPlayer(Source):
     @staticmethod
     def _events_between(clip: CompiledClip, t0: float, t1: float) -> list[FrameEvent]:
         """Events with t0 < t <= t1 (an event at 0 fires on the first tick)."""
+        if not clip.events:
+            return []
         if t0 <= 0.0:
             t0 = -1e-12
         return [e for t, e in clip.events if t0 < t <= t1]
