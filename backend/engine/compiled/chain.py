@@ -322,10 +322,33 @@ def _limit(old, new, lo, hi, vmax, dt):
     return out
 
 
+def gaze_constants(rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax, eye_offset, j_off, jlo, jhi):
+    """The gaze kernel's constant vectors in one array, in the order `gaze_tick` reads them back: rest (C,);
+    gain, share, follow_share (n,); follow_total (2,); tau, lo, hi, vmax (n,); eye_offset (3,); j_off,
+    jlo, jhi (m,) (one argument to convert per call instead of thirteen)."""
+    return np.ascontiguousarray(np.concatenate([rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax,
+                                                eye_offset, j_off, jlo, jhi]), dtype=np.float64)
+
+
 @njit(cache=True)
-def gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, share, follow_share, follow_total,
-              tau, lo, hi, vmax, arc_dip, arc_max, arc_smoothing, tolerance, eye_offset, j_rows, j_off, jlo, jhi,
-              k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+def gaze_tick(x, dip, out, target, strength, dt, idx, axis, leader, consts, arc_dip, arc_max, arc_smoothing,
+              tolerance, j_rows, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+    """One gaze tick (see `_gaze_tick`) with its constant vectors packed by `gaze_constants`."""
+    n, c, m = x.shape[0], out.shape[0], j_rows.shape[0]
+    o = c + 3 * n + 2
+    o2 = o + 4 * n + 3
+    return _gaze_tick(x, dip, out, target, strength, dt, consts[:c], idx, axis, leader, consts[c:c + n],
+                      consts[c + n:c + 2 * n], consts[c + 2 * n:c + 3 * n], consts[c + 3 * n:o], consts[o:o + n],
+                      consts[o + n:o + 2 * n], consts[o + 2 * n:o + 3 * n], consts[o + 3 * n:o + 4 * n], arc_dip,
+                      arc_max, arc_smoothing, tolerance, consts[o + 4 * n:o2], j_rows, consts[o2:o2 + m],
+                      consts[o2 + m:o2 + 2 * m], consts[o2 + 2 * m:o2 + 3 * m], k, k2, axes, rev, src, mult, off, pre,
+                      post, select, identity)
+
+
+@njit(cache=True)
+def _gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, share, follow_share, follow_total,
+               tau, lo, hi, vmax, arc_dip, arc_max, arc_smoothing, tolerance, eye_offset, j_rows, j_off, jlo, jhi,
+               k, k2, axes, rev, src, mult, off, pre, post, select, identity):
     """One gaze tick (see `Gaze.tick`): the gaze DoFs' angles from rest `x` (n,) and the arc dip
     `dip` (1,) advance in place; `out` (C,) receives rest + the gaze angles. Returns on_target."""
     n = x.shape[0]
@@ -396,5 +419,4 @@ def gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, 
     return on_target
 
 
-GAZE_SIG = (f8_1, f8_1, f8_1, f8_1, f8, f8, f8_1, i8_1, i8_1, b1_1, f8_1, f8_1, f8_1, f8_1,
-            f8_1, f8_1, f8_1, f8_1, f8, f8, f8, f8, f8_1, f8_2, f8_1, f8_1, f8_1, *CHAIN_SIG)
+GAZE_SIG = (f8_1, f8_1, f8_1, f8_1, f8, f8, i8_1, i8_1, b1_1, f8_1, f8, f8, f8, f8, f8_2, *CHAIN_SIG)
