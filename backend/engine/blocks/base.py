@@ -239,8 +239,8 @@ class _DrivenMemo:
     as the vector ports' own cache does); a float zero must also have the same sign (-0.0 == 0.0). Any
     other key (an array, …) is resolved anew."""
 
-    __slots__ = ("params", "names", "name_set", "static", "static_ns", "ports_compared", "key", "lists", "zeros",
-                 "exact", "ns")
+    __slots__ = ("params", "names", "name_set", "static", "static_ns", "ports_compared", "floats", "key", "lists",
+                 "zeros", "exact", "ns")
 
     def __init__(self, params: BaseModel, drivables: dict[str, "DrivenParam"]):
         self.params = params
@@ -249,6 +249,14 @@ class _DrivenMemo:
         self.static = {name: d.resolve(None, getattr(params, name)) for name, d in drivables.items()}
         self.static_ns = SimpleNamespace(**self.static)
         self.ports_compared = all(d.port.type in _COMPARED_PORTS for d in drivables.values())
+        # When every parameter is a float port: per parameter (its DrivenParam, the parameter's value, and the
+        # clamp bounds as `resolve` applies them to a finite float: None without a clamp, else lo/hi or ∓inf).
+        self.floats = None
+        if all(d.port.type is PortType.float for d in drivables.values()):
+            self.floats = tuple(
+                (d, getattr(params, name), None, None) if d.lo is None and d.hi is None else
+                (d, getattr(params, name), -math.inf if d.lo is None else d.lo, math.inf if d.hi is None else d.hi)
+                for name, d in drivables.items())
         self.key, self.lists, self.zeros, self.exact, self.ns = None, False, None, False, None
 
     def hit(self, key: tuple) -> bool:
@@ -486,7 +494,19 @@ class Block:
             key = tuple([get(name) for name in names])
         if memo.hit(key):
             return memo.ns
-        result = self._resolve_driven(key, fallbacks, memo, params)
+        if memo.floats is not None and not fallbacks:
+            # Number parameters only: `DrivenParam.resolve`'s shortcut for a finite float inline, the rest by it.
+            values = memo.static.copy()
+            for name, wired, (d, raw, lo, hi) in zip(names, key, memo.floats):
+                if wired is None:
+                    continue
+                if type(wired) is float and math.isfinite(wired):
+                    values[name] = wired if lo is None else min(max(wired, lo), hi)
+                else:
+                    values[name] = d.resolve(wired, raw)
+            result = SimpleNamespace(**values)
+        else:
+            result = self._resolve_driven(key, fallbacks, memo, params)
         memo.remember(key, result)
         return result
 
