@@ -160,6 +160,7 @@ def test_driven_gives_the_last_namespace_again_only_for_the_same_inputs(desk, ct
     assert math.copysign(1.0, blk.driven({"gain": -0.0}).gain) == -1.0
     assert math.copysign(1.0, blk.driven({"gain": 0.0}).gain) == 1.0
     assert blk.driven({"gain": 1}).gain == blk.driven({"gain": True}).gain == 1.0
+    assert blk.driven({"gain": 0}).gain == 0.0 and math.copysign(1.0, blk.driven({"gain": -0.0}).gain) == -1.0
     # arrays are resolved anew every time, and never compared with a number
     arr = np.array([0.5, 0.5, 0.5])
     np.testing.assert_array_equal(blk.driven({"target": arr}).target, arr)

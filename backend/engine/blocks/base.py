@@ -236,8 +236,8 @@ class _DrivenMemo:
     would give: every drivable port is a number or vector port (whose values are converted, so 1, 1.0
     and True resolve alike), and every item of the last key was a plain value (None, a number, a string)
     or a list or tuple of numbers (kept as a tuple: a producer may change its list in place, and compared
-    as the vector ports' own cache does); a float zero must also have the same sign (-0.0 == 0.0). Any
-    other key (an array, …) is resolved anew."""
+    as the vector ports' own cache does); a number equal to zero must also have the same sign (-0.0 == 0 ==
+    0.0, an int zero counting as +0.0). Any other key (an array, …) is resolved anew."""
 
     __slots__ = ("params", "names", "name_set", "static", "static_ns", "ports_compared", "floats", "key", "lists",
                  "zeros", "exact", "ns")
@@ -274,8 +274,8 @@ class _DrivenMemo:
         exact, lists, zeros = self.ports_compared, False, False
         for value in key:
             kind = type(value)
-            if kind is float:
-                zeros = zeros or value == 0.0
+            if kind in _NUMBERS:
+                zeros = zeros or value == 0
             elif kind is list or kind is tuple:
                 lists = lists or kind is list
                 exact = exact and all(type(x) in _NUMBERS for x in value)
@@ -288,8 +288,8 @@ class _DrivenMemo:
 
 
 def _zero_signs(key: tuple) -> list[float]:
-    """The signs of a key's float zeros, in order."""
-    return [math.copysign(1.0, v) for v in key if type(v) is float and v == 0.0]
+    """The signs of a key's numbers equal to zero, in order (an int or bool zero counts as +0.0)."""
+    return [math.copysign(1.0, v) for v in key if type(v) in _NUMBERS and v == 0]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -496,17 +496,23 @@ class Block:
             return memo.ns
         if memo.floats is not None and not fallbacks:
             # Number parameters only: `DrivenParam.resolve`'s shortcut for a finite float inline, the rest by it.
-            values = memo.static.copy()
+            # What `_DrivenMemo.remember` works out, on the way: plain items only (exact), any float zero.
+            values, plain, zeros = memo.static.copy(), True, False
             for name, wired, (d, raw, lo, hi) in zip(names, key, memo.floats):
                 if wired is None:
                     continue
                 if type(wired) is float and math.isfinite(wired):
                     values[name] = wired if lo is None else min(max(wired, lo), hi)
+                    zeros = zeros or wired == 0.0
                 else:
                     values[name] = d.resolve(wired, raw)
+                    plain = plain and type(wired) in _PLAIN
+                    zeros = zeros or (type(wired) in _NUMBERS and wired == 0)
             result = SimpleNamespace(**values)
-        else:
-            result = self._resolve_driven(key, fallbacks, memo, params)
+            memo.key, memo.lists, memo.exact, memo.ns = key, False, plain, result
+            memo.zeros = _zero_signs(key) if plain and zeros else None
+            return result
+        result = self._resolve_driven(key, fallbacks, memo, params)
         memo.remember(key, result)
         return result
 
