@@ -165,6 +165,7 @@ class Noise(Source):
         self._dt: float | None = None
         self._tau_s: tuple[float, float] | None = None
         self._kernel = entry_point(noise_tick, NOISE_SIG) if self.ctx.compiled else None
+        self._draws = np.empty((2, self.emb.n_channels))  # this tick's normal draws (compiled path; read in the tick only)
 
     def reset(self) -> None:
         n = self.emb.n_channels
@@ -220,7 +221,10 @@ class Noise(Source):
         step = dt > 0
         if step:
             self._transition(dt)
-            e = st.rng.standard_normal((2, emb.n_channels))
+            e = self._draws
+            if e.shape != (2, emb.n_channels):
+                e = self._draws = np.empty((2, emb.n_channels))
+            st.rng.standard_normal(out=e)  # the same draws as standard_normal((2, C)), into the block's buffer
         else:
             e = np.zeros((2, emb.n_channels))
         if st.y is st.x:  # without smoothing the reference leaves y and x one array; keep them apart
