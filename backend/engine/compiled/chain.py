@@ -202,6 +202,65 @@ def _dls_step(jac, err, moved, size, lam2, null_gain, null_range):
 
 
 @njit(cache=True)
+def _inv3_into(a, out):
+    """`_inv3` into `out` (3, 3): the same cofactors, each divided by the determinant."""
+    out[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    out[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
+    out[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
+    out[1, 0] = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    out[1, 1] = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
+    out[1, 2] = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
+    out[2, 0] = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    out[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
+    out[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    det = a[0, 0] * out[0, 0] + a[0, 1] * out[1, 0] + a[0, 2] * out[2, 0]
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = out[i, j] / det
+
+
+@njit(cache=True)
+def _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a, inv, pinv, dq, jm, back):
+    """`_dls_step` into `dq` (nv,), with the same sums in the same order; a, inv (3, 3), pinv (nv, 3),
+    jm (3,) and back (nv,) are scratch."""
+    nv = jac.shape[1]
+    for i in range(3):  # a = jac @ jac.T
+        for j in range(3):
+            acc = 0.0
+            for k in range(nv):
+                acc += jac[i, k] * jac[j, k]
+            a[i, j] = acc
+    for r in range(3):
+        a[r, r] += lam2
+    _inv3_into(a, inv)
+    for i in range(nv):  # pinv = jac.T @ inv
+        for j in range(3):
+            acc = 0.0
+            for k in range(3):
+                acc += jac[k, i] * inv[k, j]
+            pinv[i, j] = acc
+    for i in range(nv):  # dq = pinv @ err
+        acc = 0.0
+        for k in range(3):
+            acc += pinv[i, k] * err[k]
+        dq[i] = acc
+    pull = null_gain * (1.0 - size / null_range)
+    if pull > 0.0:
+        for i in range(3):  # jm = jac @ moved
+            acc = 0.0
+            for k in range(nv):
+                acc += jac[i, k] * moved[k]
+            jm[i] = acc
+        for i in range(nv):  # back = pinv @ jm
+            acc = 0.0
+            for k in range(3):
+                acc += pinv[i, k] * jm[k]
+            back[i] = acc
+        for j in range(nv):
+            dq[j] -= pull * (moved[j] - back[j])
+
+
+@njit(cache=True)
 def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, j_off, lower,
             upper, var, var_ch, dof_lo, dof_hi, offset, axis, look, lam2, iterations, max_step, converged,
             null_gain, null_range, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
@@ -234,6 +293,10 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
     frames, tip, t4, motion, tmp = np.empty((m, 4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), \
         np.empty((4, 4))
     point, d, jp_m, jd_m = np.empty(3), np.empty(3), np.empty((3, m)), np.empty((3, m))
+    # the damped least squares' buffers
+    a3, inv3, pinv, jm, back = np.empty((3, 3)), np.empty((3, 3)), np.empty((nv, 3)), np.empty(3), np.empty(nv)
+    dq = np.empty(nv)
+    blocked = np.empty(nv, dtype=np.bool_)
     for _ in range(iterations):
         _kinematics_into(q, offset, axis, k, k2, axes, rev, src, mult, off, pre, post, select, identity, frames,
                          tip, t4, motion, tmp, point, d, jp_m, jd_m)
@@ -275,9 +338,8 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
                     jac[r, j] = jp[r, var[j]]
         for j in range(nv):
             moved[j] = q[var[j]] - q0[var[j]]
-        dq = _dls_step(jac, err, moved, size, lam2, null_gain, null_range)
+        _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a3, inv3, pinv, dq, jm, back)
         # Active set: joints the step would push past a limit leave the problem, the rest re-solve.
-        blocked = np.zeros(nv, dtype=np.bool_)
         any_blocked = False
         for j in range(nv):
             qv = q[var[j]]
@@ -287,11 +349,14 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
             for j in range(nv):
                 if blocked[j]:
                     jac[0, j] = jac[1, j] = jac[2, j] = 0.0
-            dq = _dls_step(jac, err, moved, size, lam2, null_gain, null_range)
+            _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a3, inv3, pinv, dq, jm, back)
             for j in range(nv):
                 if blocked[j]:
                     dq[j] = 0.0
-        norm = math.sqrt(np.sum(dq * dq))
+        sq = 0.0  # np.sum(dq * dq): a sum in order
+        for j in range(nv):
+            sq += dq[j] * dq[j]
+        norm = math.sqrt(sq)
         if norm > max_step:
             dq *= max_step / norm
         for j in range(nv):
