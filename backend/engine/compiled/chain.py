@@ -260,10 +260,29 @@ def _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a, inv, p
             dq[j] -= pull * (moved[j] - back[j])
 
 
+def ik_constants(j_off, lower, upper, dof_lo, dof_hi, offset, axis):
+    """The IK kernel's constant vectors in one array, in the order `ik_tick` reads them back: j_off, lower,
+    upper (m,); dof_lo, dof_hi (nv,); offset, axis (3,) (one argument to convert per call instead of seven)."""
+    return np.ascontiguousarray(np.concatenate([j_off, lower, upper, dof_lo, dof_hi, offset, axis]), dtype=np.float64)
+
+
 @njit(cache=True)
-def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, j_off, lower,
-            upper, var, var_ch, dof_lo, dof_hi, offset, axis, look, lam2, iterations, max_step, converged,
-            null_gain, null_range, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, var, var_ch,
+            consts, look, lam2, iterations, max_step, converged, null_gain, null_range, k, k2, axes, rev, src, mult,
+            off, pre, post, select, identity):
+    """One IK tick (see `_ik_tick`) with its constant vectors packed by `ik_constants`."""
+    m, nv = j_rows.shape[0], var.shape[0]
+    o = 3 * m + 2 * nv
+    _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, consts[:m],
+             consts[m:2 * m], consts[2 * m:3 * m], var, var_ch, consts[3 * m:3 * m + nv], consts[3 * m + nv:o],
+             consts[o:o + 3], consts[o + 3:o + 6], look, lam2, iterations, max_step, converged, null_gain, null_range,
+             k, k2, axes, rev, src, mult, off, pre, post, select, identity)
+
+
+@njit(cache=True)
+def _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, j_off, lower,
+             upper, var, var_ch, dof_lo, dof_hi, offset, axis, look, lam2, iterations, max_step, converged,
+             null_gain, null_range, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
     """One IK tick (see `InverseKinematics.transform`): the stage-1 pose `values` (C,) takes the frame's
     set channels (in place); from it and last tick's correction `delta` (updated in place), solve
     toward `target` and write the frame with the moved joint DoFs, blended by `weight`, to `out`
@@ -368,8 +387,8 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
         out[var_ch[j]] = ch[j] + weight * delta[j]
 
 
-IK_SIG = (f8_1, b1_1, f8_1, f8_1, f8, f8_1, f8_1, b1_1, b1_1, f8_2, f8_1, f8_1, f8_1, i8_1, i8_1, f8_1, f8_1,
-          f8_1, f8_1, b1, f8, i8, f8, f8, f8, f8, *CHAIN_SIG)
+IK_SIG = (f8_1, b1_1, f8_1, f8_1, f8, f8_1, f8_1, b1_1, b1_1, f8_2, i8_1, i8_1, f8_1, b1, f8, i8, f8, f8, f8, f8,
+          *CHAIN_SIG)
 
 
 @njit(cache=True)
