@@ -309,7 +309,10 @@ class ClipPlayer(Source):
                 s.current = None
         weight = _smooth(s.env)
         visible = s.current is not None or s.env > 0.0
-        mask = (s.mask | (s.old_mask if s.xfade_t < s.xfade else False)) if visible else np.zeros_like(s.mask)
+        if visible:
+            mask = s.mask | (s.old_mask if s.xfade_t < s.xfade else False)
+        else:  # nothing shows: the block's one empty mask (never changed)
+            mask = self._no_mask if s.mask.shape == self._no_mask.shape else np.zeros_like(s.mask)
         values = s.values
         if clip is not None and clip.relative.any():
             rest = self.emb.rest
@@ -337,8 +340,11 @@ class ClipPlayer(Source):
                      clip.any_relative, weight, out)
         if s.current is None and s.env <= 0.0:
             mask = self._no_mask
-        elif s.xfade_t < s.xfade:
-            mask = s.mask | s.old_mask
+        elif s.xfade_t < s.xfade:  # both clips' channels: worked out once per crossfade (masks never change)
+            memo = self.__dict__.get("_xfade_mask")
+            if memo is None or memo[0] is not s.mask or memo[1] is not s.old_mask:
+                memo = self._xfade_mask = (s.mask, s.old_mask, s.mask | s.old_mask)
+            mask = memo[2]
         else:
             mask = s.mask
         return {"out": PartialFrame(out, mask, events), "weight": weight,

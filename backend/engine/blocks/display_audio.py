@@ -321,15 +321,15 @@ class Say(Source):
             events.append(FrameEvent(self.dof.name, "say", {"text": s.current["text"]}))
             self.ctx.notify(self.node_id, "started", command_id=s.current["command_id"], text=s.current["text"])
         values = self.emb.rest.copy()
-        mask = np.zeros(self.emb.n_channels, dtype=bool) if s.current is not None or s.closing else self._nothing
+        mask = self._nothing  # the masks out are the block's own two, never changed: nothing, or the lip DoF
         if s.current is not None:
             if self.lip is not None:
                 span = self.emb.max[self.lip] - self.emb.rest[self.lip]
                 flap = 0.5 - 0.5 * math.cos(2.0 * math.pi * self.params.syllable_rate * s.elapsed)
                 values[self.lip] = self.emb.rest[self.lip] + self.params.lip_amount * span * flap
-                mask |= self.lip_mask
+                mask = self.lip_mask
         elif s.closing:  # one frame at rest closes the mouth; after that the lip DoF is left alone
-            mask |= self.lip_mask
+            mask = self.lip_mask
             s.closing = False
         return {"out": PartialFrame(values, mask, events), "speaking": s.current is not None}
 
