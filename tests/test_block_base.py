@@ -134,6 +134,44 @@ def test_driven_fallbacks_replace_the_parameter_only_while_unwired(desk, ctx):
         blk.driven({}, steps=4)
 
 
+class NumberParams(BlockParams):
+    gain: float = drivable(Field(1.0, ge=-2.0, le=2.0, description="scale"), "overrides the gain", clamp="range")
+    target: list[float] = drivable(Field([1.0, 0.0, 0.0], min_length=3, max_length=3), "look here",
+                                   port=PortType.vec3)
+
+
+class Numbers(Operator):
+    type_name = "numbers"
+    Params = NumberParams
+
+
+def test_driven_gives_the_last_namespace_again_only_for_the_same_inputs(desk, ctx):
+    blk = Numbers(NumberParams(), ctx, "n")
+    first = blk.driven({"gain": 0.5})
+    assert blk.driven({"gain": 0.5}) is first and blk.driven({"gain": 0.25}).gain == 0.25
+    # a list changed in place is a new target; an equal list (or tuple) is the same one
+    target = [0.1, 0.2, 0.3]
+    d = blk.driven({"target": target})
+    assert blk.driven({"target": [0.1, 0.2, 0.3]}) is d and blk.driven({"target": (0.1, 0.2, 0.3)}) is d
+    target[0] = 0.9
+    np.testing.assert_array_equal(blk.driven({"target": target}).target, [0.9, 0.2, 0.3])
+    # -0.0 == 0.0, but a zero keeps its sign; 1, 1.0 and True resolve alike
+    assert math.copysign(1.0, blk.driven({"gain": 0.0}).gain) == 1.0
+    assert math.copysign(1.0, blk.driven({"gain": -0.0}).gain) == -1.0
+    assert math.copysign(1.0, blk.driven({"gain": 0.0}).gain) == 1.0
+    assert blk.driven({"gain": 1}).gain == blk.driven({"gain": True}).gain == 1.0
+    assert blk.driven({"gain": 0}).gain == 0.0 and math.copysign(1.0, blk.driven({"gain": -0.0}).gain) == -1.0
+    # arrays are resolved anew every time, and never compared with a number
+    arr = np.array([0.5, 0.5, 0.5])
+    np.testing.assert_array_equal(blk.driven({"target": arr}).target, arr)
+    assert blk.driven({"gain": 0.5}).gain == 0.5
+    np.testing.assert_array_equal(blk.driven({"gain": 0.5, "target": arr * 2}).target, arr * 2)
+    # fallbacks are part of what is compared; new parameters start over
+    assert blk.driven({}, gain=0.75).gain == 0.75 and blk.driven({}, gain=1.5).gain == 1.5
+    blk.update_params(NumberParams(gain=-1.0))
+    assert blk.driven({}).gain == -1.0 and blk.driven({"gain": 0.5}).gain == 0.5
+
+
 def test_a_wired_drivable_parameter_drives_the_block(desk, ctx):
     blk = Demo(DemoParams(gain=1.0), ctx, "d")
     f = frame(desk)

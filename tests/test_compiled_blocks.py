@@ -203,6 +203,37 @@ def test_block_fast_path_matches_its_reference_tick_by_tick(desk, type_name, par
         assert_same(a, b, atol=1e-9 if type_name in ("ik", "gaze") else 1e-12)
 
 
+def test_clip_player_fast_path_matches_its_reference_through_plays_crossfades_and_releases(desk, tmp_path):
+    from backend.engine.library import RobotLibrary
+
+    lib = RobotLibrary(tmp_path, desk)
+    for p in (ROBOT / "clips").glob("*.json"):
+        lib.save("clips", p.stem, json.loads(p.read_text()))
+    # an absolute clip with an enum track and every interpolation, beside the bundled (relative) ones
+    lib.save("clips", "absolute", {"format": "nutty-clip/1", "name": "absolute", "tracks": {
+        "head_yaw": [{"t": 0, "v": -0.4, "interp": "linear"}, {"t": 0.3, "v": 0.2, "interp": "constant"},
+                     {"t": 0.6, "v": 0.5, "interp": "quad"}, {"t": 1.0, "v": -0.1}],
+        "mouth": [{"t": 0, "v": "neutral"}, {"t": 0.5, "v": "smile"}],
+        "eye_leds": [{"t": 0, "v": [1.0, 0.0, 0.2]}, {"t": 0.8, "v": [0.0, 1.0, 0.5]}]}})
+    made = []
+    for compiled in (True, False):
+        ctx = BlockContext(embodiment=desk, rate=100.0, resources=lib, compiled=compiled)
+        made.append(BLOCKS["clip_player"](BLOCKS["clip_player"].Params(crossfade=0.3, release=0.4), ctx, "g"))
+    fast, slow = made
+    assert fast._kernel is not None and slow._kernel is None
+    plays = {0: {"clip": "wave"}, 40: {"clip": "absolute", "mode": "ping_pong"}, 170: {"clip": "nod", "speed": 1.7},
+             190: {"clip": "absolute", "if_busy": "queue"}, 330: {"clip": "happy", "mode": "loop"},
+             420: None, 470: {"clip": "absolute", "crossfade": 0.0}}
+    rng = np.random.default_rng(4)
+    for tick in range(600):
+        if tick in plays:
+            for block in made:
+                block.handle("play", plays[tick]) if plays[tick] else block.handle("stop", {})
+        inputs = {"speed": float(rng.uniform(0.5, 2.0))} if tick % 50 < 20 else {}
+        a, b = fast.tick(0.01, dict(inputs)), slow.tick(0.01, dict(inputs))
+        assert_same(a, b)
+
+
 def test_blink_and_led_shortcuts_keep_their_outputs(desk):
     blink_fast, blink_slow = twin_blocks("blink", {"mean_interval": 0.6, "min_interval": 0.3,
                                                    "max_interval": 1.0, "gaze_shift_threshold": 0.1}, desk)

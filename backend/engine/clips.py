@@ -135,6 +135,9 @@ class CompiledClip:
     anchors: dict[str, float]
     events: list[tuple[float, FrameEvent]]
 
+    def __post_init__(self) -> None:
+        self.any_relative = bool(np.any(self.relative))  # a relative clip fades its offsets by the envelope
+
     def sample(self, t: float, rest: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Write the clip's values at clip time `t` (s) into `out` (a full channel vector)."""
         vals = self.curves.evaluate(t)

@@ -367,9 +367,10 @@ class Engine:
 
     # --- ticking --------------------------------------------------------------------------------
     def _drain_pending(self) -> None:
-        while True:
+        pending = self._pending
+        while not pending.empty():  # (callers hold the tick lock: nobody else takes items meanwhile)
             try:
-                item = self._pending.get_nowait()
+                item = pending.get_nowait()
             except Empty:
                 return
             if not item.future.set_running_or_notify_cancel():

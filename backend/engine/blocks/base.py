@@ -218,6 +218,80 @@ def driven_params(params_model: type[BaseModel]) -> dict[str, DrivenParam]:
     return out
 
 
+class _Unset:
+    """The fallback of a drivable parameter `driven` was not given one for."""
+
+
+_UNSET = _Unset()
+_PLAIN = frozenset({type(None), float, int, bool, str, _Unset})
+_NUMBERS = frozenset({float, int, bool})
+_COMPARED_PORTS = frozenset({PortType.float, PortType.int, PortType.vec3, PortType.colour})
+
+
+class _DrivenMemo:
+    """What `Block.driven` keeps between calls for one parameter object: the parameters resolved with
+    nothing wired, and the last call's key (wired values, then fallbacks) with its result.
+
+    A key equal to the last one gives the last result when that is sure to be what resolving it again
+    would give: every drivable port is a number or vector port (whose values are converted, so 1, 1.0
+    and True resolve alike), and every item of the last key was a plain value (None, a number, a string)
+    or a list or tuple of numbers (kept as a tuple: a producer may change its list in place, and compared
+    as the vector ports' own cache does); a number equal to zero must also have the same sign (-0.0 == 0 ==
+    0.0, an int zero counting as +0.0). Any other key (an array, …) is resolved anew."""
+
+    __slots__ = ("params", "names", "name_set", "static", "static_ns", "ports_compared", "floats", "key", "lists",
+                 "zeros", "exact", "ns")
+
+    def __init__(self, params: BaseModel, drivables: dict[str, "DrivenParam"]):
+        self.params = params
+        self.names = tuple(drivables)
+        self.name_set = frozenset(self.names)
+        self.static = {name: d.resolve(None, getattr(params, name)) for name, d in drivables.items()}
+        self.static_ns = SimpleNamespace(**self.static)
+        self.ports_compared = all(d.port.type in _COMPARED_PORTS for d in drivables.values())
+        # When every parameter is a float port: per parameter (its DrivenParam, the parameter's value, and the
+        # clamp bounds as `resolve` applies them to a finite float: None without a clamp, else lo/hi or ∓inf).
+        self.floats = None
+        if all(d.port.type is PortType.float for d in drivables.values()):
+            self.floats = tuple(
+                (d, getattr(params, name), None, None) if d.lo is None and d.hi is None else
+                (d, getattr(params, name), -math.inf if d.lo is None else d.lo, math.inf if d.hi is None else d.hi)
+                for name, d in drivables.items())
+        self.key, self.lists, self.zeros, self.exact, self.ns = None, False, None, False, None
+
+    def hit(self, key: tuple) -> bool:
+        """Whether `key` (a `driven` key) resolves to the last result."""
+        if not self.exact:
+            return False
+        if self.lists:
+            key = tuple([tuple(v) if type(v) is list else v for v in key])
+        try:
+            return key == self.key and (self.zeros is None or _zero_signs(key) == self.zeros)
+        except (ValueError, TypeError):  # an array compared with a number
+            return False
+
+    def remember(self, key: tuple, result: SimpleNamespace) -> None:
+        exact, lists, zeros = self.ports_compared, False, False
+        for value in key:
+            kind = type(value)
+            if kind in _NUMBERS:
+                zeros = zeros or value == 0
+            elif kind is list or kind is tuple:
+                lists = lists or kind is list
+                exact = exact and all(type(x) in _NUMBERS for x in value)
+            elif kind not in _PLAIN:
+                exact = False
+        if lists:
+            key = tuple([tuple(v) if type(v) is list else v for v in key])
+        self.key, self.lists, self.exact, self.ns = key, lists, exact, result
+        self.zeros = _zero_signs(key) if exact and zeros else None
+
+
+def _zero_signs(key: tuple) -> list[float]:
+    """The signs of a key's numbers equal to zero, in order (an int or bool zero counts as +0.0)."""
+    return [math.copysign(1.0, v) for v in key if type(v) in _NUMBERS and v == 0]
+
+
 # --------------------------------------------------------------------------------------------------
 # Context and blocks
 # --------------------------------------------------------------------------------------------------
@@ -394,36 +468,72 @@ class Block:
     def driven(self, inputs: dict[str, Any], **fallbacks: Any) -> SimpleNamespace:
         """Every drivable parameter for this tick, by name: the wired value when its input is connected
         and usable, else the parameter, or the fallback given here (e.g. a value set by a command).
-        Treat the values as read-only (arrays may be shared between ticks)."""
-        unknown = fallbacks.keys() - self.drivables.keys() if fallbacks else ()
-        if unknown:
-            raise TypeError(f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters")
+        Treat the values as read-only (arrays may be shared between ticks), and the namespace too: a call
+        with the same wired values and fallbacks as the last one returns the last one's namespace."""
         params = self.params
-        # The parameters resolved with nothing wired, once per parameter object (parameters are replaced,
-        # never changed in place: update_params); the values are shared from tick to tick, read-only.
-        cache = self.__dict__.get("_driven_cache")
-        if cache is None or cache[0] is not params:
-            static = {name: d.resolve(None, getattr(params, name)) for name, d in self.drivables.items()}
-            cache = self._driven_cache = (params, static, SimpleNamespace(**static))
-        if not fallbacks and not any(name in inputs for name in self.drivables):
-            return cache[2]  # nothing wired, nothing given: the parameters themselves, resolved once
-        values = dict(cache[1])
-        for name, fallback in fallbacks.items():
-            values[name] = self.drivables[name].resolve(None, fallback)
-        if inputs:
-            for name, d in self.drivables.items():
-                wired = inputs.get(name)
+        memo = self.__dict__.get("_driven_memo")
+        if memo is None or memo.params is not params:
+            memo = self._driven_memo = _DrivenMemo(params, self.drivables)
+        names, get = memo.names, inputs.get
+        if fallbacks:
+            if not memo.name_set.issuperset(fallbacks):
+                unknown = fallbacks.keys() - memo.name_set
+                raise TypeError(f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters")
+            given = fallbacks.get
+            if len(names) == 1:
+                key = (get(names[0]), given(names[0], _UNSET))
+            else:
+                key = tuple([get(name) for name in names] + [given(name, _UNSET) for name in names])
+        elif memo.name_set.isdisjoint(inputs):
+            return memo.static_ns  # nothing wired, nothing given: the parameters themselves, resolved once
+        elif len(names) == 1:
+            key = (get(names[0]),)
+        elif len(names) == 2:
+            key = (get(names[0]), get(names[1]))
+        else:
+            key = tuple([get(name) for name in names])
+        if memo.hit(key):
+            return memo.ns
+        if memo.floats is not None and not fallbacks:
+            # Number parameters only: `DrivenParam.resolve`'s shortcut for a finite float inline, the rest by it.
+            # What `_DrivenMemo.remember` works out, on the way: plain items only (exact), any float zero.
+            values, plain, zeros = memo.static.copy(), True, False
+            for name, wired, (d, raw, lo, hi) in zip(names, key, memo.floats):
                 if wired is None:
                     continue
-                if name in fallbacks:
-                    values[name] = d.resolve(wired, fallbacks[name])
-                elif type(wired) in (list, tuple):  # a vector signal: converted again only when it changes
-                    key, seen = tuple(wired), self.__dict__.setdefault("_wired_cache", {}).get(name)
-                    if seen is None or seen[1] is not params or seen[0] != key:
-                        seen = self._wired_cache[name] = (key, params, d.resolve(wired, getattr(params, name)))
-                    values[name] = seen[2]
+                if type(wired) is float and math.isfinite(wired):
+                    values[name] = wired if lo is None else min(max(wired, lo), hi)
+                    zeros = zeros or wired == 0.0
                 else:
-                    values[name] = d.resolve(wired, getattr(params, name))
+                    values[name] = d.resolve(wired, raw)
+                    plain = plain and type(wired) in _PLAIN
+                    zeros = zeros or (type(wired) in _NUMBERS and wired == 0)
+            result = SimpleNamespace(**values)
+            memo.key, memo.lists, memo.exact, memo.ns = key, False, plain, result
+            memo.zeros = _zero_signs(key) if plain and zeros else None
+            return result
+        result = self._resolve_driven(key, fallbacks, memo, params)
+        memo.remember(key, result)
+        return result
+
+    def _resolve_driven(self, key: tuple, fallbacks: dict[str, Any], memo: "_DrivenMemo",
+                        params: BlockParams) -> SimpleNamespace:
+        """`driven` worked out for `key` (its wired values first): the static values, then per parameter
+        the wired value resolved against the fallback given (or the parameter) when it is usable."""
+        values = memo.static.copy()
+        drivables = self.drivables
+        for name, wired in zip(memo.names, key):
+            if name in fallbacks:
+                values[name] = drivables[name].resolve(wired, fallbacks[name])  # the fallback when unwired
+            elif wired is None:
+                continue
+            elif type(wired) in (list, tuple):  # a vector signal: converted again only when it changes
+                vec, seen = tuple(wired), self.__dict__.setdefault("_wired_cache", {}).get(name)
+                if seen is None or seen[1] is not params or seen[0] != vec:
+                    seen = self._wired_cache[name] = (vec, params, drivables[name].resolve(wired, getattr(params, name)))
+                values[name] = seen[2]
+            else:
+                values[name] = drivables[name].resolve(wired, getattr(params, name))
         return SimpleNamespace(**values)
 
     def signal(self, inputs: dict[str, Any], name: str, default: Any) -> Any:

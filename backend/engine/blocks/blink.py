@@ -203,7 +203,7 @@ class Blink(Source):
                 s.active, k = False, 0.0
         emb = self.emb
         if k == 0.0:
-            return {"out": PartialFrame(self._open_values.copy(), self.mask.copy(), []), "blinking": s.active}
+            return {"out": PartialFrame(self._open_values.copy(), self.mask, []), "blinking": s.active}
         values = np.clip(emb.rest + k * self.delta, emb.min, emb.max)
-        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), []),
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, []),
                 "blinking": s.active}

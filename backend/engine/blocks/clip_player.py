@@ -20,6 +20,8 @@ from backend.engine.blocks.base import (
     register_block,
 )
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
+from backend.engine.compiled import entry_point
+from backend.engine.compiled.curves import CLIP_SIG, clip_tick
 from backend.engine.frames import FrameEvent, PartialFrame
 from backend.engine.selectors import channel_mask
 
@@ -114,6 +116,8 @@ class ClipPlayer(Source):
     def configure(self) -> None:
         self.allowed = channel_mask(self.emb, self.params.dofs)
         self._cache: dict[str, tuple[int, CompiledClip]] = {}
+        self._kernel = entry_point(clip_tick, CLIP_SIG) if self.ctx.compiled else None
+        self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)  # shared by every frame out of sight: read-only
         if self.params.clip and self.ctx.resources is not None:
             self._load(self.params.clip)  # an unknown or broken clip is a configuration error, named
 
@@ -293,6 +297,8 @@ class ClipPlayer(Source):
                 speed = self.driven(inputs, speed=s.speed or self.params.speed).speed  # else the play command's
                 events = self._advance(clip, dt, speed)
                 clip = s.current  # a queued clip may have started as this one completed
+            if self._kernel is not None and self.ctx.compiled and s.values.shape == self.emb.rest.shape:
+                return self._tick_compiled(dt, clip, events)
             clip.sample(s.pos, self.emb.rest, s.values)
             if s.xfade_t < s.xfade:
                 s.xfade_t += dt
@@ -303,12 +309,45 @@ class ClipPlayer(Source):
                 s.current = None
         weight = _smooth(s.env)
         visible = s.current is not None or s.env > 0.0
-        mask = (s.mask | (s.old_mask if s.xfade_t < s.xfade else False)) if visible else np.zeros_like(s.mask)
+        if visible:
+            mask = s.mask | (s.old_mask if s.xfade_t < s.xfade else False)
+        else:  # nothing shows: the block's one empty mask (never changed)
+            mask = self._no_mask if s.mask.shape == self._no_mask.shape else np.zeros_like(s.mask)
         values = s.values
         if clip is not None and clip.relative.any():
             rest = self.emb.rest
             values = rest + weight * (values - rest)
         return {"out": PartialFrame(values.copy(), mask, events), "weight": weight,
+                "playing": s.current is not None and not s.done, "time": s.pos}
+
+    def _tick_compiled(self, dt: float, clip: CompiledClip, events: list[FrameEvent]) -> dict[str, Any]:
+        """The compiled twin of the end of `tick` with a clip: sample, crossfade, envelope, frame out.
+        The mask out is the state's own (never changed in place) unless a crossfade adds the old one."""
+        s, rest = self.state, self.emb.rest
+        xfade = s.xfade_t < s.xfade
+        k = 0.0
+        if xfade:
+            s.xfade_t += dt
+            k = _smooth(s.xfade_t / s.xfade)
+        self._advance_envelope(dt)
+        if s.done and s.env <= 0.0:
+            s.current = None
+        weight = _smooth(s.env)
+        out = np.empty(rest.shape[0])
+        c = clip.curves
+        self._kernel(c.t, c.v, c.h_right, c.h_left, c.code, c.mode, c.n_keys, float(s.pos), clip.channels,
+                     clip.relative, clip.enum_curves, rest, s.values, xfade, k, s.from_values, s.old_mask, s.mask,
+                     clip.any_relative, weight, out)
+        if s.current is None and s.env <= 0.0:
+            mask = self._no_mask
+        elif s.xfade_t < s.xfade:  # both clips' channels: worked out once per crossfade (masks never change)
+            memo = self.__dict__.get("_xfade_mask")
+            if memo is None or memo[0] is not s.mask or memo[1] is not s.old_mask:
+                memo = self._xfade_mask = (s.mask, s.old_mask, s.mask | s.old_mask)
+            mask = memo[2]
+        else:
+            mask = s.mask
+        return {"out": PartialFrame(out, mask, events), "weight": weight,
                 "playing": s.current is not None and not s.done, "time": s.pos}
 
     def _advance_envelope(self, dt: float) -> None:
@@ -359,6 +398,8 @@ class ClipPlayer(Source):
     @staticmethod
     def _events_between(clip: CompiledClip, t0: float, t1: float) -> list[FrameEvent]:
         """Events with t0 < t <= t1 (an event at 0 fires on the first tick)."""
+        if not clip.events:
+            return []
         if t0 <= 0.0:
             t0 = -1e-12
         return [e for t, e in clip.events if t0 < t <= t1]

@@ -68,6 +68,7 @@ class Output(Block):
 
     def configure(self) -> None:
         self._kernel = entry_point(hold_tick, HOLD_SIG) if self.ctx.compiled else None
+        self._every = np.ones_like(self.emb.continuous_mask)  # the mask of every frame out (shared, read-only)
 
     def reset(self) -> None:
         self.state = self.State(held=self.emb.rest.copy())
@@ -83,7 +84,7 @@ class Output(Block):
                 np.copyto(held, frame.values, where=frame.mask)
                 np.clip(held, self.emb.min, self.emb.max, out=held)
             events = frame.events
-        return {"frame": PartialFrame(held, np.ones_like(self.emb.continuous_mask), events)}
+        return {"frame": PartialFrame(held, self._every, events)}
 
 
 SIGNAL_TYPES = Literal["float", "int", "bool", "string", "vec3", "colour", "event"]
@@ -153,7 +154,7 @@ class RestPose(Source):
         self.mask = channel_mask(self.emb, self.params.dofs)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        return {"out": PartialFrame(self.emb.rest.copy(), self.mask.copy(), [])}
+        return {"out": PartialFrame(self.emb.rest.copy(), self.mask, [])}
 
 
 PoseValue = float | list[float] | str
@@ -224,7 +225,7 @@ class Pose(Source):
         self.vec, self.mask = pose_vector(self.emb, values)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        return {"out": PartialFrame(self.vec.copy(), self.mask.copy(), [])}
+        return {"out": PartialFrame(self.vec.copy(), self.mask, [])}
 
 
 class SineParams(BlockParams):
@@ -266,7 +267,7 @@ class Sine(Source):
         d, s = self.driven(inputs), self.state
         values = self.emb.rest + d.offset + d.amplitude * np.sin(s.phi + self.params.phase + self.spread)
         s.phi = (s.phi + 2 * math.pi * d.frequency * dt) % (2 * math.pi)
-        return {"out": PartialFrame(values, self.mask.copy(), [])}
+        return {"out": PartialFrame(values, self.mask, [])}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -302,9 +303,9 @@ class GainOffset(Operator):
         if self._kernel is not None and self.ctx.compiled and plain_frame(frame, self.emb.n_channels):
             out = np.empty(self.emb.n_channels)
             self._kernel(frame.values, rest, self.sel, float(d.gain), float(d.offset), out)
-            return {"out": PartialFrame(out, frame.mask.copy(), frame.events)}
+            return {"out": PartialFrame(out, frame.mask, frame.events)}
         scaled = rest + d.gain * (frame.values - rest) + d.offset
-        return {"out": PartialFrame(np.where(self.sel, scaled, frame.values), frame.mask.copy(), frame.events)}
+        return {"out": PartialFrame(np.where(self.sel, scaled, frame.values), frame.mask, frame.events)}
 
 
 class MaskParams(BlockParams):
@@ -372,6 +373,7 @@ class SafetyLimiter(Block):
         self.hi = e.max - self.params.margin * span
         self.vmax = np.where(e.continuous_mask, e.vel_limit * self.params.velocity_scale, np.inf)
         self._kernel = entry_point(limiter_tick, LIMITER_SIG) if self.ctx.compiled else None
+        self._every = np.ones(e.n_channels, dtype=bool)  # the mask of every frame out (shared, read-only)
 
     def reset(self) -> None:
         self.state = self.State(last=self.emb.rest.copy())
@@ -384,11 +386,11 @@ class SafetyLimiter(Block):
                 self._kernel(s.last, self.emb.continuous_mask, False, s.last, self.lo, self.hi, self.vmax, float(dt))
             else:
                 self._kernel(frame.values, frame.mask, True, s.last, self.lo, self.hi, self.vmax, float(dt))
-            return {"out": PartialFrame(s.last.copy(), np.ones(self.emb.n_channels, dtype=bool),
+            return {"out": PartialFrame(s.last.copy(), self._every,
                                         frame.events if frame is not None else [])}
         target = s.last if frame is None else np.where(frame.mask, frame.values, s.last)
         target = np.clip(target, self.lo, self.hi)
         step = self.vmax * dt
         s.last = s.last + np.clip(target - s.last, -step, step)
-        return {"out": PartialFrame(s.last.copy(), np.ones(self.emb.n_channels, dtype=bool),
+        return {"out": PartialFrame(s.last.copy(), self._every,
                                     frame.events if frame is not None else [])}

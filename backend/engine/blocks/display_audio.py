@@ -147,8 +147,9 @@ class Led(Source):
         # np.clip(colour * factor, 0, 1) on three numbers, without numpy's per-call cost
         rgb = colour.tolist() if type(colour) is np.ndarray and colour.ndim == 1 else \
             np.asarray(colour, dtype=float).ravel().tolist()
-        values[self.dof.channels] = [min(max(c * factor, 0.0), 1.0) for c in rgb]
-        return {"out": PartialFrame(values, self.mask.copy(), [])}
+        # (min(max(v, 0), 1) as comparisons: the same result, NaN and -0.0 included, without two calls each)
+        values[self.dof.channels] = [0.0 if v < 0.0 else 1.0 if v > 1.0 else v for v in [c * factor for c in rgb]]
+        return {"out": PartialFrame(values, self.mask, [])}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -214,7 +215,7 @@ class Face(Source):
             index = self.options.index(wired)
         values = self.emb.rest.copy()
         values[self.channel] = index
-        return {"out": PartialFrame(values, self.mask.copy(), [])}
+        return {"out": PartialFrame(values, self.mask, [])}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -273,6 +274,7 @@ class Say(Source):
         self.lip_mask = np.zeros(emb.n_channels, dtype=bool)
         if self.lip is not None:
             self.lip_mask[self.lip] = True
+        self._nothing = np.zeros(emb.n_channels, dtype=bool)  # the mask while silent (shared, read-only)
 
     def duration(self, text: str) -> float:
         return max(self.params.min_duration, len(text.split()) / self.params.words_per_second)
@@ -319,15 +321,15 @@ class Say(Source):
             events.append(FrameEvent(self.dof.name, "say", {"text": s.current["text"]}))
             self.ctx.notify(self.node_id, "started", command_id=s.current["command_id"], text=s.current["text"])
         values = self.emb.rest.copy()
-        mask = np.zeros(self.emb.n_channels, dtype=bool)
+        mask = self._nothing  # the masks out are the block's own two, never changed: nothing, or the lip DoF
         if s.current is not None:
             if self.lip is not None:
                 span = self.emb.max[self.lip] - self.emb.rest[self.lip]
                 flap = 0.5 - 0.5 * math.cos(2.0 * math.pi * self.params.syllable_rate * s.elapsed)
                 values[self.lip] = self.emb.rest[self.lip] + self.params.lip_amount * span * flap
-                mask |= self.lip_mask
+                mask = self.lip_mask
         elif s.closing:  # one frame at rest closes the mouth; after that the lip DoF is left alone
-            mask |= self.lip_mask
+            mask = self.lip_mask
             s.closing = False
         return {"out": PartialFrame(values, mask, events), "speaking": s.current is not None}
 
@@ -370,6 +372,7 @@ class PlaySound(Source):
         if self.params.sound is not None:
             self._check(self.params.sound, ValueError)
         self.trigger_sound = self.params.sound or (self.sounds[0] if self.sounds else None)
+        self._nothing = np.zeros(self.emb.n_channels, dtype=bool)  # the mask of every frame out (shared, read-only)
 
     def _check(self, name: Any, error: type[Exception]) -> str:
         if not isinstance(name, str) or not name or (self.sounds and name not in self.sounds):
@@ -408,5 +411,5 @@ class PlaySound(Source):
             self.ctx.notify(self.node_id, "started", command_id=clip["command_id"], sound=clip["sound"])
             s.active.append({**clip, "remaining": self.params.duration})
         s.pending = []
-        return {"out": PartialFrame(self.emb.rest.copy(), np.zeros(self.emb.n_channels, dtype=bool), events),
+        return {"out": PartialFrame(self.emb.rest.copy(), self._nothing, events),
                 "playing": bool(s.active)}

@@ -237,7 +237,7 @@ class Exaggerate(Operator):
             ref = s.avg
         scaled = np.clip(ref + gain * (frame.values - ref), emb.min, emb.max)
         values = np.where(self.sel & frame.mask, scaled, frame.values)
-        return {"out": PartialFrame(values, frame.mask.copy(), frame.events)}
+        return {"out": PartialFrame(values, frame.mask, frame.events)}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -399,7 +399,7 @@ class FollowThrough(Operator):
         s.x = np.where(self.sel, x_new, u)
         s.v = np.where(self.sel, v_new, u_vel)
         values = np.where(self.sel & frame.mask, s.x, frame.values)
-        return {"out": PartialFrame(values, frame.mask.copy(), frame.events)}
+        return {"out": PartialFrame(values, frame.mask, frame.events)}
 
 
 # --------------------------------------------------------------------------------------------------

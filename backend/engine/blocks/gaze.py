@@ -11,7 +11,7 @@ from pydantic import Field
 
 from backend.engine.blocks.base import FRAME_OUT, BlockParams, Port, PortType, Source, drivable, register_block
 from backend.engine.compiled import entry_point
-from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_tick
+from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_constants, gaze_tick
 from backend.engine.embodiment import Dimension, DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for, joint_depths
@@ -130,10 +130,12 @@ class Gaze(Source):
         self.mask[self.idx] = True
         self._kernel = entry_point(gaze_tick, GAZE_SIG) if self.ctx.compiled else None
         chain = self.chain
+        j_rows, j_off, jlo, jhi = chain.channel_map()
+        consts = gaze_constants(emb.rest, self.gain, self.share, self.follow_share, self.follow_total, self.tau,
+                                self.lo, self.hi, self.vmax, self.eye_offset, j_off, jlo, jhi)
         self._kernel_args = (
-            emb.rest, self.idx.astype(np.int64), self.axis.astype(np.int64), self.leader, self.gain, self.share,
-            self.follow_share, self.follow_total, self.tau, self.lo, self.hi, self.vmax, p.arc_dip, p.arc_max,
-            ARC_SMOOTHING, p.tolerance, self.eye_offset, *chain.channel_map(), *chain_args(chain))
+            self.idx.astype(np.int64), self.axis.astype(np.int64), self.leader, consts, p.arc_dip, p.arc_max,
+            ARC_SMOOTHING, p.tolerance, j_rows, *chain_args(chain))
         self._dip = np.zeros(1)
 
     def _dofs(self, given: list[str] | None, default: list[str] | None, label: str) -> list[str]:
@@ -183,7 +185,7 @@ class Gaze(Source):
             x = s.x.copy()  # a new array each tick, as below (an adopted state never shares it)
             on_target = self._kernel(x, dip, out, target, float(strength), float(dt), *self._kernel_args)
             s.x, s.dip = x, float(dip[0])
-            return {"out": PartialFrame(out, self.mask.copy(), []), "on_target": bool(on_target)}
+            return {"out": PartialFrame(out, self.mask, []), "on_target": bool(on_target)}
         # Where the eyes are and look now (the gaze pose without the arc dip, other joints at rest).
         values = emb.rest.copy()
         values[self.idx] += s.x

@@ -115,13 +115,13 @@ class Breathe(Source):
             self._kernel(s.phi, self.offset_cycles, self.amp_override, self.amp_values, float(scale),
                          float(d.amplitude), float(p.inhale_ratio), emb.rest, emb.min, emb.max, self.mask, out)
             s.phi = (s.phi + d.frequency * dt) % 1.0
-            return {"out": PartialFrame(out, self.mask.copy(), [])}
+            return {"out": PartialFrame(out, self.mask, [])}
         amps = np.where(self.amp_override, self.amp_values * scale, d.amplitude)
         u = np.mod(s.phi + self.offset_cycles, 1.0)
         emb = self.emb
         values = np.clip(emb.rest + amps * self.wave(u), emb.min, emb.max)
         s.phi = (s.phi + d.frequency * dt) % 1.0
-        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, [])}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -165,6 +165,7 @@ class Noise(Source):
         self._dt: float | None = None
         self._tau_s: tuple[float, float] | None = None
         self._kernel = entry_point(noise_tick, NOISE_SIG) if self.ctx.compiled else None
+        self._draws = np.empty((2, self.emb.n_channels))  # this tick's normal draws (compiled path; read in the tick only)
 
     def reset(self) -> None:
         n = self.emb.n_channels
@@ -212,7 +213,7 @@ class Noise(Source):
         tau, s = self.params.tau, self.params.smoothing
         norm = math.sqrt((tau + s) / tau)  # the low-pass stage shrinks the variance by tau / (tau + s)
         values = np.clip(emb.rest + amp * norm * st.y, emb.min, emb.max)
-        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, [])}
 
     def _tick_compiled(self, dt: float, amp: float) -> dict[str, Any]:
         """The compiled twin of `tick` (same random draws, same arithmetic)."""
@@ -220,7 +221,10 @@ class Noise(Source):
         step = dt > 0
         if step:
             self._transition(dt)
-            e = st.rng.standard_normal((2, emb.n_channels))
+            e = self._draws
+            if e.shape != (2, emb.n_channels):
+                e = self._draws = np.empty((2, emb.n_channels))
+            st.rng.standard_normal(out=e)  # the same draws as standard_normal((2, C)), into the block's buffer
         else:
             e = np.zeros((2, emb.n_channels))
         if st.y is st.x:  # without smoothing the reference leaves y and x one array; keep them apart
@@ -230,7 +234,7 @@ class Noise(Source):
         coef = self._coef_array if step else np.zeros(6)  # without a step the coefficients are not read
         self._kernel(st.x, st.y, e, coef, step, p.smoothing > 0.0, float(amp * norm), emb.rest, emb.min,
                      emb.max, self.mask, out)
-        return {"out": PartialFrame(out, self.mask.copy(), [])}
+        return {"out": PartialFrame(out, self.mask, [])}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -312,7 +316,7 @@ class WeightShift(Source):
             if s.offset is s.start or s.offset is s.target:  # written in place: never one of its inputs
                 s.offset = s.offset.copy()
             self._kernel(s.start, s.target, k, s.offset, emb.rest, emb.min, emb.max, self.mask, out)
-            return {"out": PartialFrame(out, self.mask.copy(), [])}
+            return {"out": PartialFrame(out, self.mask, [])}
         s.offset = s.start + k * (s.target - s.start)
         values = np.clip(emb.rest + s.offset, emb.min, emb.max)
-        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask.copy(), [])}
+        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, [])}

@@ -10,7 +10,7 @@ from pydantic import Field
 
 from backend.engine.blocks.base import BlockParams, Operator, PortType, Role, drivable, register_block
 from backend.engine.compiled import entry_point, plain_frame
-from backend.engine.compiled.chain import IK_SIG, chain_args, ik_tick
+from backend.engine.compiled.chain import IK_SIG, chain_args, ik_constants, ik_tick
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for
 from backend.engine.selectors import select_dofs
@@ -102,10 +102,10 @@ class InverseKinematics(Operator):
             state.delta = np.zeros(len(self.var))
         self._kernel = entry_point(ik_tick, IK_SIG) if self.ctx.compiled else None
         self._kernel_args = (
-            np.ascontiguousarray(self.j_rows), np.ascontiguousarray(self.j_off), chain.lower, chain.upper,
-            self.var.astype(np.int64), self.var_ch.astype(np.int64), self.dof_lo, self.dof_hi, self.offset,
-            self.axis, p.mode == "look_at", p.damping ** 2 + 1e-12, p.iterations, MAX_STEP, CONVERGED,
-            NULL_GAIN, NULL_RANGE, *chain_args(chain))
+            np.ascontiguousarray(self.j_rows), self.var.astype(np.int64), self.var_ch.astype(np.int64),
+            ik_constants(self.j_off, chain.lower, chain.upper, self.dof_lo, self.dof_hi, self.offset, self.axis),
+            p.mode == "look_at", p.damping ** 2 + 1e-12, p.iterations, MAX_STEP, CONVERGED, NULL_GAIN, NULL_RANGE,
+            *chain_args(chain))
 
     def reset(self) -> None:
         self.state = self.State(held=self.emb.rest.copy(), delta=np.zeros(len(self.var)))
@@ -126,7 +126,7 @@ class InverseKinematics(Operator):
         if target is None or weight <= 0.0 or len(self.var) == 0:
             if target is None:
                 s.delta = np.zeros(len(self.var))
-            return {"out": PartialFrame(frame.values.copy(), frame.mask.copy(), list(frame.events))}
+            return {"out": PartialFrame(frame.values.copy(), frame.mask, list(frame.events))}
         values = s.held
         chain = self.chain
         q0 = np.clip(self.j_rows @ values + self.j_off, chain.lower, chain.upper)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from operator import is_
 from dataclasses import dataclass
 from typing import Any
 
@@ -117,6 +118,7 @@ class LayerMixer(Block):
         self._no_values = np.zeros(self.emb.n_channels)
         self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)
         self._w = np.zeros(len(layers))
+        self._masks_memo: tuple | None = None  # (the layers' mask objects, their concatenation), read only
 
     def reset(self) -> None:
         active = np.array([1.0 if layer.active else 0.0 for layer in self.params.layers])
@@ -141,7 +143,14 @@ class LayerMixer(Block):
             frames = [inputs.get(name) for name in self.names]
             try:
                 vals = np.concatenate([self._no_values if f is None else f.values for f in frames])
-                masks = np.concatenate([self._no_mask if f is None else f.mask for f in frames])
+                layer_masks = [self._no_mask if f is None else f.mask for f in frames]
+                # The same mask objects as last tick (masks never change in place): the same concatenation.
+                memo = self._masks_memo
+                if memo is not None and all(map(is_, layer_masks, memo[0])):
+                    masks = memo[1]
+                else:
+                    masks = np.concatenate(layer_masks)
+                    self._masks_memo = (layer_masks, masks)
             except ValueError:  # frames of other shapes: the reference broadcasts them (or says why not)
                 vals = masks = None
             if vals is not None and vals.dtype == np.float64 and masks.dtype == np.bool_ \

@@ -116,6 +116,10 @@ class _FilterBlock(Block):
             else None
         self._idx64 = self.idx.astype(np.int64)
         self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)
+        # The mask out depends only on the mask in (and idx): for the same mask object in (masks never change in
+        # place), the last mask out again, the kernel writing its copy to a scratch buffer.
+        self._mask_scratch = np.empty(self.emb.n_channels, dtype=bool)
+        self._mask_memo: tuple | None = None
 
     def _new_filter(self) -> None:
         p = self.params
@@ -167,10 +171,18 @@ class _FilterBlock(Block):
     def _tick_compiled(self, frame: PartialFrame | None) -> dict[str, Any]:
         """The compiled twin of the end of `tick`: set-points, one filter step, the frame out."""
         emb, f = self.emb, self.filter
-        values, mask = np.empty(emb.n_channels), np.empty(emb.n_channels, dtype=bool)
+        values = np.empty(emb.n_channels)
         has = frame is not None
-        self._kernel(frame.values if has else emb.rest, frame.mask if has else self._no_mask, has, self._idx64,
-                     self._sp, *f.kernel_buffers(), emb.rest, values, mask)
+        mask_in = frame.mask if has else self._no_mask
+        memo = self._mask_memo
+        if memo is not None and memo[0] is mask_in and memo[1] is self._idx64:
+            mask, written = memo[2], self._mask_scratch
+        else:
+            mask = written = np.empty(emb.n_channels, dtype=bool)
+        self._kernel(frame.values if has else emb.rest, mask_in, has, self._idx64, self._sp, *f.kernel_buffers(),
+                     emb.rest, values, written)
+        if written is mask:
+            self._mask_memo = (mask_in, self._idx64, mask)
         return {"out": PartialFrame(values, mask, frame.events if has else [])}
 
 

@@ -150,4 +150,4 @@ class Posture(Source):
                 s.current = s.target.copy()
                 self.ctx.notify(self.node_id, "completed", command_id=s.command_id, posture=s.move["posture"])
                 s.move = None
-        return {"out": PartialFrame(s.current.copy(), s.mask.copy(), []), "moving": s.move is not None}
+        return {"out": PartialFrame(s.current.copy(), s.mask, []), "moving": s.move is not None}

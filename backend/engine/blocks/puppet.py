@@ -136,6 +136,6 @@ class Puppet(Source):
         if env <= 0.0:
             if not s.live:
                 s.mask[:] = False  # faded out: the next stream starts from nothing
-            return {"out": PartialFrame(s.values.copy(), self._nothing.copy(), []), "weight": 0.0, "live": s.live}
+            return {"out": PartialFrame(s.values.copy(), self._nothing, []), "weight": 0.0, "live": s.live}
         weight = env * env * (3.0 - 2.0 * env)  # smoothstep: no kink where the fade starts or ends
         return {"out": PartialFrame(s.values.copy(), s.mask.copy(), []), "weight": weight, "live": s.live}

@@ -92,11 +92,20 @@ class Math(SignalBlock):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         try:
             d = self.driven(inputs)
-            value = self.compute(d.a, d.b)
+        except (OverflowError, TypeError, ValueError):
+            d = None
+        seen = self.__dict__.get("_computed")
+        if d is not None and seen is not None and seen[0] is d and seen[1] is self.state:
+            # The same resolved inputs as last tick (and so the same parameters) on the same state: the same
+            # result, which left `last` as it is now if it was not finite.
+            return {"value": self.state.last}
+        try:
+            value = math.nan if d is None else self.compute(d.a, d.b)
         except (OverflowError, TypeError, ValueError):
             value = math.nan
         if math.isfinite(value):
             self.state.last = float(value)
+        self._computed = (d, self.state)
         return {"value": self.state.last}
 
 
@@ -268,7 +277,11 @@ class Emotion(SignalBlock):
             k = 1.0 if p.smoothing <= 0.0 else 1.0 - math.exp(-dt / p.smoothing)
             s.v += k * (d.valence - s.v)
             s.a += k * (d.arousal - s.a)
-        s.posture = self._nearest(s.v, s.a)
+        key = (s.v, s.a, s.posture, p)  # equal numbers (-0.0 == 0.0 too) are equally near every posture
+        seen = self.__dict__.get("_nearest_seen")
+        if seen is None or seen[0] != key or seen[0][3] is not p:
+            seen = self._nearest_seen = (key, self._nearest(s.v, s.a))
+        s.posture = seen[1]
         out = self.outputs_for(s.v, s.a)
         out["posture"] = s.posture
         return out

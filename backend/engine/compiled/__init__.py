@@ -44,15 +44,16 @@ def default_compiled() -> bool:
     return os.environ.get(REFERENCE_ENV, "").strip() not in ("1", "true", "yes")
 
 
-_F64, _BOOL = np.dtype(np.float64), np.dtype(np.bool_)
+_F64, _BOOL, _NDARRAY = np.dtype(np.float64), np.dtype(np.bool_), np.ndarray
 
 
 def plain_frame(frame: Any, n: int) -> bool:
     """Whether a PartialFrame's arrays are what the kernels take: float64 values and a bool mask, both
     1-D, contiguous, of length `n` (the embodiment's channels)."""
     v, m = frame.values, frame.mask
-    return (type(v) is np.ndarray and type(m) is np.ndarray and v.dtype is _F64 and m.dtype is _BOOL
-            and v.shape == (n,) and m.shape == (n,) and v.flags.c_contiguous and m.flags.c_contiguous)
+    # (ndim and size as ints: cheaper than comparing shape tuples, and the same test)
+    return (type(v) is _NDARRAY and type(m) is _NDARRAY and v.dtype is _F64 and m.dtype is _BOOL and v.ndim == 1
+            and m.ndim == 1 and v.size == n and m.size == n and v.flags.c_contiguous and m.flags.c_contiguous)
 
 
 _ENTRIES: dict[tuple[int, tuple], Any] = {}

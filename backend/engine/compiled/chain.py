@@ -61,16 +61,32 @@ def _mul4(a, b):
 
 
 @njit(cache=True)
-def _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity):
-    """Joint frames before their motion (m, 4, 4) and the tip pose (4, 4) for chain positions q."""
+def _mul4_into(a, b, out):
+    """out = a @ b for 4x4 matrices, in the order of `_matmul`'s sums (the same result, bit for bit);
+    `out` must not be `a` or `b`."""
+    for i in range(4):
+        for j in range(4):
+            s = 0.0
+            for k in range(4):
+                s += a[i, k] * b[k, j]
+            out[i, j] = s
+
+
+@njit(cache=True)
+def _frames_into(q, k, k2, axes, rev, src, mult, off, pre, post, identity, frames, tip, t, motion, tmp):
+    """`_frames` into given buffers: joint frames (m, 4, 4) and tip pose (4, 4); t, motion, tmp: (4, 4)
+    scratch. The same arithmetic as `_frames`, without an allocation."""
     m = pre.shape[0]
-    frames = np.empty((m, 4, 4))
-    t = np.eye(4)
-    motion = np.eye(4)
+    for r in range(4):
+        for col in range(4):
+            t[r, col] = 1.0 if r == col else 0.0
+            motion[r, col] = 1.0 if r == col else 0.0
     for j in range(m):
         v = q[j] if identity else mult[j] * q[src[j]] + off[j]
-        t = _mul4(t, pre[j])
-        frames[j] = t
+        _mul4_into(t, pre[j], tmp)
+        for r in range(4):
+            for col in range(4):
+                frames[j, r, col] = tmp[r, col]
         if rev[j] != 0.0:  # R = I + sin(v) K + (1 - cos(v)) K²
             s, c1 = math.sin(v), 1.0 - math.cos(v)
             for r in range(3):
@@ -82,22 +98,31 @@ def _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity):
                 for col in range(3):
                     motion[r, col] = 1.0 if r == col else 0.0
                 motion[r, 3] = axes[j, r] * v
-        t = _mul4(t, motion)
-    return frames, _mul4(t, post)
+        _mul4_into(tmp, motion, t)
+    _mul4_into(t, post, tip)
 
 
 @njit(cache=True)
-def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
-    """Point p and direction d fixed in the tip frame, in the base frame, and their Jacobians (3, n)."""
-    frames, tip = _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity)
+def _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity):
+    """Joint frames before their motion (m, 4, 4) and the tip pose (4, 4) for chain positions q."""
+    frames = np.empty((pre.shape[0], 4, 4))
+    tip = np.empty((4, 4))
+    _frames_into(q, k, k2, axes, rev, src, mult, off, pre, post, identity, frames, tip, np.empty((4, 4)),
+                 np.empty((4, 4)), np.empty((4, 4)))
+    return frames, tip
+
+
+@njit(cache=True)
+def _kinematics_into(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity, frames,
+                     tip, t, motion, tmp, p, d, jp_m, jd_m):
+    """`_kinematics` into given buffers: p, d (3,); jp_m, jd_m (3, m): the Jacobians over the chain's
+    moving joints (the caller maps them by `select` unless `identity`); frames, tip, t, motion, tmp:
+    `_frames_into`'s. The same arithmetic as `_kinematics`."""
+    _frames_into(q, k, k2, axes, rev, src, mult, off, pre, post, identity, frames, tip, t, motion, tmp)
     m = pre.shape[0]
-    p = np.empty(3)
-    d = np.empty(3)
     for r in range(3):
         p[r] = tip[r, 0] * point[0] + tip[r, 1] * point[1] + tip[r, 2] * point[2] + tip[r, 3]
         d[r] = tip[r, 0] * direction[0] + tip[r, 1] * direction[1] + tip[r, 2] * direction[2]
-    jp_m = np.empty((3, m))
-    jd_m = np.empty((3, m))
     for j in range(m):
         z0 = frames[j, 0, 0] * axes[j, 0] + frames[j, 0, 1] * axes[j, 1] + frames[j, 0, 2] * axes[j, 2]
         z1 = frames[j, 1, 0] * axes[j, 0] + frames[j, 1, 1] * axes[j, 1] + frames[j, 1, 2] * axes[j, 2]
@@ -111,6 +136,19 @@ def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post
         else:
             jp_m[0, j], jp_m[1, j], jp_m[2, j] = z0, z1, z2
             jd_m[0, j] = jd_m[1, j] = jd_m[2, j] = 0.0
+
+
+@njit(cache=True)
+def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+    """Point p and direction d fixed in the tip frame, in the base frame, and their Jacobians (3, n)."""
+    m = pre.shape[0]
+    p = np.empty(3)
+    d = np.empty(3)
+    jp_m = np.empty((3, m))
+    jd_m = np.empty((3, m))
+    _kinematics_into(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity,
+                     np.empty((m, 4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)),
+                     p, d, jp_m, jd_m)
     if identity:
         return p, d, jp_m, jd_m
     return p, d, _matmul(jp_m, select), _matmul(jd_m, select)
@@ -164,9 +202,87 @@ def _dls_step(jac, err, moved, size, lam2, null_gain, null_range):
 
 
 @njit(cache=True)
-def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, j_off, lower,
-            upper, var, var_ch, dof_lo, dof_hi, offset, axis, look, lam2, iterations, max_step, converged,
-            null_gain, null_range, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+def _inv3_into(a, out):
+    """`_inv3` into `out` (3, 3): the same cofactors, each divided by the determinant."""
+    out[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    out[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
+    out[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
+    out[1, 0] = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    out[1, 1] = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
+    out[1, 2] = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
+    out[2, 0] = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    out[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
+    out[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    det = a[0, 0] * out[0, 0] + a[0, 1] * out[1, 0] + a[0, 2] * out[2, 0]
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = out[i, j] / det
+
+
+@njit(cache=True)
+def _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a, inv, pinv, dq, jm, back):
+    """`_dls_step` into `dq` (nv,), with the same sums in the same order; a, inv (3, 3), pinv (nv, 3),
+    jm (3,) and back (nv,) are scratch."""
+    nv = jac.shape[1]
+    for i in range(3):  # a = jac @ jac.T
+        for j in range(3):
+            acc = 0.0
+            for k in range(nv):
+                acc += jac[i, k] * jac[j, k]
+            a[i, j] = acc
+    for r in range(3):
+        a[r, r] += lam2
+    _inv3_into(a, inv)
+    for i in range(nv):  # pinv = jac.T @ inv
+        for j in range(3):
+            acc = 0.0
+            for k in range(3):
+                acc += jac[k, i] * inv[k, j]
+            pinv[i, j] = acc
+    for i in range(nv):  # dq = pinv @ err
+        acc = 0.0
+        for k in range(3):
+            acc += pinv[i, k] * err[k]
+        dq[i] = acc
+    pull = null_gain * (1.0 - size / null_range)
+    if pull > 0.0:
+        for i in range(3):  # jm = jac @ moved
+            acc = 0.0
+            for k in range(nv):
+                acc += jac[i, k] * moved[k]
+            jm[i] = acc
+        for i in range(nv):  # back = pinv @ jm
+            acc = 0.0
+            for k in range(3):
+                acc += pinv[i, k] * jm[k]
+            back[i] = acc
+        for j in range(nv):
+            dq[j] -= pull * (moved[j] - back[j])
+
+
+def ik_constants(j_off, lower, upper, dof_lo, dof_hi, offset, axis):
+    """The IK kernel's constant vectors in one array, in the order `ik_tick` reads them back: j_off, lower,
+    upper (m,); dof_lo, dof_hi (nv,); offset, axis (3,) (one argument to convert per call instead of seven)."""
+    return np.ascontiguousarray(np.concatenate([j_off, lower, upper, dof_lo, dof_hi, offset, axis]), dtype=np.float64)
+
+
+@njit(cache=True)
+def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, var, var_ch,
+            consts, look, lam2, iterations, max_step, converged, null_gain, null_range, k, k2, axes, rev, src, mult,
+            off, pre, post, select, identity):
+    """One IK tick (see `_ik_tick`) with its constant vectors packed by `ik_constants`."""
+    m, nv = j_rows.shape[0], var.shape[0]
+    o = 3 * m + 2 * nv
+    _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, consts[:m],
+             consts[m:2 * m], consts[2 * m:3 * m], var, var_ch, consts[3 * m:3 * m + nv], consts[3 * m + nv:o],
+             consts[o:o + 3], consts[o + 3:o + 6], look, lam2, iterations, max_step, converged, null_gain, null_range,
+             k, k2, axes, rev, src, mult, off, pre, post, select, identity)
+
+
+@njit(cache=True)
+def _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, j_off, lower,
+             upper, var, var_ch, dof_lo, dof_hi, offset, axis, look, lam2, iterations, max_step, converged,
+             null_gain, null_range, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
     """One IK tick (see `InverseKinematics.transform`): the stage-1 pose `values` (C,) takes the frame's
     set channels (in place); from it and last tick's correction `delta` (updated in place), solve
     toward `target` and write the frame with the moved joint DoFs, blended by `weight`, to `out`
@@ -191,9 +307,22 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
     jac = np.empty((3, nv))
     moved = np.empty(nv)
     err = np.empty(3)
+    # the forward kinematics' buffers, reused by every iteration
+    m = pre.shape[0]
+    frames, tip, t4, motion, tmp = np.empty((m, 4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), \
+        np.empty((4, 4))
+    point, d, jp_m, jd_m = np.empty(3), np.empty(3), np.empty((3, m)), np.empty((3, m))
+    # the damped least squares' buffers
+    a3, inv3, pinv, jm, back = np.empty((3, 3)), np.empty((3, 3)), np.empty((nv, 3)), np.empty(3), np.empty(nv)
+    dq = np.empty(nv)
+    blocked = np.empty(nv, dtype=np.bool_)
     for _ in range(iterations):
-        point, d, jp, jd = _kinematics(q, offset, axis, k, k2, axes, rev, src, mult, off, pre, post, select,
-                                       identity)
+        _kinematics_into(q, offset, axis, k, k2, axes, rev, src, mult, off, pre, post, select, identity, frames,
+                         tip, t4, motion, tmp, point, d, jp_m, jd_m)
+        if identity:
+            jp, jd = jp_m, jd_m
+        else:
+            jp, jd = _matmul(jp_m, select), _matmul(jd_m, select)
         if look:
             r0, r1, r2 = target[0] - point[0], target[1] - point[1], target[2] - point[2]
             dist = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
@@ -228,9 +357,8 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
                     jac[r, j] = jp[r, var[j]]
         for j in range(nv):
             moved[j] = q[var[j]] - q0[var[j]]
-        dq = _dls_step(jac, err, moved, size, lam2, null_gain, null_range)
+        _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a3, inv3, pinv, dq, jm, back)
         # Active set: joints the step would push past a limit leave the problem, the rest re-solve.
-        blocked = np.zeros(nv, dtype=np.bool_)
         any_blocked = False
         for j in range(nv):
             qv = q[var[j]]
@@ -240,11 +368,14 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
             for j in range(nv):
                 if blocked[j]:
                     jac[0, j] = jac[1, j] = jac[2, j] = 0.0
-            dq = _dls_step(jac, err, moved, size, lam2, null_gain, null_range)
+            _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a3, inv3, pinv, dq, jm, back)
             for j in range(nv):
                 if blocked[j]:
                     dq[j] = 0.0
-        norm = math.sqrt(np.sum(dq * dq))
+        sq = 0.0  # np.sum(dq * dq): a sum in order
+        for j in range(nv):
+            sq += dq[j] * dq[j]
+        norm = math.sqrt(sq)
         if norm > max_step:
             dq *= max_step / norm
         for j in range(nv):
@@ -256,8 +387,8 @@ def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_ma
         out[var_ch[j]] = ch[j] + weight * delta[j]
 
 
-IK_SIG = (f8_1, b1_1, f8_1, f8_1, f8, f8_1, f8_1, b1_1, b1_1, f8_2, f8_1, f8_1, f8_1, i8_1, i8_1, f8_1, f8_1,
-          f8_1, f8_1, b1, f8, i8, f8, f8, f8, f8, *CHAIN_SIG)
+IK_SIG = (f8_1, b1_1, f8_1, f8_1, f8, f8_1, f8_1, b1_1, b1_1, f8_2, i8_1, i8_1, f8_1, b1, f8, i8, f8, f8, f8, f8,
+          *CHAIN_SIG)
 
 
 @njit(cache=True)
@@ -275,10 +406,33 @@ def _limit(old, new, lo, hi, vmax, dt):
     return out
 
 
+def gaze_constants(rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax, eye_offset, j_off, jlo, jhi):
+    """The gaze kernel's constant vectors in one array, in the order `gaze_tick` reads them back: rest (C,);
+    gain, share, follow_share (n,); follow_total (2,); tau, lo, hi, vmax (n,); eye_offset (3,); j_off,
+    jlo, jhi (m,) (one argument to convert per call instead of thirteen)."""
+    return np.ascontiguousarray(np.concatenate([rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax,
+                                                eye_offset, j_off, jlo, jhi]), dtype=np.float64)
+
+
 @njit(cache=True)
-def gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, share, follow_share, follow_total,
-              tau, lo, hi, vmax, arc_dip, arc_max, arc_smoothing, tolerance, eye_offset, j_rows, j_off, jlo, jhi,
-              k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+def gaze_tick(x, dip, out, target, strength, dt, idx, axis, leader, consts, arc_dip, arc_max, arc_smoothing,
+              tolerance, j_rows, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+    """One gaze tick (see `_gaze_tick`) with its constant vectors packed by `gaze_constants`."""
+    n, c, m = x.shape[0], out.shape[0], j_rows.shape[0]
+    o = c + 3 * n + 2
+    o2 = o + 4 * n + 3
+    return _gaze_tick(x, dip, out, target, strength, dt, consts[:c], idx, axis, leader, consts[c:c + n],
+                      consts[c + n:c + 2 * n], consts[c + 2 * n:c + 3 * n], consts[c + 3 * n:o], consts[o:o + n],
+                      consts[o + n:o + 2 * n], consts[o + 2 * n:o + 3 * n], consts[o + 3 * n:o + 4 * n], arc_dip,
+                      arc_max, arc_smoothing, tolerance, consts[o + 4 * n:o2], j_rows, consts[o2:o2 + m],
+                      consts[o2 + m:o2 + 2 * m], consts[o2 + 2 * m:o2 + 3 * m], k, k2, axes, rev, src, mult, off, pre,
+                      post, select, identity)
+
+
+@njit(cache=True)
+def _gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, share, follow_share, follow_total,
+               tau, lo, hi, vmax, arc_dip, arc_max, arc_smoothing, tolerance, eye_offset, j_rows, j_off, jlo, jhi,
+               k, k2, axes, rev, src, mult, off, pre, post, select, identity):
     """One gaze tick (see `Gaze.tick`): the gaze DoFs' angles from rest `x` (n,) and the arc dip
     `dip` (1,) advance in place; `out` (C,) receives rest + the gaze angles. Returns on_target."""
     n = x.shape[0]
@@ -349,5 +503,4 @@ def gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, 
     return on_target
 
 
-GAZE_SIG = (f8_1, f8_1, f8_1, f8_1, f8, f8, f8_1, i8_1, i8_1, b1_1, f8_1, f8_1, f8_1, f8_1,
-            f8_1, f8_1, f8_1, f8_1, f8, f8, f8, f8, f8_1, f8_2, f8_1, f8_1, f8_1, *CHAIN_SIG)
+GAZE_SIG = (f8_1, f8_1, f8_1, f8_1, f8, f8, i8_1, i8_1, b1_1, f8_1, f8, f8, f8, f8, f8_2, *CHAIN_SIG)

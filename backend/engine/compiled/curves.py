@@ -13,7 +13,7 @@ import math
 import numpy as np
 from numba import njit
 
-from backend.engine.compiled import f8, f8_1, f8_2, f8_3, i8_1
+from backend.engine.compiled import b1, b1_1, f8, f8_1, f8_2, f8_3, i8_1
 from numba import types as nt
 
 _SINE, _QUAD, _CUBIC, _QUART, _QUINT, _EXPO, _CIRC, _BACK, _ELASTIC, _BOUNCE = range(3, 13)
@@ -131,3 +131,34 @@ def evaluate(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, out):
 
 
 EVALUATE_SIG = (f8_2, f8_2, f8_3, f8_3, nt.int64[:, ::1], nt.int64[:, ::1], i8_1, f8, f8_1)
+
+
+@njit(cache=True, error_model="numpy")
+def clip_tick(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, channels, relative, enum, rest, values,
+              xfade, k, from_values, old_mask, mask, rel, weight, out):
+    """A playing clip's frame (see `ClipPlayer.tick` and `CompiledClip.sample`): the curves at clip time
+    `t` into the shown pose `values` (C,) at their `channels` (offsets from `rest` where `relative`,
+    option indices rounded where `enum`); while `xfade`, `values` crossfades from `from_values` by `k`
+    (channels only the old clip set keep their old value); `out` (C,) receives `values`, faded toward
+    `rest` by `weight` when `rel` (a relative clip)."""
+    vals = np.empty(channels.shape[0])
+    evaluate(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, vals)
+    for i in range(channels.shape[0]):
+        v = vals[i]
+        if relative[i]:
+            v = v + rest[channels[i]]
+        if enum[i]:
+            v = np.rint(v)
+        values[channels[i]] = v
+    if xfade:
+        for c in range(values.shape[0]):
+            if old_mask[c] and not mask[c]:
+                values[c] = from_values[c]
+            else:
+                values[c] = from_values[c] + k * (values[c] - from_values[c])
+    for c in range(values.shape[0]):
+        out[c] = rest[c] + weight * (values[c] - rest[c]) if rel else values[c]
+
+
+CLIP_SIG = (f8_2, f8_2, f8_3, f8_3, nt.int64[:, ::1], nt.int64[:, ::1], i8_1, f8, i8_1, b1_1, b1_1, f8_1, f8_1,
+            b1, f8, f8_1, b1_1, b1_1, b1, f8, f8_1)
