@@ -5,6 +5,10 @@ Unicode (lone surrogates) and nesting deeper than `MAX_DEPTH` refused with an er
 field; `check_json` applies the same rules to an already parsed value (every entry point: REST,
 WebSockets, in-process commands); `dumps` never fails (a value that cannot be serialised is
 sanitised rather than turned into a 500 or a dead socket).
+
+`dumps` writes with orjson (~6x faster than the standard library on telemetry: the event loop holds
+the interpreter lock, which the engine's clock waits for, that much less) and falls back to the
+standard library's encoder on anything orjson refuses, so both give the same values.
 """
 
 from __future__ import annotations
@@ -12,6 +16,9 @@ from __future__ import annotations
 import json
 import math
 from typing import Any
+
+import numpy as np
+import orjson
 
 MAX_BODY = 1_000_000  # bytes per request body
 MAX_DEPTH = 64  # nesting of JSON arrays/objects
@@ -164,8 +171,26 @@ def sanitize(value: Any, _depth: int = 0) -> Any:
         return safe_text(value)
 
 
+# Dict keys as the standard library writes them (numbers, booleans, None as strings); dataclasses and
+# datetimes left to the fallback (the standard library refuses them: they are sanitised to strings).
+_ORJSON_OPTIONS = orjson.OPT_NON_STR_KEYS | orjson.OPT_PASSTHROUGH_DATACLASS | orjson.OPT_PASSTHROUGH_DATETIME
+
+
+def _numpy_scalar(value: Any) -> float:
+    """orjson's `default`: numpy numbers as the sanitised fallback writes them (floats; non-finite:
+    orjson writes null, as the fallback does); anything else goes to the fallback."""
+    if isinstance(value, (np.floating, np.integer)):
+        return float(value)
+    raise TypeError
+
+
 def dumps(value: Any) -> str:
-    """JSON text that is always valid and encodable: the fast path, else a sanitised copy."""
+    """JSON text that is always valid and encodable: orjson, else the standard library, else a
+    sanitised copy. Non-finite numbers are written as null."""
+    try:
+        return orjson.dumps(value, default=_numpy_scalar, option=_ORJSON_OPTIONS).decode("utf-8")
+    except (TypeError, ValueError, RecursionError, orjson.JSONEncodeError):
+        pass
     try:
         text = json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(",", ":"))
         if _valid_text(text):

@@ -6,14 +6,16 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
 from backend.api import create_app
 from backend.api_types import Profile, Telemetry
 from backend.cli import main
+from backend.engine.frames import PartialFrame
 from backend.engine.profile import CookTimes, format_table
-from backend.routes.telemetry import PROFILE_PERIOD, Subscription
+from backend.routes.telemetry import PROFILE_PERIOD, Subscription, signal_json, signals_json
 from backend.session import EngineSession
 
 PROGRAMS = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs"
@@ -102,6 +104,23 @@ def test_clients_subscribed_alike_share_one_message_per_slot(session):
     assert all(s.text(session, session.engine.last_frame, slot=(30.0, 7)) == first for s in subs[1:])
     newer = subs[1].text(session, session.engine.last_frame, slot=(30.0, 8))
     assert newer[0] == first[0] + 1
+
+
+def test_signals_are_written_together_as_one_at_a_time(session, desk):
+    """The telemetry's batched writing of node outputs gives each output's JSON exactly, on every
+    output of the running interactive program and on odd values."""
+    apu = session.engine.apu
+    session.engine.run_ticks(3)
+    ports = [(step.node_id, port) for step in apu.steps for port in apu.results[apu.index[step.node_id]]]
+    assert len(ports) > 20
+    for _ in range(5):
+        session.engine.run_ticks(7)
+        values = [apu.signal_value(node, port) for node, port in ports]
+        assert [signal_json(desk, v) for v in values] == signals_json(desk, values)
+    odd = [float("nan"), np.float64(0.25), 3, True, "text", None, np.arange(20.0), PartialFrame.empty(desk.n_channels)]
+    assert signals_json(desk, odd) == [signal_json(desk, v) for v in odd]
+    short = PartialFrame(np.ones(3), np.ones(3, dtype=bool))  # not over the robot's channels: one at a time
+    assert signals_json(desk, [short, odd[-1]]) == [signal_json(desk, short), signal_json(desk, odd[-1])]
 
 
 def test_run_profile_prints_a_table(capsys, tmp_path):

@@ -54,6 +54,20 @@ def test_dumps_never_fails():
     assert dumps({"ok": [1, "é"]}) == '{"ok":[1,"é"]}'
 
 
+def test_dumps_writes_the_values_the_standard_library_would():
+    """orjson writes what json.dumps (and the sanitiser after it) would: keys of any JSON type as
+    strings, numpy numbers as floats, non-finite numbers as null; what orjson refuses (an integer past
+    64 bits, a lone surrogate) goes the standard library's way."""
+    value = {"a": [1, 2.5, -0.0, 1e-05, 1e16, True, None, "é"], 1: "one", 2.5: "x", None: "n",
+             "np": [np.float64(0.1), np.int64(3), np.float32(np.inf)], "t": (1, 2),
+             "nested": {"deep": [{"x": float("-inf")}]}}
+    same = {"a": [1, 2.5, -0.0, 1e-05, 1e16, True, None, "é"], 1: "one", 2.5: "x", None: "n",
+            "np": [0.1, 3.0, None], "t": [1, 2], "nested": {"deep": [{"x": None}]}}
+    assert json.loads(dumps(value)) == json.loads(json.dumps(same))
+    assert json.loads(dumps({"big": 2 ** 70, "x": np.float64(1.5)})) == {"big": 2 ** 70, "x": 1.5}
+    assert dumps({"s": "lone \udc80"}) == json.dumps({"s": "lone \\udc80"}, separators=(",", ":"))
+
+
 def test_origin_and_host_policy():
     p = AccessPolicy(port=8000, bind_host="127.0.0.1", allowed_origins=["https://app.example"])
     assert set(default_origins("127.0.0.1", 8000)) == {

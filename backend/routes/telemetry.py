@@ -13,6 +13,7 @@ engine's clock, which needs the same interpreter lock) little.
 from __future__ import annotations
 
 import asyncio
+import math
 import time
 import weakref
 from typing import Any
@@ -42,6 +43,54 @@ def signal_json(emb: Any, value: Any) -> Any:
     if isinstance(value, float) and not np.isfinite(value):
         return None
     return value if jsonable(value) else str(value)
+
+
+def signals_json(emb: Any, values: list[Any]) -> list[Any]:
+    """`signal_json` of each value, the same JSON, with the frames among them (most of a program's
+    outputs) selected and rounded together: a few numpy calls for all of them instead of several each
+    (the interactive program's 42 signals ~320 -> ~110 µs, time the clock's interpreter lock waits)."""
+    out: list[Any] = [None] * len(values)
+    frames: list[int] = []
+    for i, value in enumerate(values):
+        kind = type(value)
+        if kind is PartialFrame:
+            frames.append(i)
+        elif kind is bool or kind is int or (kind is float and math.isfinite(value)):
+            out[i] = value  # what signal_json gives them, without its checks
+        else:
+            out[i] = signal_json(emb, value)
+    if not frames:
+        return out
+    n = len(emb.channel_names)
+    try:  # every frame over the embodiment's channels, flat one after the other
+        flat = np.concatenate([values[i].values for i in frames]).astype(float, copy=False)
+        set_ = np.concatenate([values[i].mask for i in frames]).astype(bool, copy=False)
+        if flat.shape != (len(frames) * n,) or set_.shape != flat.shape:
+            raise ValueError("frames over other channels")
+    except ValueError:  # frames of other shapes: one at a time
+        for i in frames:
+            out[i] = signal_json(emb, values[i])
+        return out
+    where = np.flatnonzero(set_)  # each frame's set channels in channel order, frame after frame
+    picked = flat[where].round(5).tolist()
+    names = _channel_name_array(emb)[where % n].tolist()
+    ends = set_.reshape(len(frames), n).sum(axis=1).cumsum().tolist()
+    start = 0
+    for i, end in zip(frames, ends):
+        out[i] = {"mask": end - start, "values": dict(zip(names[start:end], picked[start:end]))}
+        start = end
+    return out
+
+
+_NAME_ARRAYS: "weakref.WeakKeyDictionary[Any, np.ndarray]" = weakref.WeakKeyDictionary()
+
+
+def _channel_name_array(emb: Any) -> np.ndarray:
+    """The embodiment's channel names as a numpy object array (for fancy indexing), made once each."""
+    names = _NAME_ARRAYS.get(emb)
+    if names is None or len(names) != len(emb.channel_names):
+        names = _NAME_ARRAYS[emb] = np.array(list(emb.channel_names), dtype=object)
+    return names
 
 
 def limit_classes(emb: Any, frame: AnimationFrame) -> dict[str, int]:
@@ -90,6 +139,7 @@ class Subscription:
 
     def __init__(self) -> None:
         self.signals: list[dict[str, str]] = []
+        self.signal_keys: list[str] = []  # "node.port" of each signal, the message's keys
         self.frames = True
         self.rate = 30.0  # Hz
         self.changed = asyncio.Event()
@@ -116,6 +166,7 @@ class Subscription:
         if not isinstance(frames, bool):
             raise SubscriptionError("frames is true or false", "frames")
         self.signals = [{"node": s["node"], "port": s["port"]} for s in signals[:MAX_SIGNALS]]
+        self.signal_keys = [f"{s['node']}.{s['port']}" for s in self.signals]
         self.frames, self.rate = frames, float(rate)
         self.changed.set()
 
@@ -124,8 +175,8 @@ class Subscription:
         apu, emb = session.engine.apu, session.embodiment
         msg: dict[str, Any] = {"type": "telemetry", "t": frame.t, "seq": frame.seq}
         if apu is not None and self.signals:
-            msg["signals"] = {f"{s['node']}.{s['port']}": signal_json(emb, apu.signal_value(s["node"], s["port"]))
-                              for s in self.signals}
+            values = [apu.signal_value(s["node"], s["port"]) for s in self.signals]
+            msg["signals"] = dict(zip(self.signal_keys, signals_json(emb, values)))
         if self.frames:
             msg["frame"] = frame_json(emb, frame)
         if apu is not None:
