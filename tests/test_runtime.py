@@ -355,3 +355,30 @@ def test_clock_thread_runs_real_time_where_permitted_and_its_children_do_not(mon
     worker.start()
     worker.join()
     assert off.realtime is None and seen["clock"] == os.SCHED_OTHER
+
+
+def test_the_collector_waits_for_imports_beside_a_clock_and_never_walks_what_they_made():
+    """collector_paused: no cyclic collection inside it (however much is allocated), the collector on
+    again after it, and what it made frozen out of later collections' walk."""
+    import gc
+
+    from backend.engine.gil import collector_paused
+
+    collections = []
+
+    def seen(phase: str, info: dict) -> None:
+        if phase == "start":
+            collections.append(info["generation"])
+
+    gc.callbacks.append(seen)
+    frozen = gc.get_freeze_count()
+    try:
+        with collector_paused():
+            assert not gc.isenabled()
+            made = [[i, [i]] for i in range(50_000)]  # far past the young generation's threshold
+        assert collections == [] and gc.isenabled()
+        assert gc.get_freeze_count() >= frozen + len(made)
+        assert not any(o is made[0] for o in gc.get_objects(generation=2))  # frozen: in no generation
+    finally:
+        gc.callbacks.remove(seen)
+        gc.unfreeze()  # the rest of the test session collects as usual

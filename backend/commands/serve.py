@@ -8,6 +8,7 @@ from pathlib import Path
 from backend.commands._common import fail, warn_unsafe
 from backend.drivers import add_driver_options, build_drivers
 from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embodiment, resolve_robot_path
+from backend.engine.gil import collector_paused, settle_heap
 # The shutdown machinery lives in backend.shutdown; its public names stay importable from here.
 from backend.shutdown import (  # noqa: F401
     COMMAND_SOCKETS, DEFAULT_SHUTDOWN_TIMEOUT, DRAIN_SECONDS, EXIT_BOUND, HOLD_SECONDS, HTTP_GRACE, HURRIED_GRACE,
@@ -126,6 +127,7 @@ def run(args) -> int:
     except ValueError as exc:
         session.engine.close()
         return fail(str(exc))
+    settle_heap()  # before the clock starts: the robot's program, kernels and imports never walked again
     session.engine.start()
     previz = None
     if not args.no_previz:
@@ -135,10 +137,12 @@ def run(args) -> int:
         # its own process: viser never holds the clock's interpreter lock (backend/previz_process.py);
         # it starts while the server imports.
         previz = PreVizProcess(session, port=args.previz_port, allowed_origins=args.allowed_origin)
-    # The server's own imports come after the first frame: the robot need not wait for them.
-    import uvicorn
+    # The server's own imports come after the first frame: the robot need not wait for them, and the
+    # collector waits for them (its full collections would hold the clock up for tens of milliseconds).
+    with collector_paused():
+        import uvicorn
 
-    from backend.api import create_app
+        from backend.api import create_app
     # From here on SIGTERM/SIGINT/SIGHUP park the robot and close the drivers (see Shutdown).
     shutdown = Shutdown(session, args.shutdown_timeout)
     restore_signals = shutdown.install()
@@ -151,8 +155,9 @@ def run(args) -> int:
             previz.stop()
             previz = None
     shown = "localhost" if args.host in LOCAL_HOSTS else args.host
-    app = create_app(session, token=args.token, previz=previz, allowed_origins=args.allowed_origin,
-                     host=args.host, port=args.port)
+    with collector_paused():
+        app = create_app(session, token=args.token, previz=previz, allowed_origins=args.allowed_origin,
+                         host=args.host, port=args.port)
     print(f"Nutty: robot '{emb.name}', program '{session.program.name}' ({label}), level {session.engine.apu.level}, "
           f"{session.engine.rate:g} Hz", flush=True)
     print(f"  editor   http://{shown}:{args.port}/", flush=True)

@@ -20,7 +20,20 @@ stop (`restore()`) puts back the one found before the first started.
 
 Measured (issue 15; `nutty serve` at 500 Hz under the full served load, 8 s windows, 2 cores): with
 the nice value alone, lateness p99 1.9-2.0 ms and 60-76 overruns; with SCHED_FIFO 0.9-1.2 ms and
-7-17 overruns. The switch interval (0.2 or 0.5 ms) made no difference there.
+7-17 overruns. Then the other threads' long calls into C (the Pre-Viz posing, encoding telemetry
+with the standard library's json) kept the clock waiting whatever the interval. Once those went
+(backend/previz_process.py, backend/safe_json.py), the interval is what bounds the clock's wait: full
+load, three interleaved 8 s runs each, lateness p99 0.55-0.93 ms at 0.5 ms, 0.24-0.37 ms at 0.2 ms
+(0.1 ms: ~0.17 ms, but other threads then cut into ticks often enough to lengthen the tick's p99 to
+1.1-1.4 ms).
+
+The cyclic garbage collector is the other long holder of the lock: a full collection walks every
+tracked object (about 190 000 once the server has imported FastAPI, pydantic, numba and the blocks)
+and took 40-140 ms on the server's event-loop thread, 20-70 lost ticks at 500 Hz, most of them in the
+first seconds while the server imports what it needs after the first frame. `settle_heap()` collects
+once and then moves everything alive out of the collector's sight (`gc.freeze`): later full
+collections walk only what was made since (measured: 82 ms -> 12 ms). `collector_paused()` keeps the
+collector off while a block of imports runs beside a live clock and settles the heap after it.
 
 What this cannot do: a thread that holds the lock while the OS has preempted it (a machine with more
 runnable threads than cores) keeps the clock waiting until it runs again. benchmarks/bench_engine.py
@@ -29,12 +42,15 @@ reports the clock's waits next to its own CPU time (`tick_cost` against `tick_cp
 
 from __future__ import annotations
 
+import gc
 import os
 import sys
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 #: Switch interval (s) while a clock runs: the longest another running thread keeps the lock once asked.
-SWITCH_INTERVAL = 0.0005
+SWITCH_INTERVAL = 0.0002
 #: How much the clock thread's nice value is lowered (higher priority), where permitted.
 NICE_BOOST = 10
 #: The clock thread's SCHED_FIFO priority (1..99) where permitted; 0: never real-time.
@@ -103,3 +119,28 @@ class ClockPriority:
             ClockPriority._running -= 1
             if ClockPriority._running == 0:
                 sys.setswitchinterval(ClockPriority._saved)
+
+
+def settle_heap(collect: bool = True) -> None:
+    """Collect the garbage there is now (unless `collect` is False: a collection stops the world for as
+    long as it walks the heap, too long beside a running clock) and freeze every object still alive
+    into the collector's permanent generation, so later collections never walk them again. For the
+    moment a long-lived process has built what it keeps: after loading, before serving."""
+    if collect:
+        gc.collect()
+    gc.freeze()
+
+
+@contextmanager
+def collector_paused() -> Iterator[None]:
+    """No cyclic collection while the block runs (imports beside a running clock make enough objects to
+    trigger full collections of tens of milliseconds); the objects it made are frozen after it without
+    a collection, its few cycles of garbage kept for good rather than walked with the lock held."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        settle_heap(collect=False)
+        if enabled:
+            gc.enable()
