@@ -45,22 +45,6 @@ def _matmul(a, b):
 
 
 @njit(cache=True)
-def _matvec(a, v):
-    out = np.empty(a.shape[0])
-    for i in range(a.shape[0]):
-        s = 0.0
-        for k in range(a.shape[1]):
-            s += a[i, k] * v[k]
-        out[i] = s
-    return out
-
-
-@njit(cache=True)
-def _mul4(a, b):
-    return _matmul(a, b)
-
-
-@njit(cache=True)
 def _mul4_into(a, b, out):
     """out = a @ b for 4x4 matrices, in the order of `_matmul`'s sums (the same result, bit for bit);
     `out` must not be `a` or `b`."""
@@ -167,43 +151,9 @@ def _joint_positions(values, rows, offset, lower, upper):
 
 
 @njit(cache=True)
-def _inv3(a):
-    """Inverse of a 3x3 matrix by cofactors (the damped normal matrix: symmetric positive definite)."""
-    out = np.empty((3, 3))
-    out[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
-    out[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
-    out[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
-    out[1, 0] = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
-    out[1, 1] = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
-    out[1, 2] = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
-    out[2, 0] = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
-    out[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
-    out[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
-    det = a[0, 0] * out[0, 0] + a[0, 1] * out[1, 0] + a[0, 2] * out[2, 0]
-    return out / det
-
-
-@njit(cache=True)
-def _dls_step(jac, err, moved, size, lam2, null_gain, null_range):
-    """`InverseKinematics._step`: damped least squares for `err`, plus a pull back by `moved` within the
-    task's null space while the error is small."""
-    nv = jac.shape[1]
-    a = _matmul(jac, jac.T)
-    for r in range(3):
-        a[r, r] += lam2
-    pinv = _matmul(jac.T, _inv3(a))  # (nv, 3)
-    dq = _matvec(pinv, err)
-    pull = null_gain * (1.0 - size / null_range)
-    if pull > 0.0:
-        back = _matvec(pinv, _matvec(jac, moved))
-        for j in range(nv):
-            dq[j] -= pull * (moved[j] - back[j])
-    return dq
-
-
-@njit(cache=True)
 def _inv3_into(a, out):
-    """`_inv3` into `out` (3, 3): the same cofactors, each divided by the determinant."""
+    """Inverse of a 3x3 matrix (the damped normal matrix: symmetric positive definite) by cofactors, into
+    `out` (3, 3)."""
     out[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
     out[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
     out[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
@@ -221,7 +171,8 @@ def _inv3_into(a, out):
 
 @njit(cache=True)
 def _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a, inv, pinv, dq, jm, back):
-    """`_dls_step` into `dq` (nv,), with the same sums in the same order; a, inv (3, 3), pinv (nv, 3),
+    """`InverseKinematics._step` into `dq` (nv,): damped least squares for `err`, plus a pull back by `moved`
+    within the task's null space while the error is small; a, inv (3, 3), pinv (nv, 3),
     jm (3,) and back (nv,) are scratch."""
     nv = jac.shape[1]
     for i in range(3):  # a = jac @ jac.T
