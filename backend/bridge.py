@@ -200,7 +200,7 @@ class FrameRelay:
         frame = AnimationFrame(embodiment=self.emb.name, t=self.t, dt=dt, seq=self.seq, position=out, velocity=vel,
                                acceleration=acc, jerk=jerk, events=list(events),
                                corrected=self.net.corrected.copy() if self.net.corrected_any else None,
-                               program=np.array(program, dtype=float))
+                               program=np.array(program, dtype=float), joints=self.net.joint_out)
         self.seq += 1
         self.counts["sent"] += 1
         for sink in self.sinks:

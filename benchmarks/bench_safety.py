@@ -7,6 +7,9 @@ and what it costs per tick next to one Ruckig update of the same DoFs (the peer,
 - Re-lock: a 0.5 rad step riding on a slow wave on nutty_desk's neck, at 30/100/1000 Hz: seconds from
   the step until the output is the program's again, bit for bit.
 - Cost: the net's step on the 22-channel default robot, passing through and correcting every DoF.
+- Joint stage: what the joint stage (joints composed from own + symbolic DoFs, limited) adds per tick on
+  nutty_desk and on a 1000-DoF robot (bench_engine's synthetic URDF), against the channel stage alone
+  measured in the same run.
 
 Run: .venv/bin/python benchmarks/bench_safety.py
 """
@@ -76,8 +79,12 @@ def relock_seconds(desk, rate: float) -> float:
     return float(np.argmax(exact[k0:]) / rate) if exact[k0:].any() else float("nan")
 
 
-def cost_us(desk, kind: str, n: int = 20_000) -> float:
+def cost_us(desk, kind: str, n: int = 20_000, joints: bool = True) -> float:
+    """µs per `SafetyNet.step`: "pass" holds rest, "correct" jumps every DoF to its limit and back every
+    50 ticks; `joints=False` runs the channel stage alone (the joint stage given no joints)."""
     net = SafetyNet(desk, 100.0)
+    if not joints:
+        net._jidx = net._jidx[:0]
     rest = desk.rest.copy()
     far = rest.copy()
     far[desk.continuous_mask] = desk.max[desk.continuous_mask]
@@ -116,6 +123,26 @@ def main() -> None:
         us = cost_us(desk, kind)
         ratio = f"  ({us / peer:.2f}x one Ruckig update of {int(desk.continuous_mask.sum())} DoFs: {peer:.1f} us)" if peer else ""
         print(f"  {kind:8s} {us:6.1f} us{ratio}")
+    joint_stage(desk)
+
+
+def joint_stage(desk) -> None:
+    import tempfile
+
+    from bench_engine import synthetic_urdf
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "many.urdf"
+        path.write_text(synthetic_urdf(1000))
+        many = load_embodiment(path)
+    print("the joint stage's cost per tick (target: <= 20 us on nutty_desk, <= 0.3 ms with 1000 DoFs)")
+    for label, emb, n in (("nutty_desk", desk, 20_000), ("1000 DoFs", many, 2_000)):
+        governed = len(SafetyNet(emb, 100.0)._jidx)
+        for kind in ("pass", "correct"):
+            both = min(cost_us(emb, kind, n) for _ in range(3))
+            alone = min(cost_us(emb, kind, n, joints=False) for _ in range(3))
+            print(f"  {label:10s} {kind:8s} channels+joints {both:7.1f} us, channels alone {alone:7.1f} us: "
+                  f"joint stage {both - alone:6.1f} us ({governed} joints stepped)")
 
 
 if __name__ == "__main__":

@@ -17,8 +17,10 @@ import numpy as np
 import pytest
 
 from backend.engine.runtime import Sink
+from backend.engine.safety import SafetyNet
 from backend.session import EngineSession
 from server_process import running_server
+from joint_truth import joint_truth
 from test_safety import ROUNDING
 
 PROGRAMS = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs"
@@ -29,16 +31,21 @@ def program(name: str) -> dict:
 
 
 def worst_ratios(desk, positions: np.ndarray, rate: float) -> dict[str, float]:
-    """Worst |v|/V, |a|/A, |j|/J over the continuous channels, from the finite differences."""
-    cont = desk.continuous_mask
+    """Worst |v|/V, |a|/A, |j|/J from the finite differences: over the continuous channels against their
+    own limits, except the own channels of the joints the net's joint stage steps (they carry their joint's
+    correction), and over every joint the frames compose to against the joint's limits (tests/joint_truth.py)."""
+    net = SafetyNet(desk, rate)
+    cont = desk.continuous_mask.copy()
+    cont[net.joints.own[net.joints.governed]] = False
     p = positions[:, cont]
     v = np.diff(p, axis=0) * rate
     a = np.diff(v, axis=0) * rate
     j = np.diff(a, axis=0) * rate
-    return {"v": float((np.abs(v) / desk.vel_limit[cont]).max()),
-            "a": float((np.abs(a) / desk.acc_limit[cont]).max()),
-            "j": float((np.abs(j) / desk.jerk_limit[cont]).max()),
-            "outside": float(np.maximum(desk.min[cont] - p, p - desk.max[cont]).max())}
+    joints = joint_truth(desk.name).worst(joint_truth(desk.name).compose(desk, positions), rate)
+    return {"v": max(float((np.abs(v) / desk.vel_limit[cont]).max()), joints["v"]),
+            "a": max(float((np.abs(a) / desk.acc_limit[cont]).max()), joints["a"]),
+            "j": max(float((np.abs(j) / desk.jerk_limit[cont]).max()), joints["j"]),
+            "outside": max(float(np.maximum(desk.min[cont] - p, p - desk.max[cont]).max()), joints["outside"])}
 
 
 def recorded_frames(path: Path) -> list[dict]:

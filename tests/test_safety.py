@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from backend.engine.safety import SafetyNet, plan_gains, plan_horizons
 from backend.engine.trajectory import analyze
+from joint_truth import joint_truth
 
 RATES = (30.0, 100.0, 1000.0)
 # Finite differences of float positions at 1000 Hz amplify rounding by 1/dt^3 = 1e9: this is that
@@ -27,23 +28,38 @@ def run(net: SafetyNet, program: np.ndarray) -> np.ndarray:
     return np.array([net.step(row) for row in program])
 
 
+def channel_stage(net: SafetyNet) -> np.ndarray:
+    """Positions in `net.idx` of the channels whose own limits the frames keep: every governed channel
+    except the own channel of a joint the joint stage steps (that channel carries its joint's
+    correction, and the joint is judged against the joint's limits: `assert_within_limits`)."""
+    carried = net.joints.own[net.joints.governed]
+    return np.flatnonzero(~np.isin(net.idx, carried))
+
+
 def limit_ratios(net: SafetyNet, out: np.ndarray, start: np.ndarray) -> dict[str, float]:
-    """Worst |v|/V, |a|/A, |j|/J and position excess of the governed channels, from finite differences
-    of the output preceded by the state the net started from (at rest: three equal samples)."""
-    p = np.vstack([start[None, net.idx]] * 3 + [out[:, net.idx]])
+    """Worst |v|/V, |a|/A, |j|/J and position excess of the channel stage's channels, from finite
+    differences of the output preceded by the state the net started from (at rest: three equal samples)."""
+    k = channel_stage(net)
+    p = np.vstack([start[None, net.idx[k]]] * 3 + [out[:, net.idx[k]]])
     rate = 1.0 / net.h
     v = np.diff(p, axis=0) * rate
     a = np.diff(v, axis=0) * rate
     j = np.diff(a, axis=0) * rate
-    return {"v": float((np.abs(v) / net.V).max()), "a": float((np.abs(a) / net.A).max()),
-            "j": float((np.abs(j) / net.J).max()),
-            "below": float((net.lo - p).max()), "above": float((p - net.hi).max())}
+    return {"v": float((np.abs(v) / net.V[k]).max()), "a": float((np.abs(a) / net.A[k]).max()),
+            "j": float((np.abs(j) / net.J[k]).max()),
+            "below": float((net.lo[k] - p).max()), "above": float((p - net.hi[k]).max())}
 
 
 def assert_within_limits(net: SafetyNet, out: np.ndarray, start: np.ndarray) -> None:
+    """The channel stage's channels within their limits, and every joint the frames compose to within the
+    joint's (computed from the robot's files by tests/joint_truth.py)."""
     r = limit_ratios(net, out, start)
     assert r["v"] <= 1 + ROUNDING and r["a"] <= 1 + ROUNDING and r["j"] <= 1 + ROUNDING, r
     assert r["below"] <= 1e-12 and r["above"] <= 1e-12, r
+    truth = joint_truth(net.emb.name)
+    # A robot stands within its joints' ranges: a start whose channels compose past one starts at the limit.
+    start_q = np.clip(truth.compose(net.emb, np.clip(start, net.emb.min, net.emb.max)), truth.lower, truth.upper)
+    truth.assert_within(np.vstack([start_q] * 3 + [truth.compose(net.emb, out)]), 1.0 / net.h, "joints")
 
 
 def hostile_program(desk, kind: str, rate: float, seconds: float, seed: int) -> np.ndarray:
@@ -218,7 +234,7 @@ def test_the_trajectory_helper_agrees(desk):
     """backend/engine/trajectory.py (the editor's colouring) finds no violation in the net's output."""
     net = SafetyNet(desk, 100.0)
     out = run(net, hostile_program(desk, "steps", 100.0, 4.0, seed=11))
-    idx = net.idx
+    idx = net.idx[channel_stage(net)]  # (the joints' own channels are judged as joints)
     pos = np.vstack([np.tile(desk.rest[idx], (3, 1)), out[:, idx]])
     res = analyze(pos, 100.0, desk.vel_limit[idx] * (1 + ROUNDING), desk.acc_limit[idx] * (1 + ROUNDING),
                   desk.jerk_limit[idx] * (1 + ROUNDING), desk.min[idx], desk.max[idx])

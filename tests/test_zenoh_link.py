@@ -183,7 +183,7 @@ def test_frames_are_the_ws_frames_content_with_an_emission_stamp(served, desk):
     finally:
         sub.undeclare()
     rid, doc, sent, arrived = got[-1]
-    assert rid == "unit-1" and set(doc) == {"embodiment", "t", "dt", "seq", "dofs", "events"}
+    assert rid == "unit-1" and set(doc) == {"embodiment", "t", "dt", "seq", "dofs", "events", "joints"}
     assert set(doc["dofs"]) == {d.name for d in desk.dofs if d.type.value != "event"}
     assert began - 1.0 <= sent <= arrived  # a Unix time from the tick that made the frame (same clock here)
     seqs = [d["seq"] for _, d, _, _ in got]

@@ -167,9 +167,23 @@ class Embodiment:
         return rest
 
     def joint_positions(self, values: np.ndarray) -> np.ndarray:
-        """Actuated URDF joint positions (rad or m) for a full channel vector, within joint limits."""
-        q = self.joint_matrix @ values + self.joint_offset
-        return np.clip(q, self._joint_lower, self._joint_upper)
+        """Actuated URDF joint positions (rad or m) that a full channel vector composes to: each joint's
+        own DoF plus its symbolic DoFs, not clipped. A frame from the engine composes to joints within
+        their limits (the safety net's joint stage); a program's raw values may not."""
+        return self.joint_matrix @ values + self.joint_offset
+
+    def joint_positions_in_range(self, values: np.ndarray) -> np.ndarray:
+        """`joint_positions` clipped to the URDF ranges: a kinematic model's view of a raw program pose
+        (IK, the ghost), never what a motor is sent."""
+        return np.clip(self.joint_positions(values), self._joint_lower, self._joint_upper)
+
+    @property
+    def joint_lower(self) -> np.ndarray:
+        return self._joint_lower
+
+    @property
+    def joint_upper(self) -> np.ndarray:
+        return self._joint_upper
 
     def base_pose(self, values: np.ndarray) -> dict[str, float]:
         """The base's spatial axes (x, y, z in m; yaw, pitch, roll in rad); absent axes are 0."""

@@ -70,6 +70,8 @@ class AnimationFrame:
     `stage1` is the pose before the stage-2 post-processors (the paper's *ghost*), if there are any.
     `program` is the program's own frame before the engine's safety net, and `corrected` marks the
     channels the net had to change on this frame (None when it passed everything through).
+    `joints` are the actuated URDF joints' positions (rad or m, `Embodiment.joint_names` order) the
+    motors get: the channels composed (own DoF plus symbolic DoFs) and limited by the net's joint stage.
     """
 
     embodiment: str
@@ -84,6 +86,11 @@ class AnimationFrame:
     stage1: np.ndarray | None = None
     corrected: np.ndarray | None = None  # (C,) bool: channels the safety net corrected (None: none)
     program: np.ndarray | None = None  # (C,) the program's frame before the safety net
+    joints: np.ndarray | None = None  # (J,) the joints the motors get (None: compose `position`)
+
+    def joint_values(self, embodiment: Embodiment) -> np.ndarray:
+        """The joints the motors get (rad or m): the net's `joints`, or the channels composed."""
+        return self.joints if self.joints is not None else embodiment.joint_positions(self.position)
 
     def to_dict(self, embodiment: Embodiment, derivatives: bool = True) -> dict[str, Any]:
         """JSON-friendly form keyed by DoF name: continuous -> float, enum -> option, colour -> [r,g,b]."""
@@ -111,6 +118,8 @@ class AnimationFrame:
             "dofs": dofs,
             "events": [e.to_dict() for e in self.events],
         }
+        if embodiment.joint_names:
+            out["joints"] = dict(zip(embodiment.joint_names, self.joint_values(embodiment).tolist()))
         return out
 
 

@@ -250,7 +250,7 @@ class Chain:
         """The chain's joint positions for a full channel vector (symbolic DoFs resolved, joint limits applied)."""
         if self.emb is None:
             raise KinematicsError("this chain was not built from an Embodiment")
-        return self.emb.joint_positions(values)[self.emb_index]
+        return self.emb.joint_positions_in_range(values)[self.emb_index]
 
     # --- kinematics ------------------------------------------------------------------------------
     def _motions(self, q: np.ndarray) -> np.ndarray:

@@ -239,6 +239,19 @@ class RobotLibrary:
                 raise LibraryError(f"invalid clip: {exc}") from exc
         return doc
 
+    def joint_warnings(self, kind: str, doc: dict[str, Any]) -> list[str]:
+        """Warnings for a valid posture or clip whose DoFs add up past a joint's range (naming the joint
+        and the amount; `backend.engine.joint_range`); none for other kinds or without a robot."""
+        if self.embodiment is None or kind not in ("postures", "clips"):
+            return []
+        from backend.engine import joint_range
+
+        if kind == "postures":
+            return joint_range.posture_warnings(doc.get("values", {}), self.embodiment)
+        from backend.engine.clips import compile_clip
+
+        return joint_range.clip_warnings(compile_clip(doc, self.embodiment), self.embodiment)
+
     def save(self, kind: str, name: str, doc: dict[str, Any]) -> dict[str, Any]:
         name = self.check_name(name)
         doc = self.validate(kind, name, doc)

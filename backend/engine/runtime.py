@@ -418,7 +418,7 @@ class Engine:
                 velocity=vel, acceleration=acc, jerk=jerk, events=list(events),
                 stage1=np.array(stage1, dtype=float),
                 corrected=self.safety.corrected.copy() if self.safety.corrected_any else None,
-                program=program,
+                program=program, joints=self.safety.joint_out,
             )
             self.last_frame = frame
             self.seq += 1

@@ -24,7 +24,9 @@ down at J, hold at -A, ramp back to 0 at J) plus a margin for the discretisation
 rest, so a program holding a DoF at its position limit still passes through exactly.
 
 Coupled groups (a planar base) are limited per axis here; channels without finite limits (LED
-colours, enum options) pass through untouched. Vectorised over channels: the pass-through test is a
+colours, enum options) pass through untouched. After the channels, the same tracker runs on the
+*joints* the motors receive (a joint's own DoF plus every symbolic DoF driving it), and a joint's
+correction is carried back onto its own channel: `backend.engine.joint_net`. Vectorised over channels: the pass-through test is a
 handful of numpy operations; the correction is a compiled (numba) loop over the channels that need it.
 """
 
@@ -36,12 +38,19 @@ import numpy as np
 from numba import njit
 
 from backend.engine.embodiment import Embodiment
+from backend.engine.joint_net import JointLimits, compose_joints
 
 #: Relative slack on the limit tests, for floating-point rounding only (not a tolerance on the limits).
 EPS = 1e-12
 #: Longest receding-horizon plan (s) the net tries before it falls back to the braking approach.
 PLAN_SECONDS = 0.4
 _BISECT = 40
+
+# Rows of the net's state (per governed channel or joint): the output's finite-difference state, then
+# the program's (clipped to the limits, for prediction).
+ROW_P, ROW_V, ROW_A, ROW_TX, ROW_TV, ROW_TA = range(6)
+# Rows of the limits array: position range, velocity, acceleration and jerk limits.
+LIM_LO, LIM_HI, LIM_V, LIM_A, LIM_J = range(5)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -227,17 +236,18 @@ def _net_step(out, idx, state, limits, locked, corrected, counts, h, gains, star
     n_fixed = 0
     for k in range(len(idx)):
         i = idx[k]
-        p, v, a = state[0, k], state[1, k], state[2, k]
-        lo, hi, V, A, J = limits[0, k], limits[1, k], limits[2, k], limits[3, k], limits[4, k]
+        p, v, a = state[ROW_P, k], state[ROW_V, k], state[ROW_A, k]
+        lo, hi = limits[LIM_LO, k], limits[LIM_HI, k]
+        V, A, J = limits[LIM_V, k], limits[LIM_A, k], limits[LIM_J, k]
         xi = out[i]
         if not math.isfinite(xi):  # a faulty block: hold the last output
             xi = p
         # The program's own finite differences (raw for the lock test, clipped for the tracker).
-        rv = (xi - state[3, k]) / h
-        ra = (rv - state[4, k]) / h
+        rv = (xi - state[ROW_TX, k]) / h
+        ra = (rv - state[ROW_TV, k]) / h
         tv = min(max(rv, -V), V)
         ta = min(max(ra, -A), A)
-        state[3, k], state[4, k], state[5, k] = xi, tv, ta
+        state[ROW_TX, k], state[ROW_TV, k], state[ROW_TA, k] = xi, tv, ta
         v1 = (xi - p) / h
         a1 = (v1 - v) / h
         j1 = (a1 - a) / h
@@ -268,9 +278,9 @@ def _net_step(out, idx, state, limits, locked, corrected, counts, h, gains, star
         locked[k] = ok
         # The state is the output's own finite differences, computed as a motor's would be.
         nv = (new - p) / h
-        state[2, k] = (nv - v) / h
-        state[1, k] = nv
-        state[0, k] = new
+        state[ROW_A, k] = (nv - v) / h
+        state[ROW_V, k] = nv
+        state[ROW_P, k] = new
         out[i] = new
     return n_fixed
 
@@ -331,6 +341,16 @@ class SafetyNet:
         self._gains, self._starts = plan_gains(plan_horizons(rate))
         self.corrections = np.zeros(emb.n_channels, dtype=np.int64)
         self.corrected = np.zeros(emb.n_channels, dtype=bool)
+        #: The joint stage: limits per actuated joint, and the joints it steps (`governed`).
+        self.joints = JointLimits(emb, self.mask)
+        self._jidx = self.joints.governed
+        self._jlimits = self.joints.rows()
+        #: Corrections per joint since the start, and the joints corrected on the last step.
+        self.joint_corrections = np.zeros(len(self.joints.names), dtype=np.int64)
+        self.joint_corrected = np.zeros(len(self.joints.names), dtype=bool)
+        #: The joint values (rad or m) of the last step's output, in `emb.joint_names` order.
+        self.joint_out = np.zeros(len(self.joints.names))
+        self._carried: np.ndarray | None = None
         self.corrected_ticks = 0
         #: Whether the last step corrected any channel.
         self.corrected_any = False
@@ -338,62 +358,110 @@ class SafetyNet:
 
     @property
     def lo(self) -> np.ndarray:
-        return self.limits[0]
+        return self.limits[LIM_LO]
 
     @property
     def hi(self) -> np.ndarray:
-        return self.limits[1]
+        return self.limits[LIM_HI]
 
     @property
     def V(self) -> np.ndarray:
-        return self.limits[2]
+        return self.limits[LIM_V]
 
     @property
     def A(self) -> np.ndarray:
-        return self.limits[3]
+        return self.limits[LIM_A]
 
     @property
     def J(self) -> np.ndarray:
-        return self.limits[4]
+        return self.limits[LIM_J]
 
     def reset(self, position: np.ndarray) -> None:
         """Start from `position` at rest (zero velocity and acceleration)."""
-        p = np.clip(np.asarray(position, dtype=float)[self.idx], self.lo, self.hi)
-        #: rows p, v, a (the output's finite differences), tx, tv, ta (the program's)
-        self.state = np.zeros((6, len(self.idx)))
-        self.state[0] = p
-        self.state[3] = p
+        position = np.asarray(position, dtype=float)
+        self.state = _rest_state(position[self.idx], self.lo, self.hi)
         self._locked = np.ones(len(self.idx), dtype=bool)
         self.corrected[:] = False
+        start = np.array(position)
+        start[self.idx] = self.state[ROW_P]
+        q = self.joints.compose(start)
+        jl = self._jlimits
+        self._jstate = _rest_state(q[self._jidx], jl[LIM_LO], jl[LIM_HI])
+        self._jlocked = np.ones(len(self._jidx), dtype=bool)
+        self.joint_corrected[:] = False
+        self.joint_out = q
 
     @property
     def p(self) -> np.ndarray:
-        return self.state[0]
+        return self.state[ROW_P]
 
     @property
     def v(self) -> np.ndarray:
-        return self.state[1]
+        return self.state[ROW_V]
 
     @property
     def a(self) -> np.ndarray:
-        return self.state[2]
+        return self.state[ROW_A]
 
     def step(self, target: np.ndarray) -> np.ndarray:
-        """The frame to send for the program's frame `target` (C,): a new array."""
+        """The frame to send for the program's frame `target` (C,): a new array. The joints it composes
+        to are in `joint_out` afterwards."""
         out = np.array(target, dtype=float)
         self.corrected_any = False
-        if self.enabled and len(self.idx):
-            if _net_step(out, self.idx, self.state, self.limits, self._locked, self.corrected, self.corrections,
-                         self.h, self._gains, self._starts):
-                self.corrected_ticks += 1
-                self.corrected_any = True
+        if self._carried is not None:  # last step's carried-back joint corrections
+            self.corrected[self._carried] = False
+            self._carried = None
+        if not self.enabled:
+            self.joint_out = self.joints.compose(out)
+            return out
+        fixed = 0
+        if len(self.idx):
+            fixed = _net_step(out, self.idx, self.state, self.limits, self._locked, self.corrected,
+                              self.corrections, self.h, self._gains, self._starts)
+        j = self.joints
+        q = np.empty(len(j.names))
+        compose_joints(out, j.starts, j.cols, j.coefs, j.offset, q)
+        if len(self._jidx):
+            composed = q[self._jidx]
+            if _net_step(q, self._jidx, self._jstate, self._jlimits, self._jlocked, self.joint_corrected,
+                         self.joint_corrections, self.h, self._gains, self._starts):
+                fixed += 1
+                self._carry_back(out, q, composed)
+        self.joint_out = q
+        if fixed:
+            self.corrected_ticks += 1
+            self.corrected_any = True
         return out
+
+    def _carry_back(self, out: np.ndarray, q: np.ndarray, composed: np.ndarray) -> None:
+        """Move each corrected joint's correction onto its own channel (joints without one keep theirs in
+        `joint_out` only), and mark that channel corrected."""
+        g = self._jidx
+        hit = self.joint_corrected[g] & (self.joints.own[g] >= 0)
+        if hit.any():
+            own = self.joints.own[g][hit]
+            out[own] += q[g][hit] - composed[hit]
+            self.corrected[own] = True
+            self._carried = own
 
     def stats(self) -> dict:
         names = self.emb.channel_names
+        joints = self.joints.names
         return {
             "enabled": self.enabled,
             "corrected_ticks": int(self.corrected_ticks),
             "corrections": {names[i]: int(self.corrections[i]) for i in np.flatnonzero(self.corrections)},
             "correcting": [names[i] for i in np.flatnonzero(self.corrected)],
+            "joint_corrections": {joints[i]: int(self.joint_corrections[i])
+                                  for i in np.flatnonzero(self.joint_corrections)},
+            "joints_correcting": [joints[i] for i in np.flatnonzero(self.joint_corrected)],
+            "joints_governed": [joints[i] for i in self._jidx],
         }
+
+
+def _rest_state(position: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """A net's state standing still at `position` (clipped to [lo, hi]): rows ROW_P..ROW_TA (see the top)."""
+    state = np.zeros((6, len(position)))
+    state[ROW_P] = np.clip(position, lo, hi)
+    state[ROW_TX] = state[ROW_P]
+    return state

@@ -60,11 +60,12 @@ def add_kind(kind: str, doc_type: Any, validate_program: bool = False, validate_
             if not report.valid:
                 raise api_error(422, "invalid_subgraph", "subgraph is invalid", report=report.model_dump())
         try:
-            await asyncio.to_thread(session.library.save, kind, name, doc)
+            stored = await asyncio.to_thread(session.library.save, kind, name, doc)
         except LibraryError as exc:
             raise api_error(422, "invalid_document", str(exc)) from exc
         await tools_changed(hub)  # a clip or posture is part of the AI tools' vocabulary
-        return {"saved": name}
+        warnings = await asyncio.to_thread(session.library.joint_warnings, kind, stored)
+        return {"saved": name, "warnings": warnings} if warnings else {"saved": name}
 
     @router.delete(f"/{kind}/{{name}}", summary=f"Delete one of the robot's {kind}")
     async def delete_item(name: str, session: SessionDep, hub: HubDep) -> dict[str, Any]:
