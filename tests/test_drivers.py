@@ -44,7 +44,7 @@ def test_osc_driver_sends_bundles(desk):
     port = rx.getsockname()[1]
     session = EngineSession.create(desk, rate=50, program=steps_program(False))
     drv = session.engine.add_sink(OscDriver(desk, "127.0.0.1", port))
-    list(session.run_headless(3))
+    sent = list(session.run_headless(3))
     data, _ = rx.recvfrom(65536)
     session.engine.close()
     rx.close()
@@ -52,6 +52,15 @@ def test_osc_driver_sends_bundles(desk):
     addresses = {m.address: m.params for m in bundle}
     assert "/nutty/head_yaw" in addresses and len(addresses["/nutty/eye_leds"]) == 3
     assert isinstance(addresses["/nutty/mouth"][0], int)
+    # Every bundle says which frame it is and carries a real time tag (not OSC's "immediately").
+    seq, t, dt = addresses["/nutty/frame"]
+    assert isinstance(seq, int) and dt == pytest.approx(1 / 50)
+    assert abs(bundle.timestamp - time.time()) < 60
+    # ...and the joints the motors get, as the engine limited them.
+    frame = next(f for f in sent if f.seq == seq)
+    assert {f"/nutty/joint/{j}" for j in desk.joint_names} <= set(addresses)
+    for j, name in enumerate(desk.joint_names):  # OSC floats are 32-bit
+        assert addresses[f"/nutty/joint/{name}"][0] == pytest.approx(frame.joints[j], abs=1e-6)
     assert drv.errors == 0
     with pytest.raises(ValueError, match="port"):
         OscDriver(desk, "127.0.0.1", 0)

@@ -1,10 +1,18 @@
 """UDP/OSC output (python-osc) for robots and show-control tools that speak OSC.
 
-Messages per frame: `<prefix>/<dof> <value>` for continuous and enum DoFs, `<prefix>/<dof> r g b` for
-colours, `<prefix>/<dof>/<kind> <payload>` for events (speech text, sound name), bundled per frame.
+One OSC bundle per frame, time-tagged with the wall-clock time it is sent (NTP, as OSC defines), holding:
+
+- `<prefix>/frame <seq> <t> <dt>`: the frame's sequence number (int), engine time and tick (s);
+- `<prefix>/<dof> <value>` for continuous and enum DoFs, `<prefix>/<dof> r g b` for colours;
+- `<prefix>/joint/<joint> <value>` for each actuated URDF joint (rad or m): what a motor must get,
+  symbolic DoFs resolved and limited by the engine's safety net (a joint that only symbolic DoFs
+  drive is limited here and nowhere in the channels);
+- `<prefix>/<dof>/<kind> <payload>` for events (speech text, sound name).
 """
 
 from __future__ import annotations
+
+import time
 
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import AnimationFrame
@@ -31,16 +39,25 @@ class OscDriver(Sink):
         return cls(embodiment, host, port)
 
     def consume(self, frame: AnimationFrame) -> None:
-        from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
+        from pythonosc.osc_bundle_builder import OscBundleBuilder
         from pythonosc.osc_message_builder import OscMessageBuilder
 
-        bundle = OscBundleBuilder(IMMEDIATELY)
+        bundle = OscBundleBuilder(time.time())
+        head = OscMessageBuilder(address=f"{self.prefix}/frame")
+        head.add_arg(int(frame.seq))
+        head.add_arg(float(frame.t))
+        head.add_arg(float(frame.dt))
+        bundle.add_content(head.build())
         for d in self.emb.dofs:
             if d.type is DofType.event:
                 continue
             msg = OscMessageBuilder(address=f"{self.prefix}/{d.name}")
             for v in frame.position[d.channels]:
                 msg.add_arg(int(round(v)) if d.type is DofType.enum else float(v))
+            bundle.add_content(msg.build())
+        for name, q in zip(self.emb.joint_names, frame.joint_values(self.emb).tolist()):
+            msg = OscMessageBuilder(address=f"{self.prefix}/joint/{name}")
+            msg.add_arg(float(q))
             bundle.add_content(msg.build())
         for ev in frame.events:
             msg = OscMessageBuilder(address=f"{self.prefix}/{ev.dof}/{ev.kind}")
