@@ -53,6 +53,8 @@ def create_app(session: EngineSession, *, token: str | None = None, previz: Any 
     extra_origins = [*(allowed_origins or []), *(origins or [])]
     policy = security.AccessPolicy(token=token, port=port, bind_host=host, allowed_origins=extra_origins)
     hub = Hub(session, token, previz)
+    if previz is not None:  # gizmo drags are commands like REST's: validated, logged, evented
+        previz.run_command = hub.run_command
 
     @contextlib.asynccontextmanager
     async def lifespan(_: FastAPI):

@@ -1,6 +1,7 @@
 """The 3D Pre-Viz (viser): the URDF robot posed live from the engine's Animation Frames.
 
-- Symbolic DoFs are resolved to joints (`Embodiment.joint_positions`); spatial DoFs move the base.
+- The solid robot shows the joints the motors get (the frame's `joints`: symbolic DoFs resolved and
+  limited by the safety net's joint stage); spatial DoFs move the base.
 - Display DoFs are visible: LED colours as lit spheres at their links, the face expression as a label.
 - Speech and sounds appear as captions for a few seconds.
 - The paper's *ghost*: a translucent second robot shows the stage-1 (unfiltered) pose; switchable.
@@ -14,13 +15,17 @@ listens on 127.0.0.1. Browsers reach it through the API port (`/previz/`, see `f
 `relay_socket`), behind the API's Origin/Host checks and token. Its own loopback port refuses
 WebSocket clients whose Origin or Host is foreign (a web page the user happens to visit could
 otherwise connect to ws://127.0.0.1:8080 and drag the gaze), and gaze drags count only from
-clients that passed that check or came through the proxy.
+clients that passed that check or came through the proxy. When the server has a token
+(`proxy_only`), the loopback port serves nobody but the proxy: every other WebSocket is closed, so
+the token cannot be walked around through this port. A drag travels the server's command path
+(`set_gaze`, via `run_command`): authorised and logged like REST.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 import math
 import secrets
 import threading
@@ -36,6 +41,8 @@ from backend.engine.runtime import Sink
 from backend.previz_pose import UrdfPoser
 from backend.security import LOOPBACK_NAMES, AccessPolicy
 from backend.security import cancel_all as _cancel_all
+
+log = logging.getLogger(__name__)
 
 PROXY_HEADER = "X-Nutty-Previz-Proxy"
 MAX_PAGE = 64 * 1024 * 1024  # bytes of one proxied file (viser's page is about 1 MB)
@@ -99,6 +106,20 @@ def attach_previz_sink(session: Any, show: Any) -> Sink:
     return session.engine.add_sink(Sink("previz", show, max_queue=1, decimate=decimate))
 
 
+def gaze_from_drag(session: Any, run_command: Any, target: list[float]) -> bool:
+    """A gizmo drag's target, as a `set_gaze` command through `run_command` (the server's command path:
+    validated, logged, evented like REST) when there is one, else straight to the input. Whether the
+    gaze was set (a refused command is logged by the command path, and changes nothing)."""
+    if run_command is None:
+        return set_gaze_input(session, target)
+    try:
+        run_command({"type": "set_gaze", "target": [float(v) for v in target]})
+    except Exception as exc:  # the command path refused it (no gaze input, out of reach): nothing moved
+        log.info("Pre-Viz gaze drag refused: %s", getattr(exc, "detail", exc))
+        return False
+    return True
+
+
 def set_gaze_input(session: Any, target: list[float]) -> bool:
     """Set `session`'s `gaze_target` input to a dragged target; False when its program has none or
     refuses the value."""
@@ -137,7 +158,8 @@ class PreViz:
     """A viser server showing a session's robot. `start()` attaches it to the engine as a sink."""
 
     def __init__(self, session: Any, host: str = "127.0.0.1", port: int = 8080,
-                 allowed_origins: list[str] | None = None, proxy_secret: str | None = None):
+                 allowed_origins: list[str] | None = None, proxy_secret: str | None = None,
+                 proxy_only: bool = False):
         import viser
         import yourdfpy
         from viser.extras import ViserUrdf
@@ -150,6 +172,12 @@ class PreViz:
         self.proxy_secret = proxy_secret or secrets.token_urlsafe(24)
         self._trusted: set[int] = set()  # viser client ids whose gaze drags count
         self._allowed_origins = list(allowed_origins or [])
+        #: Only connections through the API's proxy are served (the server has a token: its /previz/
+        #: checks it; a direct connection to this port would walk around it).
+        self.proxy_only = bool(proxy_only)
+        #: Runs a gizmo drag as a command ({"type": "set_gaze", ...}) on the server's command path, when
+        #: the server sets it (backend.api): authorised and logged like REST. None: the input directly.
+        self.run_command: Any = None
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.port = self.server.get_port()  # viser moves to the next free port when this one is taken
         self._guard_direct_clients()
@@ -208,8 +236,10 @@ class PreViz:
             if proxied is not None and secrets.compare_digest(proxied.encode(), self.proxy_secret.encode()):
                 self._trusted.add(conn.client_id)
                 return
-            problem = policy.host_problem(headers.get("Host")) or policy.origin_problem(headers.get("Origin"),
-                                                                                       headers.get("Host"))
+            problem = ("this server has a token: open the Pre-Viz through the API's /previz/"
+                       if self.proxy_only else None)
+            problem = problem or policy.host_problem(headers.get("Host")) or policy.origin_problem(
+                headers.get("Origin"), headers.get("Host"))
             if problem is None:
                 self._trusted.add(conn.client_id)
                 return
@@ -294,7 +324,7 @@ class PreViz:
         client is trusted; None is this process, which always counts. Returns whether the input was
         set (False also when the program declares no `gaze_target`)."""
         target = self.move_gaze(position, client_id)
-        return target is not None and set_gaze_input(self.session, target)
+        return target is not None and gaze_from_drag(self.session, self.run_command, target)
 
     def move_gaze(self, position: Any, client_id: int | None = None) -> list[float] | None:
         """The gizmo part of `drag_gaze`: the target [x, y, z] when the drag counts (the gizmo is
@@ -312,8 +342,10 @@ class PreViz:
         if client_id is not None:
             self.drag_gaze(self.gaze.position, client_id)
 
-    def _cfg(self, values: np.ndarray) -> np.ndarray:
-        q = self.emb.joint_positions(values)
+    def _cfg(self, values: np.ndarray, joints: np.ndarray | None = None) -> np.ndarray:
+        """viser's configuration: the given joints, or a pose's joints (within range: the ghost is a
+        program's raw pose, which the motors would never take beyond a limit)."""
+        q = joints if joints is not None else self.emb.joint_positions_in_range(values)
         return q[self._order] if self._order is not None else q
 
     def shown(self) -> dict[str, Any]:
@@ -334,7 +366,7 @@ class PreViz:
     def show(self, frame: AnimationFrame) -> None:
         """Pose both robots and the displays from one frame (called on the sink thread)."""
         with self._lock, self.server.atomic():
-            self._cfg_now = self._cfg(frame.position)
+            self._cfg_now = self._cfg(frame.position, frame.joints)
             self._pose(self.robot, self._cfg_now)
             base = self.emb.base_pose(frame.position)
             _set_if_changed(self.base, "position", (base["x"], base["y"], base["z"]))

@@ -12,7 +12,7 @@ sending two position vectors down a pipe per shown frame (tens of µs, on the Pr
 `trusted_clients`, `start` and `stop`. The child runs a `PreViz` on a stand-in session (`_Remote`):
 the embodiment, and gaze drags sent back to the server, which sets the program's input.
 
-Messages, server -> child: ("frame", position, stage1, events), ("call", id, name, args), ("stop",);
+Messages, server -> child: ("frame", position, stage1, events, joints), ("call", id, name, args), ("stop",);
 child -> server: ("ready", port) or ("error", text) once, ("reply", id, ok, value), ("state",
 frames_shown, ghost, trusted ids) when they change (frames_shown at most 4 times a second), ("gaze",
 [x, y, z]) for a trusted client's drag. A child that dies takes only the Pre-Viz with it.
@@ -36,7 +36,7 @@ import numpy as np
 
 from backend.engine.frames import AnimationFrame, FrameEvent
 from backend.engine.runtime import Sink
-from backend.previz import attach_previz_sink, check_loopback, set_gaze_input
+from backend.previz import attach_previz_sink, check_loopback, gaze_from_drag
 
 STATE_PERIOD = 0.25  # s between two frame-count reports of the child
 START_TIMEOUT = 120.0  # s for the child to import viser and load the URDF (twice) on a busy machine
@@ -55,6 +55,7 @@ class _Shown:
     position: np.ndarray
     stage1: np.ndarray | None
     events: list[FrameEvent] = field(default_factory=list)
+    joints: np.ndarray | None = None
 
 
 class _Remote:
@@ -77,7 +78,7 @@ class _Remote:
 
 
 def _child_main(conn: Any, embodiment: Any, host: str, port: int, allowed_origins: list[str],
-                proxy_secret: str) -> None:
+                proxy_secret: str, proxy_only: bool = False) -> None:
     """The Pre-Viz process: a PreViz fed from `conn` until the server says stop or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the server decides
     with contextlib.suppress(AttributeError, OSError):
@@ -92,7 +93,7 @@ def _child_main(conn: Any, embodiment: Any, host: str, port: int, allowed_origin
         from backend.previz import PreViz
 
         pv = PreViz(_Remote(embodiment, send), host=host, port=port, allowed_origins=allowed_origins,
-                    proxy_secret=proxy_secret)
+                    proxy_secret=proxy_secret, proxy_only=proxy_only)
     except Exception as exc:  # reported to the server, which raises it where the port is asked for
         send(("error", f"{type(exc).__name__}: {exc}"))
         return
@@ -119,8 +120,8 @@ def _child_main(conn: Any, embodiment: Any, host: str, port: int, allowed_origin
                     return
                 ready = conn.poll()
             if latest is not None:
-                _, position, stage1, events = latest
-                pv.show(_Shown(position, stage1, [FrameEvent(*e) for e in events]))
+                _, position, stage1, events, joints = latest
+                pv.show(_Shown(position, stage1, [FrameEvent(*e) for e in events], joints))
             state = (pv.frames_shown, pv.ghost_visible, tuple(sorted(pv.trusted_clients)))
             now = time.monotonic()
             if state != reported and (state[1:] != reported[1:] or now - reported_at >= STATE_PERIOD):
@@ -137,9 +138,14 @@ class PreVizProcess:
     engine as a sink (at most `backend.previz.MAX_RATE` frames per second, a stale frame dropped, never queued)."""
 
     def __init__(self, session: Any, host: str = "127.0.0.1", port: int = 8080,
-                 allowed_origins: list[str] | None = None, start_timeout: float = START_TIMEOUT):
+                 allowed_origins: list[str] | None = None, start_timeout: float = START_TIMEOUT,
+                 proxy_only: bool = False):
         check_loopback(host)
         self.session = session
+        #: `PreViz.proxy_only`: with a token, only the API's proxy reaches the child's port.
+        self.proxy_only = bool(proxy_only)
+        #: `PreViz.run_command`: gizmo drags as `set_gaze` commands on the server's command path.
+        self.run_command: Any = None
         self.host = host
         self.proxy_secret = secrets.token_urlsafe(24)
         self.start_timeout = start_timeout
@@ -156,7 +162,7 @@ class PreVizProcess:
         context = multiprocessing.get_context("spawn")  # a fork would copy the engine's threads' locks
         self._conn, child = context.Pipe()
         self._proc = context.Process(target=_child_main, name="nutty-previz", daemon=True, args=(
-            child, session.embodiment, host, port, list(allowed_origins or []), self.proxy_secret))
+            child, session.embodiment, host, port, list(allowed_origins or []), self.proxy_secret, self.proxy_only))
         self._proc.start()
         child.close()
         self._reader = threading.Thread(target=self._read, name="previz-link", daemon=True)
@@ -179,7 +185,7 @@ class PreVizProcess:
                         else:
                             future.set_exception(PreVizUnavailable(message[3]))
                 elif kind == "gaze":
-                    set_gaze_input(self.session, message[1])
+                    gaze_from_drag(self.session, self.run_command, message[1])
                 elif kind == "ready":
                     self._port = int(message[1])
                     self._ready.set()
@@ -257,14 +263,14 @@ class PreVizProcess:
     def drag_gaze(self, position: Any, client_id: int | None = None) -> bool:
         """`PreViz.drag_gaze`: the gizmo moves in the child, the input is set here."""
         target = self._call("move_gaze", [float(v) for v in position], client_id)
-        return target is not None and set_gaze_input(self.session, target)
+        return target is not None and gaze_from_drag(self.session, self.run_command, target)
 
     def show(self, frame: AnimationFrame) -> None:
         """Send one frame to the child (on the Pre-Viz sink's thread)."""
         events = [(e.dof, e.kind, dict(e.payload)) for e in frame.events]
         stage1 = frame.stage1 if self._ghost else None
         try:
-            self._send(("frame", frame.position, stage1, events), CALL_TIMEOUT)
+            self._send(("frame", frame.position, stage1, events, frame.joints), CALL_TIMEOUT)
         except PreVizUnavailable:
             pass  # a Pre-Viz that has gone shows nothing; the engine and the API go on
 

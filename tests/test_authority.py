@@ -264,12 +264,12 @@ def _listening(pid: int) -> list[tuple[str, int]]:
 def test_previz_listens_on_loopback_only_and_is_proxied_behind_the_token(guarded):
     info = guarded.http.get("/api/previz").json()
     assert info["url"] == f"{guarded.url}/previz/" and info["token_required"] is True
-    direct_port = int(info["direct"].rsplit(":", 1)[1])
+    assert info["direct"] is None  # with a token there is no way in but the proxy: none is advertised
     listening = _listening(guarded.proc.pid)
     assert ("0.0.0.0", guarded.port) in listening
-    assert ("127.0.0.1", direct_port) in listening
     public = [(a, p) for a, p in listening if a not in ("127.0.0.1", "::1")]
     assert public == [("0.0.0.0", guarded.port)], listening  # only the API, which checks the token
+    (direct_port,) = [p for a, p in listening if a == "127.0.0.1"]  # viser's own port, loopback only
 
     # the page: token needed; with it, a cookie for the page's WebSocket
     assert guarded.http.get("/previz/").status_code == 401
@@ -288,6 +288,9 @@ def test_previz_listens_on_loopback_only_and_is_proxied_behind_the_token(guarded
             assert conn.subprotocol == sub[0]
             assert isinstance(conn.recv(timeout=30), bytes)  # viser's scene, relayed
 
-    # viser's own port (loopback) refuses pages from other origins too
+    # viser's own port (loopback) serves nobody but the proxy when the server has a token: not a page
+    # from another origin, and not a local client with no Origin at all (it would move the gaze gizmo)
     code, _ = _ws_close(f"ws://127.0.0.1:{direct_port}", subprotocols=sub, origin=EVIL, max_size=None)
     assert code == 4403
+    code, reason = _ws_close(f"ws://127.0.0.1:{direct_port}", subprotocols=sub, max_size=None)
+    assert code == 4403 and "/previz/" in reason

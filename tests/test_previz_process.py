@@ -109,3 +109,45 @@ def test_a_child_that_dies_leaves_the_engine_running(remote):
     wait_until(lambda: engine.ticks > ticks + 20, what="ticks after the Pre-Viz died")
     assert np.isfinite(engine.last_frame.position).all()
     engine.stop()
+
+
+def test_with_a_server_a_drag_is_a_logged_set_gaze_command_and_a_refused_one_moves_nothing(remote):
+    """Gizmo drags travel the command path REST uses (validated, logged, evented), not a side door."""
+    from backend.api import create_app
+
+    app = create_app(remote.session, previz=remote, frontend_dir=None)
+    hub = app.state.hub
+    seen: list = []
+    hub.listeners.append(seen.append)
+    assert remote.drag_gaze([0.6, 0.1, 0.35])
+    remote.session.engine.tick()
+    assert remote.session.inputs()["gaze_target"] == pytest.approx([0.6, 0.1, 0.35])
+    (event,) = [m for m in seen if m.get("command") == "set_gaze"]
+    assert event["event"] == "completed" and hub.commands.get(event["id"])["type"] == "set_gaze"
+    assert not remote.drag_gaze([float("nan"), 0.0, 0.3])  # refused by the command's validation
+    remote.session.engine.tick()
+    assert remote.session.inputs()["gaze_target"] == pytest.approx([0.6, 0.1, 0.35])
+
+
+def test_with_a_token_the_childs_port_serves_nobody_but_the_proxy(desk):
+    import viser
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect
+
+    from backend.previz_process import PreVizProcess
+
+    session = EngineSession.create(desk, rate=100)
+    pv = PreVizProcess(session, port=free_port(), proxy_only=True)
+    try:
+        pv.wait_ready()
+        url = f"ws://127.0.0.1:{pv.port}"
+        with connect(url, subprotocols=[f"viser-v{viser.__version__}"], origin=f"http://localhost:{pv.port}",
+                     max_size=None, open_timeout=30) as ws:
+            with pytest.raises(ConnectionClosed) as closed:
+                while True:
+                    ws.recv(timeout=30)
+        assert closed.value.rcvd.code == 4403 and "token" in closed.value.rcvd.reason
+        assert pv.trusted_clients == frozenset()
+    finally:
+        pv.stop()
+        session.engine.close()

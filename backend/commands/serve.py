@@ -136,7 +136,8 @@ def run(args) -> int:
         # Loopback only, always: the network reaches it through the API's /previz/ proxy and token. In
         # its own process: viser never holds the clock's interpreter lock (backend/previz_process.py);
         # it starts while the server imports.
-        previz = PreVizProcess(session, port=args.previz_port, allowed_origins=args.allowed_origin)
+        previz = PreVizProcess(session, port=args.previz_port, allowed_origins=args.allowed_origin,
+                               proxy_only=args.token is not None)
     # The server's own imports come after the first frame: the robot need not wait for them, and the
     # collector waits for them (its full collections would hold the clock up for tens of milliseconds).
     with collector_paused():
@@ -163,7 +164,8 @@ def run(args) -> int:
     print(f"  editor   http://{shown}:{args.port}/", flush=True)
     print(f"  API      http://{shown}:{args.port}/docs", flush=True)
     if previz:
-        print(f"  Pre-Viz  http://{shown}:{args.port}/previz/ (locally also http://127.0.0.1:{previz.port}/)", flush=True)
+        direct = "" if args.token is not None else f" (locally also http://127.0.0.1:{previz.port}/)"
+        print(f"  Pre-Viz  http://{shown}:{args.port}/previz/{direct}", flush=True)
     hub = getattr(app.state, "hub", None)
     if callable(getattr(hub, "shutdown", None)):
         shutdown.before_server_stops(hub.shutdown)  # WebSocket handlers close (1001) once the robot is at rest

@@ -21,7 +21,9 @@ previz_proxy = APIRouter(include_in_schema=False)
 
 def _previz_urls(hub: Hub, request: Request) -> dict[str, Any]:
     base = str(request.base_url).rstrip("/")
-    return {"url": f"{base}/previz/", "direct": hub.previz.url("127.0.0.1"), "token_required": hub.token is not None}
+    # With a token nothing but the proxy serves the Pre-Viz: no direct port to advertise.
+    direct = None if hub.token is not None else hub.previz.url("127.0.0.1")
+    return {"url": f"{base}/previz/", "direct": direct, "token_required": hub.token is not None}
 
 
 def _no_previz() -> HTTPException:
