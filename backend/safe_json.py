@@ -1,7 +1,7 @@
 """JSON that cannot hurt the server: parsing, checking and writing request and message bodies.
 
 `loads` parses with NaN/Infinity, numbers that overflow to infinity, integers beyond 2**63, invalid
-Unicode (lone surrogates) and nesting deeper than `MAX_DEPTH` refused with an error that names the
+Unicode (lone surrogates), a key given twice in one object and nesting deeper than `MAX_DEPTH` refused with an error that names the
 field; `check_json` applies the same rules to an already parsed value (every entry point: REST,
 WebSockets, in-process commands); `dumps` never fails (a value that cannot be serialised is
 sanitised rather than turned into a 500 or a dead socket).
@@ -121,6 +121,19 @@ def _bad_constant(name: str) -> Any:
     raise JsonSafetyError(f"{name} is not allowed (JSON numbers are finite)", "non_finite")
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """An object's members, refusing a key given twice (parsers disagree on which one wins)."""
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise JsonSafetyError(f"{safe_text(key)}: the key is given twice in one object", "duplicate_key",
+                                      safe_text(key))
+            seen.add(key)
+    return out
+
+
 def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max_depth: int = MAX_DEPTH) -> Any:
     """Parse JSON the safe way (see module doc). Raises JsonSafetyError with a 4xx `status`."""
     if max_bytes is not None and len(raw) > max_bytes:
@@ -131,7 +144,7 @@ def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max
         except UnicodeDecodeError as exc:
             raise JsonSafetyError(f"the body is not valid UTF-8 (byte {exc.start})", "invalid_unicode") from None
     try:
-        value = json.loads(raw, parse_constant=_bad_constant)
+        value = json.loads(raw, parse_constant=_bad_constant, object_pairs_hook=_unique_keys)
     except JsonSafetyError:
         raise
     except RecursionError:

@@ -4,17 +4,18 @@ One place for every rule the API enforces before a route runs (`Guard`, pure ASG
 for the JSON-safety checks every entry point shares (`loads`, `check_json`, `dumps`, in
 backend.safe_json):
 
-- Authority. A mutating request (POST/PUT/PATCH/DELETE) and every WebSocket handshake must come
-  from an allowed `Origin` when the header is present (browsers always send it cross-origin; curl
-  and Python clients send none and stay allowed), and name an allowed `Host` (against DNS
-  rebinding: a hostile page whose name resolves to 127.0.0.1 still sends its own name as Host).
-  With a token, they also need `Authorization: Bearer <token>` (or `?token=<token>`, the only form
-  a browser WebSocket can send). A refused HTTP request gets 403/401 JSON, a refused WebSocket
+- Authority. Every HTTP request (reads too: the robot's state is nobody else's business) and every
+  WebSocket handshake must come from an allowed `Origin` when the header is present (browsers always
+  send it cross-origin; curl and Python clients send none and stay allowed), and name an allowed
+  `Host` (against DNS rebinding: a hostile page whose name resolves to 127.0.0.1 still sends its own
+  name as Host). With a token, a mutating request (POST/PUT/PATCH/DELETE), every WebSocket and the
+  Pre-Viz also need `Authorization: Bearer <token>` (or `?token=<token>`, the only form a browser
+  WebSocket can send). A refused HTTP request gets 403/401 JSON, a refused WebSocket
   is accepted and closed at once with code 4403/4401 and a reason, so clients can tell why.
 - Limits. Request bodies are counted as they stream in and stopped at `MAX_BODY` with 413 (a
   chunked body has no Content-Length to check up front). JSON is parsed with NaN/Infinity, numbers
-  that overflow to infinity, integers beyond 2**63, invalid Unicode (lone surrogates) and nesting
-  deeper than `MAX_DEPTH` refused with a 4xx that names the field.
+  that overflow to infinity, integers beyond 2**63, invalid Unicode (lone surrogates), a key given
+  twice and nesting deeper than `MAX_DEPTH` refused with a 4xx that names the field.
 - Output. `dumps` never fails: a value that cannot be serialised (NaN, a lone surrogate echoed in
   an error message) is sanitised rather than turned into a 500 or a dead socket.
 """
@@ -295,10 +296,11 @@ class Guard:
         method = scope.get("method", "GET")
         path = scope.get("path", "")
         qs = scope.get("query_string", b"").decode("latin-1")
-        if method in MUTATING:
-            problem = self._problem(scope, headers)
-            if problem is not None:
-                return await _send_json(send, problem[0], error_body(problem[1], problem[2]))
+        # Reads too: a DNS-rebinding page (a foreign Host) or another site's script (a foreign Origin)
+        # must not read the robot's state any more than change it.
+        problem = self._problem(scope, headers)
+        if problem is not None:
+            return await _send_json(send, problem[0], error_body(problem[1], problem[2]))
         if method in MUTATING or self._protected(path):
             if not self.policy.token_ok(headers, qs, previz=self._protected(path)):
                 return await _send_json(send, 401, error_body(

@@ -237,7 +237,7 @@ class EngineSession:
             cls = BLOCKS[node.type]
             merged = {**node.params, **params}
             try:
-                p = cls.Params.model_validate(merged)
+                p = cls.Params.from_json_value(merged)
             except ValidationError as exc:
                 err = exc.errors()[0]
                 field = ".".join(str(x) for x in err["loc"])

@@ -130,7 +130,11 @@ def test_cross_origin_simple_post_is_refused_and_not_executed(local):
                          ("PUT", "/api/inputs/arousal"), ("PATCH", "/api/program/nodes/breathe/params")):
         assert local.http.request(method, path, headers={"Origin": EVIL}).status_code == 403
     assert _arousal(local) == 0.0  # nothing ran
-    assert local.http.get("/api/status", headers={"Origin": EVIL}).status_code == 200  # reading stays open
+    # Reads too: another site's script may not read the robot's state (a navigation sends no Origin).
+    r = local.http.get("/api/status", headers={"Origin": EVIL})
+    assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_origin"
+    assert local.http.get("/api/status").status_code == 200
+    assert local.http.get("/api/status", headers={"Origin": f"http://127.0.0.1:{local.port}"}).status_code == 200
 
 
 def test_json_routes_take_only_declared_json(local):
@@ -175,6 +179,9 @@ def test_dns_rebinding_hosts_are_refused(local):
         headers = {"Host": host, **({"Origin": origin} if origin else {})}
         r = local.http.post("/api/commands", json=SET_AROUSAL, headers=headers)
         assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_host", (host, r.text)
+        for path in ("/api/status", "/api/program", "/"):  # a rebinding page reads nothing either
+            r = local.http.get(path, headers=headers)
+            assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_host", (host, path, r.text)
         status, code, reason = _raw_ws(port, "/ws/control", host, origin)
         assert b" 101 " in status and code == 4403 and "host" in reason.lower(), (host, status, code, reason)
     assert _arousal(local) == 0.0

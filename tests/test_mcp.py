@@ -177,3 +177,41 @@ def test_bad_command_line_is_refused(capsys, args, fragment):
 
     assert main(["mcp", *args]) == 2
     assert fragment in capsys.readouterr().err
+
+
+def test_stdio_answers_every_line_and_goes_on_working():
+    """A line that is not JSON, NaN, Infinity, a lone surrogate, deep nesting, a duplicate key and a
+    message that is no JSON-RPC each get a JSON-RPC error (the field named where there is one), and
+    the session still answers a handshake afterwards. No server is needed for any of this."""
+    proc = subprocess.Popen(mcp_command("--url", f"http://127.0.0.1:{free_port()}"), stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, encoding="utf-8",
+                            errors="surrogatepass")
+
+    def ask(line: str) -> dict:
+        proc.stdin.write(line + "\n")
+        proc.stdin.flush()
+        return json.loads(proc.stdout.readline())  # (a hang fails the test by the suite's timeout)
+
+    call = '{"jsonrpc": "2.0", "id": %d, "method": "tools/call", "params": {"name": "set_emotion", "arguments": %s}}'
+    try:
+        bad = ask("this is not json")
+        assert bad["error"]["code"] == -32700 and bad["id"] is None
+        nan = ask(call % (2, '{"valence": NaN, "arousal": 0}'))
+        assert nan["id"] == 2 and nan["error"]["code"] == -32602
+        assert nan["error"]["data"]["field"] == "params.arguments.valence" and "NaN" in nan["error"]["message"]
+        inf = ask(call % (3, '{"valence": 0, "arousal": -Infinity}'))
+        assert inf["id"] == 3 and inf["error"]["code"] == -32602 and "infinity" in inf["error"]["message"].lower()
+        sur = ask(call % (4, '{"valence": 0, "arousal": 0, "note": "\\ud800"}'))
+        assert sur["id"] == 4 and sur["error"]["data"]["field"] == "params.arguments.note"
+        deep = ask(call % (5, "[" * 5000 + "]" * 5000))
+        assert deep["id"] == 5 and deep["error"]["data"]["code"] == "too_deep"
+        dup = ask('{"jsonrpc": "2.0", "id": 6, "id": 7, "method": "ping"}')
+        assert dup["error"]["data"] == {"field": "id", "code": "duplicate_key"}
+        odd = ask('{"jsonrpc": "2.0", "id": 8}')
+        assert odd["id"] == 8 and odd["error"]["code"] == -32600
+        hello = ask(json.dumps({"jsonrpc": "2.0", "id": 9, "method": "initialize", "params": {
+            "protocolVersion": "2025-06-18", "capabilities": {}, "clientInfo": {"name": "t", "version": "1"}}}))
+        assert hello["id"] == 9 and hello["result"]["serverInfo"]["name"] == "nutty"
+    finally:
+        proc.stdin.close()
+        stop_process(proc)

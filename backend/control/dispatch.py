@@ -3,8 +3,11 @@ name the field, the JSON Schema, and `execute` (look the command up, run it)."""
 
 from __future__ import annotations
 
+import typing
 from typing import Annotated, Any, Callable, Union
 
+import annotated_types
+import orjson
 from pydantic import Field, TypeAdapter, ValidationError
 
 from backend.control.base import REGISTRY, BaseCommand, CommandContext
@@ -33,11 +36,12 @@ def command_json_schema() -> dict[str, Any]:
 
 
 def parse_command(data: Any, where: str = "command") -> BaseCommand:
-    """Validate a command; raises CommandError (a ValueError) naming the field.
+    """Validate a command; raises CommandError (a ValueError) naming the field in plain words.
 
     Every entry point (REST, WebSocket, `nutty run --commands`, in-process callers) gets the same
     JSON-safety check (`backend.security.check_json`: finite numbers, valid Unicode, bounded depth)
-    before the typed union.
+    before the typed union, which is validated *strictly*, as JSON: a number is a JSON number (not a
+    bool, not a string), a vector a JSON array, an option one of its names; nothing is coerced.
     """
     if not isinstance(data, dict):
         raise CommandError(f"{where}: a command is a JSON object with a 'type'")
@@ -46,14 +50,59 @@ def parse_command(data: Any, where: str = "command") -> BaseCommand:
     except JsonSafetyError as exc:
         raise CommandError(f"{where}: {exc}", field=exc.field, code=exc.code) from exc
     try:
-        return _union()[1].validate_python(data)
+        return _union()[1].validate_json(orjson.dumps(data), strict=True)
     except ValidationError as exc:
         err = exc.errors()[0]
         loc = [str(x) for x in err["loc"]]
         if loc and loc[0] == data.get("type"):  # the union's tag, not a field of the command
             loc = loc[1:]
         field = ".".join(loc) or "type"
-        raise CommandError(f"{where}: {field}: {err['msg']}", field=field) from exc
+        raise CommandError(f"{where}: {plain_error(err, REGISTRY.get(data.get('type')), loc)}", field=field) from exc
+
+
+def _bounds(cls: Any, loc: list[str]) -> tuple[Any, Any]:
+    """(lower, upper) a command field (or, for `target.0`, its tuple item) declares (ge/gt, le/lt; None
+    when open), for an error message."""
+    field = getattr(cls, "model_fields", {}).get(loc[0]) if loc else None
+    metadata = list(getattr(field, "metadata", []))
+    if field is not None and len(loc) > 1 and loc[1].isdigit():  # an item of a tuple of Annotated numbers
+        items = typing.get_args(field.annotation)
+        item = items[int(loc[1])] if int(loc[1]) < len(items) else None
+        for extra in typing.get_args(item)[1:]:
+            metadata += list(getattr(extra, "metadata", [extra]))
+    lo = hi = None
+    for m in metadata:
+        if isinstance(m, (annotated_types.Ge, annotated_types.Gt)):
+            lo = getattr(m, "ge", getattr(m, "gt", None))
+        if isinstance(m, (annotated_types.Le, annotated_types.Lt)):
+            hi = getattr(m, "le", getattr(m, "lt", None))
+    return lo, hi
+
+
+def plain_error(err: Any, cls: Any, loc: list[str]) -> str:
+    """One pydantic error of a command as a sentence naming the field: "valence must be between -1 and
+    1", "speed must be a number, not true"."""
+    name = ".".join(loc) or "type"
+    kind, ctx, given = err["type"], err.get("ctx") or {}, err.get("input")
+    shown = orjson.dumps(given).decode()[:60] if isinstance(given, (bool, int, float, str, type(None))) else None
+    if kind in ("greater_than_equal", "less_than_equal", "greater_than", "less_than"):
+        lo, hi = _bounds(cls, loc)
+        if lo is not None and hi is not None:
+            return f"{name} must be between {lo:g} and {hi:g}, got {shown}"
+        bound = next(iter(ctx.values()), "?")
+        word = {"greater_than_equal": "at least", "less_than_equal": "at most", "greater_than": "more than",
+                "less_than": "less than"}[kind]
+        return f"{name} must be {word} {bound}, got {shown}"
+    if kind in ("float_type", "int_type", "float_parsing", "int_from_float", "int_parsing"):
+        what = "a whole number" if kind.startswith("int") else "a number"
+        return f"{name} must be {what}, not {shown}" if shown is not None else f"{name} must be {what}"
+    if kind in ("bool_type", "bool_parsing"):
+        return f"{name} must be true or false, not {shown}"
+    if kind in ("string_type",):
+        return f"{name} must be a string, not {shown}"
+    if kind in ("tuple_type", "list_type", "too_short", "too_long") and shown is not None:
+        return f"{name}: {err['msg']} (a JSON array), not {shown}"
+    return f"{name}: {err['msg']}"
 
 
 def execute(session: Any, command: BaseCommand, command_id: str | None = None, *,

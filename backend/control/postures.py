@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field
 
@@ -11,6 +11,11 @@ from backend.control.errors import CommandError
 from backend.control.targets import declares_input, set_inputs
 
 Vec3 = tuple[float, float, float]
+#: How far (m, along each axis of the robot's base frame) a gaze target may lie: beyond a few metres a
+#: point looks the same as one farther along its direction, and far beyond it a number is a mistake.
+GAZE_REACH = 20.0
+_Reach = Annotated[float, Field(ge=-GAZE_REACH, le=GAZE_REACH)]
+GazePoint = tuple[_Reach, _Reach, _Reach]
 
 
 class GoPosture(BlockCommand):
@@ -38,7 +43,8 @@ class SetGaze(BaseCommand):
 
     acts_on = Target(role="input", what="gaze_target input")
     type: Literal["set_gaze"] = "set_gaze"
-    target: Vec3 = Field(..., description="[x, y, z] (m) in the robot's base frame: x forward, y left, z up")
+    target: GazePoint = Field(..., description=f"[x, y, z] (m) in the robot's base frame: x forward, y left, z up; "
+                                                f"each within +-{GAZE_REACH:g} m")
 
     def run(self, ctx: CommandContext) -> Any:
         if not declares_input(ctx.session, "gaze_target"):

@@ -31,9 +31,9 @@ async def run(remote: Remote, http: int | None = None, host: str = "127.0.0.1") 
         async with anyio.create_task_group() as tg:
             tg.start_soon(remote.watch, on_event)
             if http is None:
-                from mcp.server.stdio import stdio_server
+                from backend.mcp_bridge.stdio import safe_stdio_server
 
-                async with stdio_server() as (read, write):
+                async with safe_stdio_server() as (read, write):
                     await server.run(read, write, initialization_options(server))
             else:
                 import uvicorn

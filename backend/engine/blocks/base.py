@@ -46,6 +46,7 @@ from types import SimpleNamespace
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
+import orjson
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
@@ -82,6 +83,12 @@ class BlockParams(BaseModel):
     """Base of every block's parameter model: unknown parameters are errors, never ignored."""
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+    @classmethod
+    def from_json_value(cls, raw: Any) -> "BlockParams":
+        """Parameters from a program document's JSON value, validated strictly as JSON: a number must be
+        a JSON number (not true, not "0.3"), a list a JSON array; nothing is coerced."""
+        return cls.model_validate_json(orjson.dumps(raw), strict=True)
 
 
 # Parameter annotations that the editor renders with dedicated widgets.

@@ -71,7 +71,7 @@ def _check_node(state: CheckState, node: Node, i: int) -> None:
 def _params(state: CheckState, node: Node, i: int, cls: type[Block]) -> BlockParams | None:
     """The node's parameters validated by its block's model (None: reported)."""
     try:
-        return cls.Params.model_validate(node.params)
+        return cls.Params.from_json_value(node.params)
     except ValidationError as exc:
         state.errors.extend(params_errors(node, i, cls, exc))
     except Exception as exc:  # a block's own validator misbehaving must not crash validation
