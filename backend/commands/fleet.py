@@ -155,11 +155,14 @@ def run_router(args) -> int:
 
     options = ZenohOptions.from_args(args)
     options.mode = "router"
-    options.listen = options.listen or [ROUTER_ENDPOINT]
+    options.default_listen = [ROUTER_ENDPOINT]  # a router is there to be reached; a config's endpoints win
     try:
+        warning = options.exposure_warning()
         session = options.open()
     except ZenohSetupError as exc:
         return fail(str(exc))
+    if warning:
+        print(f"nutty fleet router: warning: {warning}", file=sys.stderr, flush=True)
     stop = threading.Event()
     try:
         print(f"nutty fleet router: {options.describe()}; Ctrl-C to stop", flush=True)

@@ -4,10 +4,11 @@ attach once the API's Hub exists)."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from backend.zenoh_link import keys
 from backend.zenoh_link.engine import EngineLink
-from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, add_zenoh_options, given
+from backend.zenoh_link.session import SECURITY_DOCS, ZenohOptions, ZenohSetupError, add_zenoh_options, given
 
 
 def add_serve_options(parser: argparse.ArgumentParser) -> None:
@@ -30,7 +31,15 @@ def open_for_serve(args: argparse.Namespace, embodiment) -> EngineLink | None:
             raise ZenohSetupError(f"{', '.join(extra)} only apply with --zenoh")
         return None
     robot_id = args.robot_id or keys.default_robot_id(embodiment.name)
-    return EngineLink.open(ZenohOptions.from_args(args), robot_id)
+    options = ZenohOptions.from_args(args)
+    if getattr(args, "token", None) is not None and not options.access_controlled():
+        # The token guards HTTP; Zenoh has its own gate. One authority on every port: no token-less door.
+        raise ZenohSetupError("--token guards HTTP only: with --zenoh, give a --zenoh-config with access control "
+                              f"(access_control.enabled, e.g. docs/fleet/engine.json5; see {SECURITY_DOCS})")
+    warning = options.exposure_warning()
+    if warning:
+        print(f"nutty serve: warning: {warning}", file=sys.stderr, flush=True)
+    return EngineLink.open(options, robot_id)
 
 
 def banner(link: EngineLink) -> str:

@@ -9,6 +9,13 @@
   Given, they replace the config file's lists.
 - `--zenoh-config FILE`: a Zenoh JSON5 configuration (access control, TLS, user/password,
   scouting): the flags above are applied on top. docs/fleet/ has the examples; docs/fleet.md explains.
+- `--zenoh-scout`: find peers by multicast scouting on the LAN.
+
+Secure by default: unless `--zenoh-listen` or the config file names listen endpoints, a session listens
+on loopback only (`tcp/127.0.0.1:0`; Zenoh's own default is every interface), and unless
+`--zenoh-scout` or the config file sets `scouting.multicast`, multicast scouting is off (peers are
+found through explicit endpoints). Listening beyond loopback without access control is warned about
+(`exposure_warning`).
 
 Every session must be closed (`Session.close`): a Python process whose Zenoh session still has
 callbacks declared does not exit. The tools here close theirs in `finally` blocks.
@@ -25,6 +32,11 @@ from pathlib import Path
 from typing import Any
 
 MODES = ("peer", "client", "router")
+#: Where a session listens when neither a flag nor its config file says (Zenoh's default: everywhere).
+LOOPBACK_LISTEN = ["tcp/127.0.0.1:0"]
+_LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "[::1]", "::1")
+#: Where docs/fleet.md explains access control (named in refusals and warnings).
+SECURITY_DOCS = "docs/fleet.md#security-who-may-move-the-robot"
 # The protocols of Zenoh's standard build that take `host:port` addresses.
 _IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
 _ENDPOINT = re.compile(r"(?P<proto>[a-z][a-z0-9-]*)/(?P<address>[^?#\s]+)(?:\?[^#\s]*)?(?:#\S*)?")
@@ -57,6 +69,8 @@ def add_zenoh_options(parser: argparse.ArgumentParser) -> None:
                    help="connect to this Zenoh endpoint, e.g. tcp/192.168.1.20:7447 (repeatable)")
     g.add_argument("--zenoh-listen", action="append", default=[], type=endpoint_arg, metavar="ENDPOINT",
                    help="listen on this Zenoh endpoint, e.g. tcp/0.0.0.0:7447 (repeatable)")
+    g.add_argument("--zenoh-scout", action="store_true", default=False,
+                   help="find peers by multicast scouting on the LAN (off by default: explicit endpoints only)")
     g.add_argument("--zenoh-config", default=None, metavar="FILE",
                    help="Zenoh JSON5 configuration (access control, TLS, credentials, scouting); the flags above "
                         "apply on top (docs/fleet.md)")
@@ -68,7 +82,7 @@ def given(args: argparse.Namespace) -> list[str]:
     for name in ("zenoh_mode", "zenoh_config"):
         if getattr(args, name, None) is not None:
             flags.append("--" + name.replace("_", "-"))
-    for name in ("zenoh_connect", "zenoh_listen"):
+    for name in ("zenoh_connect", "zenoh_listen", "zenoh_scout"):
         if getattr(args, name, None):
             flags.append("--" + name.replace("_", "-"))
     return flags
@@ -83,22 +97,52 @@ class ZenohOptions:
     listen: list[str] = field(default_factory=list)
     config_file: str | None = None
     overrides: dict[str, Any] = field(default_factory=dict)  # Zenoh config key -> value, applied last
+    scout: bool = False  # multicast scouting on (--zenoh-scout)
+    default_listen: list[str] = field(default_factory=lambda: list(LOOPBACK_LISTEN))  # when nothing says
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> "ZenohOptions":
         return cls(getattr(args, "zenoh_mode", None), list(getattr(args, "zenoh_connect", None) or []),
-                   list(getattr(args, "zenoh_listen", None) or []), getattr(args, "zenoh_config", None))
+                   list(getattr(args, "zenoh_listen", None) or []), getattr(args, "zenoh_config", None),
+                   scout=bool(getattr(args, "zenoh_scout", False)))
+
+    def file_settings(self) -> dict[str, Any]:
+        """The config file's own settings (JSON5), to tell what it asks for from Zenoh's defaults."""
+        if self.config_file is None:
+            return {}
+        import json5
+
+        try:
+            doc = json5.loads(Path(self.config_file).read_text())
+        except (OSError, ValueError) as exc:
+            raise ZenohSetupError(f"--zenoh-config {self.config_file}: {exc}") from None
+        return doc if isinstance(doc, dict) else {}
 
     def describe(self) -> str:
-        """One line for a start-up banner: mode and endpoints."""
+        """One line for a start-up banner: mode, the endpoints it really listens on, connects to, scouting."""
         parts = [self.mode or "peer"]
-        if self.listen:
-            parts.append("listen " + " ".join(self.listen))
+        try:
+            listen = self.listen or self.listen_endpoints()
+        except ZenohSetupError:
+            listen = self.listen
+        if listen:
+            parts.append("listen " + " ".join(listen))
         if self.connect:
             parts.append("connect " + " ".join(self.connect))
         if self.config_file:
             parts.append(f"config {self.config_file}")
+        if self.scout:
+            parts.append("multicast scouting")
         return "; ".join(parts)
+
+    def listen_endpoints(self) -> list[str]:
+        """The endpoints the session will listen on, for its mode (after flags, file and defaults)."""
+        cfg = self.config()
+        listen = json.loads(cfg.get_json("listen/endpoints") or "[]")
+        if isinstance(listen, dict):
+            mode = json.loads(cfg.get_json("mode") or "null") or "peer"
+            listen = listen.get(mode, [])
+        return [str(e) for e in listen]
 
     def config(self):
         """The zenoh.Config these options describe; ZenohSetupError when the file or a value is wrong."""
@@ -116,6 +160,14 @@ class ZenohOptions:
         except zenoh.ZError as exc:
             raise ZenohSetupError(f"--zenoh-config {self.config_file}: {clean_error(exc)}") from None
         values: list[tuple[str, str, Any]] = []
+        own = self.file_settings()
+        scouting = ((own.get("scouting") or {}).get("multicast") or {}) if isinstance(own.get("scouting"), dict) else {}
+        if self.scout:
+            values.append(("--zenoh-scout", "scouting/multicast/enabled", True))
+        elif not isinstance(scouting, dict) or "enabled" not in scouting:
+            values.append(("(default)", "scouting/multicast/enabled", False))
+        if not self.listen and not (isinstance(own.get("listen"), dict) and "endpoints" in own["listen"]):
+            values.append(("(default)", "listen/endpoints", self.default_listen))
         if self.mode is not None:
             values.append(("--zenoh-mode", "mode", self.mode))
         if self.connect:
@@ -129,6 +181,20 @@ class ZenohOptions:
             except zenoh.ZError as exc:
                 raise ZenohSetupError(f"{flag} {value}: {clean_error(exc)}") from None
         return cfg
+
+    def exposure_warning(self) -> str | None:
+        """A warning when this session listens beyond loopback with no access control (None otherwise)."""
+        if self.access_controlled():
+            return None
+        exposed = [e for e in self.listen_endpoints() if not is_loopback_endpoint(e)]
+        if not exposed:
+            return None
+        return (f"Zenoh listens on {', '.join(exposed)} with no access control: anyone who can reach it may "
+                f"command this robot and publish its frames (see {SECURITY_DOCS})")
+
+    def access_controlled(self) -> bool:
+        """Whether the configuration turns Zenoh's access control on."""
+        return json.loads(self.config().get_json("access_control/enabled") or "false") is True
 
     def scouts(self) -> bool:
         """Whether this session looks for peers by multicast (Zenoh's default, unless the config turns it off)."""
@@ -144,6 +210,17 @@ class ZenohOptions:
             return zenoh.open(cfg)
         except zenoh.ZError as exc:
             raise ZenohSetupError(f"cannot join Zenoh ({self.describe()}): {clean_error(exc)}") from None
+
+
+def is_loopback_endpoint(endpoint: str) -> bool:
+    """Whether a Zenoh endpoint is reachable from this machine only (loopback IP, or a local socket)."""
+    m = _ENDPOINT.fullmatch(endpoint)
+    if m is None:
+        return False
+    if m["proto"] not in _IP_PROTOCOLS:
+        return m["proto"].startswith("unixsock")  # unix sockets are local; anything else: assume not
+    host = m["address"].rpartition(":")[0]
+    return host in _LOOPBACK_HOSTS or host.startswith("127.")
 
 
 def settle(session, options: ZenohOptions, seconds: float = 1.0) -> None:
