@@ -1,24 +1,33 @@
 """The robot-side bridge's core: frames from a remote engine to local drivers, never faster than the
 robot's limits, and to rest by itself when the frames stop (`nutty bridge`, docs/fleet.md).
 
-`FrameRelay` knows nothing of the network: `receive(doc, sent)` takes one frame document (the
-`/ws/frames` content) as it arrives, `tick(now)` runs at the frame rate on its own clock. Every
-frame it hands to the drivers comes out of a local `SafetyNet` (backend/engine/safety.py) on the
-robot's description, stepped once per engine tick:
+`FrameRelay` knows nothing of the network: `receive(doc, sent, session)` takes one frame document (the
+`/ws/frames` content) as it arrives, `tick(now)` runs on its own clock. The robot's description and
+limits are the bridge's own (local files, never the network's word). Every frame it hands to the
+drivers comes out of a local `SafetyNet` (backend/engine/safety.py), stepped once per delivered
+frame at the fixed tick `h = 1/rate`, and **the drivers get one frame per tick, never two within
+`MIN_GAP` ticks** (the bridge's clock, not the network's arrival pattern, sets the pace):
 
-- live, the engine's frames already respect the limits, so the net passes them through bit for bit;
-  a gap (frames lost on the way) is bridged by stepping the net through the missing ticks toward the
-  new frame, and only the result is sent;
+- live, a frame is delivered as it arrives (no jitter buffer, no added latency) unless the last
+  delivery was less than `MIN_GAP·h` ago, in which case it waits for the tick; the engine's frames
+  already respect the limits, so the net passes them through bit for bit;
+- frames lost on the way or late: when no frame has come `h + grace` after the last delivery, the net
+  is stepped toward the last frame's pose and that step is delivered as its own frame (dt = h, its own
+  seq): the motors never freeze on a set-point while moving, and a gap is bridged tick by tick;
 - when no frame has come for `timeout` seconds, the net's target becomes the rest pose: the robot
-  decelerates from its last set-point and settles at rest within its velocity, acceleration and jerk
-  limits, then rest is held (sent at the frame rate): a network fault never leaves the motors on the
-  last set-point;
+  decelerates from the last *delivered* state and settles at rest within its velocity, acceleration
+  and jerk limits, then rest is held (sent at the frame rate): a network fault never leaves the motors
+  on the last set-point;
 - when frames come back, the target is the engine's frame again and the net brings the robot there
   within the same limits (no jump), then passes the frames through once more.
 
-Before the first frame nothing is sent: the bridge assumes the robot rests where it is. It counts
-what it sees: frames, gaps and missed frames, stale and foreign frames, timeouts and resumes, the
-latency from the engine's emission stamp to arrival (ms), and the longest silence.
+Frames are followed per engine *session* (an id the engine draws at start, `backend.zenoh_link`): a
+new session (a restarted engine) starts its sequence numbers afresh, and a sequence number further
+ahead than the time since the last frame allows is refused (counted as `implausible`), so forged high
+numbers lock nobody out. Before the first frame nothing is sent: the bridge assumes the robot rests
+where it is. It counts what it sees: frames, gaps and missed frames, held ticks, stale, implausible,
+foreign and rejected frames, timeouts and resumes, the latency from the engine's emission stamp to
+arrival (ms), and the longest silence.
 """
 
 from __future__ import annotations
@@ -38,15 +47,20 @@ from backend.zenoh_link.codec import FrameDoc
 
 DEFAULT_TIMEOUT = 0.25  # s without a frame before the robot is taken to rest
 MIN_TIMEOUT, MAX_TIMEOUT = 0.02, 10.0
+#: Two deliveries are at least this many ticks apart (a frame that comes sooner waits for the tick).
+MIN_GAP = 0.95
+#: A frame later than h + max(h, GRACE) after the last delivery is bridged by a held step (s).
+GRACE = 0.005
 WAITING, LIVE, RESTING, AT_REST = "waiting", "live", "resting", "at rest"
 
 
 class FrameRelay:
     """Engine frames in, limited frames out to `sinks` (see the module doc).
 
-    emb: the robot; rate: the engine's tick rate (Hz, 30..1000), which the net and the resting clock
-    run at; timeout: seconds of silence before resting (MIN_TIMEOUT..MAX_TIMEOUT, at least two ticks).
-    `clock` (monotonic s) and `wall` (Unix s, compared with the engine's stamps) can be replaced in tests.
+    emb: the robot (from local files); rate: the engine's tick rate (Hz, 30..1000), which the net and the
+    relay's clock run at; timeout: seconds of silence before resting (MIN_TIMEOUT..MAX_TIMEOUT, at least
+    two ticks). `clock` (monotonic s) and `wall` (Unix s, compared with the engine's stamps) can be
+    replaced in tests.
     """
 
     def __init__(self, emb: Embodiment, rate: float, sinks: list[Sink], *, timeout: float = DEFAULT_TIMEOUT,
@@ -63,15 +77,21 @@ class FrameRelay:
         self.mode = WAITING
         self.parking = False  # set by park(): frames are ignored, the robot goes to rest
         self._lock = threading.RLock()
+        self._wake = threading.Event()  # a frame is waiting for the tick
         self._set_rate(rate, emb.rest)
         self._target = emb.rest.copy()  # the engine's last frame (positions, all channels)
+        self._events: list[FrameEvent] = []  # of frames received but not yet delivered
+        self._pending = False  # a received frame is not delivered yet
+        self._holding = False  # the last delivery was a held step (no frame had come)
+        self._last_sent: float | None = None  # clock time of the last delivery
         self._pos, self._vel, self._acc = emb.rest.copy(), np.zeros(emb.n_channels), np.zeros(emb.n_channels)
         self.t, self.seq = 0.0, 0  # of the frames sent (s; count)
+        self.session: str | None = None  # the engine session followed
         self.last_seq: int | None = None
         self.last_rx: float | None = None
         self.latency = RingStats()
-        self.counts = dict.fromkeys(("received", "sent", "gaps", "missed", "stale", "rejected", "timeouts",
-                                     "resumes"), 0)
+        self.counts = dict.fromkeys(("received", "sent", "gaps", "missed", "held", "stale", "implausible",
+                                     "foreign", "rejected", "timeouts", "resumes", "restarts"), 0)
         self.longest_silence = 0.0  # s between two frames received
         self._started = clock()
         self._stop = threading.Event()
@@ -79,6 +99,7 @@ class FrameRelay:
 
     def _set_rate(self, rate: float, start: np.ndarray) -> None:
         self.rate, self.h = float(rate), 1.0 / float(rate)
+        self.grace = max(self.h, GRACE)
         self.net = SafetyNet(self.emb, rate, start=start)
         # Load the net's compiled correction now, not on the first frame that needs it (that takes a
         # second or more, and the frames behind it would pile up): a throwaway net corrects a jump.
@@ -86,8 +107,9 @@ class FrameRelay:
         warm.step(np.where(warm.mask, np.clip(self.emb.rest + 0.1, self.emb.min, self.emb.max), self.emb.rest))
 
     # --- frames in --------------------------------------------------------------------------------
-    def receive(self, doc: dict[str, Any], sent: float | None = None) -> None:
-        """One engine frame document, as it arrives (any thread); `sent`: the engine's emission stamp."""
+    def receive(self, doc: dict[str, Any], sent: float | None = None, session: str | None = None) -> None:
+        """One engine frame document, as it arrives (any thread); `sent`: the engine's emission stamp;
+        `session`: the engine session it came from (the follower passes only the running engine's)."""
         now = self.clock()
         with self._lock:
             if self.parking:
@@ -97,21 +119,18 @@ class FrameRelay:
             except (ValueError, TypeError) as exc:
                 self.reject(str(exc))
                 return
-            resumed = self.mode in (RESTING, AT_REST)
-            if self.mode == LIVE and self.last_seq is not None and frame.seq <= self.last_seq:
-                self.counts["stale"] += 1  # late or repeated: the robot has moved on
+            if session != self.session:
+                if self.session is not None:
+                    self.counts["restarts"] += 1
+                    self.log(f"nutty bridge: a new engine session ({session}): following it from seq {frame.seq}")
+                self.session, self.last_seq = session, None
+            if not self._plausible(frame.seq, now):
                 return
             if abs(frame.dt * self.rate - 1.0) > 0.01:
                 self.log(f"nutty bridge: the engine now ticks at {1.0 / frame.dt:g} Hz (was {self.rate:g}): "
                          "following it")
                 self._set_rate(1.0 / frame.dt, self._pos)
-            steps = 1
-            if self.mode == LIVE and self.last_seq is not None and frame.seq > self.last_seq + 1:
-                missed = frame.seq - self.last_seq - 1
-                self.counts["gaps"] += 1
-                self.counts["missed"] += missed
-                steps = min(missed + 1, max(1, int(self.timeout * self.rate)))
-            if resumed:
+            if self.mode in (RESTING, AT_REST):
                 self.counts["resumes"] += 1
                 self.log(f"nutty bridge: frames again after {now - (self.last_rx or now):.2f} s: blending back "
                          "within the robot's limits")
@@ -121,22 +140,49 @@ class FrameRelay:
             self.last_rx, self.last_seq = now, frame.seq
             if sent is not None:
                 self.latency.add(max(0.0, self.wall() - sent))
-            previous, self._target = self._target, frame.position
-            for k in range(1, steps + 1):  # the missing ticks, on a straight line to the new frame
-                target = frame.position if k == steps else previous + (frame.position - previous) * (k / steps)
-                out = self.net.step(target)
+            self._target = frame.position
+            self._events += frame.events
+            self._pending, self._holding = True, False
             self.mode = LIVE
-            self._send(out, steps, frame.events, frame.position)
+            if self._last_sent is None or now - self._last_sent >= MIN_GAP * self.h:
+                self._deliver(now)
+            else:
+                self._wake.set()  # too soon after the last delivery: the clock delivers it at the tick
 
-    def reject(self, why: str) -> None:
-        """Count a message that is not a usable frame (logged the 1st, 10th, 100th and 1000th time)."""
-        self.counts["rejected"] += 1
-        if self.counts["rejected"] in (1, 10, 100, 1000):
-            self.log(f"nutty bridge: frame rejected ({self.counts['rejected']} so far): {why}")
+    def _plausible(self, seq: int, now: float) -> bool:
+        """Count a stale or implausible sequence number (False), or a gap (True, as every acceptable one)."""
+        if self.last_seq is None:
+            return True
+        if seq <= self.last_seq:
+            if self.mode == LIVE:
+                self.counts["stale"] += 1  # late or repeated: the robot has moved on
+                return False
+            self.last_seq = None  # resting: an engine that started again counts from 0
+            return True
+        ahead = seq - self.last_seq
+        allowed = (now - (self.last_rx or now) + self.timeout) * self.rate + 2
+        if ahead > allowed:
+            self.counts["implausible"] += 1
+            if self.counts["implausible"] in (1, 10, 100, 1000):
+                self.log(f"nutty bridge: a frame {ahead} ahead of the last one ({self.last_seq}) cannot be this "
+                         f"engine's so soon: refused ({self.counts['implausible']} so far)")
+            return False
+        if ahead > 1:
+            self.counts["gaps"] += 1
+            self.counts["missed"] += ahead - 1
+        return True
+
+    def reject(self, why: str, kind: str = "rejected") -> None:
+        """Count a message that is not a usable frame (`kind`: rejected, or foreign for a frame that is not
+        the running engine's); logged the 1st, 10th, 100th and 1000th time."""
+        self.counts[kind] += 1
+        if self.counts[kind] in (1, 10, 100, 1000):
+            self.log(f"nutty bridge: frame {kind} ({self.counts[kind]} so far): {why}")
 
     # --- the clock --------------------------------------------------------------------------------
     def tick(self, now: float | None = None) -> None:
-        """Once per tick: notice a silence longer than the timeout; while resting, step toward rest."""
+        """On the relay's clock: deliver a frame that waited for the tick, bridge a late one with a held
+        step, notice a silence longer than the timeout, and while resting step toward rest."""
         now = self.clock() if now is None else now
         with self._lock:
             if self.mode == LIVE and (self.parking or now - (self.last_rx or now) > self.timeout):
@@ -145,25 +191,48 @@ class FrameRelay:
                     self.counts["timeouts"] += 1
                     self.log(f"nutty bridge: no frame for {now - self.last_rx:.2f} s (timeout {self.timeout:g} s): "
                              "taking the robot to rest within its limits")
-            if self.mode in (RESTING, AT_REST):
-                rest = self.emb.rest
-                out = self.net.step(rest)
-                self._send(out, 1, [], rest)
+            if self.mode == LIVE:
+                if now >= (self._last_sent or now) + self._live_step():
+                    self._holding = not self._pending
+                    if self._holding:
+                        self.counts["held"] += 1
+                    self._deliver(now)
+            elif self.mode in (RESTING, AT_REST):
+                if self._last_sent is None or now - self._last_sent >= MIN_GAP * self.h:
+                    self._deliver(now)
                 if self.mode == RESTING and self.at_rest():
                     self.mode = AT_REST
                     self.log("nutty bridge: the robot is at rest; holding it there")
+
+    def _live_step(self) -> float:
+        """Seconds after the last delivery that the next one is due while live: a waiting frame at the
+        tick; with none, a held step after the grace (a frame may just be late), then one a tick."""
+        if self._pending:
+            return MIN_GAP * self.h
+        return self.h if self._holding else self.h + self.grace
+
+    def next_due(self, now: float) -> float:
+        """When `tick` next has something to do (clock time), for the relay's own loop."""
+        with self._lock:
+            if self._last_sent is None or self.mode == WAITING:
+                return now + self.h
+            if self.mode == LIVE:
+                return min(self._last_sent + self._live_step(), (self.last_rx or now) + self.timeout + 1e-6)
+            return self._last_sent + self.h
 
     def at_rest(self) -> bool:
         """Whether the last frame sent is the rest pose exactly, standing still."""
         return (bool(np.array_equal(self._pos, self.emb.rest)) and not np.any(self._vel) and not np.any(self._acc))
 
     def start(self) -> "FrameRelay":
-        """Run `tick` at the frame rate on a thread (late ticks stretch time: never faster than the rate)."""
+        """Run `tick` on a thread when something is due (late ticks stretch time: never faster than the rate)."""
         def loop() -> None:
-            deadline = time.monotonic()
-            while True:
-                deadline = max(deadline + self.h, time.monotonic())
-                if self._stop.wait(max(0.0, deadline - time.monotonic())):
+            while not self._stop.is_set():
+                now = self.clock()
+                wait = max(0.0, min(self.next_due(now), now + self.h) - now)
+                if self._wake.wait(wait):
+                    self._wake.clear()
+                if self._stop.is_set():
                     return
                 self.tick()
 
@@ -185,12 +254,23 @@ class FrameRelay:
 
     def stop(self) -> None:
         self._stop.set()
+        self._wake.set()
         if self._thread is not None:
             self._thread.join(2.0)
 
     # --- frames out -------------------------------------------------------------------------------
-    def _send(self, out: np.ndarray, steps: int, events: list[FrameEvent], program: np.ndarray) -> None:
-        dt = steps * self.h
+    def _deliver(self, now: float) -> None:
+        """One step of the net toward the engine's last frame (live) or rest, sent as one frame of one tick."""
+        live = self.mode == LIVE
+        target = self._target if live else self.emb.rest
+        out = self.net.step(target)
+        events, self._events = (self._events, []) if live else ([], self._events)
+        self._pending = False
+        self._last_sent = now
+        self._send(out, events, target)
+
+    def _send(self, out: np.ndarray, events: list[FrameEvent], program: np.ndarray) -> None:
+        dt = self.h
         first = self.counts["sent"] == 0
         vel = np.zeros_like(out) if first else (out - self._pos) / dt
         acc = np.zeros_like(out) if first else (vel - self._vel) / dt
@@ -223,5 +303,6 @@ def report_line(robot_id: str, s: dict[str, Any]) -> str:
     lat = s["latency_ms"]
     return (f"nutty bridge: {robot_id} {s['mode']}: {s['received']} frames in ({s['rate_in']:.1f}/s), "
             f"{s['sent']} out; latency p50 {lat['p50_ms']:.2f} ms p99 {lat['p99_ms']:.2f} ms max {lat['max_ms']:.2f} ms; "
-            f"gaps {s['gaps']} ({s['missed']} frames missed), longest silence {s['longest_silence_s'] * 1e3:.0f} ms; "
-            f"stale {s['stale']}, rejected {s['rejected']}; timeouts {s['timeouts']}, resumes {s['resumes']}")
+            f"gaps {s['gaps']} ({s['missed']} frames missed, {s['held']} ticks held), longest silence "
+            f"{s['longest_silence_s'] * 1e3:.0f} ms; stale {s['stale']}, implausible {s['implausible']}, foreign "
+            f"{s['foreign']}, rejected {s['rejected']}; timeouts {s['timeouts']}, resumes {s['resumes']}")

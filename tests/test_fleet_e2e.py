@@ -51,7 +51,7 @@ def test_three_engines_a_fleet_and_a_bridge(tmp_path):
     engines = {rid: NuttyProcess("serve", "--port", str(free_port()), "--no-previz", "--rate", f"{RATE:g}", "--zenoh",
                                  "--robot-id", rid, "--zenoh-listen", loopback(), *common) for rid in ROBOTS}
     recording = tmp_path / "museum-3.jsonl"
-    bridge = NuttyProcess("bridge", "--zenoh", "--robot-id", "museum-3", "--driver", "record", "--record",
+    bridge = NuttyProcess("bridge", "--zenoh", "--robot-id", "museum-3", "--robot", "nutty_desk", "--driver", "record", "--record",
                           str(recording), "--timeout", "0.3", "--report", "1", "--wait", "150", *common)
     frames = Frames()
     subscriber = None
@@ -120,25 +120,18 @@ def test_three_engines_a_fleet_and_a_bridge(tmp_path):
 def _check_fade_to_rest(emb, recording, summary) -> None:
     """The bridge's output: every step within the robot's limits (finite differences at the tick), and
     the last frames exactly the rest pose, standing still."""
+    from test_safe_swaps import recorded_positions, worst_ratios
+
     rows = [json.loads(line) for line in recording.read_text().splitlines()]
     names = emb.continuous_names
     idx = [emb.channel_index[n] for n in names]
     pos = np.array([[r["dofs"][n]["position"] for n in names] for r in rows])
-    h = 1 / RATE
-    # A frame lost on the way is bridged inside the net and sent as one longer step; the differences are
-    # taken where the output is at the tick rate (every step, when nothing was lost).
-    tick = np.array([abs(r["dt"] - h) < 1e-9 for r in rows])
-    assert summary["gaps"] > 0 or tick.all()
-    v = np.diff(pos, axis=0) / h
-    a = np.diff(v, axis=0) / h
-    j = np.diff(a, axis=0) / h
-    ok_v = tick[1:]
-    ok_a = ok_v[1:] & ok_v[:-1]
-    ok_j = ok_a[1:] & ok_a[:-1]
-    slack = 1 + 1e-9  # floating-point rounding only
-    assert np.all(np.abs(v[ok_v]) <= emb.vel_limit[idx] * slack)
-    assert np.all(np.abs(a[ok_a]) <= emb.acc_limit[idx] * slack)
-    assert np.all(np.abs(j[ok_j]) <= emb.jerk_limit[idx] * slack)
+    # One frame per tick, whatever was lost on the way (the net bridges a gap tick by tick), so the
+    # differences are taken at the tick everywhere: channels and the joints they compose to.
+    assert all(abs(r["dt"] - 1 / RATE) < 1e-12 for r in rows)
+    r = worst_ratios(emb, recorded_positions(emb, rows), RATE)
+    slack = 1 + 1e-6  # floating-point rounding only
+    assert r["v"] <= slack and r["a"] <= slack and r["j"] <= slack and r["outside"] <= 1e-12, r
     assert np.array_equal(pos[-1], emb.rest[idx]) and np.array_equal(pos[-2], emb.rest[idx])
     moved = np.max(np.abs(pos - emb.rest[idx]), axis=1)
     assert moved.max() > 1e-3, "the robot never left rest: nothing was faded"

@@ -13,7 +13,7 @@ from backend.cli import build_parser, main
 from backend.commands.bridge import chosen_drivers
 from backend.session import EngineSession
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import FrameDoc, decode_frame, embodiment_from_dict, encode_frame, read_stamp, stamp
+from backend.zenoh_link.codec import FrameDoc, decode_frame, encode_frame, read_session, read_stamp, stamp
 from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, endpoint_arg
 
 
@@ -59,16 +59,6 @@ def test_endpoints_are_checked_before_zenoh_sees_them():
         ZenohOptions(config_file="/nonexistent/zenoh.json5").config()
 
 
-def test_the_robot_comes_back_from_its_description(desk):
-    emb = embodiment_from_dict(desk.to_dict())
-    assert emb.channel_names == desk.channel_names and emb.name == desk.name
-    for a in ("min", "max", "vel_limit", "acc_limit", "jerk_limit", "rest", "channel_kind"):
-        assert np.array_equal(getattr(emb, a), getattr(desk, a)), a
-    assert [d.options for d in emb.dofs] == [d.options for d in desk.dofs]
-    with pytest.raises(ValueError, match="not a robot description"):
-        embodiment_from_dict({"name": "x", "dofs": [{"name": "a"}]})
-
-
 def test_a_frame_survives_the_wire(desk):
     session = EngineSession.create(desk, rate=100)
     session.execute({"type": "set_led", "colour": [1.0, 0.25, 0.0]})
@@ -102,7 +92,7 @@ def test_serve_refuses_zenoh_options_without_zenoh(capsys):
 
 
 def bridge_args(*argv):
-    return build_parser().parse_args(["bridge", "--zenoh", "--robot-id", "r1", *argv])
+    return build_parser().parse_args(["bridge", "--zenoh", "--robot-id", "r1", "--robot", "nutty_desk", *argv])
 
 
 def test_the_bridge_takes_its_drivers_from_the_registry():
@@ -119,9 +109,12 @@ def test_the_bridge_takes_its_drivers_from_the_registry():
 def test_bridge_and_fleet_command_lines_refuse_bad_input(capsys):
     code, err = run_cli(capsys, "bridge", "--robot-id", "r1", "--driver", "sim-servo")
     assert code == 2 and "--zenoh" in err
-    code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "teleport")
+    code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "teleport", "--robot", "nutty_desk")
     assert code == 2 and "invalid choice: 'teleport'" in err
-    code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "sim-servo", "--timeout", "0")
+    code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "sim-servo")
+    assert code == 2 and "the following arguments are required: --robot" in err  # limits come from local files only
+    code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "sim-servo", "--robot", "nutty_desk",
+                        "--timeout", "0")
     assert code == 2 and "--timeout must be within" in err
     code, err = run_cli(capsys, "fleet", "send", "museum/*", "{}")
     assert code == 2 and "neither a robot id nor a pattern" in err

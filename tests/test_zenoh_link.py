@@ -295,3 +295,28 @@ def test_status_is_published_and_liveliness_is_seen_by_a_watch(served):
     assert all(s["robot"] == s["robot_id"] == "unit-1" for s in statuses)
     assert statuses[1]["ticks"] > statuses[0]["ticks"]
     assert next(e for e in seen if e) == {"type": "robot", "event": "appeared", "robot": "unit-1"}
+
+
+def test_the_bridge_follows_only_the_running_engines_frames_on_its_own_key(served, desk):
+    """Frames are taken only from nutty/<id>/frames itself and only with the session id of the engine whose
+    session liveliness token is alive: a put on a wider key, a frame without a session and a forged
+    session are refused (counted as foreign), the engine's own frames are followed."""
+    from backend.zenoh_link.codec import encode_frame, stamp
+    from backend.zenoh_link.follow import follow_frames
+
+    engine, fleet = served
+    got, refused = [], []
+    follower = follow_frames(fleet.session, "unit-1", lambda doc, sent, sid: got.append((doc["seq"], sid)),
+                             lambda why, kind="rejected": refused.append(kind))
+    try:
+        poll(lambda: len(got) >= 5, 10, "the engine's frames")
+        sid = engine.link.session_id.hex()
+        assert all(s == sid for _, s in got) and follower.live == {sid}
+        forged = encode_frame(engine.session.engine.tick(), desk)
+        refused.clear()
+        fleet.session.put("nutty/**", forged, attachment=stamp(time.time(), engine.link.session_id))
+        fleet.session.put("nutty/unit-1/frames", forged, attachment=stamp(time.time()))
+        fleet.session.put("nutty/unit-1/frames", forged, attachment=stamp(time.time(), b"\x01" * 16))
+        poll(lambda: refused.count("foreign") >= 3, 10, "three forged frames refused")
+    finally:
+        follower.undeclare()

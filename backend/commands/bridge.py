@@ -31,8 +31,9 @@ def register(sub) -> None:
                    help=f"a driver to feed ({', '.join(sorted(DRIVER_OPTIONS))}; repeatable); its option below "
                         "says where (e.g. --driver osc --osc 10.0.0.5:9000)")
     add_driver_options(p)  # every driver's own option, from the registry: a new driver needs no edit here
-    p.add_argument("--robot", default=None,
-                   help="the robot folder, URDF or bundled name (default: ask the engine for its description)")
+    p.add_argument("--robot", required=True,
+                   help="the robot folder, URDF or bundled name: its limits are the bridge's own, never taken "
+                        "from the network")
     p.add_argument("--rate", type=float, default=None, help="the engine's tick rate in Hz (default: ask the engine)")
     p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT, metavar="SECONDS",
                    help=f"take the robot to rest after this long without a frame (default {DEFAULT_TIMEOUT:g})")
@@ -87,7 +88,7 @@ def run(args) -> int:
         return fail(problem)
     try:
         drivers = chosen_drivers(args)
-        robot = load_embodiment(args.robot) if args.robot else None
+        robot = load_embodiment(args.robot)
         session = ZenohOptions.from_args(args).open()
     except (ValueError, EmbodimentError, ZenohSetupError) as exc:
         return fail(str(exc))
@@ -110,8 +111,9 @@ def _follow(session, args, drivers, robot) -> int:
     sinks = []
     try:
         try:
-            emb, rate = wait_for_engine(session, args.robot_id, robot=robot, rate=args.rate,
-                                        wait=args.wait, log=log, stop=signals.first)
+            emb = robot
+            rate = wait_for_engine(session, args.robot_id, rate=args.rate, wait=args.wait, log=log,
+                                   stop=signals.first)
             sinks = [DRIVER_OPTIONS[name].build(emb, value) for name, value in drivers]
             relay = FrameRelay(emb, rate, sinks, timeout=args.timeout, log=log)
         except (TimeoutError, ValueError, OSError) as exc:

@@ -4,9 +4,11 @@
   bounded depth) and a size limit per message, and written with `dumps`, which never fails.
 - A frame is `msgpack(AnimationFrame.to_dict(embodiment))`, byte for byte what `/ws/frames?format=msgpack`
   sends; the Zenoh attachment carries when the engine emitted it (`STAMP`: Unix time in s, little-endian
-  float64), from which receivers measure latency (on one machine, or on machines with synchronised clocks).
-- A robot-side bridge rebuilds the robot from the `robot` answer (`embodiment_from_dict`) and turns
-  frame documents back into channel vectors (`FrameDoc`).
+  float64), from which receivers measure latency (on one machine, or on machines with synchronised clocks),
+  then the engine's session id (16 bytes, new at each start; the same id as its `session/<sid>` liveliness
+  token), by which a bridge follows one running engine and nobody else.
+- A robot-side bridge turns frame documents back into channel vectors (`FrameDoc`) for the robot it
+  loaded from its own files (a description from the network would let anyone set the limits).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from backend.engine.dofs import Dimension, Dof, DofType
+from backend.engine.dofs import DofType
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, FrameEvent
 from backend.safe_json import JsonSafetyError, dumps, loads
@@ -27,6 +29,7 @@ MAX_MESSAGE = 64_000  # bytes per JSON message (commands, as on /ws/control)
 MAX_FRAME = 1_000_000  # bytes per frame message
 REPLY_LIMIT = 1_000_000  # bytes of one answer to a query (a program can be large)
 STAMP = struct.Struct("<d")
+SESSION_BYTES = 16
 
 
 def payload_bytes(payload: Any) -> bytes:
@@ -76,59 +79,30 @@ def frame_of(sample: Any) -> tuple[dict[str, Any], float | None]:
     return decode_frame(payload_bytes(sample.payload)), read_stamp(sample.attachment)
 
 
-def stamp(t: float) -> bytes:
-    return STAMP.pack(t)
+def stamp(t: float, session: bytes | None = None) -> bytes:
+    """A frame's attachment: the emission time, then the engine's session id when given."""
+    return STAMP.pack(t) + (session or b"")
+
+
+def _attachment_bytes(attachment: Any) -> bytes:
+    if attachment is None:
+        return b""
+    return bytes(attachment.to_bytes() if hasattr(attachment, "to_bytes") else attachment)
 
 
 def read_stamp(attachment: Any) -> float | None:
     """The emission time carried by a frame's attachment, or None."""
-    if attachment is None:
+    raw = _attachment_bytes(attachment)
+    if len(raw) not in (STAMP.size, STAMP.size + SESSION_BYTES):
         return None
-    raw = bytes(attachment.to_bytes() if hasattr(attachment, "to_bytes") else attachment)
-    if len(raw) != STAMP.size:
-        return None
-    (t,) = STAMP.unpack(raw)
+    (t,) = STAMP.unpack(raw[:STAMP.size])
     return t if math.isfinite(t) else None
 
 
-# --------------------------------------------------------------------------------------------------
-# The robot, back from its description
-# --------------------------------------------------------------------------------------------------
-
-
-def _limit(value: Any, default: float) -> float:
-    """A limit from `Dof.to_dict` (null stands for an infinite one)."""
-    return default if value is None else float(value)
-
-
-def dof_from_dict(d: dict[str, Any]) -> Dof:
-    """The inverse of `Dof.to_dict` (what a bridge needs: type, channels, limits, rest, options)."""
-    kind = DofType(d["type"])
-    start, stop = (int(x) for x in d["channels"])
-    rest = d.get("rest")
-    rest = tuple(float(x) for x in rest) if isinstance(rest, list) else _limit(rest, 0.0)
-    return Dof(
-        name=str(d["name"]), dimension=Dimension(d["dimension"]), type=kind, channels=slice(start, stop),
-        min=_limit(d.get("min"), -math.inf), max=_limit(d.get("max"), math.inf),
-        velocity=_limit(d.get("velocity"), math.inf), acceleration=_limit(d.get("acceleration"), math.inf),
-        jerk=_limit(d.get("jerk"), math.inf), rest=rest, joint=d.get("joint"), drives=d.get("drives"),
-        axis=d.get("axis"), group=d.get("group"),
-        options=tuple(d["options"]) if d.get("options") is not None else None,
-        links=tuple(d.get("links", ())), kind=d.get("kind"), sounds=tuple(d.get("sounds", ())),
-        description=str(d.get("description", "")))
-
-
-def embodiment_from_dict(doc: dict[str, Any]) -> Embodiment:
-    """An Embodiment from an engine's `robot` answer (`GET /api/robot`): DoFs, channels and limits; no
-    URDF (a bridge drives channels, it draws nothing). ValueError when the document is not a robot."""
-    try:
-        dofs = [dof_from_dict(d) for d in doc["dofs"]]
-        emb = Embodiment(name=str(doc["name"]), dofs=dofs, description=str(doc.get("description", "")))
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ValueError(f"not a robot description: {type(exc).__name__}: {exc}") from None
-    if list(emb.channel_names) != list(doc.get("channels", emb.channel_names)):
-        raise ValueError("not a robot description: its channels do not follow from its DoFs")
-    return emb
+def read_session(attachment: Any) -> str | None:
+    """The engine session id (hex) a frame's attachment carries, or None."""
+    raw = _attachment_bytes(attachment)
+    return raw[STAMP.size:].hex() if len(raw) == STAMP.size + SESSION_BYTES else None
 
 
 # --------------------------------------------------------------------------------------------------

@@ -22,6 +22,7 @@ Who may publish commands is Zenoh's business: access control and TLS in the Zeno
 from __future__ import annotations
 
 import queue
+import secrets
 import threading
 import time
 from typing import Any
@@ -30,7 +31,7 @@ from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 from backend.safe_json import JsonSafetyError
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import decode_json, encode_frame, encode_json, payload_bytes, stamp
+from backend.zenoh_link.codec import SESSION_BYTES, decode_json, encode_frame, encode_json, payload_bytes, stamp
 from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, settle
 
 STATUS_PERIOD = 1.0  # s between status publications
@@ -45,8 +46,8 @@ class FramePublisher(Sink):
     this sink's queue too, as a /ws/frames client's does.
     """
 
-    def __init__(self, publisher: Any, embodiment: Any, max_queue: int = 64):
-        self.publisher, self.emb = publisher, embodiment
+    def __init__(self, publisher: Any, embodiment: Any, max_queue: int = 64, session: bytes | None = None):
+        self.publisher, self.emb, self.session = publisher, embodiment, session
         super().__init__("zenoh-frames", max_queue=max_queue)
 
     def offer(self, frame: AnimationFrame) -> None:
@@ -54,7 +55,7 @@ class FramePublisher(Sink):
 
     def consume(self, item: Any) -> None:
         frame, sent = item
-        self.publisher.put(encode_frame(frame, self.emb), attachment=stamp(sent))
+        self.publisher.put(encode_frame(frame, self.emb), attachment=stamp(sent, self.session))
 
 
 def error_reply(status: int, code: str, message: str, **extra: Any) -> dict[str, Any]:
@@ -76,8 +77,11 @@ class EngineLink:
         self.key = {leaf: keys.key(robot_id, leaf) for leaf in
                     (keys.ALIVE, keys.FRAMES, keys.STATUS, keys.EVENTS, keys.COMMANDS, keys.ROBOT, keys.PROGRAM)}
         self.counts = {"commands": 0, "errors": 0, "queries": 0, "busy": 0}
+        #: This run's session id: frames carry it, a liveliness token names it (bridges follow only it).
+        self.session_id = secrets.token_bytes(SESSION_BYTES)
         self._declared: list[Any] = []
         self._token: Any = None
+        self._session_token: Any = None
         self._frames: FramePublisher | None = None
         self._events: Sink | None = None
         self._work: queue.Queue = queue.Queue(maxsize=COMMAND_QUEUE)
@@ -121,11 +125,14 @@ class EngineLink:
             self._declared.append(s.declare_queryable(k[leaf], lambda q, leaf=leaf: self._on_read_query(q, leaf)))
         self._events = Sink("zenoh-events", lambda m: self._events_pub.put(encode_json(m)), max_queue=256)
         hub.listeners.append(self._events.offer)
-        self._frames = hub.session.engine.add_sink(FramePublisher(frames, hub.session.embodiment))
+        self._frames = hub.session.engine.add_sink(FramePublisher(frames, hub.session.embodiment,
+                                                                  session=self.session_id))
         for name, target in (("zenoh-commands", self._work_loop), ("zenoh-status", self._status_loop)):
             t = threading.Thread(target=target, name=name, daemon=True)
             t.start()
             self._threads.append(t)
+        self._session_token = s.liveliness().declare_token(
+            keys.key(self.robot_id, f"{keys.SESSION}/{self.session_id.hex()}"))
         self._token = s.liveliness().declare_token(k[keys.ALIVE])
         return self
 
@@ -261,8 +268,9 @@ class EngineLink:
         self.session.close()
 
     def _withdraw(self) -> None:
-        if self._token is not None:
-            self._token.undeclare()
+        for token in (self._token, self._session_token):
+            if token is not None:
+                token.undeclare()
 
     def _stop_threads(self) -> None:
         self._stop.set()

@@ -1,5 +1,5 @@
-"""One robot's engine, followed over Zenoh by a robot-side bridge (`nutty bridge`): its description,
-its tick rate and its frames."""
+"""One robot's engine, followed over Zenoh by a robot-side bridge (`nutty bridge`): its tick rate and
+its frames (the robot's description and limits are the bridge's own files, never the network's)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,8 @@ import threading
 import time
 from typing import Any, Callable
 
-from backend.engine.embodiment import Embodiment
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import embodiment_from_dict, frame_of, json_of
+from backend.zenoh_link.codec import frame_of, json_of, read_session
 
 
 def ask_one(session: Any, robot_id: str, leaf: str, timeout: float = 2.0) -> Any:
@@ -25,43 +24,89 @@ def ask_one(session: Any, robot_id: str, leaf: str, timeout: float = 2.0) -> Any
     return None
 
 
-def wait_for_engine(session: Any, robot_id: str, *, robot: Embodiment | None, rate: float | None, wait: float,
-                    log: Callable[[str], None], stop: threading.Event | None = None) -> tuple[Embodiment, float]:
-    """The robot (asked of the engine unless given) and its tick rate (asked unless given), waiting up to
-    `wait` s for the engine to answer (or until `stop` is set); TimeoutError naming what is missing."""
+def wait_for_engine(session: Any, robot_id: str, *, rate: float | None, wait: float,
+                    log: Callable[[str], None], stop: threading.Event | None = None) -> float:
+    """The engine's tick rate (asked of the engine unless given), waiting up to `wait` s for it to answer
+    (or until `stop` is set: 0.0 then); TimeoutError when it does not. Only the pace comes from the
+    engine: the robot and its limits are the bridge's own (and the frames' dt is followed, per session)."""
     deadline = time.monotonic() + wait
     told = False
     stop = stop or threading.Event()
-    while (robot is None or rate is None) and not stop.is_set():
-        if robot is None and (doc := ask_one(session, robot_id, keys.ROBOT)) is not None:
-            robot = embodiment_from_dict(doc)
-        if rate is None and isinstance(status := ask_one(session, robot_id, keys.STATUS), dict):
-            rate = float(status["rate"]) if isinstance(status.get("rate"), (int, float)) else None
-        if robot is not None and rate is not None:
-            break
+    while rate is None and not stop.is_set():
+        status = ask_one(session, robot_id, keys.STATUS)
+        if isinstance(status, dict) and isinstance(status.get("rate"), (int, float)) \
+                and not isinstance(status["rate"], bool) and 30.0 <= status["rate"] <= 1000.0:
+            return float(status["rate"])
         if time.monotonic() > deadline:
-            missing = " and ".join(x for x, v in (("its robot description", robot), ("its tick rate", rate))
-                                   if v is None)
-            raise TimeoutError(f"robot '{robot_id}' did not give {missing} within {wait:g} s: is its engine running "
-                               f"with --zenoh --robot-id {robot_id}, and reachable (see `nutty fleet list`)?")
+            raise TimeoutError(f"robot '{robot_id}' did not give its tick rate within {wait:g} s: is its engine "
+                               f"running with --zenoh --robot-id {robot_id}, and reachable (see `nutty fleet list`)? "
+                               "(or give --rate)")
         if not told:
-            log(f"nutty bridge: waiting for robot '{robot_id}' on Zenoh ({keys.key(robot_id, keys.ROBOT)})")
+            log(f"nutty bridge: waiting for robot '{robot_id}' on Zenoh ({keys.key(robot_id, keys.STATUS)})")
             told = True
         stop.wait(0.5)
-    return robot, rate  # type: ignore[return-value]  # (None only when stopped, which the caller checks)
+    return float(rate or 0.0)
 
 
-def follow_frames(session: Any, robot_id: str, receive: Callable[[dict[str, Any], float | None], None],
-                  reject: Callable[[str], None]) -> Any:
-    """Subscribe to the robot's frames: `receive(document, emission stamp)` for each, `reject(why)` for a
-    message that is not a frame. Returns the subscriber (undeclare it when done)."""
+class FrameFollower:
+    """The frames of one running engine, and nobody else's (see `follow_frames`)."""
 
-    def on_sample(sample: Any) -> None:
+    def __init__(self, session: Any, robot_id: str, receive: Callable[..., None],
+                 reject: Callable[..., None]):
+        self.key = keys.key(robot_id, keys.FRAMES)
+        self.receive, self.reject = receive, reject
+        self.live: set[str] = set()  # session ids whose liveliness token is alive now
+        self._lock = threading.Lock()
+        prefix = keys.key(robot_id, keys.SESSION) + "/"
+        self._prefix = prefix
+        # history=True: tokens declared before this subscriber count too.
+        self._tokens = session.liveliness().declare_subscriber(prefix + "*", self._on_token, history=True)
+        self._frames = session.declare_subscriber(self.key, self._on_sample)
+
+    def _on_token(self, sample: Any) -> None:
+        import zenoh
+
+        key = str(sample.key_expr)
+        if not key.startswith(self._prefix):
+            return
+        sid = key[len(self._prefix):]
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.DELETE:
+                self.live.discard(sid)
+            else:
+                self.live.add(sid)
+
+    def _on_sample(self, sample: Any) -> None:
+        if str(sample.key_expr) != self.key:  # a put on a wider key (nutty/**) reaches this subscriber too
+            self.reject(f"a frame put on '{sample.key_expr}', not on {self.key}", "foreign")
+            return
+        sid = read_session(sample.attachment)
+        with self._lock:
+            live = set(self.live)
+        if sid is None or sid not in live or len(live) != 1:
+            why = ("a frame without an engine session id" if sid is None else
+                   f"a frame of session {sid}, while the running engine's is "
+                   f"{', '.join(sorted(live)) or 'none (no engine is alive)'}")
+            self.reject(why, "foreign")
+            return
         try:
             doc, sent = frame_of(sample)
         except ValueError as exc:
-            reject(str(exc))
+            self.reject(str(exc))
             return
-        receive(doc, sent)
+        self.receive(doc, sent, sid)
 
-    return session.declare_subscriber(keys.key(robot_id, keys.FRAMES), on_sample)
+    def undeclare(self) -> None:
+        for sub in (self._frames, self._tokens):
+            try:
+                sub.undeclare()
+            except Exception:  # the session may be closing
+                pass
+
+
+def follow_frames(session: Any, robot_id: str, receive: Callable[..., None],
+                  reject: Callable[..., None]) -> FrameFollower:
+    """Follow the robot's frames: `receive(document, emission stamp, session id)` for each frame put on
+    `nutty/<id>/frames` itself by the engine whose session liveliness token is alive (exactly one), and
+    `reject(why, kind)` for anything else. Returns the follower (undeclare it when done)."""
+    return FrameFollower(session, robot_id, receive, reject)

@@ -5,6 +5,7 @@ Every engine lives under `nutty/<robot id>/`:
 | key | what | who |
 |---|---|---|
 | `nutty/<id>/alive` | liveliness token: present while the engine runs | engine declares; fleet watches |
+| `nutty/<id>/session/<sid>` | liveliness token: the running engine's session id (32 hex digits, new at each start) | engine declares; bridges check frames against it |
 | `nutty/<id>/frames` | every Animation Frame, msgpack (the `/ws/frames` content) | engine publishes; bridges subscribe |
 | `nutty/<id>/status` | engine statistics, JSON, every second; also answers queries | engine |
 | `nutty/<id>/events` | command events (the `/ws/control` shape), and acks/errors of commands put here | engine |
@@ -25,8 +26,8 @@ import re
 import socket
 
 ROOT = "nutty"
-ALIVE, FRAMES, STATUS, EVENTS, COMMANDS, ROBOT, PROGRAM = (
-    "alive", "frames", "status", "events", "commands", "robot", "program")
+ALIVE, FRAMES, STATUS, EVENTS, COMMANDS, ROBOT, PROGRAM, SESSION = (
+    "alive", "frames", "status", "events", "commands", "robot", "program", "session")
 QUERIES = (STATUS, ROBOT, PROGRAM)  # the leaves an engine answers queries on, besides COMMANDS
 
 MAX_ID = 64  # characters in a robot id
