@@ -155,6 +155,12 @@ def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max
     return value
 
 
+def validation_bytes(value: Any) -> bytes:
+    """A value checked by `check_json` as JSON bytes, for validating it *as JSON* (pydantic's strict JSON
+    mode): numpy scalars and arrays from in-process callers become the numbers they hold."""
+    return orjson.dumps(value, option=orjson.OPT_SERIALIZE_NUMPY, default=_numpy_scalar)
+
+
 def safe_text(s: Any) -> str:
     """A string that always encodes as UTF-8 (lone surrogates become \\udXXX escapes)."""
     s = s if isinstance(s, str) else str(s)

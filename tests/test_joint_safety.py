@@ -235,3 +235,39 @@ def test_saving_a_posture_or_clip_that_leaves_a_joint_range_warns_naming_the_joi
         (warning,) = saved["warnings"]
         # head_yaw joint: 1.0 + 0.7 x 1.5 = 2.05 against 1.2, at the clip's end
         assert "'head_yaw'" in warning and "2.050 rad at 1.00 s" in warning and "0.85 above" in warning
+
+
+# --- random postures, swaps and resets through the engine, on the two test robots -----------------
+
+
+@pytest.mark.parametrize("name", ["pan_tilt_eyes", "lift_arm"])
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                               HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_random_postures_swaps_and_resets_keep_the_joints_within_limits(name, data):
+    from backend.commands.serve import builtin_idle
+
+    emb, truth = robot(name)
+    cont = [d for d in emb.dofs if d.type.value == "continuous"]
+    session = EngineSession.create(emb, rate=100.0, program=builtin_idle(emb.name))
+    frames = run(session, 5)
+    try:
+        for k in range(data.draw(st.integers(1, 3), label="postures")):
+            values = {d.name: data.draw(st.floats(d.min, d.max), label=d.name) for d in cont}
+            emb.postures[f"random{k}"] = values
+            session.execute({"type": "go_posture", "posture": f"random{k}",
+                             "duration": data.draw(st.floats(0.05, 1.0), label="duration")})
+            frames += run(session, data.draw(st.integers(10, 150), label="ticks"))
+            if data.draw(st.booleans(), label="swap"):
+                session.load_program(builtin_idle(emb.name))
+                frames += run(session, data.draw(st.integers(5, 60), label="after swap"))
+        session.execute({"type": "reset", "fade": 0.2})
+        frames += run(session, 150)
+    finally:
+        for key in [p for p in emb.postures if p.startswith("random")]:
+            del emb.postures[key]
+    joints = np.array([f.joints for f in frames])
+    truth.assert_within(joints, 100.0, f"{name} joints")
+    has_own = np.array([o is not None for o in truth.own])
+    q = truth.compose(emb, np.array([f.position for f in frames]))
+    truth.assert_within(q[:, has_own], 100.0, f"{name} composed", only=has_own)

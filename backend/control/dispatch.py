@@ -13,6 +13,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 from backend.control.base import REGISTRY, BaseCommand, CommandContext
 from backend.control.errors import CommandError
 from backend.security import JsonSafetyError, check_json
+from backend.safe_json import validation_bytes
 
 _built: tuple[int, Any, TypeAdapter] | None = None  # (registry generation, union, its adapter)
 
@@ -50,7 +51,7 @@ def parse_command(data: Any, where: str = "command") -> BaseCommand:
     except JsonSafetyError as exc:
         raise CommandError(f"{where}: {exc}", field=exc.field, code=exc.code) from exc
     try:
-        return _union()[1].validate_json(orjson.dumps(data), strict=True)
+        return _union()[1].validate_json(validation_bytes(data), strict=True)
     except ValidationError as exc:
         err = exc.errors()[0]
         loc = [str(x) for x in err["loc"]]

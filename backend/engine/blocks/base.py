@@ -46,7 +46,6 @@ from types import SimpleNamespace
 from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
-import orjson
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
@@ -62,6 +61,7 @@ from backend.engine.blocks.ports import (  # noqa: F401
 from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import PartialFrame
+from backend.safe_json import validation_bytes
 
 
 class Role(str, Enum):
@@ -88,7 +88,7 @@ class BlockParams(BaseModel):
     def from_json_value(cls, raw: Any) -> "BlockParams":
         """Parameters from a program document's JSON value, validated strictly as JSON: a number must be
         a JSON number (not true, not "0.3"), a list a JSON array; nothing is coerced."""
-        return cls.model_validate_json(orjson.dumps(raw), strict=True)
+        return cls.model_validate_json(validation_bytes(raw), strict=True)
 
 
 # Parameter annotations that the editor renders with dedicated widgets.

@@ -121,7 +121,7 @@ export type Type3 = "go_posture";
  */
 export type Id4 = string | null;
 /**
- * [x, y, z] (m) in the robot's base frame: x forward, y left, z up
+ * [x, y, z] (m) in the robot's base frame: x forward, y left, z up; each within +-20 m
  *
  * @minItems 3
  * @maxItems 3
