@@ -117,6 +117,45 @@ def check_json(value: Any, *, max_depth: int = MAX_DEPTH, where: str = "", statu
             raise JsonSafetyError(f"{p or 'value'}: NaN and infinity are not allowed", "non_finite", p or None, status)
 
 
+def deep_path(text: str, max_depth: int = MAX_DEPTH) -> str:
+    """The member whose value nests past `max_depth` in a JSON text (`params.arguments`: the deepest
+    object key on the way there), read without parsing it (a parser would recurse that deep); "" when
+    the nesting stays within the limit or starts at the top."""
+    stack: list[list[Any]] = []  # per open container: [its bracket, the current item index]
+    path: list[Any] = []  # the key or index leading into each open container but the outermost
+    key: str | None = None
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c == '"':
+            j = i + 1
+            while j < n and text[j] != '"':
+                j += 2 if text[j] == "\\" else 1
+            token, i = text[i:j + 1], j + 1
+            if stack and stack[-1][0] == "{" and text[i:i + 64].lstrip().startswith(":"):
+                try:
+                    key = json.loads(token)
+                except ValueError:
+                    key = token.strip('"')
+            continue
+        if c in "[{":
+            if stack:
+                path.append(key if stack[-1][0] == "{" else stack[-1][1])
+            stack.append([c, 0])
+            key = None
+            if len(stack) > max_depth:
+                named = [k for k, part in enumerate(path) if isinstance(part, str)]
+                return _path(tuple(path[:named[-1] + 1])) if named else ""
+        elif c in "]}" and stack:
+            stack.pop()
+            if path:
+                path.pop()
+        elif c == "," and stack and stack[-1][0] == "[":
+            stack[-1][1] += 1
+        i += 1
+    return ""
+
+
 def _bad_constant(name: str) -> Any:
     raise JsonSafetyError(f"{name} is not allowed (JSON numbers are finite)", "non_finite")
 
@@ -148,7 +187,9 @@ def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max
     except JsonSafetyError:
         raise
     except RecursionError:
-        raise JsonSafetyError(f"nested deeper than {max_depth} levels", "too_deep") from None
+        where = deep_path(raw, max_depth)
+        raise JsonSafetyError(f"{where + ': ' if where else ''}nested deeper than {max_depth} levels", "too_deep",
+                              where or None) from None
     except ValueError as exc:  # JSONDecodeError, and int() of a number with too many digits
         raise JsonSafetyError(f"malformed JSON: {safe_text(str(exc))[:200]}", "malformed_json") from None
     check_json(value, max_depth=max_depth)

@@ -145,13 +145,27 @@ def test_save_to_library_and_add_it_to_another_program(page, server):
     page.screenshot(path=str(ARTIFACTS / "organise-from-library.png"))
 
 
+def stable_box(locator, what: str) -> dict:
+    """The element's bounding box once two reads a poll apart (0.1 s) agree (the view may still be fitting)."""
+    last = None
+
+    def settled():
+        nonlocal last
+        box = locator.bounding_box()
+        same, last = box is not None and box == last, box
+        return same
+    wait_until(settled, timeout=30, what=what)
+    return last
+
+
 def test_comment_and_reroute_survive_save_and_reopen(page, server):
-    page.get_by_test_id("add-comment").click()
-    page.locator("[data-testid^=comment-note-]").first.wait_for()
+    # The reroute first: a new comment lands in a free visible spot, which may be over the wire.
     edge = page.locator("[data-testid='rf__edge-rest.out->output.in'] path.react-flow__edge-path")
-    box = edge.bounding_box()
+    box = stable_box(edge, "the wire rest -> output to stay put")
     page.mouse.dblclick(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
     page.locator("[data-testid^=reroute-reroute-]").first.wait_for()
+    page.get_by_test_id("add-comment").click()
+    page.locator("[data-testid^=comment-note-]").first.wait_for()
 
     def kept_by_server():
         ui = running(server)["program"].get("ui") or {}

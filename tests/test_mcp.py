@@ -204,7 +204,7 @@ def test_stdio_answers_every_line_and_goes_on_working():
         sur = ask(call % (4, '{"valence": 0, "arousal": 0, "note": "\\ud800"}'))
         assert sur["id"] == 4 and sur["error"]["data"]["field"] == "params.arguments.note"
         deep = ask(call % (5, "[" * 5000 + "]" * 5000))
-        assert deep["id"] == 5 and deep["error"]["data"]["code"] == "too_deep"
+        assert deep["id"] == 5 and deep["error"]["data"] == {"field": "params.arguments", "code": "too_deep"}
         dup = ask('{"jsonrpc": "2.0", "id": 6, "id": 7, "method": "ping"}')
         assert dup["error"]["data"] == {"field": "id", "code": "duplicate_key"}
         odd = ask('{"jsonrpc": "2.0", "id": 8}')

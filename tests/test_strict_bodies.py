@@ -88,3 +88,9 @@ def test_program_parameters_are_not_coerced(client, bad):
     assert err["node"] == node["id"] and err["port"] == "amplitude" and "number" in err["message"]
     r = client.patch(f"/api/program/nodes/{node['id']}/params", json={"amplitude": bad})
     assert r.status_code == 422
+
+
+def test_nesting_too_deep_for_a_parser_names_the_field(client):
+    r = post(client, "/api/commands", '{"type": "set_gaze", "target": ' + "[" * 5000 + "]" * 5000 + "}")
+    assert r.status_code == 400
+    assert r.json()["detail"]["code"] == "too_deep" and r.json()["detail"]["field"] == "target"
