@@ -26,8 +26,9 @@ rest, so a program holding a DoF at its position limit still passes through exac
 Coupled groups (a planar base) are limited per axis here; channels without finite limits (LED
 colours, enum options) pass through untouched. After the channels, the same tracker runs on the
 *joints* the motors receive (a joint's own DoF plus every symbolic DoF driving it), and a joint's
-correction is carried back onto its own channel: `backend.engine.joint_net`. Vectorised over channels: the pass-through test is a
-handful of numpy operations; the correction is a compiled (numba) loop over the channels that need it.
+correction is carried back onto its own channel: `backend.engine.joint_net`. Vectorised over
+channels: the pass-through test is a handful of numpy operations; the correction is a compiled
+(numba) loop over the channels that need it.
 """
 
 from __future__ import annotations
