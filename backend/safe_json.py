@@ -1,8 +1,8 @@
 """JSON that cannot hurt the server: parsing, checking and writing request and message bodies.
 
 `loads` parses with NaN/Infinity, numbers that overflow to infinity, integers beyond 2**63, invalid
-Unicode (lone surrogates), a key given twice in one object and nesting deeper than `MAX_DEPTH` refused with an error that names the
-field; `check_json` applies the same rules to an already parsed value (every entry point: REST,
+Unicode (lone surrogates), a key given twice in one object and nesting deeper than `MAX_DEPTH` refused
+with an error that names the field; `check_json` applies the same rules to an already parsed value (every entry point: REST,
 WebSockets, in-process commands); `dumps` never fails (a value that cannot be serialised is
 sanitised rather than turned into a 500 or a dead socket).
 

@@ -111,18 +111,17 @@ def _follow(session, args, drivers, robot) -> int:
     sinks = []
     try:
         try:
-            emb = robot
             rate = wait_for_engine(session, args.robot_id, rate=args.rate, wait=args.wait, log=log,
                                    stop=signals.first)
-            sinks = [DRIVER_OPTIONS[name].build(emb, value) for name, value in drivers]
-            relay = FrameRelay(emb, rate, sinks, timeout=args.timeout, log=log)
+            if signals.first.is_set():  # stopped while waiting: nothing was ever sent
+                return 0
+            sinks = [DRIVER_OPTIONS[name].build(robot, value) for name, value in drivers]
+            relay = FrameRelay(robot, rate, sinks, timeout=args.timeout, log=log)
         except (TimeoutError, ValueError, OSError) as exc:
             return fail(str(exc), 1)
-        if signals.first.is_set():
-            return 0
         relay.start()
         subscriber = follow_frames(session, args.robot_id, relay.receive, relay.reject)
-        print(f"nutty bridge: following robot '{args.robot_id}' ({emb.name}, {rate:g} Hz) into "
+        print(f"nutty bridge: following robot '{args.robot_id}' ({robot.name}, {rate:g} Hz) into "
               f"{', '.join(s.name for s in sinks)}; rest after {args.timeout:g} s without frames", flush=True)
         while not signals.first.wait(args.report or 3600.0):
             log(report_line(args.robot_id, relay.summary()))

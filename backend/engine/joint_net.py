@@ -110,10 +110,3 @@ class JointLimits:
         q = np.empty(len(self.names)) if out is None else out
         compose_joints(np.asarray(values, dtype=float), self.starts, self.cols, self.coefs, self.offset, q)
         return q
-
-    def overruns(self, values: np.ndarray) -> dict[str, float]:
-        """{joint: how far (rad or m) a channel vector's composition lies outside the joint's range} for
-        the joints it leaves (positive above the upper limit, negative below the lower one)."""
-        q = self.compose(values)
-        over = np.where(q > self.upper, q - self.upper, np.where(q < self.lower, q - self.lower, 0.0))
-        return {self.names[j]: float(over[j]) for j in np.flatnonzero(over)}

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from backend.engine.dofs import DofType
+from backend.engine.blocks.core import pose_vector
 from backend.engine.embodiment import Embodiment
 
 #: Clip time step (s) for the range check: fine enough for keyed motion, cheap for long clips.
@@ -21,22 +21,17 @@ CLIP_STEP = 0.01
 TOLERANCE = 1e-9
 
 
-def _describe(joint: str, value: float, over: float, lo: float, hi: float, when: str) -> str:
+def _describe(joint: str, value: float, unit: str, over: float, lo: float, hi: float, when: str) -> str:
     side = f"{over:.3g} above its upper limit {hi:g}" if over > 0 else f"{-over:.3g} below its lower limit {lo:g}"
-    return (f"joint '{joint}' reaches {value:.3f}{when}, {side}: the DoFs that drive it add up past its range, "
-            f"so the safety net will hold it at the limit")
+    return (f"joint '{joint}' reaches {value:.3f} {unit}{when}, {side}: the DoFs that drive it add up past its "
+            f"range, so the safety net will hold it at the limit")
 
 
 def posture_warnings(values: dict[str, Any], emb: Embodiment) -> list[str]:
-    """One warning per joint that a posture's values (the rest elsewhere) put outside its range."""
-    x = emb.rest.copy()
-    for name, value in values.items():
-        if emb.has_dof(name):
-            d = emb.dof(name)
-            if d.type is DofType.continuous and isinstance(value, (int, float)) and not isinstance(value, bool):
-                x[d.channels.start] = float(value)
-    q = emb.joint_positions(x)
-    return _range_warnings(emb, q[None, :], None)
+    """One warning per joint that a (validated) posture's values, the rest elsewhere, put outside its
+    range: the pose the posture block plays (`pose_vector`)."""
+    x, _ = pose_vector(emb, values)
+    return _range_warnings(emb, emb.joint_positions(x)[None, :], None)
 
 
 def clip_warnings(compiled: Any, emb: Embodiment) -> list[str]:
@@ -57,8 +52,8 @@ def _range_warnings(emb: Embodiment, q: np.ndarray, times: np.ndarray | None) ->
     out = []
     for j in np.flatnonzero(np.any(over != 0.0, axis=0)):
         k = int(np.argmax(np.abs(over[:, j])))
-        when = "" if times is None else f" rad at {times[k]:.2f} s"
-        unit = "" if times is not None else " rad"
-        out.append(_describe(emb.joint_names[j], float(q[k, j]), float(over[k, j]), float(lo[j]), float(hi[j]),
-                             unit + when))
+        unit = "m" if emb.joints[j].type == "prismatic" else "rad"
+        when = "" if times is None else f" at {times[k]:.2f} s"
+        out.append(_describe(emb.joint_names[j], float(q[k, j]), unit, float(over[k, j]), float(lo[j]),
+                             float(hi[j]), when))
     return out

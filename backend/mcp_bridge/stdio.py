@@ -84,9 +84,7 @@ def check_line(line: str) -> tuple[dict[str, Any] | None, types.JSONRPCError | N
     try:
         types.jsonrpc_message_adapter.validate_python(doc, by_name=False)
     except Exception as exc:  # pydantic's ValidationError: name what is wrong in one line
-        rid = doc.get("id") if isinstance(doc, dict) and isinstance(doc.get("id"), (int, str)) else None
-        if isinstance(rid, bool):
-            rid = None
+        rid = _lenient_id(line, doc)
         first = str(exc).splitlines()
         why = first[1].strip() if len(first) > 1 else str(exc)
         return None, _error(rid, types.INVALID_REQUEST, f"Invalid Request: not a JSON-RPC 2.0 message ({why})")

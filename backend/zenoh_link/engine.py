@@ -131,8 +131,7 @@ class EngineLink:
             t = threading.Thread(target=target, name=name, daemon=True)
             t.start()
             self._threads.append(t)
-        self._session_token = s.liveliness().declare_token(
-            keys.key(self.robot_id, f"{keys.SESSION}/{self.session_id.hex()}"))
+        self._session_token = s.liveliness().declare_token(keys.session_key(self.robot_id, self.session_id.hex()))
         self._token = s.liveliness().declare_token(k[keys.ALIVE])
         return self
 

@@ -57,10 +57,10 @@ class FrameFollower:
         self.receive, self.reject = receive, reject
         self.live: set[str] = set()  # session ids whose liveliness token is alive now
         self._lock = threading.Lock()
-        prefix = keys.key(robot_id, keys.SESSION) + "/"
-        self._prefix = prefix
+        self._prefix = keys.session_key(robot_id, "")
         # history=True: tokens declared before this subscriber count too.
-        self._tokens = session.liveliness().declare_subscriber(prefix + "*", self._on_token, history=True)
+        self._tokens = session.liveliness().declare_subscriber(keys.session_key(robot_id), self._on_token,
+                                                               history=True)
         self._frames = session.declare_subscriber(self.key, self._on_sample)
 
     def _on_token(self, sample: Any) -> None:

@@ -35,6 +35,11 @@ _ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 _PATTERN = re.compile(r"[A-Za-z0-9_.*-]+")
 
 
+def session_key(robot_id: str, session: str = "*") -> str:
+    """The liveliness key naming an engine's session (`session`: 32 hex digits, or `*` for any)."""
+    return key(robot_id, f"{SESSION}/{session}")
+
+
 class RobotIdError(ValueError):
     """A robot id or pattern that cannot be a key chunk; the message says which character is wrong."""
 

@@ -135,9 +135,10 @@ class ZenohOptions:
             parts.append("multicast scouting")
         return "; ".join(parts)
 
-    def listen_endpoints(self) -> list[str]:
-        """The endpoints the session will listen on, for its mode (after flags, file and defaults)."""
-        cfg = self.config()
+    def listen_endpoints(self, cfg: Any = None) -> list[str]:
+        """The endpoints the session will listen on, for its mode (after flags, file and defaults);
+        `cfg`: `config()` when the caller has it already."""
+        cfg = cfg or self.config()
         listen = json.loads(cfg.get_json("listen/endpoints") or "[]")
         if isinstance(listen, dict):
             mode = json.loads(cfg.get_json("mode") or "null") or "peer"
@@ -161,12 +162,11 @@ class ZenohOptions:
             raise ZenohSetupError(f"--zenoh-config {self.config_file}: {clean_error(exc)}") from None
         values: list[tuple[str, str, Any]] = []
         own = self.file_settings()
-        scouting = ((own.get("scouting") or {}).get("multicast") or {}) if isinstance(own.get("scouting"), dict) else {}
         if self.scout:
             values.append(("--zenoh-scout", "scouting/multicast/enabled", True))
-        elif not isinstance(scouting, dict) or "enabled" not in scouting:
+        elif not _sets(own, "scouting", "multicast", "enabled"):
             values.append(("(default)", "scouting/multicast/enabled", False))
-        if not self.listen and not (isinstance(own.get("listen"), dict) and "endpoints" in own["listen"]):
+        if not self.listen and not _sets(own, "listen", "endpoints"):
             values.append(("(default)", "listen/endpoints", self.default_listen))
         if self.mode is not None:
             values.append(("--zenoh-mode", "mode", self.mode))
@@ -184,17 +184,18 @@ class ZenohOptions:
 
     def exposure_warning(self) -> str | None:
         """A warning when this session listens beyond loopback with no access control (None otherwise)."""
-        if self.access_controlled():
+        cfg = self.config()
+        if self.access_controlled(cfg):
             return None
-        exposed = [e for e in self.listen_endpoints() if not is_loopback_endpoint(e)]
+        exposed = [e for e in self.listen_endpoints(cfg) if not is_loopback_endpoint(e)]
         if not exposed:
             return None
         return (f"Zenoh listens on {', '.join(exposed)} with no access control: anyone who can reach it may "
                 f"command this robot and publish its frames (see {SECURITY_DOCS})")
 
-    def access_controlled(self) -> bool:
-        """Whether the configuration turns Zenoh's access control on."""
-        return json.loads(self.config().get_json("access_control/enabled") or "false") is True
+    def access_controlled(self, cfg: Any = None) -> bool:
+        """Whether the configuration (`cfg`, or `config()`) turns Zenoh's access control on."""
+        return json.loads((cfg or self.config()).get_json("access_control/enabled") or "false") is True
 
     def scouts(self) -> bool:
         """Whether this session looks for peers by multicast (Zenoh's default, unless the config turns it off)."""
@@ -210,6 +211,15 @@ class ZenohOptions:
             return zenoh.open(cfg)
         except zenoh.ZError as exc:
             raise ZenohSetupError(f"cannot join Zenoh ({self.describe()}): {clean_error(exc)}") from None
+
+
+def _sets(doc: Any, *path: str) -> bool:
+    """Whether a config file's own settings (nested dicts) name `path`, e.g. ("listen", "endpoints")."""
+    for key in path:
+        if not isinstance(doc, dict) or key not in doc:
+            return False
+        doc = doc[key]
+    return True
 
 
 def is_loopback_endpoint(endpoint: str) -> bool:
