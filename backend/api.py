@@ -36,13 +36,30 @@ from backend.security import MAX_BODY
 from backend.session import EngineSession
 
 FRONTEND_DIST = Path(__file__).resolve().parents[1] / "frontend" / "dist"
-ROUTERS = (robot.router, program.router, library.router, commands.router, tools.router, status.router,
-           status.previz_proxy, sockets.router, analysis.router)
+ROUTERS = (
+    robot.router,
+    program.router,
+    library.router,
+    commands.router,
+    tools.router,
+    status.router,
+    status.previz_proxy,
+    sockets.router,
+    analysis.router,
+)
 
 
-def create_app(session: EngineSession, *, token: str | None = None, previz: Any = None,
-               allowed_origins: list[str] | None = None, port: int | None = None, host: str = "127.0.0.1",
-               origins: list[str] | None = None, frontend_dir: Path | None = FRONTEND_DIST) -> FastAPI:
+def create_app(
+    session: EngineSession,
+    *,
+    token: str | None = None,
+    previz: Any = None,
+    allowed_origins: list[str] | None = None,
+    port: int | None = None,
+    host: str = "127.0.0.1",
+    origins: list[str] | None = None,
+    frontend_dir: Path | None = FRONTEND_DIST,
+) -> FastAPI:
     """The API around `session`.
 
     `allowed_origins`: origins besides the server's own (http://localhost|127.0.0.1|[::1]:`port`, and
@@ -65,12 +82,19 @@ def create_app(session: EngineSession, *, token: str | None = None, previz: Any 
         finally:
             hub.stopping.set()
 
-    app = FastAPI(title="Nutty", version="0.1.0", lifespan=lifespan, default_response_class=SafeJSONResponse,
-                  description="Robot animation engine: Animation Programs, commands, telemetry and frames.")
+    app = FastAPI(
+        title="Nutty",
+        version="0.1.0",
+        lifespan=lifespan,
+        default_response_class=SafeJSONResponse,
+        description="Robot animation engine: Animation Programs, commands, telemetry and frames.",
+    )
     app.state.hub = hub
     app.state.policy = policy
     if extra_origins:
-        app.add_middleware(CORSMiddleware, allow_origins=extra_origins, allow_methods=["*"], allow_headers=["*"])
+        app.add_middleware(
+            CORSMiddleware, allow_origins=extra_origins, allow_methods=["*"], allow_headers=["*"]
+        )
     app.add_middleware(security.Guard, policy=policy, max_body=MAX_BODY)
     install_error_handlers(app)
     for router in ROUTERS:
@@ -91,7 +115,9 @@ def _serve_editor(app: FastAPI, hub: Hub, frontend_dir: Path | None) -> None:
     def index() -> str:
         session = hub.session
         link = '<li><a href="/previz/">3D Pre-Viz</a></li>' if hub.previz else ""
-        return (f"<!doctype html><title>Nutty</title><h1>Nutty is running</h1>"
-                f"<p>Robot <b>{session.embodiment.name}</b>, program <b>{session.program.name if session.program else '-'}</b>."
-                f" The editor is not built (run <code>make run</code>).</p>"
-                f"<ul><li><a href='/docs'>API (OpenAPI)</a></li>{link}</ul>")
+        return (
+            f"<!doctype html><title>Nutty</title><h1>Nutty is running</h1>"
+            f"<p>Robot <b>{session.embodiment.name}</b>, program <b>{session.program.name if session.program else '-'}</b>."
+            f" The editor is not built (run <code>make run</code>).</p>"
+            f"<ul><li><a href='/docs'>API (OpenAPI)</a></li>{link}</ul>"
+        )

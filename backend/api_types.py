@@ -10,7 +10,7 @@ declarations keep their own models (backend.graph.schema); here they are typed b
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, RootModel
 from pydantic.json_schema import GenerateJsonSchema, models_json_schema
@@ -61,7 +61,9 @@ class BlockEntry(_Shape):
     inputs: dict[str, PortSpec] = Field(..., description="ports without parameters (see port_rules)")
     outputs: dict[str, PortSpec]
     dynamic_ports: bool
-    port_rules: list[PortRule] = Field(..., description="ports derived from the parameters, after the fixed ones")
+    port_rules: list[PortRule] = Field(
+        ..., description="ports derived from the parameters, after the fixed ones"
+    )
 
 
 class BlockPorts(_Shape):
@@ -93,13 +95,19 @@ class JointFrame(_Shape):
 
     joint: str
     type: str = Field(..., description="URDF joint type: revolute, continuous, prismatic, ...")
-    parent_joint: str | None = Field(..., description="the nearest moving joint above it (null: the root link)")
+    parent_joint: str | None = Field(
+        ..., description="the nearest moving joint above it (null: the root link)"
+    )
     origin: list[float] = Field(..., min_length=3, max_length=3, description="joint frame origin (m)")
     rotation: list[list[float]] = Field(..., description="joint frame orientation, 3x3 rows")
     axis: list[float] = Field(..., min_length=3, max_length=3, description="unit joint axis (right-handed)")
     links: list[str] = Field(..., description="links that move rigidly with this joint")
-    limits: list[float | None] = Field(..., min_length=2, max_length=2,
-                                       description="[lower, upper] joint position (rad or m); null: unbounded")
+    limits: list[float | None] = Field(
+        ...,
+        min_length=2,
+        max_length=2,
+        description="[lower, upper] joint position (rad or m); null: unbounded",
+    )
     mimic: dict[str, Any] | None = Field(..., description="{joint, multiplier, offset} of a mimic joint")
 
 
@@ -113,8 +121,9 @@ class DofInfo(_Shape):
     acceleration: float | None
     jerk: float | None
     rest: float | list[float] | None
-    channels: list[int] = Field(..., min_length=2, max_length=2,
-                                description="first and one-past-last channel in frame vectors")
+    channels: list[int] = Field(
+        ..., min_length=2, max_length=2, description="first and one-past-last channel in frame vectors"
+    )
     joint: str | None = None
     drives: dict[str, float] | None = None
     axis: str | None = None
@@ -124,7 +133,9 @@ class DofInfo(_Shape):
     kind: str | None = None
     sounds: list[str] | None = None
     description: str | None = None
-    joint_frame: JointFrame | None = Field(None, description="the frame and axis of `joint` (a URDF joint's DoF)")
+    joint_frame: JointFrame | None = Field(
+        None, description="the frame and axis of `joint` (a URDF joint's DoF)"
+    )
 
 
 class RobotDescription(_Shape):
@@ -218,7 +229,9 @@ class ErrorDetail(_OpenShape):
     message: str
     field: str | None = None
     id: str | None = None
-    report: ValidationReport | None = Field(None, description="the program's report, when a program was refused")
+    report: ValidationReport | None = Field(
+        None, description="the program's report, when a program was refused"
+    )
 
 
 class ErrorBody(_Shape):
@@ -289,7 +302,9 @@ class Profile(_Shape):
 class TelemetryFrame(_Shape):
     position: dict[str, float]
     stage1: dict[str, float]
-    classes: dict[str, int] = Field(..., description="channel -> 1 velocity, 2 acceleration, 3 jerk (ok omitted)")
+    classes: dict[str, int] = Field(
+        ..., description="channel -> 1 velocity, 2 acceleration, 3 jerk (ok omitted)"
+    )
     corrected: list[str]
 
 
@@ -297,7 +312,9 @@ class Telemetry(_Shape):
     type: Literal["telemetry"]
     t: float
     seq: int
-    signals: dict[str, Any] | None = Field(None, description="'node.port' -> value (frames as {mask, values})")
+    signals: dict[str, Any] | None = Field(
+        None, description="'node.port' -> value (frames as {mask, values})"
+    )
     frame: TelemetryFrame | None = None
     layers: dict[str, list[LayerState]] | None = None
     profile: Profile | None = None
@@ -328,18 +345,39 @@ class CommandEvent(_OpenShape):
     node: str | None = None
 
 
-class TelemetryMessage(RootModel[Annotated[Union[Telemetry, Subscribed, SocketError], Field(discriminator="type")]]):
+class TelemetryMessage(
+    RootModel[Annotated[Telemetry | Subscribed | SocketError, Field(discriminator="type")]]
+):
     """What /ws/telemetry sends."""
 
 
-class ControlMessage(RootModel[Annotated[Union[CommandAck, CommandEvent, SocketError], Field(discriminator="type")]]):
+class ControlMessage(
+    RootModel[Annotated[CommandAck | CommandEvent | SocketError, Field(discriminator="type")]]
+):
     """What /ws/control sends."""
 
 
 API_MODELS: tuple[type[BaseModel], ...] = (
-    BlockEntry, BlockPorts, EditorRules, RobotDescription, RunningProgram, ValidationReport, Issue, ProgramLoaded,
-    ParamsApplied, ExposedInputs, InputSet, Saved, CommandAccepted, PrevizInfo, GhostSet, ErrorBody,
-    TelemetrySubscribe, TelemetryMessage, ControlMessage, Profile,
+    BlockEntry,
+    BlockPorts,
+    EditorRules,
+    RobotDescription,
+    RunningProgram,
+    ValidationReport,
+    Issue,
+    ProgramLoaded,
+    ParamsApplied,
+    ExposedInputs,
+    InputSet,
+    Saved,
+    CommandAccepted,
+    PrevizInfo,
+    GhostSet,
+    ErrorBody,
+    TelemetrySubscribe,
+    TelemetryMessage,
+    ControlMessage,
+    Profile,
 )
 
 
@@ -352,7 +390,9 @@ class _WithoutFieldTitles(GenerateJsonSchema):
 
 def api_json_schema() -> dict[str, Any]:
     """One JSON Schema naming every API model at the top (`properties`), definitions in `$defs`."""
-    refs, doc = models_json_schema([(m, "serialization") for m in API_MODELS], schema_generator=_WithoutFieldTitles)
+    refs, doc = models_json_schema(
+        [(m, "serialization") for m in API_MODELS], schema_generator=_WithoutFieldTitles
+    )
     return {
         "title": "NuttyApi",
         "description": "Shapes of the Nutty API the editor reads (backend/api_types.py).",

@@ -35,7 +35,8 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -63,14 +64,24 @@ class FrameRelay:
     replaced in tests.
     """
 
-    def __init__(self, emb: Embodiment, rate: float, sinks: list[Sink], *, timeout: float = DEFAULT_TIMEOUT,
-                 clock: Callable[[], float] = time.monotonic, wall: Callable[[], float] = time.time,
-                 log: Callable[[str], None] | None = None):
+    def __init__(
+        self,
+        emb: Embodiment,
+        rate: float,
+        sinks: list[Sink],
+        *,
+        timeout: float = DEFAULT_TIMEOUT,
+        clock: Callable[[], float] = time.monotonic,
+        wall: Callable[[], float] = time.time,
+        log: Callable[[str], None] | None = None,
+    ):
         if not 30.0 <= rate <= 1000.0:
             raise ValueError(f"rate must be within 30..1000 Hz, got {rate:g}")
         if not MIN_TIMEOUT <= timeout <= MAX_TIMEOUT or timeout < 2.0 / rate:
-            raise ValueError(f"timeout must be within {MIN_TIMEOUT:g}..{MAX_TIMEOUT:g} s and at least two ticks "
-                             f"({2.0 / rate:g} s), got {timeout:g}")
+            raise ValueError(
+                f"timeout must be within {MIN_TIMEOUT:g}..{MAX_TIMEOUT:g} s and at least two ticks "
+                f"({2.0 / rate:g} s), got {timeout:g}"
+            )
         self.emb, self.sinks, self.timeout = emb, list(sinks), float(timeout)
         self.clock, self.wall = clock, wall
         self.log = log or (lambda m: print(m, file=sys.stderr, flush=True))
@@ -90,8 +101,23 @@ class FrameRelay:
         self.last_seq: int | None = None
         self.last_rx: float | None = None
         self.latency = RingStats()
-        self.counts = dict.fromkeys(("received", "sent", "gaps", "missed", "held", "stale", "implausible",
-                                     "foreign", "rejected", "timeouts", "resumes", "restarts"), 0)
+        self.counts = dict.fromkeys(
+            (
+                "received",
+                "sent",
+                "gaps",
+                "missed",
+                "held",
+                "stale",
+                "implausible",
+                "foreign",
+                "rejected",
+                "timeouts",
+                "resumes",
+                "restarts",
+            ),
+            0,
+        )
         self.longest_silence = 0.0  # s between two frames received
         self._started = clock()
         self._stop = threading.Event()
@@ -104,7 +130,9 @@ class FrameRelay:
         # Load the net's compiled correction now, not on the first frame that needs it (that takes a
         # second or more, and the frames behind it would pile up): a throwaway net corrects a jump.
         warm = SafetyNet(self.emb, rate, start=self.emb.rest)
-        warm.step(np.where(warm.mask, np.clip(self.emb.rest + 0.1, self.emb.min, self.emb.max), self.emb.rest))
+        warm.step(
+            np.where(warm.mask, np.clip(self.emb.rest + 0.1, self.emb.min, self.emb.max), self.emb.rest)
+        )
 
     # --- frames in --------------------------------------------------------------------------------
     def receive(self, doc: dict[str, Any], sent: float | None = None, session: str | None = None) -> None:
@@ -122,18 +150,24 @@ class FrameRelay:
             if session != self.session:
                 if self.session is not None:
                     self.counts["restarts"] += 1
-                    self.log(f"nutty bridge: a new engine session ({session}): following it from seq {frame.seq}")
+                    self.log(
+                        f"nutty bridge: a new engine session ({session}): following it from seq {frame.seq}"
+                    )
                 self.session, self.last_seq = session, None
             if not self._plausible(frame.seq, now):
                 return
             if abs(frame.dt * self.rate - 1.0) > 0.01:
-                self.log(f"nutty bridge: the engine now ticks at {1.0 / frame.dt:g} Hz (was {self.rate:g}): "
-                         "following it")
+                self.log(
+                    f"nutty bridge: the engine now ticks at {1.0 / frame.dt:g} Hz (was {self.rate:g}): "
+                    "following it"
+                )
                 self._set_rate(1.0 / frame.dt, self._pos)
             if self.mode in (RESTING, AT_REST):
                 self.counts["resumes"] += 1
-                self.log(f"nutty bridge: frames again after {now - (self.last_rx or now):.2f} s: blending back "
-                         "within the robot's limits")
+                self.log(
+                    f"nutty bridge: frames again after {now - (self.last_rx or now):.2f} s: blending back "
+                    "within the robot's limits"
+                )
             if self.last_rx is not None:
                 self.longest_silence = max(self.longest_silence, now - self.last_rx)
             self.counts["received"] += 1
@@ -164,8 +198,10 @@ class FrameRelay:
         if ahead > allowed:
             self.counts["implausible"] += 1
             if self.counts["implausible"] in (1, 10, 100, 1000):
-                self.log(f"nutty bridge: a frame {ahead} ahead of the last one ({self.last_seq}) cannot be this "
-                         f"engine's so soon: refused ({self.counts['implausible']} so far)")
+                self.log(
+                    f"nutty bridge: a frame {ahead} ahead of the last one ({self.last_seq}) cannot be this "
+                    f"engine's so soon: refused ({self.counts['implausible']} so far)"
+                )
             return False
         if ahead > 1:
             self.counts["gaps"] += 1
@@ -189,8 +225,10 @@ class FrameRelay:
                 self.mode = RESTING
                 if not self.parking:
                     self.counts["timeouts"] += 1
-                    self.log(f"nutty bridge: no frame for {now - self.last_rx:.2f} s (timeout {self.timeout:g} s): "
-                             "taking the robot to rest within its limits")
+                    self.log(
+                        f"nutty bridge: no frame for {now - self.last_rx:.2f} s (timeout {self.timeout:g} s): "
+                        "taking the robot to rest within its limits"
+                    )
             if self.mode == LIVE:
                 if now >= (self._last_sent or now) + self._live_step():
                     self._holding = not self._pending
@@ -222,10 +260,13 @@ class FrameRelay:
 
     def at_rest(self) -> bool:
         """Whether the last frame sent is the rest pose exactly, standing still."""
-        return (bool(np.array_equal(self._pos, self.emb.rest)) and not np.any(self._vel) and not np.any(self._acc))
+        return (
+            bool(np.array_equal(self._pos, self.emb.rest)) and not np.any(self._vel) and not np.any(self._acc)
+        )
 
-    def start(self) -> "FrameRelay":
+    def start(self) -> FrameRelay:
         """Run `tick` on a thread when something is due (late ticks stretch time: never faster than the rate)."""
+
         def loop() -> None:
             while not self._stop.is_set():
                 now = self.clock()
@@ -277,10 +318,20 @@ class FrameRelay:
         jerk = np.zeros_like(out) if first else (acc - self._acc) / dt
         self._pos, self._vel, self._acc = out, vel, acc
         self.t = self.t + dt if not first else 0.0
-        frame = AnimationFrame(embodiment=self.emb.name, t=self.t, dt=dt, seq=self.seq, position=out, velocity=vel,
-                               acceleration=acc, jerk=jerk, events=list(events),
-                               corrected=self.net.corrected.copy() if self.net.corrected_any else None,
-                               program=np.array(program, dtype=float), joints=self.net.joint_out)
+        frame = AnimationFrame(
+            embodiment=self.emb.name,
+            t=self.t,
+            dt=dt,
+            seq=self.seq,
+            position=out,
+            velocity=vel,
+            acceleration=acc,
+            jerk=jerk,
+            events=list(events),
+            corrected=self.net.corrected.copy() if self.net.corrected_any else None,
+            program=np.array(program, dtype=float),
+            joints=self.net.joint_out,
+        )
         self.seq += 1
         self.counts["sent"] += 1
         for sink in self.sinks:
@@ -292,17 +343,25 @@ class FrameRelay:
         with self._lock:
             elapsed = max(self.clock() - self._started, 1e-9)
             lat = self.latency.summary()
-            return {"mode": self.mode, **self.counts, "rate_in": self.counts["received"] / elapsed,
-                    "latency_ms": {k: lat[k] for k in ("p50_ms", "p99_ms", "max_ms")},
-                    "longest_silence_s": self.longest_silence, "corrected_ticks": int(self.net.corrected_ticks),
-                    "seconds": elapsed, "drivers": [s.stats() for s in self.sinks]}
+            return {
+                "mode": self.mode,
+                **self.counts,
+                "rate_in": self.counts["received"] / elapsed,
+                "latency_ms": {k: lat[k] for k in ("p50_ms", "p99_ms", "max_ms")},
+                "longest_silence_s": self.longest_silence,
+                "corrected_ticks": int(self.net.corrected_ticks),
+                "seconds": elapsed,
+                "drivers": [s.stats() for s in self.sinks],
+            }
 
 
 def report_line(robot_id: str, s: dict[str, Any]) -> str:
     """One log line of a summary."""
     lat = s["latency_ms"]
-    return (f"nutty bridge: {robot_id} {s['mode']}: {s['received']} frames in ({s['rate_in']:.1f}/s), "
-            f"{s['sent']} out; latency p50 {lat['p50_ms']:.2f} ms p99 {lat['p99_ms']:.2f} ms max {lat['max_ms']:.2f} ms; "
-            f"gaps {s['gaps']} ({s['missed']} frames missed, {s['held']} ticks held), longest silence "
-            f"{s['longest_silence_s'] * 1e3:.0f} ms; stale {s['stale']}, implausible {s['implausible']}, foreign "
-            f"{s['foreign']}, rejected {s['rejected']}; timeouts {s['timeouts']}, resumes {s['resumes']}")
+    return (
+        f"nutty bridge: {robot_id} {s['mode']}: {s['received']} frames in ({s['rate_in']:.1f}/s), "
+        f"{s['sent']} out; latency p50 {lat['p50_ms']:.2f} ms p99 {lat['p99_ms']:.2f} ms max {lat['max_ms']:.2f} ms; "
+        f"gaps {s['gaps']} ({s['missed']} frames missed, {s['held']} ticks held), longest silence "
+        f"{s['longest_silence_s'] * 1e3:.0f} ms; stale {s['stale']}, implausible {s['implausible']}, foreign "
+        f"{s['foreign']}, rejected {s['rejected']}; timeouts {s['timeouts']}, resumes {s['resumes']}"
+    )

@@ -29,8 +29,13 @@ class NuttyError(RuntimeError):
 
 
 class NuttyClient:
-    def __init__(self, url: str = "http://127.0.0.1:8000", token: str | None = None, timeout: float = 5.0,
-                 transport: Any = None):
+    def __init__(
+        self,
+        url: str = "http://127.0.0.1:8000",
+        token: str | None = None,
+        timeout: float = 5.0,
+        transport: Any = None,
+    ):
         headers = {"Authorization": f"Bearer {token}"} if token else {}
         kw = {"transport": transport} if transport is not None else {}
         self._http = httpx.Client(base_url=url.rstrip("/"), headers=headers, timeout=timeout, **kw)
@@ -38,7 +43,7 @@ class NuttyClient:
     def close(self) -> None:
         self._http.close()
 
-    def __enter__(self) -> "NuttyClient":
+    def __enter__(self) -> NuttyClient:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -103,7 +108,7 @@ class NuttyClient:
         return self._call("DELETE", f"/api/commands/{command_id}")
 
     # --- tools for AIs (docs/ai.md) ----------------------------------------------------------------
-    def tools(self, format: str = "plain") -> Any:  # noqa: A002
+    def tools(self, format: str = "plain") -> Any:
         """The tools generated for the running robot and program (plain, openai or anthropic)."""
         return self._call("GET", "/api/tools", params={"format": format})
 

@@ -22,15 +22,18 @@ backend/zenoh_link/keys.py and docs/fleet.md.
 
 from __future__ import annotations
 
+import contextlib
 import queue
 import time
 import uuid
-from typing import Any, Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any
 
 from backend.client import NuttyClient, NuttyError
 from backend.zenoh_link import keys
 from backend.zenoh_link.codec import encode_json, frame_of, json_of
-from backend.zenoh_link.session import ZenohOptions, settle as wait_for_peers
+from backend.zenoh_link.session import ZenohOptions
+from backend.zenoh_link.session import settle as wait_for_peers
 
 DEFAULT_TIMEOUT = 5.0  # s to wait for answers
 
@@ -39,8 +42,14 @@ _READS = {"/api/status": keys.STATUS, "/api/robot": keys.ROBOT, "/api/program": 
 
 
 def _not_on_zenoh(method: str, path: str) -> NuttyError:
-    return NuttyError(405, {"code": "not_on_zenoh", "message": f"{method} {path} is not available over Zenoh "
-                            "(commands, status, robot and program are): use the engine's HTTP API"})
+    return NuttyError(
+        405,
+        {
+            "code": "not_on_zenoh",
+            "message": f"{method} {path} is not available over Zenoh "
+            "(commands, status, robot and program are): use the engine's HTTP API",
+        },
+    )
 
 
 class Fleet:
@@ -51,9 +60,17 @@ class Fleet:
     scouting only), how long to wait at start for a first peer.
     """
 
-    def __init__(self, options: ZenohOptions | None = None, *, connect: Iterable[str] = (),
-                 listen: Iterable[str] = (), mode: str | None = None, config: str | None = None,
-                 timeout: float = DEFAULT_TIMEOUT, settle: float = 1.0):
+    def __init__(
+        self,
+        options: ZenohOptions | None = None,
+        *,
+        connect: Iterable[str] = (),
+        listen: Iterable[str] = (),
+        mode: str | None = None,
+        config: str | None = None,
+        timeout: float = DEFAULT_TIMEOUT,
+        settle: float = 1.0,
+    ):
         self.options = options or ZenohOptions(mode, list(connect), list(listen), config)
         self.timeout = float(timeout)
         self.session = self.options.open()
@@ -62,7 +79,7 @@ class Fleet:
     def close(self) -> None:
         self.session.close()
 
-    def __enter__(self) -> "Fleet":
+    def __enter__(self) -> Fleet:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -72,7 +89,9 @@ class Fleet:
     def robots(self, pattern: str = "*", timeout: float | None = None) -> list[str]:
         """The live robots' ids (liveliness tokens) that `pattern` matches, sorted."""
         found = set()
-        for reply in self.session.liveliness().get(keys.key(pattern, keys.ALIVE), timeout=timeout or self.timeout):
+        for reply in self.session.liveliness().get(
+            keys.key(pattern, keys.ALIVE), timeout=timeout or self.timeout
+        ):
             if reply.ok is not None and (rid := keys.robot_of(reply.ok.key_expr)) is not None:
                 found.add(rid)
         return sorted(found)
@@ -89,26 +108,31 @@ class Fleet:
                 raise TimeoutError(f"after {timeout:g} s the live robots are {live}, waiting for {want}")
             time.sleep(0.2)
 
-    def robot(self, robot_id: str) -> "FleetRobot":
+    def robot(self, robot_id: str) -> FleetRobot:
         return FleetRobot(self, robot_id)
 
     __getitem__ = robot
 
-    def group(self, pattern: str) -> "FleetGroup":
+    def group(self, pattern: str) -> FleetGroup:
         return FleetGroup(self, pattern)
 
     # --- asking -----------------------------------------------------------------------------------
-    def ask(self, target: str, leaf: str, payload: bytes | None = None,
-            timeout: float | None = None) -> dict[str, Any]:
+    def ask(
+        self, target: str, leaf: str, payload: bytes | None = None, timeout: float | None = None
+    ) -> dict[str, Any]:
         """Query `nutty/<target>/<leaf>`: {robot id: its JSON answer}. Robots that are live but did not
         answer within the timeout get a `no_reply` error; an exact id that is not live, `not_found`."""
         import zenoh
 
         timeout = timeout or self.timeout
         answers: dict[str, Any] = {}
-        replies = self.session.get(keys.key(target, leaf), payload=payload, timeout=timeout,
-                                   target=zenoh.QueryTarget.ALL,
-                                   consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE))
+        replies = self.session.get(
+            keys.key(target, leaf),
+            payload=payload,
+            timeout=timeout,
+            target=zenoh.QueryTarget.ALL,
+            consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE),
+        )
         for reply in replies:
             sample = reply.ok
             rid = keys.robot_of(sample.key_expr) if sample is not None else None
@@ -117,11 +141,15 @@ class Fleet:
             try:
                 answers[rid] = json_of(sample)
             except ValueError as exc:
-                answers[rid] = _error(502, "bad_reply", f"robot '{rid}' answered something that is not JSON: {exc}")
+                answers[rid] = _error(
+                    502, "bad_reply", f"robot '{rid}' answered something that is not JSON: {exc}"
+                )
         if "*" in target or target not in answers:
             for rid in self.robots(target, timeout=min(timeout, 2.0)):
-                answers.setdefault(rid, _error(504, "no_reply", f"robot '{rid}' is live but did not answer "
-                                                                 f"within {timeout:g} s"))
+                answers.setdefault(
+                    rid,
+                    _error(504, "no_reply", f"robot '{rid}' is live but did not answer within {timeout:g} s"),
+                )
         if "*" not in target and target not in answers:
             answers[target] = _error(404, "not_found", f"no live robot '{target}' (see `nutty fleet list`)")
         return answers
@@ -141,8 +169,9 @@ class Fleet:
         return self.ask(target, keys.STATUS)
 
     # --- listening --------------------------------------------------------------------------------
-    def watch(self, target: str = "*", *, seconds: float | None = None, status: bool = False,
-              presence: bool = True) -> "Watch":
+    def watch(
+        self, target: str = "*", *, seconds: float | None = None, status: bool = False, presence: bool = True
+    ) -> Watch:
         """Follow events (and, with `status`, the 1 Hz status) of matching robots; see `Watch`."""
         return Watch(self, target, seconds=seconds, status=status, presence=presence)
 
@@ -239,8 +268,10 @@ class FleetGroup(_OverZenoh):
 
     def _call(self, method: str, path: str, **kw: Any) -> Any:
         answers = self.fleet.call(self.pattern, method, path, kw.get("json"))
-        return {rid: ({"error": {k: v for k, v in a.items() if k != "type"}} if is_error(a) else a)
-                for rid, a in sorted(answers.items())}
+        return {
+            rid: ({"error": {k: v for k, v in a.items() if k != "type"}} if is_error(a) else a)
+            for rid, a in sorted(answers.items())
+        }
 
 
 class Watch:
@@ -254,8 +285,15 @@ class Watch:
     Iteration ends after `seconds` (None: never) or `close()`.
     """
 
-    def __init__(self, fleet: Fleet, target: str, *, seconds: float | None = None, status: bool = False,
-                 presence: bool = True):
+    def __init__(
+        self,
+        fleet: Fleet,
+        target: str,
+        *,
+        seconds: float | None = None,
+        status: bool = False,
+        presence: bool = True,
+    ):
         self.deadline = None if seconds is None else time.monotonic() + seconds
         self._queue: queue.Queue = queue.Queue(maxsize=10_000)
         self._closed = False
@@ -264,8 +302,11 @@ class Watch:
         if status:
             self._subs.append(s.declare_subscriber(keys.key(target, keys.STATUS), self._on_status))
         if presence:
-            self._subs.append(s.liveliness().declare_subscriber(keys.key(target, keys.ALIVE), self._on_presence,
-                                                                history=True))
+            self._subs.append(
+                s.liveliness().declare_subscriber(
+                    keys.key(target, keys.ALIVE), self._on_presence, history=True
+                )
+            )
 
     def _put(self, item: dict[str, Any]) -> None:
         try:
@@ -313,12 +354,10 @@ class Watch:
         if not self._closed:
             self._closed = True
             for sub in self._subs:
-                try:
+                with contextlib.suppress(Exception):
                     sub.undeclare()
-                except Exception:
-                    pass
 
-    def __enter__(self) -> "Watch":
+    def __enter__(self) -> Watch:
         return self
 
     def __exit__(self, *exc: Any) -> None:

@@ -9,11 +9,13 @@ at most one `started` and one terminal event (`completed`, `cancelled` or `faile
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
 import time
 import uuid
 from collections import deque
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from backend import control
 from backend.routes.errors import api_error
@@ -30,10 +32,8 @@ def jsonable(v: Any) -> bool:
 def put_drop_oldest(q: asyncio.Queue, item: Any) -> None:
     """Queue `item`, dropping the oldest one when full: a slow client loses messages, never blocks."""
     if q.full():
-        try:
+        with contextlib.suppress(asyncio.QueueEmpty):
             q.get_nowait()
-        except asyncio.QueueEmpty:
-            pass
     q.put_nowait(item)
 
 
@@ -51,12 +51,23 @@ class CommandLog:
 
     def add(self, cid: str, command: Any) -> dict[str, Any]:
         """Log a new command; a live command with the same id is a conflict (409)."""
-        entry = {"id": cid, "type": command.type, "status": "accepted", "created": time.time(), "result": None}
+        entry = {
+            "id": cid,
+            "type": command.type,
+            "status": "accepted",
+            "created": time.time(),
+            "result": None,
+        }
         with self._lock:
             old = self._items.get(cid)
             if old is not None and old["status"] not in TERMINAL:
-                raise api_error(409, "duplicate_id", f"command '{cid}' is still {old['status']}: choose another id",
-                                field="id", id=cid)
+                raise api_error(
+                    409,
+                    "duplicate_id",
+                    f"command '{cid}' is still {old['status']}: choose another id",
+                    field="id",
+                    id=cid,
+                )
             if old is not None:
                 self._order.remove(cid)
             self._items[cid] = entry
@@ -138,7 +149,9 @@ class Hub:
         ok, ctype = self.commands.transition(cid, event)
         if not ok:
             return
-        details = {k: v for k, v in note.items() if k not in ("command_id", "event", "id", "type") and jsonable(v)}
+        details = {
+            k: v for k, v in note.items() if k not in ("command_id", "event", "id", "type") and jsonable(v)
+        }
         message = {"type": "event", "event": event, "id": cid, **details}
         if ctype is not None:
             message["command"] = ctype
@@ -200,7 +213,9 @@ class Hub:
     def _cancel_target(self, target: str) -> dict[str, Any]:
         """The `cancel` command's work: the target gets its `cancelled` event (the cancel is acked)."""
         if self.commands.get(target) is None:
-            raise control.CommandError(f"no command with id '{target}'", field="target", code="unknown_command")
+            raise control.CommandError(
+                f"no command with id '{target}'", field="target", code="unknown_command"
+            )
         return {"target": target, "status": self.cancel(target)["status"]}
 
     def cancel(self, cid: str) -> dict[str, Any]:
@@ -212,4 +227,7 @@ class Hub:
             return {"id": cid, "status": entry["status"]}
         control.cancel_command(self.session, entry["type"], cid)
         self._emit(cid, "cancelled")
-        return {"id": cid, "status": self.commands.get(cid)["status"] if self.commands.get(cid) else "cancelled"}
+        return {
+            "id": cid,
+            "status": self.commands.get(cid)["status"] if self.commands.get(cid) else "cancelled",
+        }

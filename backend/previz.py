@@ -51,8 +51,10 @@ MAX_PREVIZ_MESSAGE = 64 * 1024 * 1024
 # The page embedded in the editor (`/previz/?embed=1`) hides viser's own control panel (a floating dock
 # window: the editor has the ghost toggle) and its notifications (e.g. "Software WebGL rendering
 # detected"), which would cover the robot in a small pane. The popped-out page keeps them.
-EMBED_STYLE = (b"<style id=\"nutty-embed\">[data-floating-window], .mantine-Notifications-root "
-               b"{ display: none !important; }</style>")
+EMBED_STYLE = (
+    b'<style id="nutty-embed">[data-floating-window], .mantine-Notifications-root '
+    b"{ display: none !important; }</style>"
+)
 
 # The camera looks at the robot from its front-left, a little above (a three-quarter view).
 CAMERA_DIRECTION = (0.62, 0.42, 0.21)
@@ -68,8 +70,12 @@ def _yaw_pitch_roll_to_wxyz(yaw: float, pitch: float, roll: float) -> tuple[floa
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
+    return (
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    )
 
 
 def embed_page(html: bytes) -> bytes:
@@ -78,8 +84,12 @@ def embed_page(html: bytes) -> bytes:
     return html if head < 0 else html[:head] + EMBED_STYLE + html[head:]
 
 
-def framing(bounds: Any, direction: tuple[float, float, float] = CAMERA_DIRECTION, fov: float = CAMERA_FOV,
-            margin: float = CAMERA_MARGIN) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+def framing(
+    bounds: Any,
+    direction: tuple[float, float, float] = CAMERA_DIRECTION,
+    fov: float = CAMERA_FOV,
+    margin: float = CAMERA_MARGIN,
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     """(camera position, look-at point) that frame a box `bounds` ([[x0, y0, z0], [x1, y1, z1]], metres):
     from `direction`, far enough that the box's bounding sphere fits the field of view with `margin`."""
     lo, hi = np.asarray(bounds, dtype=float)
@@ -95,14 +105,16 @@ def framing(bounds: Any, direction: tuple[float, float, float] = CAMERA_DIRECTIO
 def check_loopback(host: str) -> None:
     """Raise ValueError unless `host` is a loopback name (viser has no authentication)."""
     if host not in LOOPBACK_NAMES:
-        raise ValueError(f"the Pre-Viz listens on loopback only, not {host!r}: "
-                         "it is served to the network through the API's /previz/ (behind its token)")
+        raise ValueError(
+            f"the Pre-Viz listens on loopback only, not {host!r}: "
+            "it is served to the network through the API's /previz/ (behind its token)"
+        )
 
 
 def attach_previz_sink(session: Any, show: Any) -> Sink:
     """The Pre-Viz sink: `show(frame)` on its own thread, at most MAX_RATE frames per second, a stale
     frame dropped (never queued)."""
-    decimate = max(1, int(math.ceil(session.engine.rate / MAX_RATE)))
+    decimate = max(1, math.ceil(session.engine.rate / MAX_RATE))
     return session.engine.add_sink(Sink("previz", show, max_queue=1, decimate=decimate))
 
 
@@ -157,9 +169,15 @@ def _set_if_changed(handle: Any, name: str, value: Any) -> None:
 class PreViz:
     """A viser server showing a session's robot. `start()` attaches it to the engine as a sink."""
 
-    def __init__(self, session: Any, host: str = "127.0.0.1", port: int = 8080,
-                 allowed_origins: list[str] | None = None, proxy_secret: str | None = None,
-                 proxy_only: bool = False):
+    def __init__(
+        self,
+        session: Any,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        allowed_origins: list[str] | None = None,
+        proxy_secret: str | None = None,
+        proxy_only: bool = False,
+    ):
         import viser
         import yourdfpy
         from viser.extras import ViserUrdf
@@ -182,29 +200,37 @@ class PreViz:
         self.port = self.server.get_port()  # viser moves to the next free port when this one is taken
         self._guard_direct_clients()
         self.server.scene.set_up_direction("+z")
-        self.server.scene.add_grid("/grid", width=2.0, height=2.0, cell_size=0.1, plane="xy", position=(0, 0, 0))
+        self.server.scene.add_grid(
+            "/grid", width=2.0, height=2.0, cell_size=0.1, plane="xy", position=(0, 0, 0)
+        )
         urdf = yourdfpy.URDF.load(str(self.emb.urdf_path), build_scene_graph=True, load_meshes=True)
         self._urdf = urdf
         self.base = self.server.scene.add_frame("/robot", show_axes=False)
         self.robot = ViserUrdf(self.server, urdf, root_node_name="/robot/body")
         ghost_urdf = yourdfpy.URDF.load(str(self.emb.urdf_path), build_scene_graph=True, load_meshes=True)
         self.ghost_base = self.server.scene.add_frame("/ghost", show_axes=False)
-        self.ghost = ViserUrdf(self.server, ghost_urdf, root_node_name="/ghost/body", mesh_color_override=GHOST_COLOUR)
+        self.ghost = ViserUrdf(
+            self.server, ghost_urdf, root_node_name="/ghost/body", mesh_color_override=GHOST_COLOUR
+        )
         names = self.robot.get_actuated_joint_names()
         index = {n: i for i, n in enumerate(self.emb.joint_names)}
-        self._order = np.array([index[n] for n in names], dtype=int) if all(n in index for n in names) else None
+        self._order = (
+            np.array([index[n] for n in names], dtype=int) if all(n in index for n in names) else None
+        )
         self._posers = {id(vu): _poser(vu) for vu in (self.robot, self.ghost)}
         self._leds = self._add_leds()
         self._face = self._add_face_label()
-        self._caption = self.server.scene.add_label("/caption", "", position=(0.0, 0.0, 0.62), anchor="bottom-center",
-                                                    font_screen_scale=1.1)
+        self._caption = self.server.scene.add_label(
+            "/caption", "", position=(0.0, 0.0, 0.62), anchor="bottom-center", font_screen_scale=1.1
+        )
         self._caption_until = 0.0
         gui = self.server.gui
         self.ghost_toggle = gui.add_checkbox("Show ghost (stage 1)", initial_value=True)
         self.ghost_toggle.on_update(lambda _: self.set_ghost(self.ghost_toggle.value))
         self.status = gui.add_markdown("")
-        self.gaze = self.server.scene.add_transform_controls("/gaze_target", scale=0.12, position=(0.6, 0.0, 0.35),
-                                                             disable_rotations=True)
+        self.gaze = self.server.scene.add_transform_controls(
+            "/gaze_target", scale=0.12, position=(0.6, 0.0, 0.35), disable_rotations=True
+        )
         self.server.scene.add_icosphere("/gaze_target/ball", radius=0.02, color=(255, 200, 40))
         self.gaze.on_update(lambda event: self._on_gaze_drag(event))
         self._cfg_now: np.ndarray | None = None  # the joint configuration last shown
@@ -236,10 +262,16 @@ class PreViz:
             if proxied is not None and secrets.compare_digest(proxied.encode(), self.proxy_secret.encode()):
                 self._trusted.add(conn.client_id)
                 return
-            problem = ("this server has a token: open the Pre-Viz through the API's /previz/"
-                       if self.proxy_only else None)
-            problem = problem or policy.host_problem(headers.get("Host")) or policy.origin_problem(
-                headers.get("Origin"), headers.get("Host"))
+            problem = (
+                "this server has a token: open the Pre-Viz through the API's /previz/"
+                if self.proxy_only
+                else None
+            )
+            problem = (
+                problem
+                or policy.host_problem(headers.get("Host"))
+                or policy.origin_problem(headers.get("Origin"), headers.get("Host"))
+            )
             if problem is None:
                 self._trusted.add(conn.client_id)
                 return
@@ -271,9 +303,15 @@ class PreViz:
                 node = self._link_node(link)
                 if node is None:
                     continue
-                handles.append(self.server.scene.add_icosphere(f"{node}/led_{d.name}", radius=0.0225,
-                                                               color=(255, 255, 255), material="toon3",
-                                                               cast_shadow=False))
+                handles.append(
+                    self.server.scene.add_icosphere(
+                        f"{node}/led_{d.name}",
+                        radius=0.0225,
+                        color=(255, 255, 255),
+                        material="toon3",
+                        cast_shadow=False,
+                    )
+                )
             if handles:
                 leds.append((d.name, d.channels, handles))
         return leds
@@ -283,8 +321,13 @@ class PreViz:
             if d.type is DofType.enum and d.options:
                 node = self._link_node(d.links[0]) if d.links else None
                 parent = node or "/robot"
-                label = self.server.scene.add_label(f"{parent}/face_{d.name}", "", position=(0.03, 0.0, -0.03),
-                                                    anchor="top-center", font_screen_scale=0.8)
+                label = self.server.scene.add_label(
+                    f"{parent}/face_{d.name}",
+                    "",
+                    position=(0.03, 0.0, -0.03),
+                    anchor="top-center",
+                    font_screen_scale=0.8,
+                )
                 return d.channels, d.options, label
         return None
 
@@ -370,19 +413,21 @@ class PreViz:
             self._pose(self.robot, self._cfg_now)
             base = self.emb.base_pose(frame.position)
             _set_if_changed(self.base, "position", (base["x"], base["y"], base["z"]))
-            _set_if_changed(self.base, "wxyz", _yaw_pitch_roll_to_wxyz(base["yaw"], base["pitch"], base["roll"]))
+            _set_if_changed(
+                self.base, "wxyz", _yaw_pitch_roll_to_wxyz(base["yaw"], base["pitch"], base["roll"])
+            )
             if self.ghost_visible and frame.stage1 is not None:
                 self._pose(self.ghost, self._cfg(frame.stage1))
                 gb = self.emb.base_pose(frame.stage1)
                 _set_if_changed(self.ghost_base, "position", (gb["x"], gb["y"], gb["z"]))
             position = frame.position.tolist()
             for _, channels, handles in self._leds:
-                rgb = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in position[channels])
+                rgb = tuple(round(255 * min(max(c, 0.0), 1.0)) for c in position[channels])
                 for h in handles:
                     _set_if_changed(h, "color", rgb)
             if self._face is not None:
                 channels, options, label = self._face
-                k = int(round(position[channels.start]))
+                k = round(position[channels.start])
                 _set_if_changed(label, "text", options[min(max(k, 0), len(options) - 1)])
             now = time.monotonic()
             for ev in frame.events:
@@ -401,7 +446,7 @@ class PreViz:
         else:
             robot.update_cfg(cfg)
 
-    def start(self) -> "PreViz":
+    def start(self) -> PreViz:
         self._sink = attach_previz_sink(self.session, self.show)
         return self
 
@@ -422,15 +467,20 @@ class PreViz:
 # --------------------------------------------------------------------------------------------------
 
 
-async def fetch_page(port: int, path: str, accept_encoding: str = "", timeout: float = 20.0
-                     ) -> tuple[int, dict[str, str], bytes]:
+async def fetch_page(
+    port: int, path: str, accept_encoding: str = "", timeout: float = 20.0
+) -> tuple[int, dict[str, str], bytes]:
     """GET one file of viser's client from its loopback port: (status, headers to pass on, body)."""
     target = "/" + quote(path.lstrip("/"), safe="/._-~")
     reader, writer = await asyncio.wait_for(asyncio.open_connection("127.0.0.1", port), timeout)
     try:
         encoding = "gzip" if "gzip" in accept_encoding.lower() else "identity"
-        writer.write((f"GET {target} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nAccept-Encoding: {encoding}\r\n"
-                      f"Connection: close\r\n\r\n").encode("latin-1"))
+        writer.write(
+            (
+                f"GET {target} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nAccept-Encoding: {encoding}\r\n"
+                f"Connection: close\r\n\r\n"
+            ).encode("latin-1")
+        )
         await writer.drain()
         head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), timeout)
         lines = head.decode("latin-1").split("\r\n")
@@ -467,11 +517,15 @@ async def relay_socket(ws: Any, previz: PreViz, stopping: asyncio.Event | None) 
 
     offered = [p for p in (ws.scope.get("subprotocols") or []) if p.startswith("viser-")]
     try:
-        upstream = await connect(f"ws://127.0.0.1:{previz.port}",
-                                 subprotocols=[Subprotocol(p) for p in offered] or None,
-                                 additional_headers={PROXY_HEADER: previz.proxy_secret},
-                                 max_size=MAX_PREVIZ_MESSAGE, compression=None, open_timeout=10,
-                                 ping_interval=None)
+        upstream = await connect(
+            f"ws://127.0.0.1:{previz.port}",
+            subprotocols=[Subprotocol(p) for p in offered] or None,
+            additional_headers={PROXY_HEADER: previz.proxy_secret},
+            max_size=MAX_PREVIZ_MESSAGE,
+            compression=None,
+            open_timeout=10,
+            ping_interval=None,
+        )
     except Exception:
         await ws.accept(subprotocol=offered[0] if offered else None)
         await ws.close(code=1011, reason="the Pre-Viz is not available")

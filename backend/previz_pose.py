@@ -89,15 +89,22 @@ class UrdfPoser:
         """(joint values (n,), wxyz (n, 4), positions (n, 3)) of every joint frame for `cfg`."""
         cfg = np.asarray(cfg, dtype=float)
         moving = self.rotating | self.sliding
-        value = np.where(moving, self.mult * cfg[self.src] + self.off, 0.0) if len(cfg) else np.zeros(len(moving))
+        value = (
+            np.where(moving, self.mult * cfg[self.src] + self.off, 0.0) if len(cfg) else np.zeros(len(moving))
+        )
         half = np.where(self.rotating, 0.5 * value, 0.0)
         c, s = np.cos(half), np.sin(half)
         aw, ax, ay, az = c, self.axis[:, 0] * s, self.axis[:, 1] * s, self.axis[:, 2] * s
         w0, x0, y0, z0 = self.q_origin.T
-        wxyz = np.stack([w0 * aw - x0 * ax - y0 * ay - z0 * az,
-                         w0 * ax + x0 * aw + y0 * az - z0 * ay,
-                         w0 * ay - x0 * az + y0 * aw + z0 * ax,
-                         w0 * az + x0 * ay - y0 * ax + z0 * aw], axis=1)
+        wxyz = np.stack(
+            [
+                w0 * aw - x0 * ax - y0 * ay - z0 * az,
+                w0 * ax + x0 * aw + y0 * az - z0 * ay,
+                w0 * ay - x0 * az + y0 * aw + z0 * ax,
+                w0 * az + x0 * ay - y0 * ax + z0 * aw,
+            ],
+            axis=1,
+        )
         slide = np.where(self.sliding, value, 0.0)[:, None] * self.axis
         position = (self.t_origin + np.einsum("kij,kj->ki", self.r_origin, slide)) * self.scale
         return value, wxyz, position

@@ -67,7 +67,7 @@ class _Remote:
         self._send = send
 
     @property
-    def program(self) -> "_Remote":
+    def program(self) -> _Remote:
         return self
 
     def input(self, name: str) -> bool | None:
@@ -77,8 +77,15 @@ class _Remote:
         self._send(("gaze", [float(v) for v in value]))
 
 
-def _child_main(conn: Any, embodiment: Any, host: str, port: int, allowed_origins: list[str],
-                proxy_secret: str, proxy_only: bool = False) -> None:
+def _child_main(
+    conn: Any,
+    embodiment: Any,
+    host: str,
+    port: int,
+    allowed_origins: list[str],
+    proxy_secret: str,
+    proxy_only: bool = False,
+) -> None:
     """The Pre-Viz process: a PreViz fed from `conn` until the server says stop or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the server decides
     with contextlib.suppress(AttributeError, OSError):
@@ -92,8 +99,14 @@ def _child_main(conn: Any, embodiment: Any, host: str, port: int, allowed_origin
     try:
         from backend.previz import PreViz
 
-        pv = PreViz(_Remote(embodiment, send), host=host, port=port, allowed_origins=allowed_origins,
-                    proxy_secret=proxy_secret, proxy_only=proxy_only)
+        pv = PreViz(
+            _Remote(embodiment, send),
+            host=host,
+            port=port,
+            allowed_origins=allowed_origins,
+            proxy_secret=proxy_secret,
+            proxy_only=proxy_only,
+        )
     except Exception as exc:  # reported to the server, which raises it where the port is asked for
         send(("error", f"{type(exc).__name__}: {exc}"))
         return
@@ -137,9 +150,15 @@ class PreVizProcess:
     """The 3D Pre-Viz (`backend.previz.PreViz`) run in a child process; `start()` attaches it to the
     engine as a sink (at most `backend.previz.MAX_RATE` frames per second, a stale frame dropped, never queued)."""
 
-    def __init__(self, session: Any, host: str = "127.0.0.1", port: int = 8080,
-                 allowed_origins: list[str] | None = None, start_timeout: float = START_TIMEOUT,
-                 proxy_only: bool = False):
+    def __init__(
+        self,
+        session: Any,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        allowed_origins: list[str] | None = None,
+        start_timeout: float = START_TIMEOUT,
+        proxy_only: bool = False,
+    ):
         check_loopback(host)
         self.session = session
         #: `PreViz.proxy_only`: with a token, only the API's proxy reaches the child's port.
@@ -161,8 +180,20 @@ class PreVizProcess:
         self._sink: Sink | None = None
         context = multiprocessing.get_context("spawn")  # a fork would copy the engine's threads' locks
         self._conn, child = context.Pipe()
-        self._proc = context.Process(target=_child_main, name="nutty-previz", daemon=True, args=(
-            child, session.embodiment, host, port, list(allowed_origins or []), self.proxy_secret, self.proxy_only))
+        self._proc = context.Process(
+            target=_child_main,
+            name="nutty-previz",
+            daemon=True,
+            args=(
+                child,
+                session.embodiment,
+                host,
+                port,
+                list(allowed_origins or []),
+                self.proxy_secret,
+                self.proxy_only,
+            ),
+        )
         self._proc.start()
         child.close()
         self._reader = threading.Thread(target=self._read, name="previz-link", daemon=True)
@@ -274,7 +305,7 @@ class PreVizProcess:
         except PreVizUnavailable:
             pass  # a Pre-Viz that has gone shows nothing; the engine and the API go on
 
-    def start(self) -> "PreVizProcess":
+    def start(self) -> PreVizProcess:
         self._sink = attach_previz_sink(self.session, self.show)
         return self
 
@@ -284,10 +315,8 @@ class PreVizProcess:
             self.session.engine.remove_sink(self._sink)
             self._sink = None
         if self._proc.is_alive():
-            try:
+            with contextlib.suppress(PreVizUnavailable):
                 self._send(("stop",), 1.0)
-            except PreVizUnavailable:
-                pass
             self._proc.join(timeout)
         if self._proc.is_alive():
             self._proc.kill()

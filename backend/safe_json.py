@@ -22,15 +22,15 @@ import orjson
 
 MAX_BODY = 1_000_000  # bytes per request body
 MAX_DEPTH = 64  # nesting of JSON arrays/objects
-MAX_INT = 2 ** 63  # |int| limit: larger integers overflow floats and fixed-width fields downstream
-
-
+MAX_INT = 2**63  # |int| limit: larger integers overflow floats and fixed-width fields downstream
 
 
 class JsonSafetyError(ValueError):
     """A JSON document or value the server refuses; `code`, `field` and `status` describe why."""
 
-    def __init__(self, message: str, code: str = "malformed_json", field: str | None = None, status: int = 400):
+    def __init__(
+        self, message: str, code: str = "malformed_json", field: str | None = None, status: int = 400
+    ):
         super().__init__(message)
         self.code = code
         self.field = field
@@ -73,48 +73,65 @@ def check_json(value: Any, *, max_depth: int = MAX_DEPTH, where: str = "", statu
         if isinstance(v, float):
             if not math.isfinite(v):
                 p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: NaN and infinity are not allowed", "non_finite",
-                                      p or None, status)
+                raise JsonSafetyError(
+                    f"{p or 'value'}: NaN and infinity are not allowed", "non_finite", p or None, status
+                )
             continue
         if isinstance(v, int):
             if not -MAX_INT <= v <= MAX_INT:
                 p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: integer out of range (|n| <= 2**63)", "number_too_large",
-                                      p or None, status)
+                raise JsonSafetyError(
+                    f"{p or 'value'}: integer out of range (|n| <= 2**63)",
+                    "number_too_large",
+                    p or None,
+                    status,
+                )
             continue
         if isinstance(v, str):
             if not _valid_text(v):
                 p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: invalid Unicode (a lone surrogate)", "invalid_unicode",
-                                      p or None, status)
+                raise JsonSafetyError(
+                    f"{p or 'value'}: invalid Unicode (a lone surrogate)",
+                    "invalid_unicode",
+                    p or None,
+                    status,
+                )
             continue
         if isinstance(v, (dict, list, tuple)):
             if depth >= max_depth:
                 p = _path(prefix + parts)
-                raise JsonSafetyError(f"{p or 'value'}: nested deeper than {max_depth} levels", "too_deep",
-                                      p or None, status)
+                raise JsonSafetyError(
+                    f"{p or 'value'}: nested deeper than {max_depth} levels", "too_deep", p or None, status
+                )
             if isinstance(v, dict):
                 for k, item in v.items():
                     if not isinstance(k, str):
                         k = str(k)
                     if not _valid_text(k):
                         p = _path(prefix + parts)
-                        raise JsonSafetyError(f"{p or 'value'}: a key is invalid Unicode (a lone surrogate)",
-                                              "invalid_unicode", p or None, status)
-                    stack.append((item, depth + 1, parts + (k,)))
+                        raise JsonSafetyError(
+                            f"{p or 'value'}: a key is invalid Unicode (a lone surrogate)",
+                            "invalid_unicode",
+                            p or None,
+                            status,
+                        )
+                    stack.append((item, depth + 1, (*parts, k)))
             else:
                 for i, item in enumerate(v):
-                    stack.append((item, depth + 1, parts + (i,)))
+                    stack.append((item, depth + 1, (*parts, i)))
             continue
         try:  # numpy scalars and other numbers
             x = float(v)
         except (TypeError, ValueError, OverflowError):
             p = _path(prefix + parts)
-            raise JsonSafetyError(f"{p or 'value'}: {type(v).__name__} is not a JSON value", "invalid_type",
-                                  p or None, status) from None
+            raise JsonSafetyError(
+                f"{p or 'value'}: {type(v).__name__} is not a JSON value", "invalid_type", p or None, status
+            ) from None
         if not math.isfinite(x):
             p = _path(prefix + parts)
-            raise JsonSafetyError(f"{p or 'value'}: NaN and infinity are not allowed", "non_finite", p or None, status)
+            raise JsonSafetyError(
+                f"{p or 'value'}: NaN and infinity are not allowed", "non_finite", p or None, status
+            )
 
 
 def deep_path(text: str, max_depth: int = MAX_DEPTH) -> str:
@@ -131,8 +148,8 @@ def deep_path(text: str, max_depth: int = MAX_DEPTH) -> str:
             j = i + 1
             while j < n and text[j] != '"':
                 j += 2 if text[j] == "\\" else 1
-            token, i = text[i:j + 1], j + 1
-            if stack and stack[-1][0] == "{" and text[i:i + 64].lstrip().startswith(":"):
+            token, i = text[i : j + 1], j + 1
+            if stack and stack[-1][0] == "{" and text[i : i + 64].lstrip().startswith(":"):
                 try:
                     key = json.loads(token)
                 except ValueError:
@@ -145,7 +162,7 @@ def deep_path(text: str, max_depth: int = MAX_DEPTH) -> str:
             key = None
             if len(stack) > max_depth:
                 named = [k for k, part in enumerate(path) if isinstance(part, str)]
-                return _path(tuple(path[:named[-1] + 1])) if named else ""
+                return _path(tuple(path[: named[-1] + 1])) if named else ""
         elif c in "]}" and stack:
             stack.pop()
             if path:
@@ -167,13 +184,16 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
         seen: set[str] = set()
         for key, _ in pairs:
             if key in seen:
-                raise JsonSafetyError(f"{safe_text(key)}: the key is given twice in one object", "duplicate_key",
-                                      safe_text(key))
+                raise JsonSafetyError(
+                    f"{safe_text(key)}: the key is given twice in one object", "duplicate_key", safe_text(key)
+                )
             seen.add(key)
     return out
 
 
-def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max_depth: int = MAX_DEPTH) -> Any:
+def loads(
+    raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max_depth: int = MAX_DEPTH
+) -> Any:
     """Parse JSON the safe way (see module doc). Raises JsonSafetyError with a 4xx `status`."""
     if max_bytes is not None and len(raw) > max_bytes:
         raise JsonSafetyError(f"over {max_bytes} bytes", "too_large", status=413)
@@ -181,15 +201,18 @@ def loads(raw: bytes | bytearray | str, *, max_bytes: int | None = MAX_BODY, max
         try:
             raw = bytes(raw).decode("utf-8")
         except UnicodeDecodeError as exc:
-            raise JsonSafetyError(f"the body is not valid UTF-8 (byte {exc.start})", "invalid_unicode") from None
+            raise JsonSafetyError(
+                f"the body is not valid UTF-8 (byte {exc.start})", "invalid_unicode"
+            ) from None
     try:
         value = json.loads(raw, parse_constant=_bad_constant, object_pairs_hook=_unique_keys)
     except JsonSafetyError:
         raise
     except RecursionError:
         where = deep_path(raw, max_depth)
-        raise JsonSafetyError(f"{where + ': ' if where else ''}nested deeper than {max_depth} levels", "too_deep",
-                              where or None) from None
+        raise JsonSafetyError(
+            f"{where + ': ' if where else ''}nested deeper than {max_depth} levels", "too_deep", where or None
+        ) from None
     except ValueError as exc:  # JSONDecodeError, and int() of a number with too many digits
         raise JsonSafetyError(f"malformed JSON: {safe_text(str(exc))[:200]}", "malformed_json") from None
     check_json(value, max_depth=max_depth)

@@ -26,8 +26,9 @@ import hashlib
 import hmac
 import ipaddress
 import secrets
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 # The JSON rules every entry point shares live in backend.safe_json; importable from here as well.
@@ -83,7 +84,7 @@ def split_host(value: str, default_port: int | None = 80) -> tuple[str, int | No
         end = value.find("]")
         if end < 0:
             return None
-        host, rest = value[1:end], value[end + 1:]
+        host, rest = value[1:end], value[end + 1 :]
         if rest and not rest.startswith(":"):
             return None
         port_s = rest[1:] if rest else ""
@@ -110,8 +111,15 @@ def parse_origin(origin: str) -> tuple[str, str, int] | None:
         port = parts.port
     except ValueError:
         return None
-    if parts.scheme not in ("http", "https") or not parts.hostname or parts.path not in ("", "/") \
-            or parts.query or parts.fragment or parts.username or parts.password:
+    if (
+        parts.scheme not in ("http", "https")
+        or not parts.hostname
+        or parts.path not in ("", "/")
+        or parts.query
+        or parts.fragment
+        or parts.username
+        or parts.password
+    ):
         return None
     return parts.scheme, _norm_host(parts.hostname), port or (443 if parts.scheme == "https" else 80)
 
@@ -185,7 +193,9 @@ class AccessPolicy:
             return None
         known = name in self._names or (self._wildcard and _is_ip(name))
         if not known:
-            return f"Host '{safe_text(name)}' is not this server (DNS rebinding?); add it with --allowed-origin"
+            return (
+                f"Host '{safe_text(name)}' is not this server (DNS rebinding?); add it with --allowed-origin"
+            )
         if self.port is not None and port != self.port:
             return f"Host port {port} is not this server's port {self.port}"
         return None
@@ -199,7 +209,11 @@ class AccessPolicy:
         if parsed in self._origins:
             return None
         host = split_host(host_header or "", 443 if scheme in ("https", "wss") else 80)
-        if host is not None and (parsed[1], parsed[2]) == host and self.host_problem(host_header, scheme) is None:
+        if (
+            host is not None
+            and (parsed[1], parsed[2]) == host
+            and self.host_problem(host_header, scheme) is None
+        ):
             return None  # same origin as the Host this request was sent to
         return f"Origin '{safe_text(origin)[:100]}' is not allowed (see --allowed-origin)"
 
@@ -208,16 +222,18 @@ class AccessPolicy:
             return True
         want = self.token.encode("utf-8", "surrogatepass")
         auth = headers.get("authorization", "")
-        if auth[:7].lower() == "bearer " and secrets.compare_digest(auth[7:].strip().encode("utf-8", "surrogatepass"),
-                                                                   want):
+        if auth[:7].lower() == "bearer " and secrets.compare_digest(
+            auth[7:].strip().encode("utf-8", "surrogatepass"), want
+        ):
             return True
         for value in parse_qs(query_string, keep_blank_values=True).get("token", []):
             if secrets.compare_digest(value.encode("utf-8", "surrogatepass"), want):
                 return True
         if previz:
             cookie = _cookies(headers.get("cookie", "")).get(PREVIZ_COOKIE)
-            if cookie is not None and secrets.compare_digest(cookie.encode("utf-8", "surrogatepass"),
-                                                             previz_cookie_value(self.token).encode()):
+            if cookie is not None and secrets.compare_digest(
+                cookie.encode("utf-8", "surrogatepass"), previz_cookie_value(self.token).encode()
+            ):
                 return True
         return False
 
@@ -262,8 +278,13 @@ def content_type_problem(content_type: str | None) -> str | None:
 class Guard:
     """Pure ASGI middleware enforcing the AccessPolicy and the body limit (see the module doc)."""
 
-    def __init__(self, app: Any, policy: AccessPolicy, max_body: int = MAX_BODY,
-                 token_prefixes: Iterable[str] = (PREVIZ_PREFIX,)):
+    def __init__(
+        self,
+        app: Any,
+        policy: AccessPolicy,
+        max_body: int = MAX_BODY,
+        token_prefixes: Iterable[str] = (PREVIZ_PREFIX,),
+    ):
         self.app = app
         self.policy = policy
         self.max_body = max_body
@@ -301,17 +322,25 @@ class Guard:
         problem = self._problem(scope, headers)
         if problem is not None:
             return await _send_json(send, problem[0], error_body(problem[1], problem[2]))
-        if method in MUTATING or self._protected(path):
-            if not self.policy.token_ok(headers, qs, previz=self._protected(path)):
-                return await _send_json(send, 401, error_body(
-                    "unauthorized", "this server needs 'Authorization: Bearer <token>' (or ?token=<token>)"),
-                    [(b"www-authenticate", b"Bearer")])
+        protected = self._protected(path)
+        if (method in MUTATING or protected) and not self.policy.token_ok(headers, qs, previz=protected):
+            return await _send_json(
+                send,
+                401,
+                error_body(
+                    "unauthorized",
+                    "this server needs 'Authorization: Bearer <token>' (or ?token=<token>)",
+                ),
+                [(b"www-authenticate", b"Bearer")],
+            )
         length = headers.get("content-length")
         if length is not None:
             if not length.strip().isdigit():
                 return await _send_json(send, 400, error_body("bad_request", "malformed Content-Length"))
             if int(length) > self.max_body:
-                return await _send_json(send, 413, error_body("too_large", f"request body over {self.max_body} bytes"))
+                return await _send_json(
+                    send, 413, error_body("too_large", f"request body over {self.max_body} bytes")
+                )
         seen = 0
         started = False
 
@@ -334,7 +363,9 @@ class Guard:
             await self.app(scope, counted_receive, tracked_send)
         except BodyTooLarge:
             if not started:
-                await _send_json(send, 413, error_body("too_large", f"request body over {self.max_body} bytes"))
+                await _send_json(
+                    send, 413, error_body("too_large", f"request body over {self.max_body} bytes")
+                )
 
     async def _websocket(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         headers = _headers(scope)
@@ -343,8 +374,9 @@ class Guard:
         code, reason = None, ""
         if problem is not None:
             code, reason = 4403, f"{problem[1]}: {problem[2]}"
-        elif not self.policy.token_ok(headers, scope.get("query_string", b"").decode("latin-1"),
-                                      previz=self._protected(path)):
+        elif not self.policy.token_ok(
+            headers, scope.get("query_string", b"").decode("latin-1"), previz=self._protected(path)
+        ):
             code, reason = 4401, "unauthorized: add ?token=<token>"
         if code is None:
             return await self.app(scope, receive, send)
@@ -377,10 +409,19 @@ async def cancel_all(tasks: list[Any]) -> None:
             t.exception()
 
 
-async def _send_json(send: Any, status: int, body: dict[str, Any],
-                     extra_headers: list[tuple[bytes, bytes]] | None = None) -> None:
+async def _send_json(
+    send: Any, status: int, body: dict[str, Any], extra_headers: list[tuple[bytes, bytes]] | None = None
+) -> None:
     data = dumps(body).encode("utf-8")
-    await send({"type": "http.response.start", "status": status,
-                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(data)).encode()),
-                            *(extra_headers or [])]})
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [
+                (b"content-type", b"application/json"),
+                (b"content-length", str(len(data)).encode()),
+                *(extra_headers or []),
+            ],
+        }
+    )
     await send({"type": "http.response.body", "body": data})

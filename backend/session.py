@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import json
 import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any
 
 from pydantic import ValidationError
 
@@ -59,8 +60,16 @@ class EngineSession:
 
     # --- construction ---------------------------------------------------------------------------
     @classmethod
-    def create(cls, embodiment: Embodiment, *, rate: float | None = None, program_text: str | None = None,
-               program: Any = None, max_level: int = MAX_LEVEL, safety: bool = True) -> "EngineSession":
+    def create(
+        cls,
+        embodiment: Embodiment,
+        *,
+        rate: float | None = None,
+        program_text: str | None = None,
+        program: Any = None,
+        max_level: int = MAX_LEVEL,
+        safety: bool = True,
+    ) -> EngineSession:
         """A session with a compiled program loaded (not yet ticking). Raises SessionError.
 
         safety=False switches the engine's safety net off (the explicit `--unsafe-no-limits`)."""
@@ -73,7 +82,9 @@ class EngineSession:
             except json.JSONDecodeError:
                 preferred = None
         try:
-            engine = Engine(embodiment, rate=float(rate or preferred or 100.0), max_level=max_level, safety=safety)
+            engine = Engine(
+                embodiment, rate=float(rate or preferred or 100.0), max_level=max_level, safety=safety
+            )
         except ValueError as exc:
             raise SessionError(str(exc), code="invalid_rate") from exc
         session = cls(engine)
@@ -94,8 +105,13 @@ class EngineSession:
 
     # --- programs ---------------------------------------------------------------------------------
     def validate(self, source: Any) -> ValidationReport:
-        return compile_program(source, self.embodiment, max_level=self.engine.max_level,
-                               ctx=self._scratch_ctx(), rate=self.engine.rate).report
+        return compile_program(
+            source,
+            self.embodiment,
+            max_level=self.engine.max_level,
+            ctx=self._scratch_ctx(),
+            rate=self.engine.rate,
+        ).report
 
     def validate_subgraph(self, name: str, doc: Any) -> ValidationReport:
         """Check a standalone subgraph definition (a library entry) against this robot."""
@@ -107,15 +123,24 @@ class EngineSession:
     def _scratch_ctx(self):
         from backend.engine.blocks.base import BlockContext
 
-        return BlockContext(embodiment=self.embodiment, rate=self.engine.rate,
-                            inputs=dict(self.engine.ctx.inputs), resources=self.library,
-                            compiled=self.engine.ctx.compiled)
+        return BlockContext(
+            embodiment=self.embodiment,
+            rate=self.engine.rate,
+            inputs=dict(self.engine.ctx.inputs),
+            resources=self.library,
+            compiled=self.engine.ctx.compiled,
+        )
 
     def _compile_live(self, source: Any, refusal: str):
         """Compile `source` for this engine (raises SessionError with the report if it is invalid); the
         blocks, built against a scratch context, are pointed at the engine's live one."""
-        result = compile_program(source, self.embodiment, max_level=self.engine.max_level, ctx=self._scratch_ctx(),
-                                 rate=self.engine.rate)
+        result = compile_program(
+            source,
+            self.embodiment,
+            max_level=self.engine.max_level,
+            ctx=self._scratch_ctx(),
+            rate=self.engine.rate,
+        )
         if not result.ok:
             raise SessionError(f"{refusal} ({len(result.report.errors)} error(s))", result.report)
         for step in result.apu.steps:
@@ -210,7 +235,9 @@ class EngineSession:
             old = cur.node(node.id)
             if old is not None and old.params != node.params:
                 try:
-                    if cls.ports(cls.Params.model_validate(old.params)) != cls.ports(cls.Params.model_validate(node.params)):
+                    if cls.ports(cls.Params.model_validate(old.params)) != cls.ports(
+                        cls.Params.model_validate(node.params)
+                    ):
                         return False
                 except ValidationError:
                     return False
@@ -219,8 +246,11 @@ class EngineSession:
     def _changed_params(self, program: Program, params: dict[str, Any]) -> dict[str, Any]:
         cur = self.flat
         assert cur is not None  # guarded by _same_structure; typing aid only
-        return {n.id: params[n.id] for n in program.nodes
-                if (old := cur.node(n.id)) is not None and old.params != n.params}
+        return {
+            n.id: params[n.id]
+            for n in program.nodes
+            if (old := cur.node(n.id)) is not None and old.params != n.params
+        }
 
     def update_params(self, node_id: str, params: dict[str, Any]) -> dict[str, Any]:
         """Change one node's parameters live, without rebuilding the program (slider drags).
@@ -242,14 +272,19 @@ class EngineSession:
                 err = exc.errors()[0]
                 field = ".".join(str(x) for x in err["loc"])
                 code = "unknown_param" if err["type"] == "extra_forbidden" else "invalid_param"
-                raise SessionError(f"node '{node_id}' parameter '{field}': {err['msg']}",
-                                   ValidationReport(valid=False, errors=[
-                                       Issue(code=code, node=node_id, port=field, message=err["msg"])]),
-                                   code=code) from exc
+                raise SessionError(
+                    f"node '{node_id}' parameter '{field}': {err['msg']}",
+                    ValidationReport(
+                        valid=False, errors=[Issue(code=code, node=node_id, port=field, message=err["msg"])]
+                    ),
+                    code=code,
+                ) from exc
             if cls.ports(p) != cls.ports(cls.Params.model_validate(node.params)):
                 # Ports changed (e.g. a layer added): that is a structural edit, so swap the program.
                 doc = self.program.model_copy(deep=True)
-                written = inner_definition_node(doc, node_id)  # the node as written (in a subgraph: its definition)
+                written = inner_definition_node(
+                    doc, node_id
+                )  # the node as written (in a subgraph: its definition)
                 if written is not None:
                     written.params = p.model_dump(mode="json")
                 self.load_program(doc.to_json_dict())
@@ -257,12 +292,21 @@ class EngineSession:
             try:
                 cls(p, self._scratch_ctx(), node_id)  # dry run: configure() errors surface here
             except ValueError as exc:
-                raise SessionError(f"node '{node_id}': {exc}", ValidationReport(valid=False, errors=[
-                    Issue(code="block_config", node=node_id, message=str(exc))]), code="block_config") from exc
+                raise SessionError(
+                    f"node '{node_id}': {exc}",
+                    ValidationReport(
+                        valid=False, errors=[Issue(code="block_config", node=node_id, message=str(exc))]
+                    ),
+                    code="block_config",
+                ) from exc
             block = self.engine.apu.block(node_id)
             self.engine.call(lambda: block.update_params(p))
             node.params = merged  # as the author wrote them: defaults stay implicit
-            if "/" not in node_id and (written := self.program.node(node_id)) is not None and written is not node:
+            if (
+                "/" not in node_id
+                and (written := self.program.node(node_id)) is not None
+                and written is not node
+            ):
                 written.params = merged
             return node.params
 
@@ -311,8 +355,9 @@ class EngineSession:
 
         return control.execute(self, control.parse_command(command))
 
-    def run_headless(self, n_ticks: int, timeline: list[tuple[float, dict[str, Any]]] | None = None
-                     ) -> Iterator[AnimationFrame]:
+    def run_headless(
+        self, n_ticks: int, timeline: list[tuple[float, dict[str, Any]]] | None = None
+    ) -> Iterator[AnimationFrame]:
         """Tick `n_ticks` times without sleeping, applying timed commands when their time comes."""
         pending = list(timeline or [])
         k = 0

@@ -59,10 +59,8 @@ SHUTTING_DOWN = "the server is shutting down: the robot is going to rest"
 
 def _say(message: str) -> None:
     """Write a line to stderr without Python's buffered streams (safe from a signal handler)."""
-    try:
+    with contextlib.suppress(OSError):
         os.write(2, (message.rstrip("\n") + "\n").encode(errors="replace"))
-    except OSError:
-        pass
 
 
 def park_robot(session, timeout: float = DEFAULT_SHUTDOWN_TIMEOUT) -> dict:
@@ -88,8 +86,10 @@ def rest_error(session) -> tuple[float, float]:
     mask = emb.continuous_mask
     if not mask.any():
         return 0.0, 0.0
-    return (float(np.max(np.abs(frame.position[mask] - emb.rest[mask]))),
-            float(np.max(np.abs(frame.velocity[mask]))))
+    return (
+        float(np.max(np.abs(frame.position[mask] - emb.rest[mask]))),
+        float(np.max(np.abs(frame.velocity[mask]))),
+    )
 
 
 def _reset_and_settle(session, timeout: float) -> dict:
@@ -110,8 +110,11 @@ def _reset_and_settle(session, timeout: float) -> dict:
         if time.monotonic() - t0 > fade and still >= 3:
             break
     error, speed = rest_error(session)
-    return {"reached_rest": error <= REST_TOLERANCE and speed <= REST_TOLERANCE,
-            "seconds": time.monotonic() - t0, "max_error": error}
+    return {
+        "reached_rest": error <= REST_TOLERANCE and speed <= REST_TOLERANCE,
+        "seconds": time.monotonic() - t0,
+        "max_error": error,
+    }
 
 
 class ShutdownGate:
@@ -131,8 +134,11 @@ class ShutdownGate:
         kind = scope.get("type")
         if kind == "http" and self.closing.is_set() and scope.get("method", "GET") not in SAFE_METHODS:
             body = json.dumps({"detail": {"code": "shutting_down", "message": SHUTTING_DOWN}}).encode()
-            headers = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
-                       (b"connection", b"close")]
+            headers = [
+                (b"content-type", b"application/json"),
+                (b"content-length", str(len(body)).encode()),
+                (b"connection", b"close"),
+            ]
             await send({"type": "http.response.start", "status": 503, "headers": headers})
             await send({"type": "http.response.body", "body": body})
             return
@@ -159,7 +165,7 @@ class ShutdownGate:
         await self.app(scope, receive, send)
 
 
-def uvicorn_server(config, shutdown: "Shutdown"):
+def uvicorn_server(config, shutdown: Shutdown):
     """A uvicorn Server that leaves the signals to `shutdown` (uvicorn's own handlers re-raise the signal
     after serving, which killed the process before the robot reached rest)."""
     import uvicorn
@@ -188,8 +194,9 @@ class Shutdown:
     server returned) closes the engine and the Pre-Viz and returns the exit status.
     """
 
-    def __init__(self, session, timeout: float = DEFAULT_SHUTDOWN_TIMEOUT, *, watchdog: bool = True,
-                 exit=os._exit):
+    def __init__(
+        self, session, timeout: float = DEFAULT_SHUTDOWN_TIMEOUT, *, watchdog: bool = True, exit=os._exit
+    ):
         self.session = session
         self.timeout = float(timeout)
         self.closing = threading.Event()  # the API gate
@@ -224,10 +231,8 @@ class Shutdown:
 
         def restore() -> None:
             for sig, handler in previous.items():
-                try:
+                with contextlib.suppress(OSError, ValueError, TypeError):
                     signal.signal(sig, handler)
-                except (OSError, ValueError, TypeError):
-                    pass
 
         return restore
 
@@ -246,11 +251,15 @@ class Shutdown:
                 if self.released:  # the robot is at rest already and uvicorn waits for clients: stop waiting
                     server.force_exit = True
         if n == 2:
-            _say(f"nutty: {reason} again: hurrying; the robot still finishes going to rest "
-                 f"(at most {self.timeout:g} s), then clients get {HURRIED_GRACE:g} s")
+            _say(
+                f"nutty: {reason} again: hurrying; the robot still finishes going to rest "
+                f"(at most {self.timeout:g} s), then clients get {HURRIED_GRACE:g} s"
+            )
         elif n > 2:
-            _say(f"nutty: {reason}: already stopping; the process exits within {self.timeout + EXIT_BOUND:g} s "
-                 "of the first signal (SIGKILL stops it at once, without rest)")
+            _say(
+                f"nutty: {reason}: already stopping; the process exits within {self.timeout + EXIT_BOUND:g} s "
+                "of the first signal (SIGKILL stops it at once, without rest)"
+            )
         if self._wfd >= 0:
             try:
                 os.write(self._wfd, b"!")
@@ -281,8 +290,10 @@ class Shutdown:
         self.closing.set()
         if self._watchdog:
             threading.Thread(target=self._watch, name="nutty-shutdown-watchdog", daemon=True).start()
-        _say(f"nutty: {self.reasons[0] if self.reasons else 'stop'}: taking the robot to rest "
-             f"(at most {self.timeout:g} s), then closing")
+        _say(
+            f"nutty: {self.reasons[0] if self.reasons else 'stop'}: taking the robot to rest "
+            f"(at most {self.timeout:g} s), then closing"
+        )
         self.result = self._park()
         time.sleep(0.05 if self.hurried else HOLD_SECONDS)  # park() left the engine emitting the rest pose
         try:
@@ -317,8 +328,12 @@ class Shutdown:
         if "result" in box:
             return box["result"]
         error, _ = rest_error(self.session)
-        return {"reached_rest": False, "seconds": time.monotonic() - t0, "max_error": error,
-                "error": box.get("error", f"park() did not return within {self.timeout + PARK_SLACK:g} s")}
+        return {
+            "reached_rest": False,
+            "seconds": time.monotonic() - t0,
+            "max_error": error,
+            "error": box.get("error", f"park() did not return within {self.timeout + PARK_SLACK:g} s"),
+        }
 
     def _drain(self, seconds: float) -> None:
         deadline = time.monotonic() + seconds
@@ -355,19 +370,21 @@ class Shutdown:
         took = time.monotonic() - self.started_at if self.started_at is not None else 0.0
         if result.get("reached_rest"):
             self.exit_code = 0
-            _say(f"nutty: robot at rest after {float(result.get('seconds', 0.0)):.2f} s; drivers closed; "
-                 f"stopped in {took:.2f} s")
+            _say(
+                f"nutty: robot at rest after {float(result.get('seconds', 0.0)):.2f} s; drivers closed; "
+                f"stopped in {took:.2f} s"
+            )
         else:
             self.exit_code = 1
             why = result.get("error") or f"max error {float(result.get('max_error', float('nan'))):.3g}"
-            _say(f"nutty: warning: the robot did not reach rest within {self.timeout:g} s ({why}); "
-                 f"drivers closed; stopped in {took:.2f} s")
+            _say(
+                f"nutty: warning: the robot did not reach rest within {self.timeout:g} s ({why}); "
+                f"drivers closed; stopped in {took:.2f} s"
+            )
         wfd, self._wfd = self._wfd, -1  # a late signal must not write into a reused descriptor
         for fd in (self._rfd, wfd):
-            try:
+            with contextlib.suppress(OSError):
                 os.close(fd)
-            except OSError:
-                pass
         return self.exit_code
 
 

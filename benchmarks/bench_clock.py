@@ -27,10 +27,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from backend.engine.embodiment import load_embodiment  # noqa: E402
-from backend.engine.runtime import Sink  # noqa: E402
-from backend.session import EngineSession  # noqa: E402
-from bench_engine import three_layer_program  # noqa: E402  (this folder is on sys.path when run as a script)
+from bench_engine import three_layer_program
+
+from backend.engine.embodiment import load_embodiment
+from backend.engine.runtime import Sink
+from backend.session import EngineSession
 
 SECONDS = 2.0
 PROGRAMS = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs"
@@ -68,7 +69,11 @@ def sleep_loop(rate: float) -> dict:
         periods.append(now - last)
         last = now
     ms = np.array(periods) * 1e3
-    return {"ticks": len(periods), "p50_ms": float(np.percentile(ms, 50)), "p99_ms": float(np.percentile(ms, 99))}
+    return {
+        "ticks": len(periods),
+        "p50_ms": float(np.percentile(ms, 50)),
+        "p99_ms": float(np.percentile(ms, 99)),
+    }
 
 
 def report_steadiness(emb) -> None:
@@ -77,13 +82,15 @@ def report_steadiness(emb) -> None:
         nominal = rate * SECONDS
         period = s["period"]
         ok = s["ticks"] >= 0.7 * nominal and (rate != 200.0 or 3.0 <= period["p50_ms"] <= 7.0)
-        print(f"clock {rate:6.0f} Hz  ticks {s['ticks']:5d} of {nominal:.0f} ({s['ticks'] / nominal:.0%})   "
-              f"period p50 {period['p50_ms']:.3f} p99 {period['p99_ms']:.3f} ms   "
-              f"late p99 {s['jitter']['p99_ms']:.3f} ms   lost {s['lost_ticks']}   "
-              f"tick cost p50 {s['tick_cost']['p50_ms']:.3f} ms   goal: "
-              f"{'meets' if ok else 'MISSES'}   sleep-loop peer: ticks {peer['ticks']} "
-              f"({peer['ticks'] / nominal:.0%}), period p50 {peer['p50_ms']:.3f} p99 {peer['p99_ms']:.3f} ms "
-              f"(clock/peer p99 {period['p99_ms'] / peer['p99_ms']:.2f}x)")
+        print(
+            f"clock {rate:6.0f} Hz  ticks {s['ticks']:5d} of {nominal:.0f} ({s['ticks'] / nominal:.0%})   "
+            f"period p50 {period['p50_ms']:.3f} p99 {period['p99_ms']:.3f} ms   "
+            f"late p99 {s['jitter']['p99_ms']:.3f} ms   lost {s['lost_ticks']}   "
+            f"tick cost p50 {s['tick_cost']['p50_ms']:.3f} ms   goal: "
+            f"{'meets' if ok else 'MISSES'}   sleep-loop peer: ticks {peer['ticks']} "
+            f"({peer['ticks'] / nominal:.0%}), period p50 {peer['p50_ms']:.3f} p99 {peer['p99_ms']:.3f} ms "
+            f"(clock/peer p99 {period['p99_ms'] / peer['p99_ms']:.2f}x)"
+        )
 
 
 def report_slow_sink(emb) -> None:
@@ -95,9 +102,11 @@ def report_slow_sink(emb) -> None:
     bare = run_clock(emb, rate)
     missing = s["ticks"] - len(fast_frames)
     ok = s["ticks"] >= 0.7 * nominal and missing <= 0.05 * s["ticks"]
-    print(f"slow sink 200 Hz  ticks {s['ticks']} with a 50 ms sink vs {bare['ticks']} without "
-          f"({s['ticks'] / max(bare['ticks'], 1):.2f}x)   slow sink delivered {slow.delivered}, dropped "
-          f"{slow.dropped}   fast sink missed {missing}   goal: {'meets' if ok else 'MISSES'}")
+    print(
+        f"slow sink 200 Hz  ticks {s['ticks']} with a 50 ms sink vs {bare['ticks']} without "
+        f"({s['ticks'] / max(bare['ticks'], 1):.2f}x)   slow sink delivered {slow.delivered}, dropped "
+        f"{slow.dropped}   fast sink missed {missing}   goal: {'meets' if ok else 'MISSES'}"
+    )
 
 
 def swap_latencies(emb, running: bool) -> np.ndarray:
@@ -122,8 +131,10 @@ def report_swaps(emb) -> None:
     live, still = swap_latencies(emb, True), swap_latencies(emb, False)
     p50, p99 = np.percentile(live, [50, 99])
     q50, q99 = np.percentile(still, [50, 99])
-    print(f"swaps into a 200 Hz clock  p50 {p50:.2f} ms  p99 {p99:.2f} ms   into a stopped engine (peer) "
-          f"p50 {q50:.2f} ms  p99 {q99:.2f} ms   (live/peer p50 {p50 / q50:.2f}x)")
+    print(
+        f"swaps into a 200 Hz clock  p50 {p50:.2f} ms  p99 {p99:.2f} ms   into a stopped engine (peer) "
+        f"p50 {q50:.2f} ms  p99 {q99:.2f} ms   (live/peer p50 {p50 / q50:.2f}x)"
+    )
 
 
 def main() -> None:

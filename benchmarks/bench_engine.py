@@ -45,12 +45,15 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-import scripted_ai  # noqa: E402
-from backend.engine.compiled import REFERENCE_ENV  # noqa: E402
-from backend.engine.embodiment import load_embodiment  # noqa: E402
-from backend.graph.builder import ProgramBuilder  # noqa: E402
-from backend.session import EngineSession  # noqa: E402
-from bench_nmf import time_ruckig  # noqa: E402  (this folder is on sys.path when run as a script)
+import contextlib
+
+import scripted_ai
+from bench_nmf import time_ruckig
+
+from backend.engine.compiled import REFERENCE_ENV
+from backend.engine.embodiment import load_embodiment
+from backend.graph.builder import ProgramBuilder
+from backend.session import EngineSession
 
 PROGRAMS = ROOT / "robots" / "nutty_desk" / "programs"
 RATES = (100.0, 500.0, 1000.0)
@@ -63,7 +66,9 @@ def synthetic_urdf(n: int) -> str:
     links = "".join(f'<link name="l{i}"/>' for i in range(n + 1))
     joints = "".join(
         f'<joint name="j{i}" type="revolute"><parent link="l0"/><child link="l{i + 1}"/><axis xyz="0 0 1"/>'
-        f'<limit lower="-1" upper="1" velocity="2" effort="1"/></joint>' for i in range(n))
+        f'<limit lower="-1" upper="1" velocity="2" effort="1"/></joint>'
+        for i in range(n)
+    )
     return f'<?xml version="1.0"?><robot name="many{n}">{links}{joints}</robot>'
 
 
@@ -74,9 +79,15 @@ def three_layer_program() -> dict:
     breathe = b.node("sine", "breathe", dofs=["*"], amplitude=0.05, frequency=0.3, phase_spread=0.1)
     gesture = b.node("sine", "gesture", dofs=["*"], amplitude=0.4, frequency=1.0)
     gain = b.node("gain_offset", "gain", gain=0.8)
-    mix = b.node("layer_mixer", "mix", layers=[
-        {"name": "base"}, {"name": "idle", "mode": "additive"},
-        {"name": "gesture", "mode": "override", "weight": 0.7}])
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        layers=[
+            {"name": "base"},
+            {"name": "idle", "mode": "additive"},
+            {"name": "gesture", "mode": "override", "weight": 0.7},
+        ],
+    )
     safety = b.node("safety_limiter", "safety")
     b.connect(rest, mix, "out", "base").connect(breathe, mix, "out", "idle")
     b.chain(gesture, gain)
@@ -98,8 +109,9 @@ class Peer:
         return self.us
 
 
-def headless_costs(emb, program: dict, rate: float, compiled: bool = True, seconds: float = SCRIPT_SECONDS
-                   ) -> np.ndarray:
+def headless_costs(
+    emb, program: dict, rate: float, compiled: bool = True, seconds: float = SCRIPT_SECONDS
+) -> np.ndarray:
     """µs of each `engine.tick()` of `program` at `rate` over `seconds` of program time under the
     scripted AI (after a few warm-up ticks)."""
     saved = os.environ.get(REFERENCE_ENV)
@@ -112,7 +124,7 @@ def headless_costs(emb, program: dict, rate: float, compiled: bool = True, secon
         else:
             os.environ[REFERENCE_ENV] = saved
     engine = session.engine
-    ticks = int(round(seconds * rate)) + WARM_UP
+    ticks = round(seconds * rate) + WARM_UP
     script = list(scripted_ai.timeline(ticks / rate))
     costs = np.empty(ticks)
     k = 0
@@ -148,18 +160,27 @@ def run_headless(peer: Peer) -> dict[str, float]:
             peer.round()
             rows.append((name, rate, headless_costs(desk, program(name), rate)))
     peer.round()
-    rows.append(("interactive (numpy reference)", 100.0, headless_costs(desk, program("interactive"), 100.0, False)))
+    rows.append(
+        ("interactive (numpy reference)", 100.0, headless_costs(desk, program("interactive"), 100.0, False))
+    )
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "many.urdf"
         path.write_text(synthetic_urdf(1000))
         many = load_embodiment(path)
     for rate in (100.0, 1000.0):
         peer.round()
-        rows.append((f"breathe-anything, {many.n_channels} DoFs", rate,
-                     headless_costs(many, program("breathe-anything"), rate, seconds=1000 / rate)))
+        rows.append(
+            (
+                f"breathe-anything, {many.n_channels} DoFs",
+                rate,
+                headless_costs(many, program("breathe-anything"), rate, seconds=1000 / rate),
+            )
+        )
     us = peer.round()
-    print(f"\nPeer: one Ruckig streaming update of {RUCKIG_DOFS} DoFs = {us:.1f} µs (best of {len(rows) + 1} "
-          f"rounds interleaved with the rows below)")
+    print(
+        f"\nPeer: one Ruckig streaming update of {RUCKIG_DOFS} DoFs = {us:.1f} µs (best of {len(rows) + 1} "
+        f"rounds interleaved with the rows below)"
+    )
     print("\nHeadless: engine.tick() under the scripted AI, timed tick by tick")
     print(f"{'program':<34} {'rate':>6} {'tick p50 µs':>11} {'xRuckig':>7} {'p99 µs':>9} {'xRuckig':>7}")
     for name, rate, costs in rows:
@@ -180,19 +201,21 @@ def clock_alone(rate: float, seconds: float) -> dict:
     ticks, overruns, lost = engine.ticks, engine.overruns, engine.lost_ticks
     end, k = time.monotonic() + seconds, 0
     while time.monotonic() < end:
-        try:
+        with contextlib.suppress(ValueError):
             session.execute(script[k][1])
-        except ValueError:
-            pass
         k += 1
         time.sleep(0.5)
     stats = engine.stats()
     engine.close()
-    stats.update(ticks=engine.ticks - ticks, overruns=engine.overruns - overruns, lost_ticks=engine.lost_ticks - lost)
+    stats.update(
+        ticks=engine.ticks - ticks, overruns=engine.overruns - overruns, lost_ticks=engine.lost_ticks - lost
+    )
     return stats
 
 
-def run_served(peer: Peer, seconds: float, rates: tuple[float, ...], headless: dict[float, float]) -> list[dict]:
+def run_served(
+    peer: Peer, seconds: float, rates: tuple[float, ...], headless: dict[float, float]
+) -> list[dict]:
     import served
 
     results = []
@@ -204,13 +227,19 @@ def run_served(peer: Peer, seconds: float, rates: tuple[float, ...], headless: d
         r.update(load=load, alone=alone)
         results.append(r)
     us = peer.round()
-    print(f"\nServed: nutty serve, interactive program, Pre-Viz on (its own process) with its page open, {served.TELEMETRY_CLIENTS} "
-          f"telemetry clients at {served.TELEMETRY_HZ} Hz, a {served.DRIVER_HZ} Hz driver, the scripted AI over "
-          f"REST every {served.AI_PERIOD:g} s (Ruckig peer {us:.1f} µs)")
-    print("(`alone`: the same program and rate on a clock in the benchmark's process with no server, just before; "
-          "`/headless` and `/alone`: the served tick p50 over the headless p50 and over the alone p50)")
-    print(f"{'rate':>5} {'run':>7} {'window':>7} {'load':>5} {'tick p50 µs':>11} {'xRuckig':>7} {'p99 µs':>9} "
-          f"{'xRuckig':>7} {'cpu p50':>8} {'/headless':>9} {'/alone':>7} {'late p99 ms':>11} {'overruns':>8} {'lost':>6}")
+    print(
+        f"\nServed: nutty serve, interactive program, Pre-Viz on (its own process) with its page open, {served.TELEMETRY_CLIENTS} "
+        f"telemetry clients at {served.TELEMETRY_HZ} Hz, a {served.DRIVER_HZ} Hz driver, the scripted AI over "
+        f"REST every {served.AI_PERIOD:g} s (Ruckig peer {us:.1f} µs)"
+    )
+    print(
+        "(`alone`: the same program and rate on a clock in the benchmark's process with no server, just before; "
+        "`/headless` and `/alone`: the served tick p50 over the headless p50 and over the alone p50)"
+    )
+    print(
+        f"{'rate':>5} {'run':>7} {'window':>7} {'load':>5} {'tick p50 µs':>11} {'xRuckig':>7} {'p99 µs':>9} "
+        f"{'xRuckig':>7} {'cpu p50':>8} {'/headless':>9} {'/alone':>7} {'late p99 ms':>11} {'overruns':>8} {'lost':>6}"
+    )
     for r in results:
         for label, st in (("alone", r["alone"]), ("served", r["status"])):
             counts = r["alone"] if label == "alone" else r
@@ -219,16 +248,22 @@ def run_served(peer: Peer, seconds: float, rates: tuple[float, ...], headless: d
             vs = f"{p50 / base:8.2f}x" if base else f"{'-':>9}"
             window = f"{r['seconds']:>6.1f}s" if label == "served" else f"{'':>7}"
             load = f"{r['load']:>5.1f}" if label == "served" else f"{'':>5}"
-            print(f"{r['rate']:>5g} {label:>7} {window} {load} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)} "
-                  f"{st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {p50 / alone:>6.2f}x {st['jitter']['p99_ms']:>11.3f} "
-                  f"{counts['overruns']:>8} {counts['lost_ticks']:>6}")
+            print(
+                f"{r['rate']:>5g} {label:>7} {window} {load} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)} "
+                f"{st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {p50 / alone:>6.2f}x {st['jitter']['p99_ms']:>11.3f} "
+                f"{counts['overruns']:>8} {counts['lost_ticks']:>6}"
+            )
     for r in results:
         c = r["counts"]
-        print(f"  {r['rate']:g} Hz load delivered: {c['telemetry']} telemetry messages, {c['frames']} driver frames, "
-              f"{c['previz']} Pre-Viz messages ({c['previz_reconnects']} reconnects), {c['commands']} commands")
+        print(
+            f"  {r['rate']:g} Hz load delivered: {c['telemetry']} telemetry messages, {c['frames']} driver frames, "
+            f"{c['previz']} Pre-Viz messages ({c['previz_reconnects']} reconnects), {c['commands']} commands"
+        )
     top = sorted(results[0]["profile"]["nodes"], key=lambda n: -n["mean_us"])[:6]
-    print("  most expensive nodes in the server (mean µs): "
-          + ", ".join(f"{n['node']} ({n['type']}) {n['mean_us']:.0f}" for n in top))
+    print(
+        "  most expensive nodes in the server (mean µs): "
+        + ", ".join(f"{n['node']} ({n['type']}) {n['mean_us']:.0f}" for n in top)
+    )
     return results
 
 
@@ -253,26 +288,36 @@ def run_attribution(peer: Peer, rate: float, seconds: float, headless: dict[floa
         rows.append((label, served.measure(rate, seconds, clients=clients, server_args=server_args)))
     us = peer.round()
     base = headless.get(rate)
-    print(f"\nWhere the server's cost comes from: nutty serve at {rate:g} Hz under one part of the load at a time "
-          f"({seconds:g} s each; Ruckig peer {us:.1f} µs)")
-    print(f"{'load':<42} {'tick p50 µs':>11} {'xRuckig':>7} {'cpu p50':>8} {'/headless':>9} {'p99 µs':>8} "
-          f"{'late p99 ms':>11} {'overruns':>8}")
+    print(
+        f"\nWhere the server's cost comes from: nutty serve at {rate:g} Hz under one part of the load at a time "
+        f"({seconds:g} s each; Ruckig peer {us:.1f} µs)"
+    )
+    print(
+        f"{'load':<42} {'tick p50 µs':>11} {'xRuckig':>7} {'cpu p50':>8} {'/headless':>9} {'p99 µs':>8} "
+        f"{'late p99 ms':>11} {'overruns':>8}"
+    )
     for label, r in rows:
         st = r["status"]
         p50, p99 = st["tick_cost"]["p50_ms"] * 1e3, st["tick_cost"]["p99_ms"] * 1e3
         vs = f"{p50 / base:8.2f}x" if base else f"{'-':>9}"
-        print(f"{label:<42} {fmt_ratio(p50, us)} {st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {p99:>8.0f} "
-              f"{st['jitter']['p99_ms']:>11.3f} {r['overruns']:>8}")
+        print(
+            f"{label:<42} {fmt_ratio(p50, us)} {st['tick_cpu']['p50_ms'] * 1e3:>8.1f} {vs} {p99:>8.0f} "
+            f"{st['jitter']['p99_ms']:>11.3f} {r['overruns']:>8}"
+        )
 
 
 def run_startup(cold: bool) -> None:
     import served
 
     warm = min(served.startup(None) for _ in range(2))  # numba's own cache, filled by the runs above
-    line = (f"\nStart-up of nutty serve to its first frame (Pre-Viz on): warm caches {warm:.2f} s "
-            f"(target <= 3 s: {'meets' if warm <= 3 else 'MISSES'})")
+    line = (
+        f"\nStart-up of nutty serve to its first frame (Pre-Viz on): warm caches {warm:.2f} s "
+        f"(target <= 3 s: {'meets' if warm <= 3 else 'MISSES'})"
+    )
     if cold:
-        with tempfile.TemporaryDirectory() as tmp:  # an empty cache: every kernel compiles, as on a fresh clone
+        with (
+            tempfile.TemporaryDirectory() as tmp
+        ):  # an empty cache: every kernel compiles, as on a fresh clone
             line += f", cold numba cache {served.startup(tmp):.2f} s"
     print(line)
 
@@ -280,13 +325,21 @@ def run_startup(cold: bool) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=8.0, help="measurement window of each served run (s)")
-    ap.add_argument("--long", action="store_true", help="also serve at 500 Hz for 60 s (the steadiness target)")
-    ap.add_argument("--attribute", action="store_true", help="also serve at 500 Hz under each part of the load "
-                                                             "alone (where the server's cost comes from)")
+    ap.add_argument(
+        "--long", action="store_true", help="also serve at 500 Hz for 60 s (the steadiness target)"
+    )
+    ap.add_argument(
+        "--attribute",
+        action="store_true",
+        help="also serve at 500 Hz under each part of the load alone (where the server's cost comes from)",
+    )
     ap.add_argument("--no-server", action="store_true", help="headless figures only")
     ap.add_argument("--no-startup", action="store_true", help="skip the start-up measurement")
-    ap.add_argument("--cold", action="store_true", help="also start with an empty numba cache (compiles every kernel: "
-                                                        "a minute or two)")
+    ap.add_argument(
+        "--cold",
+        action="store_true",
+        help="also start with an empty numba cache (compiles every kernel: a minute or two)",
+    )
     args = ap.parse_args()
     peer = Peer()
     headless = run_headless(peer)

@@ -35,7 +35,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from backend.fleet import Fleet  # noqa: E402
+from backend.fleet import Fleet
 
 SECONDS = 10.0
 RATE = 100.0
@@ -55,12 +55,40 @@ class Engine:
 
     def __init__(self, robot_id: str, config: str, hub: str | None):
         self.robot_id, self.port = robot_id, free_port()
-        zenoh = ["--zenoh", "--robot-id", robot_id, "--zenoh-config", config, "--zenoh-connect", hub,
-                 "--zenoh-listen", f"tcp/127.0.0.1:{free_port()}"] if hub else []
+        zenoh = (
+            [
+                "--zenoh",
+                "--robot-id",
+                robot_id,
+                "--zenoh-config",
+                config,
+                "--zenoh-connect",
+                hub,
+                "--zenoh-listen",
+                f"tcp/127.0.0.1:{free_port()}",
+            ]
+            if hub
+            else []
+        )
         self.log = tempfile.TemporaryFile()
-        self.proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "serve", "--no-previz", "--port",
-                                      str(self.port), "--rate", f"{RATE:g}", *zenoh], cwd=ROOT, stdout=self.log,
-                                     stderr=subprocess.STDOUT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        self.proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "backend.cli",
+                "serve",
+                "--no-previz",
+                "--port",
+                str(self.port),
+                "--rate",
+                f"{RATE:g}",
+                *zenoh,
+            ],
+            cwd=ROOT,
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+        )
 
     def sample(self) -> tuple[dict, float, float]:
         """(status, CPU seconds used so far, when) for rates over a window."""
@@ -140,13 +168,17 @@ def latency(config: str) -> None:
             ws.join(5)
         finally:
             engine.stop()
-    both = sorted(set(stamps) & set(ws_at))[int(RATE):]  # the first second warms up
+    both = sorted(set(stamps) & set(ws_at))[int(RATE) :]  # the first second warms up
     z = [zenoh_at[s] - stamps[s] for s in both]
     w = [ws_at[s] - stamps[s] for s in both]
     print(f"latency over {len(both)} frames at {RATE:g} Hz (same frames, same engine, this machine):")
     for name, lat in (("Zenoh", z), ("/ws/frames", w)):
-        print(f"  {name:11s} p50 {pct(lat, 50):6.2f} ms   p99 {pct(lat, 99):6.2f} ms   max {pct(lat, 100):7.2f} ms")
-    print(f"  ratio Zenoh / WebSocket: p50 {pct(z, 50) / pct(w, 50):.2f}x, p99 {pct(z, 99) / pct(w, 99):.2f}x")
+        print(
+            f"  {name:11s} p50 {pct(lat, 50):6.2f} ms   p99 {pct(lat, 99):6.2f} ms   max {pct(lat, 100):7.2f} ms"
+        )
+    print(
+        f"  ratio Zenoh / WebSocket: p50 {pct(z, 50) / pct(w, 50):.2f}x, p99 {pct(z, 99) / pct(w, 99):.2f}x"
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -158,7 +190,9 @@ def run_engines(n: int, config: str) -> tuple[dict, dict]:
     """`n` engines with --zenoh and one peer without, side by side for SECONDS: the figures of each group."""
     hub = f"tcp/127.0.0.1:{free_port()}"
     with Fleet(mode="router", listen=[hub], config=config, timeout=10) as fleet:
-        engines = [Engine(f"bench-{i}", config, hub) for i in range(1, n + 1)] + [Engine("peer", config, None)]
+        engines = [Engine(f"bench-{i}", config, hub) for i in range(1, n + 1)] + [
+            Engine("peer", config, None)
+        ]
         received: dict[str, int] = {}
         lock = threading.Lock()
 
@@ -191,30 +225,38 @@ def run_engines(n: int, config: str) -> tuple[dict, dict]:
 def figures(windows: list) -> dict:
     """Totals and per-engine figures over (before, after) samples of some engines."""
     ticks = [a["ticks"] - b["ticks"] for (b, *_), (a, *_) in windows]
-    return {"ticks": ticks,
-            "nominal": [RATE * (ta - tb) for (_, _, tb, _), (_, _, ta, _) in windows],
-            "lost": [a["lost_ticks"] - b["lost_ticks"] for (b, *_), (a, *_) in windows],
-            "overruns": [a["overruns"] - b["overruns"] for (b, *_), (a, *_) in windows],
-            "period_p99": max(a["period"]["p99_ms"] for _, (a, *_) in windows),
-            "cpu": [(ca - cb) / (ta - tb) for (_, cb, tb, _), (_, ca, ta, _) in windows],
-            "received": [(ra - rb) / max(t, 1) for ((*_, rb), (*_, ra)), t in zip(windows, ticks)]}
+    return {
+        "ticks": ticks,
+        "nominal": [RATE * (ta - tb) for (_, _, tb, _), (_, _, ta, _) in windows],
+        "lost": [a["lost_ticks"] - b["lost_ticks"] for (b, *_), (a, *_) in windows],
+        "overruns": [a["overruns"] - b["overruns"] for (b, *_), (a, *_) in windows],
+        "period_p99": max(a["period"]["p99_ms"] for _, (a, *_) in windows),
+        "cpu": [(ca - cb) / (ta - tb) for (_, cb, tb, _), (_, ca, ta, _) in windows],
+        "received": [(ra - rb) / max(t, 1) for ((*_, rb), (*_, ra)), t in zip(windows, ticks)],
+    }
 
 
 def row(label: str, r: dict, peer: dict | None = None) -> str:
     reached = sum(r["ticks"]) / sum(r["nominal"])
     lost = sum(r["lost"]) / sum(r["nominal"])
     cpu = np.mean(r["cpu"])
-    text = (f"  {label:18s} ticks {reached:5.0%} of nominal   overruns {sum(r['overruns']):5d}   lost ticks "
-            f"{sum(r['lost']):5d} ({lost:5.1%})   period p99 {r['period_p99']:6.2f} ms   CPU/engine {cpu:4.0%}")
+    text = (
+        f"  {label:18s} ticks {reached:5.0%} of nominal   overruns {sum(r['overruns']):5d}   lost ticks "
+        f"{sum(r['lost']):5d} ({lost:5.1%})   period p99 {r['period_p99']:6.2f} ms   CPU/engine {cpu:4.0%}"
+    )
     if peer is not None:
-        text += (f"   frames here {np.mean(r['received']):5.0%} of ticks   CPU {cpu / max(peer['cpu'][0], 1e-9):.2f}x "
-                 f"the peer   {'held' if lost <= HELD_LOSS else 'NOT held'}")
+        text += (
+            f"   frames here {np.mean(r['received']):5.0%} of ticks   CPU {cpu / max(peer['cpu'][0], 1e-9):.2f}x "
+            f"the peer   {'held' if lost <= HELD_LOSS else 'NOT held'}"
+        )
     return text
 
 
 def scaling(config: str) -> None:
-    print(f"engines at {RATE:g} Hz, the bundled interactive program, {SECONDS:g} s each, next to a peer engine "
-          f"without Zenoh ({os.cpu_count()} cores; 'held': at most {HELD_LOSS:.0%} of ticks lost):")
+    print(
+        f"engines at {RATE:g} Hz, the bundled interactive program, {SECONDS:g} s each, next to a peer engine "
+        f"without Zenoh ({os.cpu_count()} cores; 'held': at most {HELD_LOSS:.0%} of ticks lost):"
+    )
     held_up_to, all_held = 0, True
     for n in COUNTS:
         load = os.getloadavg()[0]
@@ -247,7 +289,9 @@ def publish_cost() -> None:
     got = []
     try:
         sub = b.declare_subscriber("bench/frames", lambda s: got.append(1))
-        pub = a.declare_publisher("bench/frames", congestion_control=zenoh.CongestionControl.DROP, express=True)
+        pub = a.declare_publisher(
+            "bench/frames", congestion_control=zenoh.CongestionControl.DROP, express=True
+        )
         time.sleep(0.5)
         best = {"encode": float("inf"), "encode + put": float("inf")}
         for _ in range(5):  # best of 5 rounds: the machine's load only ever adds
@@ -266,10 +310,14 @@ def publish_cost() -> None:
         b.close()
         a.close()
     put = best["encode + put"] - best["encode"]
-    print(f"publishing a nutty_desk frame (best of 5 x {len(frames)}; {len(got)} received by the other session):")
-    print(f"  encode (also paid by /ws/frames) {best['encode'] * 1e6:6.1f} us   Zenoh put {put * 1e6:6.1f} us "
-          f"({put / best['encode']:.2f}x the encoding)   together {best['encode + put'] * RATE:.1%} of one core at "
-          f"{RATE:g} Hz")
+    print(
+        f"publishing a nutty_desk frame (best of 5 x {len(frames)}; {len(got)} received by the other session):"
+    )
+    print(
+        f"  encode (also paid by /ws/frames) {best['encode'] * 1e6:6.1f} us   Zenoh put {put * 1e6:6.1f} us "
+        f"({put / best['encode']:.2f}x the encoding)   together {best['encode + put'] * RATE:.1%} of one core at "
+        f"{RATE:g} Hz"
+    )
 
 
 def main() -> None:

@@ -20,9 +20,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from backend.engine import nmf_examples as ex  # noqa: E402
-from backend.engine.nmf import PRESETS, MotionFilter  # noqa: E402
-from backend.engine.trajectory import analyze, step_metrics  # noqa: E402
+from backend.engine import nmf_examples as ex
+from backend.engine.nmf import PRESETS, MotionFilter
+from backend.engine.trajectory import analyze, step_metrics
 
 try:
     from ruckig import InputParameter, OutputParameter, Ruckig
@@ -85,8 +85,10 @@ def ruckig_follow(setpoints: np.ndarray, rate: float) -> np.ndarray:
 
 def main() -> None:
     rng = np.random.default_rng(0)
-    print("Streaming, a new set-point every cycle, same limits V/A/J = "
-          f"{D.vel_limit:g}/{D.acc_limit:g}/{D.jerk_limit:g}; best of 7 interleaved rounds (the machine is shared)")
+    print(
+        "Streaming, a new set-point every cycle, same limits V/A/J = "
+        f"{D.vel_limit:g}/{D.acc_limit:g}/{D.jerk_limit:g}; best of 7 interleaved rounds (the machine is shared)"
+    )
     print(f"{'DoFs':>6} {'NMF µs':>10} {'Ruckig µs':>10} {'NMF/Ruckig':>11} {'target':>8}  verdict")
     for n, target in ((1, 1.0), (25, 1 / 5), (100, None), (1000, 1 / 30)):
         arr = rng.uniform(-1, 1, size=(256, n))
@@ -114,25 +116,35 @@ def main() -> None:
         f.run(traj)
         elapsed = min(elapsed, time.perf_counter() - t0)
     factor = seconds / elapsed
-    print(f"\nOffline: 10 min of {n} DoFs at {RATE:g} Hz filtered in {elapsed * 1e3:.1f} ms = "
-          f"{factor:,.0f}x real time (target >= 1000x: {'meets' if factor >= 1000 else 'MISSES'})")
+    print(
+        f"\nOffline: 10 min of {n} DoFs at {RATE:g} Hz filtered in {elapsed * 1e3:.1f} ms = "
+        f"{factor:,.0f}x real time (target >= 1000x: {'meets' if factor >= 1000 else 'MISSES'})"
+    )
 
-    print("\nMotion quality on the paper's inputs (60 Hz, 10 s; NMF preset D order 3 tanh vs Ruckig, same V/A/J).")
+    print(
+        "\nMotion quality on the paper's inputs (60 Hz, 10 s; NMF preset D order 3 tanh vs Ruckig, same V/A/J)."
+    )
     print("Violations: samples whose finite differences exceed V, A or J. Overshoot: largest beyond a step's")
     print("target. Settled: steps within 5% of their size before the next step; settle: their mean time.")
     print("(With the tanh limiter the NMF's own velocity stays below V/2 = 45; Ruckig may use all of V.)")
-    print(f"{'input':<6} {'filter':<8} {'vel':>5} {'acc':>5} {'jerk':>5} {'overshoot':>9} {'settled':>8} "
-          f"{'settle s':>9} {'RMS err':>8}")
+    print(
+        f"{'input':<6} {'filter':<8} {'vel':>5} {'acc':>5} {'jerk':>5} {'overshoot':>9} {'settled':>8} "
+        f"{'settle s':>9} {'RMS err':>8}"
+    )
     for name, fn in ex.EXAMPLES.items():
         x = fn()
-        outs = {"NMF D": MotionFilter.from_preset("D", 1, ex.RATE).run(x[:, None]).position[:, 0],
-                "Ruckig": ruckig_follow(x, ex.RATE)}
+        outs = {
+            "NMF D": MotionFilter.from_preset("D", 1, ex.RATE).run(x[:, None]).position[:, 0],
+            "Ruckig": ruckig_follow(x, ex.RATE),
+        }
         for label, y in outs.items():
             c = analyze(np.r_[y[0], y], ex.RATE, D.vel_limit, D.acc_limit, D.jerk_limit).counts()
             m = step_metrics(x, y, ex.RATE)
-            print(f"{name:<6} {label:<8} {c['velocity']:>5} {c['acceleration']:>5} {c['jerk']:>5} "
-                  f"{m.max_overshoot:>9.3f} {m.settled:>3}/{len(m.settle):<4} {m.mean_settle:>9.3f} "
-                  f"{m.rms_error:>8.3f}")
+            print(
+                f"{name:<6} {label:<8} {c['velocity']:>5} {c['acceleration']:>5} {c['jerk']:>5} "
+                f"{m.max_overshoot:>9.3f} {m.settled:>3}/{len(m.settle):<4} {m.mean_settle:>9.3f} "
+                f"{m.rms_error:>8.3f}"
+            )
 
 
 if __name__ == "__main__":

@@ -25,9 +25,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from backend.engine.embodiment import load_embodiment  # noqa: E402
-from backend.engine.safety import SafetyNet  # noqa: E402
-from backend.session import EngineSession  # noqa: E402
+from backend.engine.embodiment import load_embodiment
+from backend.engine.safety import SafetyNet
+from backend.session import EngineSession
 
 PROGRAMS = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs"
 
@@ -42,8 +42,11 @@ def worst(desk, frames, rate) -> dict[str, float]:
     v = np.diff(p, axis=0) * rate
     a = np.diff(v, axis=0) * rate
     j = np.diff(a, axis=0) * rate
-    return {"v": (np.abs(v) / desk.vel_limit[cont]).max(), "a": (np.abs(a) / desk.acc_limit[cont]).max(),
-            "j": (np.abs(j) / desk.jerk_limit[cont]).max()}
+    return {
+        "v": (np.abs(v) / desk.vel_limit[cont]).max(),
+        "a": (np.abs(a) / desk.acc_limit[cont]).max(),
+        "j": (np.abs(j) / desk.jerk_limit[cont]).max(),
+    }
 
 
 def swap_jumps(desk, protected: bool) -> dict[str, float]:
@@ -121,7 +124,11 @@ def main() -> None:
     print(f"cost per tick on nutty_desk ({n_gov} governed channels)")
     for kind in ("pass", "correct"):
         us = cost_us(desk, kind)
-        ratio = f"  ({us / peer:.2f}x one Ruckig update of {int(desk.continuous_mask.sum())} DoFs: {peer:.1f} us)" if peer else ""
+        ratio = (
+            f"  ({us / peer:.2f}x one Ruckig update of {int(desk.continuous_mask.sum())} DoFs: {peer:.1f} us)"
+            if peer
+            else ""
+        )
         print(f"  {kind:8s} {us:6.1f} us{ratio}")
     joint_stage(desk)
 
@@ -141,8 +148,10 @@ def joint_stage(desk) -> None:
         for kind in ("pass", "correct"):
             both = min(cost_us(emb, kind, n) for _ in range(3))
             alone = min(cost_us(emb, kind, n, joints=False) for _ in range(3))
-            print(f"  {label:10s} {kind:8s} channels+joints {both:7.1f} us, channels alone {alone:7.1f} us: "
-                  f"joint stage {both - alone:6.1f} us ({governed} joints stepped)")
+            print(
+                f"  {label:10s} {kind:8s} channels+joints {both:7.1f} us, channels alone {alone:7.1f} us: "
+                f"joint stage {both - alone:6.1f} us ({governed} joints stepped)"
+            )
 
 
 if __name__ == "__main__":

@@ -29,7 +29,9 @@ import websockets
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-import scripted_ai  # noqa: E402
+import contextlib
+
+import scripted_ai
 
 HOST = "127.0.0.1"
 TELEMETRY_CLIENTS = 4
@@ -54,9 +56,22 @@ class Server:
         self.url = f"http://{HOST}:{self.port}"
         self.launched = time.time()
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "backend.cli", "serve", "--port", str(self.port), "--previz-port",
-             str(self.previz_port), *args], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
-            env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})})
+            [
+                sys.executable,
+                "-m",
+                "backend.cli",
+                "serve",
+                "--port",
+                str(self.port),
+                "--previz-port",
+                str(self.previz_port),
+                *args,
+            ],
+            cwd=ROOT,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})},
+        )
 
     def wait_ready(self, timeout: float = 300.0) -> dict[str, Any]:
         """The first /api/status once the server answers and its clock has ticked."""
@@ -99,19 +114,22 @@ async def _read(ws: Any, stop: asyncio.Event, counts: dict, key: str) -> None:
         try:
             await asyncio.wait_for(ws.recv(), 0.5)
             counts[key] += 1
-        except asyncio.TimeoutError:
+        except TimeoutError:
             pass
 
 
 async def _telemetry(url: str, signals: list[dict[str, str]], stop: asyncio.Event, counts: dict) -> None:
     async with websockets.connect(f"{url}/ws/telemetry", max_size=None, open_timeout=OPEN_TIMEOUT) as ws:
-        await ws.send(json.dumps({"type": "subscribe", "signals": signals, "frames": True, "rate": TELEMETRY_HZ}))
+        await ws.send(
+            json.dumps({"type": "subscribe", "signals": signals, "frames": True, "rate": TELEMETRY_HZ})
+        )
         await _read(ws, stop, counts, "telemetry")
 
 
 async def _driver(url: str, decimate: int, stop: asyncio.Event, counts: dict) -> None:
-    async with websockets.connect(f"{url}/ws/frames?decimate={decimate}", max_size=None,
-                                  open_timeout=OPEN_TIMEOUT) as ws:
+    async with websockets.connect(
+        f"{url}/ws/frames?decimate={decimate}", max_size=None, open_timeout=OPEN_TIMEOUT
+    ) as ws:
         await _read(ws, stop, counts, "frames")
 
 
@@ -122,8 +140,12 @@ async def _previz_page(port: int, stop: asyncio.Event, counts: dict) -> None:
 
     while not stop.is_set():
         try:
-            async with websockets.connect(f"ws://{HOST}:{port}", max_size=None, open_timeout=OPEN_TIMEOUT,
-                                          subprotocols=[f"viser-v{viser.__version__}"]) as ws:
+            async with websockets.connect(
+                f"ws://{HOST}:{port}",
+                max_size=None,
+                open_timeout=OPEN_TIMEOUT,
+                subprotocols=[f"viser-v{viser.__version__}"],
+            ) as ws:
                 await _read(ws, stop, counts, "previz")
         except (OSError, websockets.exceptions.WebSocketException):
             counts["previz_reconnects"] += 1
@@ -137,30 +159,34 @@ async def _ai(http: httpx.AsyncClient, stop: asyncio.Event, counts: dict) -> Non
         r = await http.post("/api/commands", json=script[k % len(script)][1])
         counts["commands"] += r.status_code < 300
         k += 1
-        try:
+        with contextlib.suppress(TimeoutError):
             await asyncio.wait_for(stop.wait(), AI_PERIOD)
-        except asyncio.TimeoutError:
-            pass
 
 
 #: The parts of the load (all of them by default): `measure(..., clients=...)` runs a subset.
 CLIENTS = ("telemetry", "previz", "driver", "ai")
 
 
-async def _load(server: Server, rate: float, warm_up: float, seconds: float,
-                clients: tuple[str, ...] = CLIENTS) -> dict[str, Any]:
+async def _load(
+    server: Server, rate: float, warm_up: float, seconds: float, clients: tuple[str, ...] = CLIENTS
+) -> dict[str, Any]:
     ws_url = f"ws://{HOST}:{server.port}"
     counts = {"telemetry": 0, "frames": 0, "previz": 0, "previz_reconnects": 0, "commands": 0}
     async with httpx.AsyncClient(base_url=server.url, timeout=10.0) as http:
         program = (await http.get("/api/program")).json()["program"]
         blocks = {b["type"]: b for b in (await http.get("/api/blocks")).json()}
-        signals = [{"node": n["id"], "port": p} for n in program["nodes"] for p in blocks[n["type"]]["outputs"]]
+        signals = [
+            {"node": n["id"], "port": p} for n in program["nodes"] for p in blocks[n["type"]]["outputs"]
+        ]
         direct = (await http.get("/api/previz")).json()["direct"]
         previz_port = int(direct.rsplit(":", 1)[1]) if direct else 0  # viser's own (none with --no-previz)
         stop = asyncio.Event()
         tasks, names = [], []
         if "telemetry" in clients:
-            tasks += [asyncio.create_task(_telemetry(ws_url, signals, stop, counts)) for _ in range(TELEMETRY_CLIENTS)]
+            tasks += [
+                asyncio.create_task(_telemetry(ws_url, signals, stop, counts))
+                for _ in range(TELEMETRY_CLIENTS)
+            ]
             names += ["telemetry"] * TELEMETRY_CLIENTS
         if "driver" in clients:
             tasks.append(asyncio.create_task(_driver(ws_url, max(1, round(rate / DRIVER_HZ)), stop, counts)))
@@ -180,17 +206,33 @@ async def _load(server: Server, rate: float, warm_up: float, seconds: float,
         profile = (await http.get("/api/profile")).json()
         elapsed = time.monotonic() - t0
         stop.set()
-        failed = [(n, r) for n, r in zip(names, await asyncio.gather(*tasks, return_exceptions=True))
-                  if isinstance(r, BaseException)]
+        failed = [
+            (n, r)
+            for n, r in zip(names, await asyncio.gather(*tasks, return_exceptions=True))
+            if isinstance(r, BaseException)
+        ]
         if failed:
             raise RuntimeError(f"the {failed[0][0]} client of the load failed: {failed[0][1]!r}")
-    return {"rate": rate, "seconds": elapsed, "status": after, "profile": profile, "counts": counts,
-            "ticks": after["ticks"] - before["ticks"], "overruns": after["overruns"] - before["overruns"],
-            "lost_ticks": after["lost_ticks"] - before["lost_ticks"]}
+    return {
+        "rate": rate,
+        "seconds": elapsed,
+        "status": after,
+        "profile": profile,
+        "counts": counts,
+        "ticks": after["ticks"] - before["ticks"],
+        "overruns": after["overruns"] - before["overruns"],
+        "lost_ticks": after["lost_ticks"] - before["lost_ticks"],
+    }
 
 
-def measure(rate: float, seconds: float, warm_up: float = 4.0, program: str | None = None,
-            clients: tuple[str, ...] = CLIENTS, server_args: tuple[str, ...] = ()) -> dict[str, Any]:
+def measure(
+    rate: float,
+    seconds: float,
+    warm_up: float = 4.0,
+    program: str | None = None,
+    clients: tuple[str, ...] = CLIENTS,
+    server_args: tuple[str, ...] = (),
+) -> dict[str, Any]:
     """Serve the bundled robot (its interactive program unless `program`) at `rate` Hz under the load
     above (only the parts named in `clients`); the figures of a `seconds` window after `warm_up` seconds."""
     args = ["--rate", f"{rate:g}", *server_args] + (["--program", program] if program else [])

@@ -37,8 +37,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import httpx  # noqa: E402
-import websockets  # noqa: E402
+import httpx
+import websockets
 
 HOST = "127.0.0.1"
 OP_TIMEOUT = 10.0
@@ -47,6 +47,7 @@ POSTURES = ["neutral", "happy", "sad", "curious", "surprised", "sleepy"]
 
 
 # --- the server process -----------------------------------------------------------------------------
+
 
 def free_port() -> int:
     with socket.socket() as s:
@@ -74,9 +75,14 @@ class Server:
         self.port = port
         self.url = f"http://{HOST}:{port}"
         self.ws = f"ws://{HOST}:{port}"
-        self.proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "serve", "--host", HOST, "--port", str(port),
-                                      *args], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                     env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "backend.cli", "serve", "--host", HOST, "--port", str(port), *args],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
         self.lines: list[str] = []
         threading.Thread(target=lambda: self.lines.extend(self.proc.stdout or []), daemon=True).start()
 
@@ -110,6 +116,7 @@ class Server:
 
 # --- clients --------------------------------------------------------------------------------------------
 
+
 class Tally:
     def __init__(self) -> None:
         self.counts: Counter[str] = Counter()
@@ -121,9 +128,14 @@ class Tally:
 
 
 def random_command(rng: random.Random) -> dict:
-    kind = rng.choice(["gaze", "gaze", "emotion", "clip", "posture", "led", "say", "input", "reset", "stop_all"])
+    kind = rng.choice(
+        ["gaze", "gaze", "emotion", "clip", "posture", "led", "say", "input", "reset", "stop_all"]
+    )
     if kind == "gaze":
-        return {"type": "set_gaze", "target": [rng.uniform(0.2, 0.8), rng.uniform(-0.5, 0.5), rng.uniform(0.1, 0.6)]}
+        return {
+            "type": "set_gaze",
+            "target": [rng.uniform(0.2, 0.8), rng.uniform(-0.5, 0.5), rng.uniform(0.1, 0.6)],
+        }
     if kind == "emotion":
         return {"type": "set_emotion", "valence": rng.uniform(-1, 1), "arousal": rng.uniform(-1, 1)}
     if kind == "clip":
@@ -143,20 +155,22 @@ def random_command(rng: random.Random) -> dict:
 
 def bad_request(rng: random.Random) -> tuple[str, str, bytes | None]:
     """(method, path, raw body) of a request the server must refuse with a 4xx."""
-    return rng.choice([
-        ("POST", "/api/commands", b'{"type": "set_gaze", "target": [1, 2]}'),
-        ("POST", "/api/commands", b'{"type": "warp_drive"}'),
-        ("POST", "/api/commands", b'{"type": "set_gaze", "target": [NaN, 0, 0]}'),
-        ("POST", "/api/commands", b'{"type": "set_gaze", "target": [1e999, 0, 0]}'),
-        ("POST", "/api/commands", b'{"type": '),
-        ("POST", "/api/commands", b"[" * 5000 + b"]" * 5000),
-        ("POST", "/api/commands", b"x" * 1_100_000),
-        ("PUT", "/api/program", b'{"format": "nutty-program/1", "nodes": "many"}'),
-        ("PATCH", "/api/program/nodes/no_such_node/params", b'{"gain": 1}'),
-        ("PUT", "/api/inputs/arousal", b'{"value": "very"}'),
-        ("GET", "/api/clips/..%2F..%2Fetc%2Fpasswd", None),
-        ("DELETE", "/api/commands/not-a-command", None),
-    ])
+    return rng.choice(
+        [
+            ("POST", "/api/commands", b'{"type": "set_gaze", "target": [1, 2]}'),
+            ("POST", "/api/commands", b'{"type": "warp_drive"}'),
+            ("POST", "/api/commands", b'{"type": "set_gaze", "target": [NaN, 0, 0]}'),
+            ("POST", "/api/commands", b'{"type": "set_gaze", "target": [1e999, 0, 0]}'),
+            ("POST", "/api/commands", b'{"type": '),
+            ("POST", "/api/commands", b"[" * 5000 + b"]" * 5000),
+            ("POST", "/api/commands", b"x" * 1_100_000),
+            ("PUT", "/api/program", b'{"format": "nutty-program/1", "nodes": "many"}'),
+            ("PATCH", "/api/program/nodes/no_such_node/params", b'{"gain": 1}'),
+            ("PUT", "/api/inputs/arousal", b'{"value": "very"}'),
+            ("GET", "/api/clips/..%2F..%2Fetc%2Fpasswd", None),
+            ("DELETE", "/api/commands/not-a-command", None),
+        ]
+    )
 
 
 async def rest_client(srv: Server, deadline: float, rng: random.Random, tally: Tally) -> None:
@@ -170,8 +184,12 @@ async def rest_client(srv: Server, deadline: float, rng: random.Random, tally: T
                     r = await http.get("/api/status")
                 else:
                     method, path, body = bad_request(rng)
-                    r = await http.request(method, path, content=body,
-                                           headers={"content-type": "application/json"} if body else None)
+                    r = await http.request(
+                        method,
+                        path,
+                        content=body,
+                        headers={"content-type": "application/json"} if body else None,
+                    )
                     tally.counts["fuzzed requests"] += 1
                 tally.http[r.status_code] += 1
             except (httpx.HTTPError, OSError) as exc:
@@ -190,8 +208,9 @@ async def frames_client(srv: Server, deadline: float, rng: random.Random, tally:
                 await asyncio.wait_for(asyncio.to_thread(raw_reset, srv.port, "/ws/frames"), OP_TIMEOUT)
             else:
                 async with asyncio.timeout(OP_TIMEOUT + 3):
-                    ws = await websockets.connect(url, open_timeout=OP_TIMEOUT, close_timeout=1, max_size=None,
-                                                  max_queue=4)
+                    ws = await websockets.connect(
+                        url, open_timeout=OP_TIMEOUT, close_timeout=1, max_size=None, max_queue=4
+                    )
                     if style == "stall":  # stops reading for a while, then leaves
                         await asyncio.sleep(rng.uniform(0.5, 2.0))
                     else:
@@ -207,7 +226,7 @@ async def frames_client(srv: Server, deadline: float, rng: random.Random, tally:
                     else:
                         await ws.close()
             tally.counts[f"frames clients ({style})"] += 1
-        except (OSError, asyncio.TimeoutError, websockets.WebSocketException) as exc:
+        except (TimeoutError, OSError, websockets.WebSocketException) as exc:
             tally.error(f"frames/{style}", exc)
         await asyncio.sleep(rng.uniform(0.0, 0.3))
 
@@ -224,25 +243,40 @@ def frame_seq(message: str | bytes) -> int:
 def raw_reset(port: int, path: str) -> None:
     s = socket.create_connection((HOST, port), timeout=OP_TIMEOUT)
     key = base64.b64encode(os.urandom(16)).decode()
-    s.sendall((f"GET {path} HTTP/1.1\r\nHost: {HOST}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-               f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
+    s.sendall(
+        (
+            f"GET {path} HTTP/1.1\r\nHost: {HOST}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+        ).encode()
+    )
     s.recv(4096)
     time.sleep(0.1)
     s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
     s.close()
 
 
-async def telemetry_client(srv: Server, deadline: float, rng: random.Random, tally: Tally, nodes: list[str]) -> None:
+async def telemetry_client(
+    srv: Server, deadline: float, rng: random.Random, tally: Tally, nodes: list[str]
+) -> None:
     while time.monotonic() < deadline:
         try:
             async with asyncio.timeout(OP_TIMEOUT + 3):
-                async with websockets.connect(f"{srv.ws}/ws/telemetry", open_timeout=OP_TIMEOUT, close_timeout=1,
-                                              max_size=None) as ws:
+                async with websockets.connect(
+                    f"{srv.ws}/ws/telemetry", open_timeout=OP_TIMEOUT, close_timeout=1, max_size=None
+                ) as ws:
                     picked = rng.sample(nodes, min(len(nodes), rng.randint(0, 4)))
                     signals = [{"node": n, "port": "out"} for n in picked]
                     rate = rng.choice([0.5, 5.0, 30.0, 60.0])
-                    await ws.send(json.dumps({"type": "subscribe", "signals": signals, "frames": rng.random() < 0.7,
-                                              "rate": rate}))
+                    await ws.send(
+                        json.dumps(
+                            {
+                                "type": "subscribe",
+                                "signals": signals,
+                                "frames": rng.random() < 0.7,
+                                "rate": rate,
+                            }
+                        )
+                    )
                     if rng.random() < 0.2:
                         await ws.send("{not json")
                     until = time.monotonic() + rng.uniform(0.3, 3.0)
@@ -250,10 +284,10 @@ async def telemetry_client(srv: Server, deadline: float, rng: random.Random, tal
                         try:
                             await asyncio.wait_for(ws.recv(), 2.5)
                             tally.counts["telemetry messages"] += 1
-                        except asyncio.TimeoutError:
+                        except TimeoutError:
                             break  # a very low rate: leave
             tally.counts["telemetry clients"] += 1
-        except (OSError, asyncio.TimeoutError, websockets.WebSocketException) as exc:
+        except (TimeoutError, OSError, websockets.WebSocketException) as exc:
             tally.error("telemetry", exc)
         await asyncio.sleep(rng.uniform(0.0, 0.3))
 
@@ -262,7 +296,9 @@ async def control_client(srv: Server, deadline: float, rng: random.Random, tally
     while time.monotonic() < deadline:
         try:
             async with asyncio.timeout(OP_TIMEOUT + 3):
-                async with websockets.connect(f"{srv.ws}/ws/control", open_timeout=OP_TIMEOUT, close_timeout=1) as ws:
+                async with websockets.connect(
+                    f"{srv.ws}/ws/control", open_timeout=OP_TIMEOUT, close_timeout=1
+                ) as ws:
                     for _ in range(rng.randint(1, 15)):
                         if time.monotonic() >= deadline:
                             break
@@ -270,8 +306,15 @@ async def control_client(srv: Server, deadline: float, rng: random.Random, tally
                         if roll < 0.8:
                             await ws.send(json.dumps(random_command(rng)))
                         elif roll < 0.9:
-                            await ws.send(rng.choice(['{"type": "set_gaze", "target": [NaN, 1, 2]}', "{oops",
-                                                      json.dumps({"type": "say", "text": "x" * 70_000})]))
+                            await ws.send(
+                                rng.choice(
+                                    [
+                                        '{"type": "set_gaze", "target": [NaN, 1, 2]}',
+                                        "{oops",
+                                        json.dumps({"type": "say", "text": "x" * 70_000}),
+                                    ]
+                                )
+                            )
                             tally.counts["fuzzed messages"] += 1
                         else:
                             await ws.send(b"\x00\x01binary")
@@ -280,18 +323,22 @@ async def control_client(srv: Server, deadline: float, rng: random.Random, tally
                         tally.counts["control messages"] += 1
                         await asyncio.sleep(rng.uniform(0.01, 0.2))
             tally.counts["control clients"] += 1
-        except (OSError, asyncio.TimeoutError, websockets.WebSocketException) as exc:
+        except (TimeoutError, OSError, websockets.WebSocketException) as exc:
             tally.error("control", exc)
         await asyncio.sleep(rng.uniform(0.0, 0.3))
 
 
 async def churn(srv: Server, seconds: float, n: int, seed: int, tally: Tally, nodes: list[str]) -> None:
     deadline = time.monotonic() + seconds
-    makers = [lambda r: frames_client(srv, deadline, r, tally),
-              lambda r: telemetry_client(srv, deadline, r, tally, nodes),
-              lambda r: control_client(srv, deadline, r, tally),
-              lambda r: rest_client(srv, deadline, r, tally)]
-    tasks = [asyncio.create_task(makers[i % len(makers)](random.Random(seed * 1000 + i))) for i in range(max(4, n))]
+    makers = [
+        lambda r: frames_client(srv, deadline, r, tally),
+        lambda r: telemetry_client(srv, deadline, r, tally, nodes),
+        lambda r: control_client(srv, deadline, r, tally),
+        lambda r: rest_client(srv, deadline, r, tally),
+    ]
+    tasks = [
+        asyncio.create_task(makers[i % len(makers)](random.Random(seed * 1000 + i))) for i in range(max(4, n))
+    ]
     done, pending = await asyncio.wait(tasks, timeout=seconds + 2 * OP_TIMEOUT)
     for t in pending:  # bounded: a client stuck past its timeouts is abandoned
         t.cancel()
@@ -303,6 +350,7 @@ async def churn(srv: Server, seconds: float, n: int, seed: int, tally: Tally, no
 
 
 # --- report -----------------------------------------------------------------------------------------------
+
 
 def sink_names(status: dict) -> list[str]:
     return sorted(s.get("name", "?") for s in status.get("sinks", []))
@@ -319,8 +367,10 @@ def main() -> int:
     if not 0 < args.minutes <= 24 * 60:
         ap.error("--minutes must be within (0, 1440]")
 
-    srv = Server(["--no-previz", "--rate", f"{args.rate:g}", "--shutdown-timeout", f"{args.shutdown_timeout:g}"],
-                 free_port())
+    srv = Server(
+        ["--no-previz", "--rate", f"{args.rate:g}", "--shutdown-timeout", f"{args.shutdown_timeout:g}"],
+        free_port(),
+    )
     srv.wait_ready()
     time.sleep(2.0)  # warm-up: kernels compiled, first clients' costs excluded
     s0, p0, t0 = srv.status(), proc_stats(srv.proc.pid), time.monotonic()
@@ -329,8 +379,11 @@ def main() -> int:
         nodes = [n["id"] for n in prog.get("nodes", [])] or ["breathe"]
     except (httpx.HTTPError, ValueError):
         nodes = ["breathe"]
-    print(f"soak: nutty serve pid {srv.proc.pid} at {args.rate:g} Hz, {args.clients} client loops, "
-          f"{args.minutes:g} min (seed {args.seed})", flush=True)
+    print(
+        f"soak: nutty serve pid {srv.proc.pid} at {args.rate:g} Hz, {args.clients} client loops, "
+        f"{args.minutes:g} min (seed {args.seed})",
+        flush=True,
+    )
 
     tally = Tally()
     asyncio.run(churn(srv, args.minutes * 60.0, args.clients, args.seed, tally, nodes))
@@ -346,28 +399,38 @@ def main() -> int:
         lost, how = s1["lost_ticks"] - s0.get("lost_ticks", 0), "counted"
     else:
         lost, how = max(0, round(expected - ticks)), "estimated"
-    print(f"\nengine  ticks {ticks} in {elapsed:.1f} s ({ticks / max(elapsed, 1e-9):.1f} Hz), "
-          f"overruns {s1.get('overruns', 0) - s0.get('overruns', 0)}, lost ticks {lost} ({how})")
+    print(
+        f"\nengine  ticks {ticks} in {elapsed:.1f} s ({ticks / max(elapsed, 1e-9):.1f} Hz), "
+        f"overruns {s1.get('overruns', 0) - s0.get('overruns', 0)}, lost ticks {lost} ({how})"
+    )
     cost = s1.get("tick_cost", {})
-    print(f"        tick cost p50 {cost.get('p50_ms', 0):.3f} ms, p99 {cost.get('p99_ms', 0):.3f} ms, "
-          f"max {cost.get('max_ms', 0):.3f} ms; period p99 {s1.get('period', {}).get('p99_ms', 0):.2f} ms")
-    print(f"process RSS {p0['rss_kb'] / 1024:.1f} -> {p1['rss_kb'] / 1024:.1f} MB, threads {p0['threads']} -> "
-          f"{p1['threads']}, fds {p0['fds']} -> {p1['fds']}")
+    print(
+        f"        tick cost p50 {cost.get('p50_ms', 0):.3f} ms, p99 {cost.get('p99_ms', 0):.3f} ms, "
+        f"max {cost.get('max_ms', 0):.3f} ms; period p99 {s1.get('period', {}).get('p99_ms', 0):.2f} ms"
+    )
+    print(
+        f"process RSS {p0['rss_kb'] / 1024:.1f} -> {p1['rss_kb'] / 1024:.1f} MB, threads {p0['threads']} -> "
+        f"{p1['threads']}, fds {p0['fds']} -> {p1['fds']}"
+    )
     sinks0, sinks1 = sink_names(s0), sink_names(s1)
     print(f"sinks   start {len(sinks0)} {sinks0}\n        end   {len(sinks1)} {sinks1}")
     print(f"clients start {s0.get('clients')}\n        end   {s1.get('clients')}")
     print("traffic " + ", ".join(f"{k} {v}" for k, v in sorted(tally.counts.items())))
     got, lost_frames = tally.counts["frames received"], tally.counts["frames lost to drivers"]
-    print(f"drivers lost {lost_frames} frames next to {got} received ({lost_frames / max(got + lost_frames, 1):.1%}; "
-          "the process test once allowed 20 %)")
+    print(
+        f"drivers lost {lost_frames} frames next to {got} received ({lost_frames / max(got + lost_frames, 1):.1%}; "
+        "the process test once allowed 20 %)"
+    )
     print("http    " + ", ".join(f"{k}: {v}" for k, v in sorted(tally.http.items())))
     if tally.errors:
         print("client-side errors " + ", ".join(f"{k} x{v}" for k, v in sorted(tally.errors.items())))
 
     took, code = srv.stop(args.shutdown_timeout + 10) if alive else (None, srv.proc.returncode)
     said = [ln.rstrip() for ln in srv.lines if ln.startswith("nutty:")]
-    print(f"SIGTERM exit {'%.2f s' % took if took is not None else 'TIMED OUT'}, status {code}"
-          + (f"  ({said[-1]})" if said else ""))
+    print(
+        f"SIGTERM exit {f'{took:.2f} s' if took is not None else 'TIMED OUT'}, status {code}"
+        + (f"  ({said[-1]})" if said else "")
+    )
 
     problems = []
     if not alive:

@@ -29,9 +29,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "blender"), str(ROOT)]
 
 import bpy  # noqa: E402
-from mathutils import Matrix, Vector  # noqa: E402
-
 import nutty_blender  # noqa: E402
+from mathutils import Matrix, Vector  # noqa: E402
 
 WIDTH, VIEW_HEIGHT, GRAPH_HEIGHT = 1280, 720, 300
 FRAME = 14  # the frame shown: the head whips right while the ghost still lags behind
@@ -53,9 +52,23 @@ def start_server() -> tuple[subprocess.Popen, str, Path]:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "serve", "--robot", str(folder / "nutty_desk"),
-                             "--no-previz", "--port", str(port)], cwd=ROOT, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "backend.cli",
+            "serve",
+            "--robot",
+            str(folder / "nutty_desk"),
+            "--no-previz",
+            "--port",
+            str(port),
+        ],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     url = f"http://127.0.0.1:{port}"
     deadline = time.time() + 180
     while time.time() < deadline:
@@ -93,11 +106,22 @@ def bone_sticks(rig) -> None:
         colour = tuple(pb.color.custom.normal) if pb.color.palette == "CUSTOM" else (0.55, 0.6, 0.65)
         length = pb.bone.length
         w = 0.2 * length
-        verts = [(0, 0, 0), (w, 0.2 * length, 0), (0, 0.2 * length, w), (-w, 0.2 * length, 0), (0, 0.2 * length, -w),
-                 (0, length, 0)]
+        verts = [
+            (0, 0, 0),
+            (w, 0.2 * length, 0),
+            (0, 0.2 * length, w),
+            (-w, 0.2 * length, 0),
+            (0, 0.2 * length, -w),
+            (0, length, 0),
+        ]
         faces = [(0, 1, 2), (0, 2, 3), (0, 3, 4), (0, 4, 1), (5, 2, 1), (5, 3, 2), (5, 4, 3), (5, 1, 4)]
-        ob = add_mesh(f"stick {pb.name}", verts, faces, material(f"stick {colour}", (*colour, 1.0)),
-                      rig.users_collection[0])
+        ob = add_mesh(
+            f"stick {pb.name}",
+            verts,
+            faces,
+            material(f"stick {colour}", (*colour, 1.0)),
+            rig.users_collection[0],
+        )
         ob.parent, ob.parent_type, ob.parent_bone = rig, "BONE", pb.name
         tail = rig.matrix_world @ pb.bone.matrix_local @ Matrix.Translation((0, length, 0))
         ob.matrix_parent_inverse = tail.inverted()
@@ -152,11 +176,17 @@ def graph(curves: dict[str, list[float]], ranges: list, frames: list[int], colou
 
     for r in ranges:  # the offending frames, as bands behind the curves
         (x0, _), (x1, _) = xy(r.frame_start - 0.5, 0), xy(r.frame_end + 0.5, 0)
-        add_mesh(f"band {r.frame_start}", [(x0, bottom, -0.1), (x1, bottom, -0.1), (x1, top, -0.1), (x0, top, -0.1)],
-                 [(0, 1, 2, 3)],
-                 material(f"band {r.kind}", (*colours[r.kind], 1.0)), col)
-    for name, (values, rgba, width) in {"authored": (curves["authored"], (0.95, 0.95, 0.95, 1), 0.05),
-                                        "ghost": (curves["ghost"], (0.35, 0.7, 1.0, 1), 0.05)}.items():
+        add_mesh(
+            f"band {r.frame_start}",
+            [(x0, bottom, -0.1), (x1, bottom, -0.1), (x1, top, -0.1), (x0, top, -0.1)],
+            [(0, 1, 2, 3)],
+            material(f"band {r.kind}", (*colours[r.kind], 1.0)),
+            col,
+        )
+    for name, (values, rgba, width) in {
+        "authored": (curves["authored"], (0.95, 0.95, 0.95, 1), 0.05),
+        "ghost": (curves["ghost"], (0.35, 0.7, 1.0, 1), 0.05),
+    }.items():
         pts = [xy(f, v) for f, v in zip(frames, values)]
         verts, faces = [], []
         for (ax, ay), (bx, by) in zip(pts, pts[1:]):
@@ -164,19 +194,40 @@ def graph(curves: dict[str, list[float]], ranges: list, frames: list[int], colou
             norm = math.hypot(dx, dy) or 1.0
             ox, oy = -dy / norm * width / 2, dx / norm * width / 2
             k = len(verts)
-            verts += [(ax + ox, ay + oy, 0), (bx + ox, by + oy, 0), (bx - ox, by - oy, 0), (ax - ox, ay - oy, 0)]
+            verts += [
+                (ax + ox, ay + oy, 0),
+                (bx + ox, by + oy, 0),
+                (bx - ox, by - oy, 0),
+                (ax - ox, ay - oy, 0),
+            ]
             faces.append((k, k + 1, k + 2, k + 3))
         add_mesh(name, verts, faces, material(name, rgba), col)
     zero = xy(frames[0], 0.0)[1]
-    add_mesh("zero", [(-6, zero - 0.01, -0.05), (6, zero - 0.01, -0.05), (6, zero + 0.01, -0.05),
-                      (-6, zero + 0.01, -0.05)], [(0, 1, 2, 3)], material("axis", (0.35, 0.35, 0.35, 1)), col)
+    add_mesh(
+        "zero",
+        [
+            (-6, zero - 0.01, -0.05),
+            (6, zero - 0.01, -0.05),
+            (6, zero + 0.01, -0.05),
+            (-6, zero + 0.01, -0.05),
+        ],
+        [(0, 1, 2, 3)],
+        material("axis", (0.35, 0.35, 0.35, 1)),
+        col,
+    )
     x = xy(FRAME, 0)[0]
-    add_mesh("now", [(x - 0.02, bottom, 0.05), (x + 0.02, bottom, 0.05), (x + 0.02, top, 0.05), (x - 0.02, top, 0.05)],
-             [(0, 1, 2, 3)],
-             material("now", (1, 1, 1, 1)), col)
+    add_mesh(
+        "now",
+        [(x - 0.02, bottom, 0.05), (x + 0.02, bottom, 0.05), (x + 0.02, top, 0.05), (x - 0.02, top, 0.05)],
+        [(0, 1, 2, 3)],
+        material("now", (1, 1, 1, 1)),
+        col,
+    )
     label = bpy.data.curves.new("label", "FONT")
-    label.body = ("head_yaw, frames 1-72: authored (white) and ghost (blue); frames over the velocity (orange), "
-                  "acceleration (pink) and jerk (red) limits")
+    label.body = (
+        "head_yaw, frames 1-72: authored (white) and ghost (blue); frames over the velocity (orange), "
+        "acceleration (pink) and jerk (red) limits"
+    )
     label.size = 0.2
     text = bpy.data.objects.new("label", label)
     text.location = (-6.0, 1.1, 0.1)

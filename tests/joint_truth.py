@@ -42,10 +42,13 @@ class JointTruth:
         """(T, joints) from (T, channels) frames of `emb`."""
         positions = np.atleast_2d(positions)
         q = np.empty((len(positions), len(self.names)))
-        for j, name in enumerate(self.names):
+        for j, _name in enumerate(self.names):
             own = self.own[j]
-            col = positions[:, emb.channel_index[own]] if own else np.full(len(positions), min(max(0.0, self.lower[j]),
-                                                                                            self.upper[j]))
+            col = (
+                positions[:, emb.channel_index[own]]
+                if own
+                else np.full(len(positions), min(max(0.0, self.lower[j]), self.upper[j]))
+            )
             for dof, coef in self.terms[j]:
                 col = col + coef * (positions[:, emb.channel_index[dof]] - emb.dof(dof).rest)
             q[:, j] = col
@@ -59,12 +62,16 @@ class JointTruth:
         a = np.diff(v, axis=0) * rate
         j = np.diff(a, axis=0) * rate
         e = ULPS * max(1.0, float(np.abs(q).max(initial=0.0)))
-        return {"v": float(((np.abs(v) - 2 * e * rate) / self.velocity[sel]).max(initial=0.0)),
-                "a": float(((np.abs(a) - 4 * e * rate**2) / self.acceleration[sel]).max(initial=0.0)),
-                "j": float(((np.abs(j) - 8 * e * rate**3) / self.jerk[sel]).max(initial=0.0)),
-                "outside": float(np.maximum(self.lower[sel] - q, q - self.upper[sel]).max(initial=-1.0))}
+        return {
+            "v": float(((np.abs(v) - 2 * e * rate) / self.velocity[sel]).max(initial=0.0)),
+            "a": float(((np.abs(a) - 4 * e * rate**2) / self.acceleration[sel]).max(initial=0.0)),
+            "j": float(((np.abs(j) - 8 * e * rate**3) / self.jerk[sel]).max(initial=0.0)),
+            "outside": float(np.maximum(self.lower[sel] - q, q - self.upper[sel]).max(initial=-1.0)),
+        }
 
-    def assert_within(self, q: np.ndarray, rate: float, what: str = "", only: np.ndarray | None = None) -> None:
+    def assert_within(
+        self, q: np.ndarray, rate: float, what: str = "", only: np.ndarray | None = None
+    ) -> None:
         r = self.worst(q, rate, only)
         assert r["v"] <= 1 + RECOMPOSE and r["a"] <= 1 + RECOMPOSE and r["j"] <= 1 + RECOMPOSE, (what, r)
         assert r["outside"] <= 1e-12, (what, r)
@@ -108,4 +115,6 @@ def joint_truth(folder: Path | str) -> JointTruth:
             jerk[k] = 10.0 * acc[k]
         if entry.get("jerk") is not None:
             jerk[k] = float(entry["jerk"])
-    return JointTruth(names, np.array(lower), np.array(upper), np.array(vel), np.array(acc), np.array(jerk), own, terms)
+    return JointTruth(
+        names, np.array(lower), np.array(upper), np.array(vel), np.array(acc), np.array(jerk), own, terms
+    )

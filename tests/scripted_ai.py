@@ -6,7 +6,8 @@ repeated. Used by the fast-path test (tests/test_compiled_blocks.py) and the eng
 
 from __future__ import annotations
 
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 PERIOD = 10.0  # s: the script repeats after this
 
@@ -49,7 +50,7 @@ def run(session: Any, seconds: float) -> Iterator[Any]:
     engine = session.engine
     pending = list(timeline(seconds))
     k = 0
-    for _ in range(int(round(seconds * engine.rate))):
+    for _ in range(round(seconds * engine.rate)):
         while k < len(pending) and pending[k][0] <= engine.t + 1e-9:
             try:
                 session.execute(pending[k][1])

@@ -46,9 +46,13 @@ class ServerProcess:
         self.port = port
         self.url = f"http://127.0.0.1:{port}"
         self.ws_url = f"ws://127.0.0.1:{port}"
-        self.proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "serve", "--port", str(port), *args],
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                     env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "backend.cli", "serve", "--port", str(port), *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -72,7 +76,7 @@ class ServerProcess:
             except Exception:
                 if self.proc.poll() is not None or time.time() > deadline:
                     self.kill()
-                    raise RuntimeError(f"nutty serve did not start: {self.output}")
+                    raise RuntimeError(f"nutty serve did not start: {self.output}") from None
                 time.sleep(0.3)
 
     def signal(self, sig: int) -> None:
@@ -123,8 +127,12 @@ def running_server_proc(*args: str, start_timeout: float = 120.0):
 
     port = free_port()
     log = tempfile.TemporaryFile(mode="w+")  # a file, not a pipe: a chatty server never blocks on it
-    proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "serve", "--port", str(port), *args],
-                            stdout=log, stderr=subprocess.STDOUT, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "backend.cli", "serve", "--port", str(port), *args],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
     url = f"http://127.0.0.1:{port}"
     client = NuttyClient(url, timeout=5.0)
     deadline = time.time() + start_timeout
@@ -138,7 +146,9 @@ def running_server_proc(*args: str, start_timeout: float = 120.0):
                     proc.kill()
                     proc.wait(10)
                     log.seek(0)
-                    raise RuntimeError(f"nutty serve {' '.join(args)} did not start: {log.read()[-4000:]}")
+                    raise RuntimeError(
+                        f"nutty serve {' '.join(args)} did not start: {log.read()[-4000:]}"
+                    ) from None
                 time.sleep(0.3)
         yield SimpleNamespace(url=url, port=port, client=client, proc=proc)
     finally:
@@ -148,8 +158,13 @@ def running_server_proc(*args: str, start_timeout: float = 120.0):
 
 
 @contextmanager
-def running_app(app, *, port: int | None = None, timeout_graceful_shutdown: float | None = 30.0,
-                start_timeout: float = 60.0):
+def running_app(
+    app,
+    *,
+    port: int | None = None,
+    timeout_graceful_shutdown: float | None = 30.0,
+    start_timeout: float = 60.0,
+):
     """Serve an ASGI `app` (e.g. `backend.api.create_app(...)`) with a real uvicorn on `port` (default:
     a free one) in a thread, in this process; yield (server, thread, port). Stopped (bounded) afterwards."""
     import threading
@@ -157,8 +172,15 @@ def running_app(app, *, port: int | None = None, timeout_graceful_shutdown: floa
     import uvicorn
 
     port = port or free_port()
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning",
-                                           timeout_graceful_shutdown=timeout_graceful_shutdown))
+    server = uvicorn.Server(
+        uvicorn.Config(
+            app,
+            host="127.0.0.1",
+            port=port,
+            log_level="warning",
+            timeout_graceful_shutdown=timeout_graceful_shutdown,
+        )
+    )
     thread = threading.Thread(target=server.run, name=f"uvicorn-{port}", daemon=True)
     thread.start()
     deadline = time.time() + start_timeout

@@ -6,6 +6,7 @@ import json
 
 import pytest
 from fastapi.testclient import TestClient
+from starlette.websockets import WebSocketDisconnect
 
 from backend.api import create_app
 from backend.commands.serve import builtin_idle
@@ -34,7 +35,9 @@ def test_robot_blocks_and_schemas(client):
     blocks = {b["type"]: b for b in client.get("/api/blocks").json()}
     assert {"sine", "layer_mixer", "nmf_stage2", "output"} <= set(blocks)
     assert blocks["sine"]["params_schema"]["properties"]["amplitude"]["maximum"] == 10.0
-    ports = client.post("/api/blocks/layer_mixer/ports", json={"params": {"layers": [{"name": "a"}, {"name": "b"}]}})
+    ports = client.post(
+        "/api/blocks/layer_mixer/ports", json={"params": {"layers": [{"name": "a"}, {"name": "b"}]}}
+    )
     assert list(ports.json()["inputs"]) == ["a", "b", "a_weight", "b_weight"]
     assert client.post("/api/blocks/nope/ports", json={}).status_code == 404
     assert client.get("/api/schema/program").json()["title"] == "Nutty Animation Program"
@@ -51,7 +54,10 @@ def test_get_validate_and_put_program(client, session):
     next(n for n in broken["nodes"] if n["id"] == "breathe")["type"] = "sinus"
     broken["edges"].append({"from": {"node": "nope", "port": "out"}, "to": {"node": "mix", "port": "base"}})
     report = client.post("/api/program/validate", json=broken).json()
-    assert report["valid"] is False and {e["code"] for e in report["errors"]} >= {"unknown_block_type", "unknown_node"}
+    assert report["valid"] is False and {e["code"] for e in report["errors"]} >= {
+        "unknown_block_type",
+        "unknown_node",
+    }
     apu_before = session.engine.apu
     r = client.put("/api/program", json=broken)
     assert r.status_code == 422 and r.json()["detail"]["code"] == "invalid_program"
@@ -60,7 +66,12 @@ def test_get_validate_and_put_program(client, session):
     next(n for n in doc["nodes"] if n["id"] == "breathe")["params"]["amplitude"] = 0.08
     r = client.put("/api/program", json=doc)
     assert r.status_code == 200 and "breathe" in r.json()["kept"]
-    assert client.put("/api/program", content=b"{not json", headers={"content-type": "application/json"}).status_code == 400
+    assert (
+        client.put(
+            "/api/program", content=b"{not json", headers={"content-type": "application/json"}
+        ).status_code
+        == 400
+    )
     assert client.put("/api/program", content=b"{not json").status_code == 415  # JSON must be declared
 
 
@@ -72,8 +83,11 @@ def test_patch_params_live(client, session):
     r = client.patch("/api/program/nodes/breathe/params", json={"amplitude": 99})
     assert r.status_code == 422 and r.json()["detail"]["code"] == "invalid_param"
     assert client.patch("/api/program/nodes/ghost/params", json={}).status_code == 404
-    r = client.patch("/api/program/nodes/breathe/params", content=b'{"amplitude": NaN}',
-                     headers={"content-type": "application/json"})
+    r = client.patch(
+        "/api/program/nodes/breathe/params",
+        content=b'{"amplitude": NaN}',
+        headers={"content-type": "application/json"},
+    )
     assert r.status_code == 400
 
 
@@ -114,7 +128,10 @@ def test_inputs_and_commands(client, session):
     r = client.post("/api/commands", json={"type": "play_sound", "sound": "moo"})
     assert r.status_code == 422 and "unknown sound" in r.json()["detail"]["message"]
     assert client.post("/api/commands", json={"type": "say", "text": "hi"}).json()["status"] == "completed"
-    assert client.post("/api/commands", json={"type": "set_layer", "layer": "idle", "active": False}).status_code == 200
+    assert (
+        client.post("/api/commands", json={"type": "set_layer", "layer": "idle", "active": False}).status_code
+        == 200
+    )
     assert client.post("/api/commands", json={"type": "reset"}).status_code == 200
     assert client.post("/api/commands", json={"type": "stop_all"}).status_code == 200
     assert client.get("/api/commands/unknown").status_code == 404
@@ -134,8 +151,11 @@ def test_led_override_and_speech_reach_the_frames(client, session):
     leds = session.embodiment.dof("chest_led").channels
 
     def arrived() -> bool:
-        return (any(e.kind == "say" and e.payload.get("text") == "hello" for f in list(frames) for e in f.events)
-                and bool(frames) and list(frames[-1].position[leds]) == [0.0, 1.0, 0.0])
+        return (
+            any(e.kind == "say" and e.payload.get("text") == "hello" for f in list(frames) for e in f.events)
+            and bool(frames)
+            and list(frames[-1].position[leds]) == [0.0, 1.0, 0.0]
+        )
 
     deadline = time.monotonic() + 10.0  # a generous bound for a loaded machine, not a timing goal
     while not arrived() and time.monotonic() < deadline:
@@ -161,12 +181,15 @@ def test_token_required_for_mutations_and_websockets(session):
         assert c.get("/api/robot").status_code == 200  # reading is open
         r = c.post("/api/commands", json={"type": "reset"})
         assert r.status_code == 401 and r.json()["detail"]["code"] == "unauthorized"
-        assert c.post("/api/commands", json={"type": "reset"},
-                      headers={"Authorization": "Bearer s3cret"}).status_code == 200
+        assert (
+            c.post(
+                "/api/commands", json={"type": "reset"}, headers={"Authorization": "Bearer s3cret"}
+            ).status_code
+            == 200
+        )
         assert c.put("/api/inputs/arousal", json={"value": 0.1}).status_code == 401
-        with pytest.raises(Exception):
-            with c.websocket_connect("/ws/control") as ws:
-                ws.receive_json()
+        with pytest.raises(WebSocketDisconnect), c.websocket_connect("/ws/control") as ws:
+            ws.receive_json()
         with c.websocket_connect("/ws/control?token=s3cret") as ws:
             ws.send_json({"type": "reset"})
             assert ws.receive_json()["type"] in ("ack", "event")
@@ -188,8 +211,13 @@ def test_ws_control_acks_errors_and_events(client):
 
 def test_ws_telemetry_signals_frames_and_layers(client):
     with client.websocket_connect("/ws/telemetry") as ws:
-        ws.send_json({"type": "subscribe", "signals": [{"node": "breathe", "port": "out"},
-                                                       {"node": "in_arousal", "port": "value"}], "rate": 60})
+        ws.send_json(
+            {
+                "type": "subscribe",
+                "signals": [{"node": "breathe", "port": "out"}, {"node": "in_arousal", "port": "value"}],
+                "rate": 60,
+            }
+        )
         msg = ws.receive_json()
         while msg["type"] != "subscribed":
             msg = ws.receive_json()
@@ -220,7 +248,6 @@ def test_ws_frames_json_and_msgpack(client):
 
 
 def test_long_action_reports_started_then_completed(client):
-    import time
 
     with client.websocket_connect("/ws/control") as ws:
         r = client.post("/api/commands", json={"type": "go_posture", "posture": "curious", "duration": 0.3})
@@ -247,7 +274,9 @@ def test_unexpected_errors_are_json_500s_without_a_traceback(session, tmp_path, 
     with TestClient(create_app(session, frontend_dir=None), raise_server_exceptions=False) as c:
         r = c.post("/api/program/validate", json={"nodes": []})
         assert r.status_code == 500
-        assert r.json() == {"detail": {"code": "internal_error", "message": "the server could not handle this request"}}
+        assert r.json() == {
+            "detail": {"code": "internal_error", "message": "the server could not handle this request"}
+        }
         assert "secret" not in r.text and "Traceback" not in r.text
         assert c.get("/api/robot").status_code == 200  # and the server goes on
 
@@ -257,17 +286,37 @@ def test_errors_keep_the_contract_shape(client):
     assert r.status_code == 404 and r.json()["detail"]["code"] == "not_found"
     r = client.put("/api/inputs/arousal", json={"volume": 1})
     assert r.status_code == 422 and r.json()["detail"] == {
-        "code": "invalid_body", "message": "value: Field required", "field": "value"}
-    r = client.post("/api/commands", content=rb'{"type": "\ud800"}', headers={"content-type": "application/json"})
-    assert r.status_code == 400 and r.json()["detail"]["code"] == "invalid_unicode" and r.json()["detail"]["field"] == "type"
-    r = client.post("/api/commands", content=b'{"type": "set_led", "colour": [1e999, 0, 0]}',
-                    headers={"content-type": "application/json"})
+        "code": "invalid_body",
+        "message": "value: Field required",
+        "field": "value",
+    }
+    r = client.post(
+        "/api/commands", content=rb'{"type": "\ud800"}', headers={"content-type": "application/json"}
+    )
+    assert (
+        r.status_code == 400
+        and r.json()["detail"]["code"] == "invalid_unicode"
+        and r.json()["detail"]["field"] == "type"
+    )
+    r = client.post(
+        "/api/commands",
+        content=b'{"type": "set_led", "colour": [1e999, 0, 0]}',
+        headers={"content-type": "application/json"},
+    )
     assert r.status_code == 400 and r.json()["detail"] == {
-        "code": "non_finite", "message": "colour[0]: NaN and infinity are not allowed", "field": "colour[0]"}
+        "code": "non_finite",
+        "message": "colour[0]: NaN and infinity are not allowed",
+        "field": "colour[0]",
+    }
 
 
 def test_previz_info_without_viser(client):
-    assert client.get("/api/previz").json() == {"url": None, "direct": None, "token_required": False, "ghost": None}
+    assert client.get("/api/previz").json() == {
+        "url": None,
+        "direct": None,
+        "token_required": False,
+        "ghost": None,
+    }
     assert client.get("/previz/").status_code == 404
 
 
@@ -275,4 +324,6 @@ def test_set_inputs_is_all_or_nothing(client, session):
     client.put("/api/inputs/arousal", json={"value": 0.25})
     r = client.post("/api/commands", json={"type": "set_inputs", "values": {"arousal": 0.5, "nope": 1}})
     assert r.status_code == 422 and r.json()["detail"]["field"] == "nope"
-    assert client.get("/api/inputs").json()["values"]["arousal"] == 0.25  # the valid one was not applied either
+    assert (
+        client.get("/api/inputs").json()["values"]["arousal"] == 0.25
+    )  # the valid one was not applied either

@@ -31,7 +31,9 @@ def _body_schema(openapi: dict, path: str, method: str) -> dict:
 
 
 def test_every_route_that_takes_a_body_describes_it(openapi):
-    routes = [(path, method) for path, ops in openapi["paths"].items() for method in ops if method in BODY_METHODS]
+    routes = [
+        (path, method) for path, ops in openapi["paths"].items() for method in ops if method in BODY_METHODS
+    ]
     assert len(routes) >= 10
     for path, method in routes:
         op = openapi["paths"][path][method]
@@ -42,8 +44,12 @@ def test_every_route_that_takes_a_body_describes_it(openapi):
 
 def test_documents_are_described_by_their_formats(openapi):
     assert {"nodes", "edges", "inputs"} <= set(_body_schema(openapi, "/api/program", "put")["properties"])
-    assert _body_schema(openapi, "/api/program/validate", "post") == _body_schema(openapi, "/api/program", "put")
-    assert _body_schema(openapi, "/api/programs/{name}", "put") == _body_schema(openapi, "/api/program", "put")
+    assert _body_schema(openapi, "/api/program/validate", "post") == _body_schema(
+        openapi, "/api/program", "put"
+    )
+    assert _body_schema(openapi, "/api/programs/{name}", "put") == _body_schema(
+        openapi, "/api/program", "put"
+    )
     assert "tracks" in _body_schema(openapi, "/api/clips/{name}", "put")["properties"]
     assert "values" in _body_schema(openapi, "/api/postures/{name}", "put")["required"]
     assert _body_schema(openapi, "/api/inputs/{name}", "put")["required"] == ["value"]
@@ -54,7 +60,9 @@ def test_documents_are_described_by_their_formats(openapi):
 
 def test_the_command_body_is_the_whole_union(openapi):
     schema = _body_schema(openapi, "/api/commands", "post")
-    assert set(schema["discriminator"]["mapping"]) == set(control.command_json_schema()["discriminator"]["mapping"])
+    assert set(schema["discriminator"]["mapping"]) == set(
+        control.command_json_schema()["discriminator"]["mapping"]
+    )
     assert len(schema["oneOf"]) == len(control.REGISTRY.classes())
 
 

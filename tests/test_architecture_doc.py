@@ -99,7 +99,9 @@ def test_command_example_is_a_long_action_over_rest(desk, fall_asleep):
         with TestClient(create_app(session, frontend_dir=None)) as client:
             schema = client.get("/api/schema/commands").json()
             assert "fall_asleep" in schema["discriminator"]["mapping"]
-            ack = client.post("/api/commands", json={"id": "z1", "type": "fall_asleep", "duration": 0.2}).json()
+            ack = client.post(
+                "/api/commands", json={"id": "z1", "type": "fall_asleep", "duration": 0.2}
+            ).json()
             assert ack == {"id": "z1", "status": "started", "result": {"posture": "sleepy", "duration": 0.2}}
             cid = "z1"
             for _ in range(40):

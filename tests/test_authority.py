@@ -21,13 +21,13 @@ from types import SimpleNamespace
 import httpx
 import pytest
 import viser
+from server_process import free_port, running_app, running_server_proc
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect as ws_connect
 
 from backend.api import create_app
 from backend.commands.serve import builtin_idle
 from backend.session import EngineSession
-from server_process import free_port, running_app, running_server_proc
 
 pytestmark = pytest.mark.slow
 EVIL = "http://evil.example"
@@ -44,17 +44,29 @@ def local(desk):
     session.engine.start()
     port = free_port()
     try:
-        with running_app(create_app(session, frontend_dir=None, host="127.0.0.1", port=port), port=port):
-            with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30.0) as http:
-                yield SimpleNamespace(port=port, url=f"http://127.0.0.1:{port}", http=http)
+        with (
+            running_app(create_app(session, frontend_dir=None, host="127.0.0.1", port=port), port=port),
+            httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30.0) as http,
+        ):
+            yield SimpleNamespace(port=port, url=f"http://127.0.0.1:{port}", http=http)
     finally:
         session.engine.close()
 
 
 @pytest.fixture(scope="module")
 def guarded():
-    with running_server_proc("--host", "0.0.0.0", "--token", TOKEN, "--previz-port", "0",
-                             "--allowed-origin", APP_ORIGIN, "--sim-servo", "0") as srv:
+    with running_server_proc(
+        "--host",
+        "0.0.0.0",
+        "--token",
+        TOKEN,
+        "--previz-port",
+        "0",
+        "--allowed-origin",
+        APP_ORIGIN,
+        "--sim-servo",
+        "0",
+    ) as srv:
         srv.http = httpx.Client(base_url=srv.url, timeout=30.0)
         yield srv
         srv.http.close()
@@ -71,9 +83,8 @@ def _reset_arousal(srv, headers=None) -> None:
 
 def _ws_close(url: str, **kw) -> tuple[int, str]:
     """Open a WebSocket expected to be refused: the close code and reason the server sent."""
-    with ws_connect(url, open_timeout=30, **kw) as ws:
-        with pytest.raises(ConnectionClosed) as closed:
-            ws.recv(timeout=30)
+    with ws_connect(url, open_timeout=30, **kw) as ws, pytest.raises(ConnectionClosed) as closed:
+        ws.recv(timeout=30)
     return closed.value.rcvd.code, closed.value.rcvd.reason
 
 
@@ -91,8 +102,14 @@ def _raw_ws(port: int, path: str, host: str, origin: str | None = None) -> tuple
     """A WebSocket handshake with any Host header (a rebinding page's name): the status line and
     the close code and reason of the first frame."""
     key = base64.b64encode(os.urandom(16)).decode()
-    lines = [f"GET {path} HTTP/1.1", f"Host: {host}", "Upgrade: websocket", "Connection: Upgrade",
-             f"Sec-WebSocket-Key: {key}", "Sec-WebSocket-Version: 13"]
+    lines = [
+        f"GET {path} HTTP/1.1",
+        f"Host: {host}",
+        "Upgrade: websocket",
+        "Connection: Upgrade",
+        f"Sec-WebSocket-Key: {key}",
+        "Sec-WebSocket-Version: 13",
+    ]
     if origin:
         lines.append(f"Origin: {origin}")
     with socket.create_connection(("127.0.0.1", port), timeout=30) as s:
@@ -109,7 +126,7 @@ def _raw_ws(port: int, path: str, host: str, origin: str | None = None) -> tuple
     status = head.split(b"\r\n")[0]
     if len(rest) >= 4 and rest[0] == 0x88:
         n = rest[1] & 0x7F
-        return status, int.from_bytes(rest[2:4], "big"), rest[4:2 + n].decode()
+        return status, int.from_bytes(rest[2:4], "big"), rest[4 : 2 + n].decode()
     return status, None, ""
 
 
@@ -119,22 +136,30 @@ def _raw_ws(port: int, path: str, host: str, origin: str | None = None) -> tuple
 def test_cross_origin_simple_post_is_refused_and_not_executed(local):
     _reset_arousal(local)
     body = json.dumps(SET_AROUSAL).encode()
-    for headers in ({"Origin": EVIL, "Content-Type": "text/plain"},
-                    {"Origin": EVIL, "Content-Type": "application/x-www-form-urlencoded"},
-                    {"Origin": EVIL, "Content-Type": "application/json"},
-                    {"Origin": "null", "Content-Type": "text/plain"},
-                    {"Origin": f"http://127.0.0.1:{local.port + 1}", "Content-Type": "application/json"}):
+    for headers in (
+        {"Origin": EVIL, "Content-Type": "text/plain"},
+        {"Origin": EVIL, "Content-Type": "application/x-www-form-urlencoded"},
+        {"Origin": EVIL, "Content-Type": "application/json"},
+        {"Origin": "null", "Content-Type": "text/plain"},
+        {"Origin": f"http://127.0.0.1:{local.port + 1}", "Content-Type": "application/json"},
+    ):
         r = local.http.post("/api/commands", content=body, headers=headers)
         assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_origin", (headers, r.text)
-    for method, path in (("DELETE", "/api/commands/x"), ("DELETE", "/api/programs/interactive"),
-                         ("PUT", "/api/inputs/arousal"), ("PATCH", "/api/program/nodes/breathe/params")):
+    for method, path in (
+        ("DELETE", "/api/commands/x"),
+        ("DELETE", "/api/programs/interactive"),
+        ("PUT", "/api/inputs/arousal"),
+        ("PATCH", "/api/program/nodes/breathe/params"),
+    ):
         assert local.http.request(method, path, headers={"Origin": EVIL}).status_code == 403
     assert _arousal(local) == 0.0  # nothing ran
     # Reads too: another site's script may not read the robot's state (a navigation sends no Origin).
     r = local.http.get("/api/status", headers={"Origin": EVIL})
     assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_origin"
     assert local.http.get("/api/status").status_code == 200
-    assert local.http.get("/api/status", headers={"Origin": f"http://127.0.0.1:{local.port}"}).status_code == 200
+    assert (
+        local.http.get("/api/status", headers={"Origin": f"http://127.0.0.1:{local.port}"}).status_code == 200
+    )
 
 
 def test_json_routes_take_only_declared_json(local):
@@ -142,18 +167,27 @@ def test_json_routes_take_only_declared_json(local):
     for ctype in ("text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x", None):
         headers = {"Content-Type": ctype} if ctype else {}
         r = local.http.post("/api/commands", content=body, headers=headers)
-        assert r.status_code == 415 and r.json()["detail"]["code"] == "unsupported_media_type", (ctype, r.text)
+        assert r.status_code == 415 and r.json()["detail"]["code"] == "unsupported_media_type", (
+            ctype,
+            r.text,
+        )
         r = local.http.put("/api/inputs/arousal", content=b'{"value": 0.9}', headers=headers)
         assert r.status_code == 415
     assert _arousal(local) == 0.0
-    r = local.http.post("/api/commands", content=body, headers={"Content-Type": "application/json; charset=utf-8"})
+    r = local.http.post(
+        "/api/commands", content=body, headers={"Content-Type": "application/json; charset=utf-8"}
+    )
     assert r.status_code == 200 and _arousal(local) == 0.7
     _reset_arousal(local)
 
 
 def test_same_origin_and_origin_less_requests_are_accepted(local):
-    for origin in (f"http://127.0.0.1:{local.port}", f"http://localhost:{local.port}", f"http://[::1]:{local.port}",
-                   None):
+    for origin in (
+        f"http://127.0.0.1:{local.port}",
+        f"http://localhost:{local.port}",
+        f"http://[::1]:{local.port}",
+        None,
+    ):
         _reset_arousal(local)
         headers = {"Origin": origin} if origin else {}
         r = local.http.post("/api/commands", json=SET_AROUSAL, headers=headers)
@@ -174,14 +208,23 @@ def test_foreign_origin_websockets_are_closed_with_4403(local):
 def test_dns_rebinding_hosts_are_refused(local):
     _reset_arousal(local)
     port = local.port
-    for host, origin in ((f"evil.example:{port}", f"http://evil.example:{port}"), (f"evil.example:{port}", None),
-                         (f"127.0.0.1:{port + 1}", None), ("localhost", None), (f"10.0.0.7:{port}", None)):
+    for host, origin in (
+        (f"evil.example:{port}", f"http://evil.example:{port}"),
+        (f"evil.example:{port}", None),
+        (f"127.0.0.1:{port + 1}", None),
+        ("localhost", None),
+        (f"10.0.0.7:{port}", None),
+    ):
         headers = {"Host": host, **({"Origin": origin} if origin else {})}
         r = local.http.post("/api/commands", json=SET_AROUSAL, headers=headers)
         assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_host", (host, r.text)
         for path in ("/api/status", "/api/program", "/"):  # a rebinding page reads nothing either
             r = local.http.get(path, headers=headers)
-            assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_host", (host, path, r.text)
+            assert r.status_code == 403 and r.json()["detail"]["code"] == "forbidden_host", (
+                host,
+                path,
+                r.text,
+            )
         status, code, reason = _raw_ws(port, "/ws/control", host, origin)
         assert b" 101 " in status and code == 4403 and "host" in reason.lower(), (host, status, code, reason)
     assert _arousal(local) == 0.0
@@ -198,8 +241,12 @@ def test_dns_rebinding_hosts_are_refused(local):
 def test_the_token_is_needed_in_one_of_its_forms(guarded):
     auth = {"Authorization": f"Bearer {TOKEN}"}
     _reset_arousal(guarded, auth)
-    for headers, params in (({}, {}), ({"Authorization": "Bearer wrong"}, {}), ({}, {"token": "wrong"}),
-                            ({"Authorization": TOKEN}, {})):
+    for headers, params in (
+        ({}, {}),
+        ({"Authorization": "Bearer wrong"}, {}),
+        ({}, {"token": "wrong"}),
+        ({"Authorization": TOKEN}, {}),
+    ):
         r = guarded.http.post("/api/commands", json=SET_AROUSAL, headers=headers, params=params)
         assert r.status_code == 401 and r.json()["detail"]["code"] == "unauthorized", (headers, params)
     assert _arousal(guarded) == 0.0
@@ -210,11 +257,15 @@ def test_the_token_is_needed_in_one_of_its_forms(guarded):
     # the token does not replace the origin check, nor the host check
     r = guarded.http.post("/api/commands", json=SET_AROUSAL, headers={**auth, "Origin": EVIL})
     assert r.status_code == 403
-    r = guarded.http.post("/api/commands", json=SET_AROUSAL, headers={**auth, "Host": f"evil.example:{guarded.port}"})
+    r = guarded.http.post(
+        "/api/commands", json=SET_AROUSAL, headers={**auth, "Host": f"evil.example:{guarded.port}"}
+    )
     assert r.status_code == 403
     # bound to every address: a page loaded from one of the machine's IP addresses is same-origin
     lan = f"10.1.2.3:{guarded.port}"
-    r = guarded.http.post("/api/commands", json=SET_AROUSAL, headers={**auth, "Host": lan, "Origin": f"http://{lan}"})
+    r = guarded.http.post(
+        "/api/commands", json=SET_AROUSAL, headers={**auth, "Host": lan, "Origin": f"http://{lan}"}
+    )
     assert r.status_code == 200
     # --allowed-origin: a page from another origin, with CORS
     r = guarded.http.post("/api/commands", json=SET_AROUSAL, headers={**auth, "Origin": APP_ORIGIN})
@@ -262,7 +313,7 @@ def _listening(pid: int) -> list[tuple[str, int]]:
                 continue
             addr_hex, port_hex = fields[1].split(":")
             raw = bytes.fromhex(addr_hex)
-            raw = b"".join(raw[i:i + 4][::-1] for i in range(0, len(raw), 4))  # host-order 32-bit words
+            raw = b"".join(raw[i : i + 4][::-1] for i in range(0, len(raw), 4))  # host-order 32-bit words
             addr = socket.inet_ntop(socket.AF_INET if width == 4 else socket.AF_INET6, raw)
             found.append((addr, int(port_hex, 16)))
     return found
@@ -291,7 +342,9 @@ def test_previz_listens_on_loopback_only_and_is_proxied_behind_the_token(guarded
     assert _ws_close(ws, subprotocols=sub)[0] == 4401
     assert _ws_close(ws + f"?token={TOKEN}", subprotocols=sub, origin=EVIL)[0] == 4403
     for url, headers in ((ws, {"Cookie": f"nutty_previz={cookie}"}), (ws + f"?token={TOKEN}", {})):
-        with ws_connect(url, subprotocols=sub, additional_headers=headers, max_size=None, open_timeout=30) as conn:
+        with ws_connect(
+            url, subprotocols=sub, additional_headers=headers, max_size=None, open_timeout=30
+        ) as conn:
             assert conn.subprotocol == sub[0]
             assert isinstance(conn.recv(timeout=30), bytes)  # viser's scene, relayed
 

@@ -26,8 +26,11 @@ def blend(layers, base=None, rest=None):
 
 
 @settings(max_examples=150, deadline=None)
-@given(lower=st.lists(st.tuples(vals, masks, weight, st.sampled_from(list(BlendMode))), max_size=3),
-       top=vals, base=vals)
+@given(
+    lower=st.lists(st.tuples(vals, masks, weight, st.sampled_from(list(BlendMode))), max_size=3),
+    top=vals,
+    base=vals,
+)
 def test_full_override_returns_top_layer(lower, top, base):
     out, mask = blend([*lower, (top, np.ones(C, bool), 1.0, BlendMode.override)], base=base)
     np.testing.assert_allclose(out, top, atol=1e-12)
@@ -35,18 +38,28 @@ def test_full_override_returns_top_layer(lower, top, base):
 
 
 @settings(max_examples=150, deadline=None)
-@given(lower=st.lists(st.tuples(vals, masks, weight, st.sampled_from([BlendMode.override, BlendMode.average])),
-                      min_size=1, max_size=3), rest=vals, m=masks, w=weight)
+@given(
+    lower=st.lists(
+        st.tuples(vals, masks, weight, st.sampled_from([BlendMode.override, BlendMode.average])),
+        min_size=1,
+        max_size=3,
+    ),
+    rest=vals,
+    m=masks,
+    w=weight,
+)
 def test_additive_zero_is_identity(lower, rest, m, w):
-    without, mask_a = blend(lower, base=rest)
-    with_zero, mask_b = blend([*lower, (rest.copy(), m, w, BlendMode.additive)], base=rest)
+    without, _mask_a = blend(lower, base=rest)
+    with_zero, _mask_b = blend([*lower, (rest.copy(), m, w, BlendMode.additive)], base=rest)
     np.testing.assert_allclose(with_zero, without, atol=1e-12)
 
 
 @settings(max_examples=150, deadline=None)
 @given(a=vals, b=vals, w=weight)
 def test_override_weight_interpolates(a, b, w):
-    out, _ = blend([(a, np.ones(C, bool), 1.0, BlendMode.override), (b, np.ones(C, bool), w, BlendMode.override)])
+    out, _ = blend(
+        [(a, np.ones(C, bool), 1.0, BlendMode.override), (b, np.ones(C, bool), w, BlendMode.override)]
+    )
     np.testing.assert_allclose(out, a + w * (b - a), atol=1e-12)
 
 
@@ -60,8 +73,10 @@ def test_average_is_normalised_weighted_mean(a, b, wa, wb):
 
 
 @settings(max_examples=150, deadline=None)
-@given(layers=st.lists(st.tuples(vals, masks, weight, st.sampled_from(list(BlendMode))), min_size=1, max_size=4),
-       base=vals)
+@given(
+    layers=st.lists(st.tuples(vals, masks, weight, st.sampled_from(list(BlendMode))), min_size=1, max_size=4),
+    base=vals,
+)
 def test_masks_confine_each_layer(layers, base):
     out, mask = blend(layers, base=base)
     union = np.zeros(C, bool)
@@ -76,7 +91,9 @@ def test_masks_confine_each_layer(layers, base):
 @given(a=vals, off=vals, w=weight, rest=vals)
 def test_additive_adds_weighted_offset_from_rest(a, off, w, rest):
     full = np.ones(C, bool)
-    out, _ = blend([(a, full, 1.0, BlendMode.override), (rest + off, full, w, BlendMode.additive)], base=rest, rest=rest)
+    out, _ = blend(
+        [(a, full, 1.0, BlendMode.override), (rest + off, full, w, BlendMode.additive)], base=rest, rest=rest
+    )
     np.testing.assert_allclose(out, a + w * off, atol=1e-9)
 
 
@@ -92,8 +109,15 @@ def test_enum_channels_switch_half_way():
     v = np.array([[0.0, 0.0], [3.0, 3.0]])
     enum = np.array([True, False])
     for w, expect in ((0.4, 0.0), (0.6, 3.0)):
-        out, _ = blend_layers(v, np.stack([full, full]), np.array([1.0, w]),
-                              [BlendMode.override, BlendMode.override], np.zeros(2), np.zeros(2), enum)
+        out, _ = blend_layers(
+            v,
+            np.stack([full, full]),
+            np.array([1.0, w]),
+            [BlendMode.override, BlendMode.override],
+            np.zeros(2),
+            np.zeros(2),
+            enum,
+        )
         assert out[0] == expect
         assert out[1] == np.float64(3.0 * w)
 

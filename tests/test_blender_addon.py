@@ -20,18 +20,20 @@ import threading
 import time
 from pathlib import Path
 
+import bpy_paths
 import httpx
 import numpy as np
 import pytest
-
-from backend.engine import trajectory
-from backend.engine.embodiment import load_embodiment
-import bpy_paths
 from blender_rpc import Blender, BlenderError
 from server_process import free_port, running_app, server_process
 
-pytestmark = pytest.mark.skipif(importlib.util.find_spec("bpy") is None,
-                                reason="bpy (Blender as a Python module) is not installed: `make deps-python`")
+from backend.engine import trajectory
+from backend.engine.embodiment import load_embodiment
+
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("bpy") is None,
+    reason="bpy (Blender as a Python module) is not installed: `make deps-python`",
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 FPS = 24
@@ -65,7 +67,8 @@ def emb(robot_dir):
 
 def load_rig(blender, url: str) -> dict:
     """A fresh scene with the robot loaded from `url`; the rig's name, bones and joint map."""
-    return blender.run("""
+    return blender.run(
+        """
         reset_scene()
         bpy.context.scene.nutty.server_url = args["url"]
         bpy.ops.nutty.load_robot()
@@ -73,15 +76,22 @@ def load_rig(blender, url: str) -> dict:
         plan = nutty_blender.rig.plan_of(rig)
         result = {"name": rig.name, "joint_bones": plan.joint_bones, "dof_bones": plan.dof_bones,
                   "bones": [b.name for b in rig.data.bones], "meshes": sorted(c.name for c in rig.children)}
-    """, url=url)
+    """,
+        url=url,
+    )
 
 
 def joint_map(robot: dict, rig: dict) -> dict:
     """joint -> its bone, its parent joint's bone and its axis: what `joint_angles` reads in Blender."""
     frames = robot["joint_frames"]
-    return {j: {"bone": b, "axis": frames[j]["axis"],
-                "parent": rig["joint_bones"][frames[j]["parent_joint"]] if frames[j]["parent_joint"] else None}
-            for j, b in rig["joint_bones"].items()}
+    return {
+        j: {
+            "bone": b,
+            "axis": frames[j]["axis"],
+            "parent": rig["joint_bones"][frames[j]["parent_joint"]] if frames[j]["parent_joint"] else None,
+        }
+        for j, b in rig["joint_bones"].items()
+    }
 
 
 # --- 1. the rig ---------------------------------------------------------------------------------------
@@ -96,13 +106,35 @@ def test_load_robot_rigs_every_joint_and_moves_the_meshes_like_the_urdf(blender,
     rig = load_rig(blender, server.url)
     assert rig["name"] == "nutty_desk"
     assert set(rig["joint_bones"]) == set(robot["joint_frames"])  # one bone per moving joint
-    assert rig["dof_bones"] == {j: j for j in ("body_yaw", "neck_pitch", "head_yaw", "head_pitch", "head_roll",
-                                               "ear_left", "ear_right", "eyelid_left", "eyelid_right")}
+    assert rig["dof_bones"] == {
+        j: j
+        for j in (
+            "body_yaw",
+            "neck_pitch",
+            "head_yaw",
+            "head_pitch",
+            "head_roll",
+            "ear_left",
+            "ear_right",
+            "eyelid_left",
+            "eyelid_right",
+        )
+    }
     assert len(rig["meshes"]) == 17
-    pose = {"body_yaw": 0.4, "neck_pitch": 0.2, "head_yaw": -0.5, "head_pitch": 0.1, "head_roll": 0.3,
-            "ear_left": 0.6, "ear_right": -0.7, "eyelid_left": 0.9, "eyelid_right": 0.2}
+    pose = {
+        "body_yaw": 0.4,
+        "neck_pitch": 0.2,
+        "head_yaw": -0.5,
+        "head_pitch": 0.1,
+        "head_roll": 0.3,
+        "ear_left": 0.6,
+        "ear_right": -0.7,
+        "eyelid_left": 0.9,
+        "eyelid_right": 0.2,
+    }
     symbolic = {"gaze_yaw": 0.5, "gaze_pitch": -0.2, "blink": 0.3}
-    got = blender.run("""
+    got = blender.run(
+        """
         rig = bpy.data.objects["nutty_desk"]
         for dof, v in args["pose"].items():
             rig.pose.bones[dof].rotation_euler[1] = v
@@ -117,10 +149,17 @@ def test_load_robot_rigs_every_joint_and_moves_the_meshes_like_the_urdf(blender,
         limits = {b.name: [c.min_y, c.max_y] for b in rig.pose.bones for c in b.constraints}
         locks = {b.name: list(b.lock_rotation) for b in rig.pose.bones}
         result = {"meshes": result, "limits": limits, "locks": locks}
-    """, pose=pose, symbolic=symbolic)
+    """,
+        pose=pose,
+        symbolic=symbolic,
+    )
     assert got["limits"]["head_yaw"] == pytest.approx([-1.2, 1.2])
     assert got["limits"]["ear_left"] == pytest.approx([-0.9, 0.7])
-    assert got["locks"]["head_yaw"] == [True, False, True] and got["locks"]["head_yaw.drive"] == [True, True, True]
+    assert got["locks"]["head_yaw"] == [True, False, True] and got["locks"]["head_yaw.drive"] == [
+        True,
+        True,
+        True,
+    ]
     values = emb.rest.copy()
     for name, v in {**pose, **symbolic}.items():
         values[emb.dof(name).channels.start] = v
@@ -175,31 +214,54 @@ WAVE = """
 
 
 def clip_program(clip: str) -> dict:
-    return {"format": "nutty-program/1", "name": "play", "robot": "nutty_desk", "rate": RATE,
-            "nodes": [{"id": "clip", "type": "clip_player",
-                       "params": {"clip": clip, "autoplay": True, "crossfade": 0.0, "release": 0.0, "hold": True}},
-                      {"id": "out", "type": "output", "params": {}}],
-            "edges": [{"from": {"node": "clip", "port": "out"}, "to": {"node": "out", "port": "in"}}]}
+    return {
+        "format": "nutty-program/1",
+        "name": "play",
+        "robot": "nutty_desk",
+        "rate": RATE,
+        "nodes": [
+            {
+                "id": "clip",
+                "type": "clip_player",
+                "params": {"clip": clip, "autoplay": True, "crossfade": 0.0, "release": 0.0, "hold": True},
+            },
+            {"id": "out", "type": "output", "params": {}},
+        ],
+        "edges": [{"from": {"node": "clip", "port": "out"}, "to": {"node": "out", "port": "in"}}],
+    }
 
 
-def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(blender, server, emb, robot_dir, tmp_path):
+def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(
+    blender, server, emb, robot_dir, tmp_path
+):
     from backend.engine.clips import validate_clip_doc
     from backend.session import EngineSession
 
     robot = server.client.robot()
     rig = load_rig(blender, server.url)
-    blender.run(WAVE + """
+    blender.run(
+        WAVE
+        + """
         scene.nutty.clip_name = "blender_wave"
         bpy.ops.nutty.export_clip()
-    """)
+    """
+    )
     doc = httpx.get(f"{server.url}/api/clips/blender_wave").json()  # saved through PUT /api/clips/{name}
     assert (robot_dir / "clips" / "blender_wave.json").exists()
     path = tmp_path / "wave.json"
     blender.run('bpy.ops.nutty.export_clip(target="FILE", filepath=args["path"])', path=str(path))
     assert validate_clip_doc(json.loads(path.read_text())) == doc  # the same clip, written to a file
     assert doc["duration"] == pytest.approx(4.0) and doc["anchors"] == {"up": 1.0}
-    assert [(e["kind"], round(e["t"] * FPS, 6)) for e in doc["events"]] == [("say", 4), ("sound", 9), ("sound", 59)]
-    assert [e["payload"] for e in doc["events"]] == [{"text": "hello there"}, {"clip": "chirp"}, {"clip": "beep"}]
+    assert [(e["kind"], round(e["t"] * FPS, 6)) for e in doc["events"]] == [
+        ("say", 4),
+        ("sound", 9),
+        ("sound", 59),
+    ]
+    assert [e["payload"] for e in doc["events"]] == [
+        {"text": "hello there"},
+        {"clip": "chirp"},
+        {"clip": "beep"},
+    ]
     mouth = doc["tracks"]["mouth"][1]
     assert (mouth["t"], mouth["v"], mouth["interp"]) == (pytest.approx(19 / 24), "smile", "constant")
     head = doc["tracks"]["head_yaw"]
@@ -207,7 +269,9 @@ def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(blend
     assert len(head) == 5 and head[1]["right_type"] == "free"
     assert [k.get("interp") for k in doc["tracks"]["neck_pitch"]][:2] == ["bezier", "constant"]
     assert doc["tracks"]["ear_right"][0]["interp"] == "sine"
-    assert len(doc["tracks"]["ear_right"]) == 4 + 26  # the 4 keys, and the expo segment (70-97) baked per frame
+    assert (
+        len(doc["tracks"]["ear_right"]) == 4 + 26
+    )  # the 4 keys, and the expo segment (70-97) baked per frame
 
     # the engine plays the saved clip (from the robot's library on disk, as the server stored it)
     session = EngineSession.create(emb, rate=RATE, program=clip_program("blender_wave"))
@@ -218,12 +282,19 @@ def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(blend
         times.append(float(session.engine.apu.signal_value("clip", "time")))
         joints.append(emb.joint_positions(frame.position))
     compared = ["body_yaw", "neck_pitch", "head_yaw", "head_roll", "ear_left", "ear_right"]
-    angles = blender.run("""
+    angles = blender.run(
+        """
         rig = bpy.data.objects["nutty_desk"]
         result = joint_angles(rig, args["joints"], [1 + t * 24 for t in args["times"]])
-    """, joints={j: v for j, v in joint_map(robot, rig).items() if j in compared}, times=times)
+    """,
+        joints={j: v for j, v in joint_map(robot, rig).items() if j in compared},
+        times=times,
+    )
     index = {j: emb.joint_names.index(j) for j in compared}
-    errors = {j: float(np.degrees(np.abs(np.array(angles[j]) - np.array(joints)[:, index[j]])).max()) for j in compared}
+    errors = {
+        j: float(np.degrees(np.abs(np.array(angles[j]) - np.array(joints)[:, index[j]])).max())
+        for j in compared
+    }
     print("max |engine - Blender| per joint (deg):", {j: round(e, 5) for j, e in errors.items()})
     assert max(errors.values()) <= 0.1, errors
     assert max(abs(a) for a in angles["body_yaw"]) > 0.05  # gaze_yaw moved the body through its driver
@@ -265,14 +336,18 @@ def test_check_limits_marks_the_frames_where_the_action_is_too_fast(blender, ser
                   "colours": {b.name: [b.color.palette, list(b.color.custom.normal)] for b in rig.pose.bones}}
     """)
     # the reference: Blender's evaluated bone angles at every frame, through the trajectory-helper's rule
-    angles = blender.run("""
+    angles = blender.run(
+        """
         result = joint_angles(bpy.data.objects["nutty_desk"], args["joints"], list(range(1, 49)))
-    """, joints={j: v for j, v in joint_map(robot, rig).items() if j in ("head_yaw", "ear_left")})
+    """,
+        joints={j: v for j, v in joint_map(robot, rig).items() if j in ("head_yaw", "ear_left")},
+    )
     expected = set()
     for dof in ("head_yaw", "ear_left"):
         d = emb.dof(dof)
-        classes = trajectory.analyze(np.array(angles[dof]), FPS, d.velocity, d.acceleration, d.jerk, d.min, d.max,
-                                     tolerance=1e-6).classes[:, 0]
+        classes = trajectory.analyze(
+            np.array(angles[dof]), FPS, d.velocity, d.acceleration, d.jerk, d.min, d.max, tolerance=1e-6
+        ).classes[:, 0]
         expected |= {(dof, trajectory.CLASS_NAMES[c], 1 + a, 1 + b) for a, b, c in runs(classes)}
     reported = {(r[0], r[2], r[3], r[4]) for r in got["ranges"]}
     assert reported == expected and expected
@@ -281,7 +356,10 @@ def test_check_limits_marks_the_frames_where_the_action_is_too_fast(blender, ser
     assert {"jerk", "velocity"} <= {r[2] for r in got["ranges"]}  # the sweep's middle is only too fast
     markers = [m for m in got["markers"] if m[0].startswith("nutty:")]
     assert sorted(m[1] for m in markers) == sorted(r[3] for r in got["ranges"])
-    assert got["colours"]["head_yaw"] == ["CUSTOM", pytest.approx([0xe5 / 255, 0x38 / 255, 0x3b / 255], abs=1e-3)]
+    assert got["colours"]["head_yaw"] == [
+        "CUSTOM",
+        pytest.approx([0xE5 / 255, 0x38 / 255, 0x3B / 255], abs=1e-3),
+    ]
     assert got["colours"]["ear_left"][0] == "DEFAULT"
     assert got["curves"]['pose.bones["head_yaw"].rotation_euler'][0] == "CUSTOM"
     assert got["summary"].startswith(f"{len(got['ranges'])} ranges over the limits on 1 DoF")
@@ -316,7 +394,9 @@ def test_ghost_keys_equal_the_servers_filter_output(blender, server):
     """)
     assert got["ghost_of"] == "nutty_desk" and got["meshes"] == 17 and got["mats"] == ["Nutty ghost"]
     assert got["alpha"] < 1.0 and got["interps"] == ["LINEAR"]
-    assert got["placed"] < 1e-6 and got["beside"][0] == 0 and 0.2 < got["beside"][1] < 0.4  # one robot width left
+    assert (
+        got["placed"] < 1e-6 and got["beside"][0] == 0 and 0.2 < got["beside"][1] < 0.4
+    )  # one robot width left
     # the reference: Blender's evaluated angles per frame, posted to the server by this test
     angles = blender.run("""
         rig = bpy.data.objects["nutty_desk"]
@@ -352,17 +432,31 @@ class Watch:
         from websockets.sync.client import connect
 
         with connect(ws_url + "/ws/telemetry") as ws:
-            ws.send(json.dumps({"type": "subscribe", "signals": [{"node": "puppet", "port": "weight"}],
-                                "frames": True, "rate": 60}))
+            ws.send(
+                json.dumps(
+                    {
+                        "type": "subscribe",
+                        "signals": [{"node": "puppet", "port": "weight"}],
+                        "frames": True,
+                        "rate": 60,
+                    }
+                )
+            )
             while not self.stop.is_set():
                 try:
                     msg = json.loads(ws.recv(timeout=0.5))
                 except TimeoutError:
                     continue
                 if msg.get("type") == "telemetry" and "puppet.weight" in msg.get("signals", {}):
-                    self.samples.append({"t": time.monotonic(), "weight": msg["signals"]["puppet.weight"],
-                                         "position": msg["frame"]["position"], "classes": msg["frame"]["classes"],
-                                         "corrected": msg["frame"]["corrected"]})
+                    self.samples.append(
+                        {
+                            "t": time.monotonic(),
+                            "weight": msg["signals"]["puppet.weight"],
+                            "position": msg["frame"]["position"],
+                            "classes": msg["frame"]["classes"],
+                            "corrected": msg["frame"]["corrected"],
+                        }
+                    )
 
     def wait(self, condition, timeout: float = 30.0) -> dict:
         deadline = time.monotonic() + timeout
@@ -370,7 +464,9 @@ class Watch:
             if self.samples and condition(self.samples[-1]):
                 return self.samples[-1]
             time.sleep(0.05)
-        raise AssertionError(f"not reached within {timeout} s; last: {self.samples[-1] if self.samples else None}")
+        raise AssertionError(
+            f"not reached within {timeout} s; last: {self.samples[-1] if self.samples else None}"
+        )
 
     def close(self) -> None:
         self.stop.set()
@@ -379,15 +475,21 @@ class Watch:
 
 def pump(blender, stop_file: Path) -> threading.Thread:
     """Blender's timer, driven by hand (bpy has no event loop headless): until `stop_file` exists."""
+
     def run() -> None:
         with contextlib.suppress(BlenderError):  # a failing test reports its own error
-            blender.run("""
+            blender.run(
+                """
                 import time, os
                 deadline = time.monotonic() + 60
                 while not os.path.exists(args["stop"]) and time.monotonic() < deadline:
                     nutty_blender.live.LINK.tick()
                     time.sleep(0.05)
-            """, timeout=90, stop=str(stop_file))
+            """,
+                timeout=90,
+                stop=str(stop_file),
+            )
+
     t = threading.Thread(target=run, daemon=True)
     t.start()
     return t
@@ -410,7 +512,9 @@ def test_live_link_puppeteers_the_robot_within_its_limits(blender, server, emb, 
             result = {"running": link.running, "sent": link.sent, "last": link.last}
         """)
         assert started["running"] and started["sent"] == 2
-        assert started["last"]["head_yaw"] == pytest.approx(0.7) and started["last"]["ear_left"] == pytest.approx(0.7)
+        assert started["last"]["head_yaw"] == pytest.approx(0.7) and started["last"][
+            "ear_left"
+        ] == pytest.approx(0.7)
         stop = stops[0]
         pumping = pump(blender, stop)
         watch.wait(lambda s: abs(s["position"]["head_yaw"] - 0.7) < 0.01 and s["weight"] == 1.0)
@@ -458,7 +562,8 @@ def test_live_link_puppeteers_the_robot_within_its_limits(blender, server, emb, 
 def test_clear_reports_never_tracebacks(blender, server, tmp_path):
     down = f"http://127.0.0.1:{free_port()}"
     load_rig(blender, server.url)
-    errors = blender.run("""
+    errors = blender.run(
+        """
         s = bpy.context.scene.nutty
         rig = bpy.data.objects["nutty_desk"]
         result = {"no_keys": {name: operator_error(op) for name, op in (
@@ -481,9 +586,18 @@ def test_clear_reports_never_tracebacks(blender, server, tmp_path):
         s.clip_name = ""
         bpy.context.scene.frame_start = 5
         result["before_start"] = operator_error(bpy.ops.nutty.export_clip)
-    """, down=down, up=server.url)
-    for message in [*errors["no_keys"].values(), *errors["down"].values(), errors["bad_url"],
-                    errors["bad_marker"], errors["bad_name"], errors["before_start"]]:
+    """,
+        down=down,
+        up=server.url,
+    )
+    for message in [
+        *errors["no_keys"].values(),
+        *errors["down"].values(),
+        errors["bad_url"],
+        errors["bad_marker"],
+        errors["bad_name"],
+        errors["before_start"],
+    ]:
         assert message and "Traceback" not in message and "unexpected" not in message, message
     assert all("has no key" in m for m in errors["no_keys"].values()), errors["no_keys"]
     assert all(f"cannot reach nutty serve at {down}" in m for m in errors["down"].values()), errors["down"]
@@ -513,11 +627,14 @@ def test_a_robot_with_unsupported_joints_is_refused_by_name(blender, tmp_path):
     emb = load_embodiment(urdf)
     session = EngineSession.create(emb, rate=50, program=builtin_idle(emb.name))
     with running_app(create_app(session, frontend_dir=None)) as (_, _, port):
-        message = blender.run("""
+        message = blender.run(
+            """
             reset_scene()
             bpy.context.scene.nutty.server_url = args["url"]
             result = operator_error(bpy.ops.nutty.load_robot)
-        """, url=f"http://127.0.0.1:{port}")
+        """,
+            url=f"http://127.0.0.1:{port}",
+        )
     assert message is not None and "Traceback" not in message
     assert "'lift' (prismatic)" in message and "revolute and continuous" in message
     assert blender.run("result = [o.name for o in bpy.data.objects]") == []  # nothing half-built
@@ -530,13 +647,22 @@ def test_make_blender_addon_zip_installs_and_enables_in_blender(tmp_path):
     """`make blender-addon`'s zip passes Blender's own extension validation and installs into a fresh
     Blender (its own user folders in tmp_path), which registers the Nutty operators and menu."""
     # --no-print-directory: under `make test` this make is a sub-make, which would print its directory.
-    done = subprocess.run(["make", "-s", "--no-print-directory", "blender-addon", f"DIST={tmp_path}"], cwd=ROOT,
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        ["make", "-s", "--no-print-directory", "blender-addon", f"DIST={tmp_path}"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     zip_path = Path(next(line for line in reversed(done.stdout.splitlines()) if line.endswith(".zip")))
     assert zip_path.parent == tmp_path and zip_path.name.startswith("nutty_blender-"), done.stdout
-    checked = subprocess.run([sys.executable, str(bpy_paths.blender_ext()), "validate", str(zip_path)],
-                             capture_output=True, text=True, timeout=120)
+    checked = subprocess.run(
+        [sys.executable, str(bpy_paths.blender_ext()), "validate", str(zip_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert checked.returncode == 0 and "Success" in checked.stdout, checked.stdout + checked.stderr
     script = f"""
 import bpy
@@ -548,7 +674,9 @@ print("MENU", bpy.types.NUTTY_MT_menu.bl_label)
 """
     env = {**os.environ, "HOME": str(tmp_path), "BLENDER_USER_RESOURCES": str(tmp_path / "blender")}
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, env=env)
-    assert "ENABLED ['bl_ext.user_default.nutty_blender']" in run.stdout, run.stdout[-3000:] + run.stderr[-3000:]
+    assert "ENABLED ['bl_ext.user_default.nutty_blender']" in run.stdout, (
+        run.stdout[-3000:] + run.stderr[-3000:]
+    )
     assert "OPERATORS True" in run.stdout and "MENU Nutty" in run.stdout
 
 
@@ -562,7 +690,8 @@ def test_live_link_to_a_program_without_a_puppet_layer_says_so(blender):
     desk = load_embodiment("nutty_desk")
     session = EngineSession.create(desk, rate=50, program=builtin_idle(desk.name))
     with running_app(create_app(session, frontend_dir=None)) as (_, _, port):
-        got = blender.run("""
+        got = blender.run(
+            """
             reset_scene()
             bpy.context.scene.nutty.server_url = args["url"]
             bpy.ops.nutty.load_robot()
@@ -570,7 +699,9 @@ def test_live_link_to_a_program_without_a_puppet_layer_says_so(blender):
             link = nutty_blender.live.LINK
             result = {"message": message, "running": link.running,
                       "handlers": nutty_blender.live._on_change in bpy.app.handlers.frame_change_post}
-        """, url=f"http://127.0.0.1:{port}")
+        """,
+            url=f"http://127.0.0.1:{port}",
+        )
     assert got["message"] and "Traceback" not in got["message"]
     assert "refused the live link" in got["message"] and "no puppet block" in got["message"]
     assert got["running"] is False and got["handlers"] is False
@@ -587,7 +718,8 @@ def test_the_add_on_sends_the_token_when_the_server_has_one(blender, tmp_path):
     session = EngineSession.create(desk, rate=50, program_text=program)
     session.library.folder = tmp_path  # the clip lands here, not in the repository
     with running_app(create_app(session, token="s3cret", frontend_dir=None)) as (_, _, port):
-        got = blender.run("""
+        got = blender.run(
+            """
             reset_scene()
             s = bpy.context.scene.nutty
             s.server_url, s.clip_name = args["url"], "token_test"
@@ -603,7 +735,9 @@ def test_the_add_on_sends_the_token_when_the_server_has_one(blender, tmp_path):
             result["running"] = nutty_blender.live.LINK.running
             bpy.ops.nutty.live_link(action="STOP")
             wm.nutty_token = ""
-        """, url=f"http://127.0.0.1:{port}")
+        """,
+            url=f"http://127.0.0.1:{port}",
+        )
     assert got["load"] is None and got["export_with"] is None and got["live_with"] is None and got["running"]
     assert "needs its token" in got["export"]
     assert "needs its token" in got["live"]

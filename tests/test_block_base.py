@@ -30,11 +30,16 @@ from backend.engine.library import RobotLibrary
 
 
 class DemoParams(BlockParams):
-    gain: float = drivable(Field(1.0, ge=0.0, le=2.0, description="scale"), "overrides the gain", clamp="range")
-    rate: float = drivable(Field(0.5, ge=0.0, le=5.0, description="Hz"), "overrides the rate (Hz)", clamp="floor")
+    gain: float = drivable(
+        Field(1.0, ge=0.0, le=2.0, description="scale"), "overrides the gain", clamp="range"
+    )
+    rate: float = drivable(
+        Field(0.5, ge=0.0, le=5.0, description="Hz"), "overrides the rate (Hz)", clamp="floor"
+    )
     offset: float = drivable(Field(0.0, ge=-1.0, le=1.0, description="added"))
-    target: list[float] = drivable(Field([1.0, 0.0, 0.0], min_length=3, max_length=3), "look here",
-                                   port=PortType.vec3)
+    target: list[float] = drivable(
+        Field([1.0, 0.0, 0.0], min_length=3, max_length=3), "look here", port=PortType.vec3
+    )
     label: str | None = drivable(Field(None), "a name", port=PortType.string)
     steps: int = Field(3, ge=1, description="not drivable")
 
@@ -86,7 +91,9 @@ def test_marking_a_parameter_drivable_leaves_its_json_schema_alone():
         gain: float = Field(1.0, ge=0.0, le=2.0, description="scale")
 
     class Marked(BlockParams):
-        gain: float = drivable(Field(1.0, ge=0.0, le=2.0, description="scale"), "overrides the gain", clamp="range")
+        gain: float = drivable(
+            Field(1.0, ge=0.0, le=2.0, description="scale"), "overrides the gain", clamp="range"
+        )
 
     plain, marked = Plain.model_json_schema(), Marked.model_json_schema()
     plain.pop("title"), marked.pop("title")
@@ -135,9 +142,12 @@ def test_driven_fallbacks_replace_the_parameter_only_while_unwired(desk, ctx):
 
 
 class NumberParams(BlockParams):
-    gain: float = drivable(Field(1.0, ge=-2.0, le=2.0, description="scale"), "overrides the gain", clamp="range")
-    target: list[float] = drivable(Field([1.0, 0.0, 0.0], min_length=3, max_length=3), "look here",
-                                   port=PortType.vec3)
+    gain: float = drivable(
+        Field(1.0, ge=-2.0, le=2.0, description="scale"), "overrides the gain", clamp="range"
+    )
+    target: list[float] = drivable(
+        Field([1.0, 0.0, 0.0], min_length=3, max_length=3), "look here", port=PortType.vec3
+    )
 
 
 class Numbers(Operator):
@@ -183,6 +193,7 @@ def test_a_wired_drivable_parameter_drives_the_block(desk, ctx):
 
 def test_a_port_declared_by_hand_and_as_drivable_is_an_error():
     with pytest.raises(TypeError, match="gain"):
+
         class Clash(Block):
             Params = DemoParams
             inputs = {"gain": Port(PortType.float, "by hand")}
@@ -193,6 +204,7 @@ def test_clamping_needs_the_bounds_it_clamps_to():
         gain: float = drivable(Field(1.0, ge=0.0), clamp="range")
 
     with pytest.raises(TypeError, match="gain"):
+
         class NoUpper(Block):
             Params = Unbounded
 
@@ -305,9 +317,13 @@ def test_frame_history_reads_each_channel_its_lag_back_and_starts_primed():
     h = FrameHistory.for_delay(0.05, 100.0, 2)  # 5 ticks of delay at most
     assert h.values.shape == (7, 2)
     lag = np.array([0, 2])
-    outs = [h.push_read(np.array([k, k], dtype=float), np.array([True, k % 2 == 0]), lag) for k in range(1, 6)]
+    outs = [
+        h.push_read(np.array([k, k], dtype=float), np.array([True, k % 2 == 0]), lag) for k in range(1, 6)
+    ]
     assert [float(v[0]) for v, _ in outs] == [1, 2, 3, 4, 5]
     assert [float(v[1]) for v, _ in outs] == [1, 1, 1, 2, 3]  # before the first frame: the first frame
     assert [bool(m[1]) for _, m in outs] == [False, False, False, True, False]
-    big = h.push_read(np.array([6.0, 6.0]), np.array([True, True]), np.array([0, 99]))  # capped at capacity - 1
+    big = h.push_read(
+        np.array([6.0, 6.0]), np.array([True, True]), np.array([0, 99])
+    )  # capped at capacity - 1
     assert float(big[0][1]) == 1.0

@@ -22,7 +22,9 @@ def test_catalog_describes_every_block():
     for e in entries:
         assert e["category"] in CATEGORIES, e["type"]
         assert e["summary"] and len(e["summary"]) < 160, e["type"]
-        assert e["doc"].startswith(e["summary"]) and e["summary"] != e["title"], e["type"]  # the docstring is shown
+        assert e["doc"].startswith(e["summary"]) and e["summary"] != e["title"], e[
+            "type"
+        ]  # the docstring is shown
         assert e["params_schema"]["type"] == "object", e["type"]
         for port in (*e["inputs"].values(), *e["outputs"].values()):
             assert port["type"] in {t.value for t in PortType}

@@ -34,7 +34,9 @@ def test_led_solid_defaults_to_first_colour_dof(desk):
 
 def test_led_pulse_and_breathe_oscillate_within_unit_range(desk):
     for mode in ("pulse", "breathe"):
-        blk, _ = make(desk, "led", dof="chest_led", colour=[1.0, 0.5, 0.0], mode=mode, frequency=2.0, depth=0.8)
+        blk, _ = make(
+            desk, "led", dof="chest_led", colour=[1.0, 0.5, 0.0], mode=mode, frequency=2.0, depth=0.8
+        )
         r = np.array([led_rgb(desk, blk.tick(0.01, {})["out"], "chest_led") for _ in range(200)])
         assert r.min() >= 0.0 and r.max() <= 1.0
         assert r[:, 0].max() == pytest.approx(1.0, abs=0.02) and r[:, 0].min() == pytest.approx(0.2, abs=0.03)
@@ -44,7 +46,10 @@ def test_led_pulse_and_breathe_oscillate_within_unit_range(desk):
 
 def test_led_command_and_colour_input(desk):
     blk, _ = make(desk, "led")
-    assert blk.handle("set_led", {"colour": [0.0, 1.0, 0.0]}) == {"dof": "eye_leds", "colour": [0.0, 1.0, 0.0]}
+    assert blk.handle("set_led", {"colour": [0.0, 1.0, 0.0]}) == {
+        "dof": "eye_leds",
+        "colour": [0.0, 1.0, 0.0],
+    }
     assert np.allclose(led_rgb(desk, blk.tick(0.01, {})["out"]), [0, 1, 0])
     assert np.allclose(led_rgb(desk, blk.tick(0.01, {"colour": [1.0, 0.0, 0.0]})["out"]), [1, 0, 0])
     with pytest.raises(BlockCommandError, match="0..1"):
@@ -86,13 +91,20 @@ def test_say_emits_once_notifies_and_flaps_the_mouth(desk):
     blk, ctx = make(desk, "say", words_per_second=2.0, syllable_rate=4.0)
     mouth = desk.channel_index["mouth_open"]
     blk.tick(0.01, {})
-    assert blk.handle("say", {"text": "hello there robot friend", "command_id": "s1"})["text"] == \
-        "hello there robot friend"
+    assert (
+        blk.handle("say", {"text": "hello there robot friend", "command_id": "s1"})["text"]
+        == "hello there robot friend"
+    )
     outs = [blk.tick(0.01, {}) for _ in range(300)]
     events = [(k, e) for k, o in enumerate(outs) for e in o["out"].events]
     assert len(events) == 1
     k, ev = events[0]
-    assert k == 0 and ev.dof == "speech" and ev.kind == "say" and ev.payload == {"text": "hello there robot friend"}
+    assert (
+        k == 0
+        and ev.dof == "speech"
+        and ev.kind == "say"
+        and ev.payload == {"text": "hello there robot friend"}
+    )
     assert [(n["event"], n["command_id"]) for n in ctx.events] == [("started", "s1"), ("completed", "s1")]
     speaking = [o["speaking"] for o in outs]
     assert sum(speaking) == 200  # 4 words at 2 words/s = 2 s
@@ -150,8 +162,11 @@ def _program_with_voice(desk):
     rest = b.node("rest_pose", "rest")
     say = b.node("say", "voice", words_per_second=4.0)
     sound = b.node("play_sound", "sfx", duration=0.2)
-    mix = b.node("layer_mixer", "mix", layers=[{"name": "base"}, {"name": "voice", "mode": "override"},
-                                                {"name": "sfx", "mode": "override"}])
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        layers=[{"name": "base"}, {"name": "voice", "mode": "override"}, {"name": "sfx", "mode": "override"}],
+    )
     b.connect(rest, mix, "out", "base").connect(say, mix, "out", "voice").connect(sound, mix, "out", "sfx")
     b.chain(mix, b.node("safety_limiter", "safety"), b.output())
     return b.to_dict()
@@ -181,8 +196,11 @@ def test_say_and_play_sound_commands_route_to_blocks_end_to_end(desk):
 
 def test_set_led_and_set_face_commands_reach_the_program_blocks(desk):
     b = ProgramBuilder("display", robot=desk.name)
-    mix = b.node("layer_mixer", "mix", layers=[{"name": "base"}, {"name": "eyes", "mode": "override"},
-                                                {"name": "face", "mode": "override"}])
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        layers=[{"name": "base"}, {"name": "eyes", "mode": "override"}, {"name": "face", "mode": "override"}],
+    )
     b.connect(b.node("rest_pose", "rest"), mix, "out", "base")
     b.connect(b.node("led", "eyes", colour=[0.1, 0.2, 0.3]), mix, "out", "eyes")
     b.connect(b.node("face", "face", expression="smile"), mix, "out", "face")

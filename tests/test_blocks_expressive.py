@@ -39,8 +39,14 @@ def test_pairs_found_by_name(desk):
 def test_mirror_swaps_pairs_and_negates_yaw_about_rest(desk):
     blk = make(desk, "mirror")
     ev = FrameEvent("speech", "say", {"text": "hi"})
-    out = blk.tick(0.01, {"in": frame(desk, [ev], ear_left=0.5, ear_right=-0.2, head_yaw=0.3, head_pitch=0.2,
-                                      eyelid_left=0.9)})["out"]
+    out = blk.tick(
+        0.01,
+        {
+            "in": frame(
+                desk, [ev], ear_left=0.5, ear_right=-0.2, head_yaw=0.3, head_pitch=0.2, eyelid_left=0.9
+            )
+        },
+    )["out"]
     assert out.values[ch(desk, "ear_left")] == pytest.approx(-0.2)
     assert out.values[ch(desk, "ear_right")] == pytest.approx(0.5)
     assert out.values[ch(desk, "head_yaw")] == pytest.approx(-0.3)
@@ -90,7 +96,9 @@ def test_asymmetry_delays_the_right_side_by_whole_ticks(desk):
 
 
 def test_asymmetry_offsets_and_gains_clamped(desk):
-    blk = make(desk, "asymmetry", delay=0.0, offsets={"ear_left": 0.1}, gains={"ear_right": 0.5, "head_yaw": 3.0})
+    blk = make(
+        desk, "asymmetry", delay=0.0, offsets={"ear_left": 0.1}, gains={"ear_right": 0.5, "head_yaw": 3.0}
+    )
     out = blk.tick(0.01, {"in": frame(desk, ear_left=0.2, ear_right=0.4, head_yaw=2.5)})["out"]
     assert out.values[ch(desk, "ear_left")] == pytest.approx(0.3)
     assert out.values[ch(desk, "ear_right")] == pytest.approx(0.2)
@@ -214,9 +222,17 @@ def test_delay_delays_selected_dofs_by_n_ticks(desk):
     rows = []
     for k in range(15):
         x = 0.4 if k >= 2 else 0.0
-        out = blk.tick(0.01, {"in": frame(desk, [ev] if k == 2 else [], ear_left=x, head_yaw=x, head_pitch=x)})["out"]
-        rows.append((out.values[ch(desk, "ear_left")], out.values[ch(desk, "head_yaw")],
-                     out.values[ch(desk, "head_pitch")], out.events))
+        out = blk.tick(
+            0.01, {"in": frame(desk, [ev] if k == 2 else [], ear_left=x, head_yaw=x, head_pitch=x)}
+        )["out"]
+        rows.append(
+            (
+                out.values[ch(desk, "ear_left")],
+                out.values[ch(desk, "head_yaw")],
+                out.values[ch(desk, "head_pitch")],
+                out.events,
+            )
+        )
     first = [next(k for k, r in enumerate(rows) if r[i] > 0.2) for i in range(3)]
     assert first == [9, 2, 4]
     assert rows[2][3] == [ev]  # events pass at once

@@ -41,12 +41,15 @@ def run_gaze(block, target, n):
 # --- gaze -------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("target,yaw_sign,pitch_sign", [
-    ([1.0, 0.5, 0.3], +1, +1),   # left (and a bit below the eyes)
-    ([1.0, -0.5, 0.3], -1, +1),  # right
-    ([1.0, 0.0, 1.0], 0, -1),    # up
-    ([1.0, 0.0, -0.2], 0, +1),   # down
-])
+@pytest.mark.parametrize(
+    "target,yaw_sign,pitch_sign",
+    [
+        ([1.0, 0.5, 0.3], +1, +1),  # left (and a bit below the eyes)
+        ([1.0, -0.5, 0.3], -1, +1),  # right
+        ([1.0, 0.0, 1.0], 0, -1),  # up
+        ([1.0, 0.0, -0.2], 0, +1),  # down
+    ],
+)
 def test_gaze_turns_toward_targets_with_the_right_signs(desk, target, yaw_sign, pitch_sign):
     block = make(desk, "gaze")
     frames, outs = run_gaze(block, target, 300)
@@ -60,7 +63,8 @@ def test_gaze_turns_toward_targets_with_the_right_signs(desk, target, yaw_sign, 
     assert outs[-1]["on_target"] is True and outs[0]["on_target"] is False
     mask = outs[-1]["out"].mask
     assert sorted(desk.channel_names[i] for i in np.flatnonzero(mask)) == sorted(
-        ["head_yaw", "body_yaw", "head_pitch", "neck_pitch"])
+        ["head_yaw", "body_yaw", "head_pitch", "neck_pitch"]
+    )
 
 
 def test_gaze_respects_position_limits_for_far_targets(desk):
@@ -153,7 +157,9 @@ def test_ik_respects_joint_limits_for_unreachable_targets(desk):
             assert np.all(out.values <= desk.max + 1e-12) and np.all(out.values >= desk.min - 1e-12)
         ch = desk.channel_index
         if target[2] > 1:
-            assert out.values[ch["head_pitch"]] == pytest.approx(desk.min[ch["head_pitch"]])  # as far up as it goes
+            assert out.values[ch["head_pitch"]] == pytest.approx(
+                desk.min[ch["head_pitch"]]
+            )  # as far up as it goes
 
 
 def test_ik_reach_moves_the_tip_to_a_reachable_point(desk):
@@ -171,9 +177,11 @@ def test_ik_reach_moves_the_tip_to_a_reachable_point(desk):
 def test_ik_passes_through_without_target_or_weight(desk):
     frame = full_frame(desk, head_yaw=0.3, neck_pitch=0.1)
     frame.mask[desk.channel_index["ear_left"]] = False
-    for inputs, params in (({"target": [1.0, 0.5, 0.3], "weight": 0.0}, {}),
-                           ({"target": [float("nan"), 0.0, 0.0]}, {}),
-                           ({}, {})):
+    for inputs, params in (
+        ({"target": [1.0, 0.5, 0.3], "weight": 0.0}, {}),
+        ({"target": [float("nan"), 0.0, 0.0]}, {}),
+        ({}, {}),
+    ):
         block = make(desk, "ik", **params)
         for _ in range(3):
             out = block.tick(DT, {"in": frame, **inputs})["out"]
@@ -210,8 +218,11 @@ def gaze_program():
     target = b.expose("gaze_target", type="vec3", default=[1.0, 0.0, 0.3])
     rest = b.node("rest_pose", "rest")
     gaze = b.node("gaze", "gaze")
-    mix = b.node("layer_mixer", "mix", layers=[{"name": "base"}, {"name": "gaze", "mode": "override",
-                                                                     "mask": ["stationary:*"]}])
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        layers=[{"name": "base"}, {"name": "gaze", "mode": "override", "mask": ["stationary:*"]}],
+    )
     ik = b.node("ik", "ik")
     b.connect(rest, mix, "out", "base").connect(gaze, mix, "out", "gaze").chain(mix, ik, b.output())
     b.connect(target, gaze, "value", "target").connect(target, ik, "value", "target")

@@ -71,8 +71,16 @@ def test_breathe_live_frequency_change_never_jumps(desk):
 
 
 def test_breathe_per_dof_amplitudes_phases_and_amplitude_signal(desk):
-    b = make(desk, "breathe", dofs=["head_pitch", "neck_pitch"], amplitude=0.02, frequency=0.5,
-             amplitudes={"neck_pitch": 0.06}, phase_spread=0.0, phases={"neck_pitch": math.pi})
+    b = make(
+        desk,
+        "breathe",
+        dofs=["head_pitch", "neck_pitch"],
+        amplitude=0.02,
+        frequency=0.5,
+        amplitudes={"neck_pitch": 0.06},
+        phase_spread=0.0,
+        phases={"neck_pitch": math.pi},
+    )
     hp, npi = ch(desk, "head_pitch"), ch(desk, "neck_pitch")
     v = run(b, 400)
     assert np.ptp(v[:, hp]) == pytest.approx(0.04, abs=1e-3)
@@ -105,14 +113,18 @@ def _noise_series(desk, rate: float, seconds: float, **params) -> np.ndarray:
 def test_noise_std_matches_amplitude_at_any_rate(desk, rate):
     x = _noise_series(desk, rate, 50.0, amplitude=0.02, tau=0.3, smoothing=0.1, seed=3)
     assert x.shape[1] >= 5
-    assert np.std(x[int(rate * 2):]) == pytest.approx(0.02, rel=0.15)
+    assert np.std(x[int(rate * 2) :]) == pytest.approx(0.02, rel=0.15)
     assert abs(np.mean(x)) < 0.004
 
 
 def test_noise_smoothing_makes_velocity_continuous(desk):
     def step_ratio(smoothing: float) -> float:
-        fine = np.std(np.diff(_noise_series(desk, 500.0, 20.0, amplitude=0.02, tau=0.5, smoothing=smoothing), axis=0))
-        coarse = np.std(np.diff(_noise_series(desk, 50.0, 20.0, amplitude=0.02, tau=0.5, smoothing=smoothing), axis=0))
+        fine = np.std(
+            np.diff(_noise_series(desk, 500.0, 20.0, amplitude=0.02, tau=0.5, smoothing=smoothing), axis=0)
+        )
+        coarse = np.std(
+            np.diff(_noise_series(desk, 50.0, 20.0, amplitude=0.02, tau=0.5, smoothing=smoothing), axis=0)
+        )
         return fine / coarse
 
     assert step_ratio(0.2) < 0.18  # steps shrink like dt: a differentiable path
@@ -173,7 +185,9 @@ def _onsets(blinking: np.ndarray) -> np.ndarray:
 
 
 def test_blink_mean_interval_over_a_long_run(desk):
-    b = make(desk, "blink", min_interval=1.5, mean_interval=4.0, max_interval=10.0, double_blink_probability=0.0)
+    b = make(
+        desk, "blink", min_interval=1.5, mean_interval=4.0, max_interval=10.0, double_blink_probability=0.0
+    )
     blinking = run(b, 60000, port="blinking")  # 600 s
     gaps = np.diff(_onsets(blinking)) * 0.01
     assert len(gaps) > 100
@@ -183,8 +197,18 @@ def test_blink_mean_interval_over_a_long_run(desk):
 
 
 def test_blink_shape_closes_faster_than_it_opens(desk):
-    b = make(desk, "blink", close_time=0.08, hold_time=0.03, open_time=0.18, min_interval=20, mean_interval=30,
-             max_interval=40, double_blink_probability=0.0, rate=1000.0)
+    b = make(
+        desk,
+        "blink",
+        close_time=0.08,
+        hold_time=0.03,
+        open_time=0.18,
+        min_interval=20,
+        mean_interval=30,
+        max_interval=40,
+        double_blink_probability=0.0,
+        rate=1000.0,
+    )
     i = ch(desk, "blink")
     run(b, 100, dt=0.001)
     b.handle("blink", {})
@@ -213,8 +237,15 @@ def test_blink_never_starts_during_hold_and_catches_up_after(desk):
 
 
 def test_gaze_shift_triggers_a_blink_unless_one_just_happened(desk):
-    b = make(desk, "blink", min_interval=2.0, mean_interval=20.0, max_interval=30.0, gaze_shift_threshold=0.2,
-             double_blink_probability=0.0)
+    b = make(
+        desk,
+        "blink",
+        min_interval=2.0,
+        mean_interval=20.0,
+        max_interval=30.0,
+        gaze_shift_threshold=0.2,
+        double_blink_probability=0.0,
+    )
     look = {"gaze": [1.0, 0.0, 0.3]}
     assert not run(b, 150, inputs=look, port="blinking").any()  # 1.5 s, nothing scheduled yet
     small = {"gaze": [1.0, 0.1, 0.3]}
@@ -229,22 +260,38 @@ def test_gaze_shift_triggers_a_blink_unless_one_just_happened(desk):
 
 
 def test_gaze_shift_is_an_angle_for_target_points(desk):
-    b = make(desk, "blink", min_interval=2.0, mean_interval=20.0, max_interval=30.0, gaze_shift_threshold=0.2,
-             double_blink_probability=0.0)
+    b = make(
+        desk,
+        "blink",
+        min_interval=2.0,
+        mean_interval=20.0,
+        max_interval=30.0,
+        gaze_shift_threshold=0.2,
+        double_blink_probability=0.0,
+    )
     run(b, 150, inputs={"gaze": [1.0, 0.0, 0.3]})
     assert not run(b, 20, inputs={"gaze": [3.0, 0.0, 0.9]}, port="blinking").any()  # same direction, farther
     assert run(b, 2, inputs={"gaze": [3.0, 1.0, 0.9]}, port="blinking").any()  # turned by ~0.3 rad
 
 
 def test_gaze_may_be_a_float(desk):
-    b = make(desk, "blink", min_interval=2.0, mean_interval=20.0, max_interval=30.0, double_blink_probability=0.0)
+    b = make(
+        desk, "blink", min_interval=2.0, mean_interval=20.0, max_interval=30.0, double_blink_probability=0.0
+    )
     run(b, 150, inputs={"gaze": 0.0})
     assert run(b, 2, inputs={"gaze": 0.5}, port="blinking").any()
 
 
 def test_double_blinks(desk):
-    b = make(desk, "blink", min_interval=5.0, mean_interval=10.0, max_interval=20.0, double_blink_probability=1.0,
-             double_blink_gap=0.1)
+    b = make(
+        desk,
+        "blink",
+        min_interval=5.0,
+        mean_interval=10.0,
+        max_interval=20.0,
+        double_blink_probability=1.0,
+        double_blink_gap=0.1,
+    )
     b.handle("blink", {})
     blinking = run(b, 100, port="blinking")  # 1 s
     onsets = _onsets(blinking)
@@ -272,9 +319,21 @@ def test_blink_validator_names_the_fields(desk):
 
 
 def test_blink_is_reproducible(desk):
-    a = run(make(desk, "blink", "eyes", min_interval=0.5, mean_interval=1.0, max_interval=3.0), 1000, port="blinking")
-    b = run(make(desk, "blink", "eyes", min_interval=0.5, mean_interval=1.0, max_interval=3.0), 1000, port="blinking")
-    c = run(make(desk, "blink", "other", min_interval=0.5, mean_interval=1.0, max_interval=3.0), 1000, port="blinking")
+    a = run(
+        make(desk, "blink", "eyes", min_interval=0.5, mean_interval=1.0, max_interval=3.0),
+        1000,
+        port="blinking",
+    )
+    b = run(
+        make(desk, "blink", "eyes", min_interval=0.5, mean_interval=1.0, max_interval=3.0),
+        1000,
+        port="blinking",
+    )
+    c = run(
+        make(desk, "blink", "other", min_interval=0.5, mean_interval=1.0, max_interval=3.0),
+        1000,
+        port="blinking",
+    )
     assert np.array_equal(a, b) and not np.array_equal(a, c)
 
 
@@ -299,10 +358,20 @@ def test_idle_program_with_breathing_noise_shifts_and_blinks_respects_limits(des
     noise = b.node("noise", "noise", amplitude=0.03)
     shift = b.node("weight_shift", "shift", amplitude=0.1, min_interval=2.0, max_interval=4.0)
     blink = b.node("blink", "blink", min_interval=20.0, mean_interval=25.0, max_interval=30.0)
-    mix = b.node("layer_mixer", "mix", layers=[
-        {"name": "base"}, {"name": "breath", "mode": "additive"}, {"name": "noise", "mode": "additive"},
-        {"name": "shift", "mode": "additive"}, {"name": "eyes", "mode": "override", "mask": ["blink"]}])
-    b.connect(rest, mix, "out", "base").connect(breathe, mix, "out", "breath").connect(noise, mix, "out", "noise")
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        layers=[
+            {"name": "base"},
+            {"name": "breath", "mode": "additive"},
+            {"name": "noise", "mode": "additive"},
+            {"name": "shift", "mode": "additive"},
+            {"name": "eyes", "mode": "override", "mask": ["blink"]},
+        ],
+    )
+    b.connect(rest, mix, "out", "base").connect(breathe, mix, "out", "breath").connect(
+        noise, mix, "out", "noise"
+    )
     b.connect(shift, mix, "out", "shift").connect(blink, mix, "out", "eyes").chain(mix, b.output())
     b.connect(gaze, blink, "value", "gaze")
     session = EngineSession.create(desk, rate=100, program=b.to_dict())

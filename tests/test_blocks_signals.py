@@ -16,10 +16,18 @@ def make(desk, type_name, **kw):
     return cls(cls.Params(**kw), BlockContext(embodiment=desk, rate=100.0), "n")
 
 
-@pytest.mark.parametrize("op,a,b,expected", [
-    ("add", 2.0, 3.0, 5.0), ("subtract", 2.0, 3.0, -1.0), ("multiply", 2.0, 3.0, 6.0),
-    ("divide", 3.0, 2.0, 1.5), ("min", 2.0, 3.0, 2.0), ("max", 2.0, 3.0, 3.0), ("abs", -2.5, 0.0, 2.5),
-])
+@pytest.mark.parametrize(
+    "op,a,b,expected",
+    [
+        ("add", 2.0, 3.0, 5.0),
+        ("subtract", 2.0, 3.0, -1.0),
+        ("multiply", 2.0, 3.0, 6.0),
+        ("divide", 3.0, 2.0, 1.5),
+        ("min", 2.0, 3.0, 2.0),
+        ("max", 2.0, 3.0, 3.0),
+        ("abs", -2.5, 0.0, 2.5),
+    ],
+)
 def test_math_binary_ops(desk, op, a, b, expected):
     blk = make(desk, "math", op=op)
     assert blk.tick(0.01, {"a": a, "b": b})["value"] == pytest.approx(expected)
@@ -35,7 +43,9 @@ def test_math_map_range_clamp_and_smoothstep(desk):
     m = make(desk, "math", op="map_range", in_min=-1.0, in_max=1.0, out_min=0.6, out_max=1.6)
     assert m.tick(0.01, {"a": 0.0})["value"] == pytest.approx(1.1)
     assert m.tick(0.01, {"a": 3.0})["value"] == pytest.approx(1.6)  # clamped
-    free = make(desk, "math", op="map_range", in_min=0.0, in_max=1.0, out_min=0.0, out_max=10.0, clamped=False)
+    free = make(
+        desk, "math", op="map_range", in_min=0.0, in_max=1.0, out_min=0.0, out_max=10.0, clamped=False
+    )
     assert free.tick(0.01, {"a": 2.0})["value"] == pytest.approx(20.0)
     c = make(desk, "math", op="clamp", min=-0.5, max=0.5)
     assert [c.tick(0.01, {"a": x})["value"] for x in (-2.0, 0.1, 2.0)] == [-0.5, 0.1, 0.5]
@@ -111,8 +121,16 @@ def test_emotion_monotonic_mappings(desk):
     assert np.all(np.diff(droop) < 0) and droop[0] > 0 > droop[-1]  # sad droops (+ pitch), happy lifts
 
 
-@pytest.mark.parametrize("v,a,name", [(0.8, 0.5, "happy"), (-0.8, -0.4, "sad"), (0.0, 1.0, "surprised"),
-                                      (0.1, -0.9, "sleepy"), (0.0, 0.05, "neutral")])
+@pytest.mark.parametrize(
+    "v,a,name",
+    [
+        (0.8, 0.5, "happy"),
+        (-0.8, -0.4, "sad"),
+        (0.0, 1.0, "surprised"),
+        (0.1, -0.9, "sleepy"),
+        (0.0, 0.05, "neutral"),
+    ],
+)
 def test_emotion_nearest_posture(desk, v, a, name):
     assert _emotion(desk, v, a)["posture"] == name
 

@@ -70,8 +70,11 @@ def within_limits(desk, pos: np.ndarray) -> bool:
     a = np.diff(v, axis=0) / H
     j = np.diff(a, axis=0) / H
     slack = 1 + 1e-9
-    return bool(np.all(np.abs(v) <= desk.vel_limit[m] * slack) and np.all(np.abs(a) <= desk.acc_limit[m] * slack)
-                and np.all(np.abs(j) <= desk.jerk_limit[m] * slack))
+    return bool(
+        np.all(np.abs(v) <= desk.vel_limit[m] * slack)
+        and np.all(np.abs(a) <= desk.acc_limit[m] * slack)
+        and np.all(np.abs(j) <= desk.jerk_limit[m] * slack)
+    )
 
 
 def test_live_frames_pass_through_bit_for_bit(desk, engine_frames):
@@ -81,7 +84,9 @@ def test_live_frames_pass_through_bit_for_bit(desk, engine_frames):
     assert relay.mode == LIVE and len(out.frames) == len(engine_frames)
     sent = np.array([f.position for f in out.frames])
     got = np.array([[d["dofs"][n]["position"] for n in desk.continuous_names] for d in engine_frames])
-    assert np.array_equal(sent[:, desk.continuous_mask], got)  # the engine's frames respect the limits already
+    assert np.array_equal(
+        sent[:, desk.continuous_mask], got
+    )  # the engine's frames respect the limits already
     s = relay.summary()
     assert s["received"] == len(engine_frames) and s["gaps"] == s["timeouts"] == s["corrected_ticks"] == 0
     assert s["latency_ms"]["p50_ms"] == pytest.approx(5.0)  # the stamp against the wall clock
@@ -127,13 +132,15 @@ def test_frames_coming_back_blend_in_without_a_jump_then_pass_through(desk, engi
     assert relay.counts["resumes"] == 1 and relay.mode == LIVE
     pos = positions(out.frames, desk)
     assert within_limits(desk, pos)
-    engine = np.array([[d["dofs"][n]["position"] for n in desk.continuous_names] for d in engine_frames[380:]])
+    engine = np.array(
+        [[d["dofs"][n]["position"] for n in desk.continuous_names] for d in engine_frames[380:]]
+    )
     assert np.abs(pos[-len(engine)] - engine[0]).max() > 0.05  # it had to catch up ...
     assert np.array_equal(pos[-60:], engine[-60:])  # ... and locked on again: the engine's frames, exactly
 
 
 def test_a_restarted_engine_is_followed_from_seq_zero(desk, engine_frames):
-    relay, clock, out = make(desk, timeout=0.1)
+    relay, clock, _out = make(desk, timeout=0.1)
     feed(relay, clock, engine_frames[:200])
     for _ in range(200):
         clock.now += H

@@ -15,12 +15,22 @@ from backend.engine.library import LibraryError, RobotLibrary
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
 
-RAMP = {"format": "nutty-clip/1", "name": "ramp", "duration": 1.0, "anchors": {"mid": 0.5},
-        "tracks": {"head_yaw": [{"t": 0, "v": 0.0, "interp": "linear"}, {"t": 1.0, "v": 1.0}],
-                   "mouth": [{"t": 0, "v": "neutral"}, {"t": 0.5, "v": "smile"}]},
-        "events": [{"t": 0.25, "dof": "sound", "kind": "sound", "payload": {"clip": "chirp"}}]}
-STEP = {"format": "nutty-clip/1", "name": "step",
-        "tracks": {"head_yaw": [{"t": 0, "v": -0.5, "interp": "constant"}, {"t": 0.5, "v": -0.5}]}}
+RAMP = {
+    "format": "nutty-clip/1",
+    "name": "ramp",
+    "duration": 1.0,
+    "anchors": {"mid": 0.5},
+    "tracks": {
+        "head_yaw": [{"t": 0, "v": 0.0, "interp": "linear"}, {"t": 1.0, "v": 1.0}],
+        "mouth": [{"t": 0, "v": "neutral"}, {"t": 0.5, "v": "smile"}],
+    },
+    "events": [{"t": 0.25, "dof": "sound", "kind": "sound", "payload": {"clip": "chirp"}}],
+}
+STEP = {
+    "format": "nutty-clip/1",
+    "name": "step",
+    "tracks": {"head_yaw": [{"t": 0, "v": -0.5, "interp": "constant"}, {"t": 0.5, "v": -0.5}]},
+}
 
 
 @pytest.fixture
@@ -84,7 +94,9 @@ def test_play_once_follows_the_curve_reports_events_and_fades_out(desk, lib):
     assert weights[50] == 1.0 and 0.0 < weights[110] < 1.0 and weights[-1] == 0.0
     assert not outs[-1]["out"].mask.any() and not outs[-1]["playing"]
     mouth = desk.channel_index["mouth"]
-    assert outs[20]["out"].values[mouth] == 0 and outs[60]["out"].values[mouth] == desk.dof("mouth").options.index("smile")
+    assert outs[20]["out"].values[mouth] == 0 and outs[60]["out"].values[mouth] == desk.dof(
+        "mouth"
+    ).options.index("smile")
 
 
 def test_speed_scales_timing_and_the_speed_input_overrides_it(desk, lib):
@@ -194,7 +206,9 @@ def test_mixer_weight_port_fades_an_override_layer(desk, lib):
     w = b.node("input", "w", name="w", type="float")
     b.doc["inputs"].append({"name": "w", "type": "float", "default": 0.25, "min": 0.0, "max": 1.0})
     mix = b.node("layer_mixer", "mix", layers=[{"name": "base"}, {"name": "top"}])
-    b.connect(rest, mix, dst_port="base").connect(pose, mix, dst_port="top").connect(w, mix, "value", "top_weight")
+    b.connect(rest, mix, dst_port="base").connect(pose, mix, dst_port="top").connect(
+        w, mix, "value", "top_weight"
+    )
     b.chain(mix, b.output())
     session = EngineSession.create(desk, rate=100, program=b.build())
     frames = list(session.run_headless(3))

@@ -49,7 +49,7 @@ def test_the_union_schema_and_long_actions_come_from_the_registry():
     schema = control.command_json_schema()
     assert set(schema["discriminator"]["mapping"]) == types
     assert len(schema["oneOf"]) == len(types) == 17  # 16 + puppet (Blender's live link)
-    assert control.LONG_ACTIONS == {"play_clip", "go_posture", "say", "play_sound"}
+    assert {"play_clip", "go_posture", "say", "play_sound"} == control.LONG_ACTIONS
     for cls in REGISTRY.classes():
         assert cls.acts_on.blocks or cls.acts_on.role != "block", cls  # every command says what it acts on
         assert not cls.long_action or cls.acts_on.blocks, cls  # a long action is carried out by a block
@@ -68,7 +68,9 @@ def nod():
         duration: float = Field(5.0, gt=0.0, le=30.0)
 
         def run(self, ctx: CommandContext) -> Any:
-            return self.tell(ctx, self.block(ctx.session), "go", {"posture": "curious", "duration": self.duration})
+            return self.tell(
+                ctx, self.block(ctx.session), "go", {"posture": "curious", "duration": self.duration}
+            )
 
         @classmethod
         def stop_owned(cls, block: Any, command_id: str) -> None:
@@ -101,12 +103,15 @@ def test_a_removed_command_is_gone_from_the_union(nod):
     assert "test_nod" not in control.command_json_schema()["discriminator"]["mapping"]
 
 
-@pytest.mark.parametrize("command, node, port", [
-    ({"type": "play_clip", "clip": "nod", "mode": "loop", "layer": "gesture"}, "gesture", "playing"),
-    ({"type": "go_posture", "posture": "sad", "duration": 20}, "posture", "moving"),
-    ({"type": "say", "text": "one two three four five six seven eight nine ten"}, "voice", "speaking"),
-    ({"type": "play_sound", "sound": "chirp"}, "sfx", "playing"),
-])
+@pytest.mark.parametrize(
+    "command, node, port",
+    [
+        ({"type": "play_clip", "clip": "nod", "mode": "loop", "layer": "gesture"}, "gesture", "playing"),
+        ({"type": "go_posture", "posture": "sad", "duration": 20}, "posture", "moving"),
+        ({"type": "say", "text": "one two three four five six seven eight nine ten"}, "voice", "speaking"),
+        ({"type": "play_sound", "sound": "chirp"}, "sfx", "playing"),
+    ],
+)
 def test_cancelling_a_long_action_stops_its_block(client, session, command, node, port):
     cid = command["type"]
     assert client.post("/api/commands", json={"id": cid, **command}).json()["status"] == "started"
@@ -149,6 +154,9 @@ def test_one_finite_number_check_for_every_entry_point(client):
     with pytest.raises(control.CommandError) as exc:
         control.parse_command({"type": "set_gaze", "target": [math.inf, 0, 0]})
     assert (exc.value.code, exc.value.field) == ("non_finite", "target[0]")
-    r = client.put("/api/inputs/gaze_target", content=b'{"value": [0.5, -1e999, 0.3]}',
-                   headers={"content-type": "application/json"})
+    r = client.put(
+        "/api/inputs/gaze_target",
+        content=b'{"value": [0.5, -1e999, 0.3]}',
+        headers={"content-type": "application/json"},
+    )
     assert r.status_code == 400 and r.json()["detail"]["field"] == "value[1]"

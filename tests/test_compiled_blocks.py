@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import scripted_ai
+
 from backend.engine.blend import BlendMode, advance_fades, blend_layers
 from backend.engine.blocks import BLOCKS
 from backend.engine.blocks.base import BlockContext
@@ -55,8 +55,10 @@ def run_program(name: str, monkeypatch, reference: bool, seconds: float = 10.0) 
     else:
         monkeypatch.delenv(REFERENCE_ENV, raising=False)
     session = EngineSession.create(load_embodiment("nutty_desk"), program=program(name))
-    frames = [(f.position.copy(), f.stage1.copy(), f.program.copy(), [e.to_dict() for e in f.events])
-              for f in scripted_ai.run(session, seconds)]
+    frames = [
+        (f.position.copy(), f.stage1.copy(), f.program.copy(), [e.to_dict() for e in f.events])
+        for f in scripted_ai.run(session, seconds)
+    ]
     return frames, session
 
 
@@ -90,7 +92,7 @@ def test_mixer_kernel_matches_blend_layers_and_fades(desk):
     n = desk.n_channels
     entry = entry_point(mixer_tick, MIXER_SIG)
     modes = [BlendMode.override, BlendMode.additive, BlendMode.average]
-    for trial in range(200):
+    for _trial in range(200):
         layers = int(rng.integers(1, 7))
         mode_list = [modes[int(k)] for k in rng.integers(0, 3, layers)]
         values = rng.normal(desk.rest, 0.5, (layers, n))
@@ -104,12 +106,29 @@ def test_mixer_kernel_matches_blend_layers_and_fades(desk):
         # reference
         ref_level = advance_fades(level, target, fade_time, 0.01)
         w = weights * ref_level * signal
-        ref, ref_mask = blend_layers(values, masks & layer_masks, w, mode_list, desk.rest, desk.rest, desk.enum_mask)
+        ref, ref_mask = blend_layers(
+            values, masks & layer_masks, w, mode_list, desk.rest, desk.rest, desk.enum_mask
+        )
         # kernel
         lvl, out, out_mask, w_out = level.copy(), np.empty(n), np.empty(n, dtype=bool), np.empty(layers)
-        entry(values.ravel().copy(), masks.ravel().copy(), layer_masks, weights, lvl, target, fade_time, signal, 0.01,
-              np.array([MODE_CODES[m] for m in mode_list], dtype=np.int64), desk.rest, desk.rest, desk.enum_mask, out,
-              out_mask, w_out)
+        entry(
+            values.ravel().copy(),
+            masks.ravel().copy(),
+            layer_masks,
+            weights,
+            lvl,
+            target,
+            fade_time,
+            signal,
+            0.01,
+            np.array([MODE_CODES[m] for m in mode_list], dtype=np.int64),
+            desk.rest,
+            desk.rest,
+            desk.enum_mask,
+            out,
+            out_mask,
+            w_out,
+        )
         np.testing.assert_array_equal(lvl, ref_level)
         np.testing.assert_allclose(out, ref, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(out_mask, ref_mask)
@@ -129,7 +148,7 @@ def test_chain_kernel_matches_chain_kinematics(robot, desk, tmp_path):
     point, direction = np.array([0.07, 0.01, 0.08]), np.array([1.0, 0.0, 0.0])
     for _ in range(100):
         q = rng.uniform(chain.lower, chain.upper)
-        tip, p, d, jp, jd = chain.kinematics(q, point, direction)
+        _tip, p, d, jp, jd = chain.kinematics(q, point, direction)
         kp, kd, kjp, kjd = _kinematics(q, point, direction, *args)
         for a, b in ((p, kp), (d, kd), (jp, kjp), (jd, kjd)):
             np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)
@@ -162,33 +181,48 @@ def assert_same(a, b, atol=1e-12):
             assert x == y
 
 
-@pytest.mark.parametrize("type_name,params,inputs", [
-    ("breathe", {"dofs": ["stationary:*"], "amplitudes": {"ear_left": 0.1}, "phase_spread": 0.7}, ()),
-    ("noise", {"dofs": ["head_*"], "smoothing": 0.4}, ()),
-    ("noise", {"dofs": ["head_*"], "smoothing": 0.0}, ()),
-    ("weight_shift", {"min_interval": 0.5, "max_interval": 1.0, "shift_duration": 0.4}, ()),
-    ("gain_offset", {"dofs": ["neck_pitch", "head_*"], "gain": 1.7, "offset": -0.1}, ("in",)),
-    ("safety_limiter", {"velocity_scale": 0.5, "margin": 0.1}, ("in",)),
-    ("output", {}, ("in",)),
-    ("motion_filter", {"dofs": ["head_*"], "preset": "C"}, ("in",)),
-    ("nmf_stage2", {"preset": "D"}, ("in",)),
-    ("ik", {"mode": "look_at", "weight": 0.7, "target": [0.5, 0.3, 0.4]}, ("in",)),
-    ("ik", {"mode": "reach", "target": [0.2, 0.1, 0.5]}, ("in",)),
-    ("gaze", {"follow_lag": 0.3}, ("target",)),
-    ("layer_mixer", {"layers": [{"name": "base"}, {"name": "pose", "mode": "override", "weight": 0.6},
-                                {"name": "idle", "mode": "additive"}, {"name": "avg", "mode": "average"}]},
-     ("base", "pose", "idle", "avg", "idle_weight")),
-])
+@pytest.mark.parametrize(
+    "type_name,params,inputs",
+    [
+        ("breathe", {"dofs": ["stationary:*"], "amplitudes": {"ear_left": 0.1}, "phase_spread": 0.7}, ()),
+        ("noise", {"dofs": ["head_*"], "smoothing": 0.4}, ()),
+        ("noise", {"dofs": ["head_*"], "smoothing": 0.0}, ()),
+        ("weight_shift", {"min_interval": 0.5, "max_interval": 1.0, "shift_duration": 0.4}, ()),
+        ("gain_offset", {"dofs": ["neck_pitch", "head_*"], "gain": 1.7, "offset": -0.1}, ("in",)),
+        ("safety_limiter", {"velocity_scale": 0.5, "margin": 0.1}, ("in",)),
+        ("output", {}, ("in",)),
+        ("motion_filter", {"dofs": ["head_*"], "preset": "C"}, ("in",)),
+        ("nmf_stage2", {"preset": "D"}, ("in",)),
+        ("ik", {"mode": "look_at", "weight": 0.7, "target": [0.5, 0.3, 0.4]}, ("in",)),
+        ("ik", {"mode": "reach", "target": [0.2, 0.1, 0.5]}, ("in",)),
+        ("gaze", {"follow_lag": 0.3}, ("target",)),
+        (
+            "layer_mixer",
+            {
+                "layers": [
+                    {"name": "base"},
+                    {"name": "pose", "mode": "override", "weight": 0.6},
+                    {"name": "idle", "mode": "additive"},
+                    {"name": "avg", "mode": "average"},
+                ]
+            },
+            ("base", "pose", "idle", "avg", "idle_weight"),
+        ),
+    ],
+)
 def test_block_fast_path_matches_its_reference_tick_by_tick(desk, type_name, params, inputs):
     fast, slow = twin_blocks(type_name, params, desk)
     assert getattr(fast, "_kernel", None) is not None and getattr(slow, "_kernel", None) is None
     rng = np.random.default_rng(11)
+    given_target: list[float] = []
+    last: dict = {}
     for tick in range(300):
         given = {}
         for port in inputs:
             if port == "target":
-                given[port] = list(rng.uniform([-0.5, -1.0, 0.0], [1.5, 1.0, 1.0])) if tick % 40 == 0 else \
-                    given_target
+                given[port] = (
+                    list(rng.uniform([-0.5, -1.0, 0.0], [1.5, 1.0, 1.0])) if tick % 40 == 0 else given_target
+                )
             elif port.endswith("_weight"):
                 given[port] = float(rng.random())
             elif rng.random() < 0.05:
@@ -210,20 +244,39 @@ def test_clip_player_fast_path_matches_its_reference_through_plays_crossfades_an
     for p in (ROBOT / "clips").glob("*.json"):
         lib.save("clips", p.stem, json.loads(p.read_text()))
     # an absolute clip with an enum track and every interpolation, beside the bundled (relative) ones
-    lib.save("clips", "absolute", {"format": "nutty-clip/1", "name": "absolute", "tracks": {
-        "head_yaw": [{"t": 0, "v": -0.4, "interp": "linear"}, {"t": 0.3, "v": 0.2, "interp": "constant"},
-                     {"t": 0.6, "v": 0.5, "interp": "quad"}, {"t": 1.0, "v": -0.1}],
-        "mouth": [{"t": 0, "v": "neutral"}, {"t": 0.5, "v": "smile"}],
-        "eye_leds": [{"t": 0, "v": [1.0, 0.0, 0.2]}, {"t": 0.8, "v": [0.0, 1.0, 0.5]}]}})
+    lib.save(
+        "clips",
+        "absolute",
+        {
+            "format": "nutty-clip/1",
+            "name": "absolute",
+            "tracks": {
+                "head_yaw": [
+                    {"t": 0, "v": -0.4, "interp": "linear"},
+                    {"t": 0.3, "v": 0.2, "interp": "constant"},
+                    {"t": 0.6, "v": 0.5, "interp": "quad"},
+                    {"t": 1.0, "v": -0.1},
+                ],
+                "mouth": [{"t": 0, "v": "neutral"}, {"t": 0.5, "v": "smile"}],
+                "eye_leds": [{"t": 0, "v": [1.0, 0.0, 0.2]}, {"t": 0.8, "v": [0.0, 1.0, 0.5]}],
+            },
+        },
+    )
     made = []
     for compiled in (True, False):
         ctx = BlockContext(embodiment=desk, rate=100.0, resources=lib, compiled=compiled)
         made.append(BLOCKS["clip_player"](BLOCKS["clip_player"].Params(crossfade=0.3, release=0.4), ctx, "g"))
     fast, slow = made
     assert fast._kernel is not None and slow._kernel is None
-    plays = {0: {"clip": "wave"}, 40: {"clip": "absolute", "mode": "ping_pong"}, 170: {"clip": "nod", "speed": 1.7},
-             190: {"clip": "absolute", "if_busy": "queue"}, 330: {"clip": "happy", "mode": "loop"},
-             420: None, 470: {"clip": "absolute", "crossfade": 0.0}}
+    plays = {
+        0: {"clip": "wave"},
+        40: {"clip": "absolute", "mode": "ping_pong"},
+        170: {"clip": "nod", "speed": 1.7},
+        190: {"clip": "absolute", "if_busy": "queue"},
+        330: {"clip": "happy", "mode": "loop"},
+        420: None,
+        470: {"clip": "absolute", "crossfade": 0.0},
+    }
     rng = np.random.default_rng(4)
     for tick in range(600):
         if tick in plays:
@@ -235,8 +288,11 @@ def test_clip_player_fast_path_matches_its_reference_through_plays_crossfades_an
 
 
 def test_blink_and_led_shortcuts_keep_their_outputs(desk):
-    blink_fast, blink_slow = twin_blocks("blink", {"mean_interval": 0.6, "min_interval": 0.3,
-                                                   "max_interval": 1.0, "gaze_shift_threshold": 0.1}, desk)
+    blink_fast, blink_slow = twin_blocks(
+        "blink",
+        {"mean_interval": 0.6, "min_interval": 0.3, "max_interval": 1.0, "gaze_shift_threshold": 0.1},
+        desk,
+    )
     rng = np.random.default_rng(2)
     gaze = [1.0, 0.0, 0.3]
     for tick in range(600):
@@ -246,15 +302,21 @@ def test_blink_and_led_shortcuts_keep_their_outputs(desk):
 
 
 def curve_sets() -> list[CurveSet]:
-    sets = [compile_clip(json.loads(p.read_text()), load_embodiment("nutty_desk")).curves
-            for p in sorted((ROBOT / "clips").glob("*.json"))]
+    sets = [
+        compile_clip(json.loads(p.read_text()), load_embodiment("nutty_desk")).curves
+        for p in sorted((ROBOT / "clips").glob("*.json"))
+    ]
     rng = np.random.default_rng(9)
     curves = []
     for interp in INTERPS:
         for easing in ("in", "out", "in_out"):
             times = np.cumsum(rng.uniform(0.1, 0.6, 5))
-            curves.append([Key(float(t), float(v), interp, easing, left_type=str(rng.choice(["auto", "vector"])))
-                           for t, v in zip(times, rng.normal(0, 1, 5))])
+            curves.append(
+                [
+                    Key(float(t), float(v), interp, easing, left_type=str(rng.choice(["auto", "vector"])))
+                    for t, v in zip(times, rng.normal(0, 1, 5))
+                ]
+            )
     sets.append(CurveSet(curves))
     return sets
 

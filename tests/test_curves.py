@@ -34,8 +34,12 @@ def test_keys_are_met_exactly_and_the_curve_holds_outside():
 
 def test_auto_clamped_never_overshoots_but_auto_may():
     keys = [Key(0, 0, left_type=t, right_type=t) for t in ["auto_clamped"]]
-    up_down = lambda kind: [Key(0, 0, left_type=kind, right_type=kind), Key(0.5, 1.0, left_type=kind, right_type=kind),
-                            Key(0.6, 1.05, left_type=kind, right_type=kind), Key(2.0, 0, left_type=kind, right_type=kind)]
+    up_down = lambda kind: [
+        Key(0, 0, left_type=kind, right_type=kind),
+        Key(0.5, 1.0, left_type=kind, right_type=kind),
+        Key(0.6, 1.05, left_type=kind, right_type=kind),
+        Key(2.0, 0, left_type=kind, right_type=kind),
+    ]
     clamped = sample(up_down("auto_clamped"), TS)
     assert clamped.max() <= 1.05 + 1e-9 and clamped.min() >= -1e-9
     auto = sample(up_down("auto"), TS)
@@ -51,7 +55,13 @@ def test_auto_clamped_gives_slow_in_and_out():
 
 
 def test_vector_handles_make_straight_segments():
-    y = sample([Key(0, 0, left_type="vector", right_type="vector"), Key(2, 2, left_type="vector", right_type="vector")], TS)
+    y = sample(
+        [
+            Key(0, 0, left_type="vector", right_type="vector"),
+            Key(2, 2, left_type="vector", right_type="vector"),
+        ],
+        TS,
+    )
     np.testing.assert_allclose(y, TS, atol=1e-9)
 
 
@@ -105,7 +115,9 @@ def test_many_curves_evaluate_like_each_alone():
     for n in range(12):
         times = np.cumsum(rng.uniform(0.1, 0.6, size=rng.integers(1, 7)))
         kinds = ["constant", "linear", "bezier", "sine", "back", "bounce"]
-        curves.append([Key(float(t), float(rng.normal()), kinds[(n + i) % len(kinds)]) for i, t in enumerate(times)])
+        curves.append(
+            [Key(float(t), float(rng.normal()), kinds[(n + i) % len(kinds)]) for i, t in enumerate(times)]
+        )
     together = CurveSet(curves)
     for t in np.linspace(-0.2, 4.0, 57):
         alone = [CurveSet([c]).evaluate(t)[0] for c in curves]

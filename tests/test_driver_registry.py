@@ -6,7 +6,14 @@ import argparse
 
 import pytest
 
-from backend.drivers import DRIVER_OPTIONS, FrameRecorder, OscDriver, SimulatedServos, add_driver_options, build_drivers
+from backend.drivers import (
+    DRIVER_OPTIONS,
+    FrameRecorder,
+    OscDriver,
+    SimulatedServos,
+    add_driver_options,
+    build_drivers,
+)
 from backend.drivers.registry import driver_option
 from backend.engine.runtime import Sink
 from backend.session import EngineSession
@@ -35,12 +42,15 @@ def test_zero_hz_turns_the_simulated_servos_off(desk):
     assert build_drivers(desk, parser().parse_args(["--sim-servo", "0"])) == []
 
 
-@pytest.mark.parametrize("flag, value, message", [
-    ("--osc", "9000", "HOST:PORT"),
-    ("--osc", "host:70000", "1..65535"),
-    ("--sim-servo", "fast", "number of Hz"),
-    ("--sim-servo", "-1", ">= 0"),
-])
+@pytest.mark.parametrize(
+    "flag, value, message",
+    [
+        ("--osc", "9000", "HOST:PORT"),
+        ("--osc", "host:70000", "1..65535"),
+        ("--sim-servo", "fast", "number of Hz"),
+        ("--sim-servo", "-1", ">= 0"),
+    ],
+)
 def test_bad_values_are_refused_with_the_reason(flag, value, message):
     with pytest.raises(argparse.ArgumentError, match=message):
         parser().parse_args([flag, value])

@@ -25,13 +25,18 @@ def steps_program(filtered: bool):
 def test_recorder_round_trip(desk, tmp_path):
     session = EngineSession.create(desk, rate=50, program=steps_program(False))
     rec = session.engine.add_sink(FrameRecorder(desk, tmp_path / "r.jsonl"))
-    session.engine.inject_event(__import__("backend.engine.frames", fromlist=["FrameEvent"]).FrameEvent(
-        "speech", "say", {"text": "hi"}))
+    session.engine.inject_event(
+        __import__("backend.engine.frames", fromlist=["FrameEvent"]).FrameEvent(
+            "speech", "say", {"text": "hi"}
+        )
+    )
     frames = list(session.run_headless(100))
     session.engine.close()
     t, series, events = read_recording(tmp_path / "r.jsonl")
     assert len(t) == 100 and rec.frames == 100
-    np.testing.assert_allclose(series["head_yaw"], [f.position[desk.channel_index["head_yaw"]] for f in frames], atol=1e-9)
+    np.testing.assert_allclose(
+        series["head_yaw"], [f.position[desk.channel_index["head_yaw"]] for f in frames], atol=1e-9
+    )
     assert events[0]["payload"]["text"] == "hi" and events[0]["t"] == 0.0
 
 
@@ -53,7 +58,7 @@ def test_osc_driver_sends_bundles(desk):
     assert "/nutty/head_yaw" in addresses and len(addresses["/nutty/eye_leds"]) == 3
     assert isinstance(addresses["/nutty/mouth"][0], int)
     # Every bundle says which frame it is and carries a real time tag (not OSC's "immediately").
-    seq, t, dt = addresses["/nutty/frame"]
+    seq, _t, dt = addresses["/nutty/frame"]
     assert isinstance(seq, int) and dt == pytest.approx(1 / 50)
     assert abs(bundle.timestamp - time.time()) < 60
     # ...and the joints the motors get, as the engine limited them.

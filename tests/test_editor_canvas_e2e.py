@@ -14,8 +14,18 @@ import json
 import time
 
 import pytest
-
-from editor_browser import ARTIFACTS, BROWSER, VALID, centre, drag, drag_to_point, editor_page, handle, scratch_robot, wait_until
+from editor_browser import (
+    ARTIFACTS,
+    BROWSER,
+    VALID,
+    centre,
+    drag,
+    drag_to_point,
+    editor_page,
+    handle,
+    scratch_robot,
+    wait_until,
+)
 from server_process import running_server
 
 READABLE_PX = 11.0
@@ -24,14 +34,32 @@ pytestmark = BROWSER
 
 # A small chain the wiring tests start from (loaded on the server, then the page reloads it).
 CHAIN = {
-    "format": "nutty-program/1", "name": "canvas chain", "max_level": 3, "inputs": [], "ui": {},
+    "format": "nutty-program/1",
+    "name": "canvas chain",
+    "max_level": 3,
+    "inputs": [],
+    "ui": {},
     "nodes": [
         {"id": "rest", "type": "rest_pose", "params": {}, "ui": {"x": 0, "y": 0}},
-        {"id": "wave", "type": "sine", "params": {"dofs": ["head_*"], "amplitude": 0.1}, "ui": {"x": 0, "y": 200}},
-        {"id": "swell", "type": "lfo", "params": {"frequency": 0.5, "amplitude": 0.2, "offset": 0.5}, "ui": {"x": 0, "y": 420}},
+        {
+            "id": "wave",
+            "type": "sine",
+            "params": {"dofs": ["head_*"], "amplitude": 0.1},
+            "ui": {"x": 0, "y": 200},
+        },
+        {
+            "id": "swell",
+            "type": "lfo",
+            "params": {"frequency": 0.5, "amplitude": 0.2, "offset": 0.5},
+            "ui": {"x": 0, "y": 420},
+        },
         {"id": "smooth", "type": "motion_filter", "params": {}, "ui": {"x": 330, "y": 220}},
-        {"id": "mix", "type": "layer_mixer", "ui": {"x": 660, "y": 40},
-         "params": {"layers": [{"name": "base"}, {"name": "idle", "mode": "additive"}]}},
+        {
+            "id": "mix",
+            "type": "layer_mixer",
+            "ui": {"x": 660, "y": 40},
+            "params": {"layers": [{"name": "base"}, {"name": "idle", "mode": "additive"}]},
+        },
         {"id": "output", "type": "output", "params": {}, "ui": {"x": 990, "y": 40}},
     ],
     "edges": [
@@ -63,7 +91,10 @@ def program(server):
 
 
 def edges(server):
-    return {(e["from"]["node"], e["from"]["port"], e["to"]["node"], e["to"]["port"]) for e in program(server)["edges"]}
+    return {
+        (e["from"]["node"], e["from"]["port"], e["to"]["node"], e["to"]["port"])
+        for e in program(server)["edges"]
+    }
 
 
 def node_types(server):
@@ -133,8 +164,12 @@ def test_drag_wire_into_empty_space_opens_search(page, server):
     page.get_by_test_id("qa-exaggerate").wait_for()
     page.screenshot(path=str(ARTIFACTS / "canvas-drag-search.png"))
     search.press("Enter")
-    wait_until(lambda: node_types(server).get("exaggerate") == "exaggerate", what="the new block on the server")
-    wait_until(lambda: ("wave", "out", "exaggerate", "in") in edges(server), what="the new wire on the server")
+    wait_until(
+        lambda: node_types(server).get("exaggerate") == "exaggerate", what="the new block on the server"
+    )
+    wait_until(
+        lambda: ("wave", "out", "exaggerate", "in") in edges(server), what="the new wire on the server"
+    )
     assert page.get_by_test_id("quick-add").count() == 0
     # Escape closes the search and adds nothing
     drag_to_point(page, handle(page, "wave", "out", "source"), *canvas_point(page, 0.3, 0.9))
@@ -162,7 +197,7 @@ def test_quick_add_at_the_cursor(page, server):
         assert min(abs(qa["y"] - y), abs(qa["y"] + qa["height"] - y)) < 40, "the search opens at the pointer"
         search.type(block)
         search.press("Enter")
-        wait_until(lambda: block in node_types(server), what=f"{block} on the server")
+        wait_until(lambda block=block: block in node_types(server), what=f"{block} on the server")
         box = _flow_pos(page, block)
         assert box["x"] - 60 <= x <= box["x"] + box["width"] + 60, f"{block} near the pointer (x)"
         assert box["y"] - 60 <= y <= box["y"] + box["height"] + 60, f"{block} near the pointer (y)"
@@ -209,6 +244,7 @@ def test_delete_and_undo_is_one_step(page, server):
     def record(request):
         if request.method == "PUT" and request.url.endswith("/api/program"):
             bodies.append(json.loads(request.post_data))
+
     page.on("request", record)
     try:
         before = edges(server)
@@ -219,7 +255,10 @@ def test_delete_and_undo_is_one_step(page, server):
         wait_until(lambda: "smooth" not in node_types(server), what="the block deleted on the server")
         assert not any("smooth" in (e[0], e[2]) for e in edges(server))
         page.keyboard.press("Control+z")
-        wait_until(lambda: "smooth" in node_types(server) and edges(server) == before, what="undo to restore block and wires")
+        wait_until(
+            lambda: "smooth" in node_types(server) and edges(server) == before,
+            what="undo to restore block and wires",
+        )
         time.sleep(0.3)
     finally:
         page.remove_listener("request", record)
@@ -227,7 +266,9 @@ def test_delete_and_undo_is_one_step(page, server):
     for body in bodies:
         prog = body.get("program", body)
         has_block = any(n["id"] == "smooth" for n in prog["nodes"])
-        sent = {(e["from"]["node"], e["from"]["port"], e["to"]["node"], e["to"]["port"]) for e in prog["edges"]}
+        sent = {
+            (e["from"]["node"], e["from"]["port"], e["to"]["node"], e["to"]["port"]) for e in prog["edges"]
+        }
         assert not has_block or wires <= sent, "a PUT carried the block without its wires"
 
 
@@ -251,8 +292,13 @@ def test_wire_menu_inserts_a_block(page, server):
     search.type("safety")
     search.press("Enter")
     wait_until(lambda: "safety_limiter" in node_types(server), what="the inserted block on the server")
-    wait_until(lambda: {("mix", "out", "safety_limiter", "in"), ("safety_limiter", "out", "output", "in")} <= edges(server),
-               what="the block between the wire's ends")
+    wait_until(
+        lambda: (
+            {("mix", "out", "safety_limiter", "in"), ("safety_limiter", "out", "output", "in")}
+            <= edges(server)
+        ),
+        what="the block between the wire's ends",
+    )
     assert ("mix", "out", "output", "in") not in edges(server)
     # the canvas menu too
     page.mouse.click(*canvas_point(page, 0.1, 0.9), button="right")
@@ -269,5 +315,8 @@ def test_select_all(page, server):
     page.mouse.click(*canvas_point(page, 0.05, 0.05))
     assert page.locator(".react-flow__node.selected").count() < len(CHAIN["nodes"])
     page.keyboard.press("Control+a")
-    wait_until(lambda: page.locator(".react-flow__node.selected").count() == len(CHAIN["nodes"]), what="all blocks selected")
+    wait_until(
+        lambda: page.locator(".react-flow__node.selected").count() == len(CHAIN["nodes"]),
+        what="all blocks selected",
+    )
     assert page.locator(".react-flow__node").count() == len(CHAIN["nodes"])

@@ -14,7 +14,6 @@ import json
 import time
 
 import pytest
-
 from editor_browser import ARTIFACTS, BROWSER, VALID, editor_page, scratch_robot, wait_until
 from server_process import running_server
 from test_safe_swaps import assert_smooth, recorded_frames, recorded_positions
@@ -24,10 +23,18 @@ pytestmark = BROWSER
 # The head and body far from where the interactive program holds them: a swap to it has a big jump
 # to blend out.
 FAR_POSE = {
-    "format": "nutty-program/1", "name": "far pose", "max_level": 3, "inputs": [], "ui": {},
+    "format": "nutty-program/1",
+    "name": "far pose",
+    "max_level": 3,
+    "inputs": [],
+    "ui": {},
     "nodes": [
-        {"id": "far", "type": "pose", "params": {"values": {"body_yaw": 1.2, "head_pitch": -0.35}},
-         "ui": {"x": 0, "y": 0}},
+        {
+            "id": "far",
+            "type": "pose",
+            "params": {"values": {"body_yaw": 1.2, "head_pitch": -0.35}},
+            "ui": {"x": 0, "y": 0},
+        },
         {"id": "output", "type": "output", "params": {}, "ui": {"x": 320, "y": 0}},
     ],
     "edges": [{"from": {"node": "far", "port": "out"}, "to": {"node": "output", "port": "in"}}],
@@ -98,9 +105,14 @@ def test_a_draft_does_not_move_the_robot_until_go_live(page, server):
     def arrived():
         rows = _recorded(server)[start:]
         return rows and abs(rows[-1]["dofs"]["body_yaw"]["position"] - 1.2) < 1e-6
+
     wait_until(arrived, timeout=20, what="the robot to reach the new program's pose")
-    rows = _recorded(server)[start - 5:]  # every frame of the swap (recorded_positions checks none is missing)
-    assert_smooth(desk, recorded_positions(desk, rows), 100.0)  # no sample over a velocity, acceleration or jerk limit
+    rows = _recorded(server)[
+        start - 5 :
+    ]  # every frame of the swap (recorded_positions checks none is missing)
+    assert_smooth(
+        desk, recorded_positions(desk, rows), 100.0
+    )  # no sample over a velocity, acceleration or jerk limit
     # the curve panel shows the same: every sample of body_yaw in its window is within the limits
     panel = page.get_by_test_id("curve-panel")
     wait_until(lambda: "ok" in panel.inner_text(), what="the curve panel")
@@ -115,9 +127,11 @@ def test_unsaved_edits_ask_before_new(page, server):
     page.keyboard.press("Delete")
     wait_until(lambda: page.get_by_test_id("node-far").count() == 0, what="the delete")
     asked = []
+
     def refuse(dialog):
         asked.append(dialog.message)
         dialog.dismiss()
+
     page.once("dialog", refuse)
     page.get_by_role("button", name="New").click()
     wait_until(lambda: asked, what="the confirmation")
@@ -126,13 +140,15 @@ def test_unsaved_edits_ask_before_new(page, server):
     page.keyboard.press("Control+z")
     page.get_by_test_id("node-far").wait_for()
     # live since Go live: the delete and its undo reached the robot; let the undo's swap land
-    wait_until(lambda: any(n["id"] == "far" for n in _running(server)["nodes"]), what="the undo on the server")
+    wait_until(
+        lambda: any(n["id"] == "far" for n in _running(server)["nodes"]), what="the undo on the server"
+    )
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
 
 
 def test_a_slider_drag_is_throttled_patches_only(page, server):
     server["client"].load_program(json.loads((server["robot"] / "programs" / "interactive.json").read_text()))
-    leave = lambda d: d.accept()  # noqa: E731  (the unsaved draft: leave it)
+    leave = lambda d: d.accept()
     page.on("dialog", leave)
     page.reload()
     page.remove_listener("dialog", leave)
@@ -162,8 +178,12 @@ def test_a_slider_drag_is_throttled_patches_only(page, server):
     assert len(patches) <= elapsed / 0.05 + 2, (len(patches), elapsed)
     print(f"{len(patches)} PATCHes for a 40-step drag over {elapsed:.2f} s")
     final = float(slider.input_value())
-    wait_until(lambda: next(n for n in _running(server)["nodes"] if n["id"] == "nmf")["params"].get("sigma") == final,
-               what="the last value of the drag on the server")
+    wait_until(
+        lambda: (
+            next(n for n in _running(server)["nodes"] if n["id"] == "nmf")["params"].get("sigma") == final
+        ),
+        what="the last value of the drag on the server",
+    )
     assert server["client"].status()["swaps"] == swaps  # nothing rebuilt
 
 
@@ -171,10 +191,14 @@ def test_save_as_names_the_program(page, server):
     page.once("dialog", lambda d: d.accept("calm_idle"))
     page.get_by_role("button", name="Save as").click()
     path = server["robot"] / "programs" / "calm_idle.json"
-    wait_until(lambda: path.exists() and json.loads(path.read_text())["name"] == "calm_idle",
-               what=f"the saved file, named calm_idle ({path.read_text()[:80] if path.exists() else 'absent'})")
+    wait_until(
+        lambda: path.exists() and json.loads(path.read_text())["name"] == "calm_idle",
+        what=f"the saved file, named calm_idle ({path.read_text()[:80] if path.exists() else 'absent'})",
+    )
     # the file is on disk before the server's answer reaches the page, which then renames the program
-    wait_until(lambda: page.get_by_label("program name").input_value() == "calm_idle", what="the program's new name")
+    wait_until(
+        lambda: page.get_by_label("program name").input_value() == "calm_idle", what="the program's new name"
+    )
 
 
 def test_the_editor_sends_the_servers_token(page):
@@ -196,6 +220,13 @@ def test_the_editor_sends_the_servers_token(page):
         assert "token" not in pg.url
         pg.get_by_test_id("node-nmf").click()
         pg.get_by_test_id("param-sigma").fill("0.25")
-        wait_until(lambda: next(n for n in client.program()["program"]["nodes"] if n["id"] == "nmf")
-                   ["params"].get("sigma") == 0.25, what="the token-carrying PATCH")
+        wait_until(
+            lambda: (
+                next(n for n in client.program()["program"]["nodes"] if n["id"] == "nmf")["params"].get(
+                    "sigma"
+                )
+                == 0.25
+            ),
+            what="the token-carrying PATCH",
+        )
         pg.close()

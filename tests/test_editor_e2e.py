@@ -11,7 +11,6 @@ Screenshots go to test-artifacts/.
 from __future__ import annotations
 
 import pytest
-
 from editor_browser import ARTIFACTS, BROWSER, VALID, drag, editor_page, handle, scratch_robot, wait_until
 from server_process import running_server
 
@@ -55,6 +54,7 @@ def test_layer_toggle_fades_the_layer(page, server):
 
 def _layer(server, name):
     import json as _json
+
     import websockets.sync.client as wsc
 
     url = server["url"].replace("http", "ws") + "/ws/telemetry"
@@ -72,23 +72,42 @@ def test_sigma_slider_changes_the_running_program(page, server):
     slider.wait_for()
     apu_swaps = server["client"].status()["swaps"]
     slider.fill("0.3")
+
     def sigma():
         prog = server["client"].program()["program"]
         return next(n for n in prog["nodes"] if n["id"] == "nmf")["params"].get("sigma")
+
     wait_until(lambda: sigma() == 0.3, what="the running program's σ to change")
     assert server["client"].status()["swaps"] == apu_swaps  # a parameter drag rebuilds nothing
 
 
 # An LFO that could swell the idle layer: wired to the mixer's idle_weight port in the browser.
 WEIGHTED_LAYER = {
-    "format": "nutty-program/1", "name": "weighted layer", "max_level": 3, "inputs": [], "ui": {},
+    "format": "nutty-program/1",
+    "name": "weighted layer",
+    "max_level": 3,
+    "inputs": [],
+    "ui": {},
     "nodes": [
         {"id": "rest", "type": "rest_pose", "params": {}, "ui": {"x": 0, "y": 0}},
-        {"id": "wave", "type": "sine", "params": {"dofs": ["head_*"], "amplitude": 0.1}, "ui": {"x": 0, "y": 170}},
-        {"id": "swell", "type": "lfo", "params": {"frequency": 0.5, "amplitude": 0.5, "offset": 0.5},
-         "ui": {"x": 0, "y": 400}},
-        {"id": "mix", "type": "layer_mixer", "ui": {"x": 380, "y": 80},
-         "params": {"layers": [{"name": "base"}, {"name": "idle", "mode": "additive"}]}},
+        {
+            "id": "wave",
+            "type": "sine",
+            "params": {"dofs": ["head_*"], "amplitude": 0.1},
+            "ui": {"x": 0, "y": 170},
+        },
+        {
+            "id": "swell",
+            "type": "lfo",
+            "params": {"frequency": 0.5, "amplitude": 0.5, "offset": 0.5},
+            "ui": {"x": 0, "y": 400},
+        },
+        {
+            "id": "mix",
+            "type": "layer_mixer",
+            "ui": {"x": 380, "y": 80},
+            "params": {"layers": [{"name": "base"}, {"name": "idle", "mode": "additive"}]},
+        },
         {"id": "output", "type": "output", "params": {}, "ui": {"x": 720, "y": 80}},
     ],
     "edges": [
@@ -101,9 +120,11 @@ WEIGHTED_LAYER = {
 
 def test_mixer_weight_port_is_wired_in_the_browser(page, server):
     server["client"].load_program(WEIGHTED_LAYER)
+
     def leave(dialog):  # the σ edit left the editor with unsaved changes: it asks before reloading
         if dialog.type == "beforeunload":
             dialog.accept()
+
     page.on("dialog", leave)
     page.reload()
     page.remove_listener("dialog", leave)
@@ -112,14 +133,18 @@ def test_mixer_weight_port_is_wired_in_the_browser(page, server):
     weight.wait_for()
     drag(page, handle(page, "swell", "value", "source"), weight)
     wire = {"from": {"node": "swell", "port": "value"}, "to": {"node": "mix", "port": "idle_weight"}}
-    wait_until(lambda: wire in server["client"].program()["program"]["edges"], what="the weight edge on the server")
+    wait_until(
+        lambda: wire in server["client"].program()["program"]["edges"], what="the weight edge on the server"
+    )
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     assert server["client"].program()["report"]["valid"]
     page.screenshot(path=str(ARTIFACTS / "editor-weight-wired.png"))
     seen = set()
+
     def swelling():  # the LFO now scales the idle layer on the robot
         seen.add(round(_layer(server, "idle")["effective"], 3))
         return len(seen) >= 3
+
     wait_until(swelling, what="the idle layer's weight to follow the LFO")
     # the weight wire round-trips through the robot's library: saved, and drawn again when reopened
     page.once("dialog", lambda d: d.accept("weighted"))
@@ -148,11 +173,19 @@ def test_add_sine_connect_errors_undo_redo_and_save(page, server):
     out_box = page.get_by_test_id("node-output").bounding_box()
     pane = page.locator(".react-flow__pane")
     pane_box = pane.bounding_box()
-    page.get_by_test_id("palette-sine").drag_to(pane, target_position={
-        "x": max(20, out_box["x"] - pane_box["x"] - 380), "y": out_box["y"] - pane_box["y"] + 10})
+    page.get_by_test_id("palette-sine").drag_to(
+        pane,
+        target_position={
+            "x": max(20, out_box["x"] - pane_box["x"] - 380),
+            "y": out_box["y"] - pane_box["y"] + 10,
+        },
+    )
     page.get_by_test_id("node-sine").wait_for()
-    drag(page, page.locator("[data-testid=node-sine] .react-flow__handle.source").first,
-         page.locator("[data-testid=node-output] .react-flow__handle.target").first)
+    drag(
+        page,
+        page.locator("[data-testid=node-sine] .react-flow__handle.source").first,
+        page.locator("[data-testid=node-output] .react-flow__handle.target").first,
+    )
     page.screenshot(path=str(ARTIFACTS / "editor-after-drag.png"))
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     # New opened a draft: the robot runs its program until Go live
@@ -160,20 +193,29 @@ def test_add_sine_connect_errors_undo_redo_and_save(page, server):
     assert not any(n["id"] == "sine" for n in server["client"].program()["program"]["nodes"])
     page.get_by_test_id("go-live").click()
     page.get_by_test_id("mode").filter(has_text="live").wait_for()
-    wait_until(lambda: any(n["id"] == "sine" for n in server["client"].program()["program"]["nodes"]),
-               what="the program to go live")
+    wait_until(
+        lambda: any(n["id"] == "sine" for n in server["client"].program()["program"]["nodes"]),
+        what="the program to go live",
+    )
     live = page.get_by_test_id("live-sine.out")
     first = live.inner_text()
     page.screenshot(path=str(ARTIFACTS / "editor-wired.png"))
     wait_until(lambda: live.inner_text() != first, what="the new sine's live value to move")
     # an invalid connection is refused with a visible reason
     sine_box = page.get_by_test_id("node-sine").bounding_box()
-    page.get_by_test_id("palette-sine").drag_to(pane, target_position={
-        "x": max(20, sine_box["x"] - pane_box["x"]),
-        "y": min(pane_box["height"] - 150, sine_box["y"] - pane_box["y"] + sine_box["height"] + 60)})
+    page.get_by_test_id("palette-sine").drag_to(
+        pane,
+        target_position={
+            "x": max(20, sine_box["x"] - pane_box["x"]),
+            "y": min(pane_box["height"] - 150, sine_box["y"] - pane_box["y"] + sine_box["height"] + 60),
+        },
+    )
     page.get_by_test_id("node-sine_2").wait_for()
-    drag(page, page.locator("[data-testid=node-sine_2] .react-flow__handle.source").first,
-         page.locator("[data-testid=node-sine] .react-flow__handle.target").first)
+    drag(
+        page,
+        page.locator("[data-testid=node-sine_2] .react-flow__handle.source").first,
+        page.locator("[data-testid=node-sine] .react-flow__handle.target").first,
+    )
     page.get_by_test_id("toast").filter(has_text="cannot connect frame output").wait_for()
     # an invalid parameter: a DoF the robot does not have -> red badge on that node
     page.get_by_test_id("node-sine").click()
@@ -192,7 +234,9 @@ def test_add_sine_connect_errors_undo_redo_and_save(page, server):
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     # save to the library and reopen
     page.get_by_test_id("save").click()
-    wait_until(lambda: "e2e_program" in server["client"]._call("GET", "/api/programs"), what="the saved program")
+    wait_until(
+        lambda: "e2e_program" in server["client"]._call("GET", "/api/programs"), what="the saved program"
+    )
     page.get_by_role("button", name="New").click()
     wait_until(lambda: page.get_by_test_id("node-sine").count() == 0, what="a blank program")
     page.get_by_label("open program").select_option("e2e_program")

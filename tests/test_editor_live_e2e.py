@@ -17,7 +17,6 @@ import re
 import time
 
 import pytest
-
 from editor_browser import ARTIFACTS, BROWSER, editor_page, scratch_robot, wait_until
 from server_process import running_server
 
@@ -45,12 +44,15 @@ def page(server):
 
 def wire_point(page, edge_id, frac=0.5):
     """A point on a wire, in page coordinates."""
-    return page.evaluate("""([id, frac]) => {
+    return page.evaluate(
+        """([id, frac]) => {
       const path = document.querySelector(`.react-flow__edge[data-id="${id}"] path.react-flow__edge-path`);
       const p = path.getPointAtLength(path.getTotalLength() * frac);
       const m = path.getScreenCTM();
       return {x: p.x * m.a + p.y * m.c + m.e, y: p.x * m.b + p.y * m.d + m.f};
-    }""", [edge_id, frac])
+    }""",
+        [edge_id, frac],
+    )
 
 
 def wire_spot(page, edge_id):
@@ -58,11 +60,16 @@ def wire_spot(page, edge_id):
     for frac in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.15, 0.85, 0.1, 0.9, 0.25, 0.75, 0.35, 0.65, 0.45, 0.55):
         pt = wire_point(page, edge_id, frac)
         # clear of every block by a margin (a block's edge under the pointer would take the hover)
-        clear = page.evaluate("""([x, y, m]) => [...document.querySelectorAll('.react-flow__node')].every((n) => {
+        clear = page.evaluate(
+            """([x, y, m]) => [...document.querySelectorAll('.react-flow__node')].every((n) => {
             const r = n.getBoundingClientRect();
-            return x < r.left - m || x > r.right + m || y < r.top - m || y > r.bottom + m; })""", [pt["x"], pt["y"], 8])
-        hit = page.evaluate("([x, y]) => document.elementFromPoint(x, y)?.closest('.react-flow__edge')?.dataset.id",
-                            [pt["x"], pt["y"]])
+            return x < r.left - m || x > r.right + m || y < r.top - m || y > r.bottom + m; })""",
+            [pt["x"], pt["y"], 8],
+        )
+        hit = page.evaluate(
+            "([x, y]) => document.elementFromPoint(x, y)?.closest('.react-flow__edge')?.dataset.id",
+            [pt["x"], pt["y"]],
+        )
         if hit == edge_id and clear:
             return pt
     raise AssertionError(f"no free point on wire {edge_id}")
@@ -87,8 +94,10 @@ def select(page, node):
     page.get_by_role("button", name="Fit").click()  # the whole program in view
     time.sleep(0.2)
     header = page.get_by_test_id(f"node-{node}").locator(".block-header")
-    if page.evaluate("(el) => el.getBoundingClientRect().top < document.querySelector('.react-flow').getBoundingClientRect().top",
-                     header.element_handle()):
+    if page.evaluate(
+        "(el) => el.getBoundingClientRect().top < document.querySelector('.react-flow').getBoundingClientRect().top",
+        header.element_handle(),
+    ):
         header.dispatch_event("click")  # a tall block framed from its middle: its title is above the canvas
     else:
         header.click()
@@ -106,7 +115,9 @@ def test_hovering_a_wire_shows_its_live_value_and_pins_probes(page):
     assert "breathe.out → mix.idle" in tip.inner_text()
     value = page.get_by_test_id("wire-value")
     first = value.inner_text()
-    assert re.match(r"^4 DoFs · neck_pitch [+−]?\d", first), first  # a frame wire: DoF count, first DoFs, signs
+    assert re.match(r"^4 DoFs · neck_pitch [+−]?\d", first), (
+        first
+    )  # a frame wire: DoF count, first DoFs, signs
     wait_until(lambda: value.inner_text() != first, what="the hovered wire's value to change")
     pin = page.get_by_test_id("wire-pin").bounding_box()
     x, y = pin["x"] + pin["width"] / 2, pin["y"] + pin["height"] / 2
@@ -119,7 +130,7 @@ def test_hovering_a_wire_shows_its_live_value_and_pins_probes(page):
     last = probe.get_attribute("data-last")
     wait_until(lambda: probe.get_attribute("data-last") != last, what="the probe's value to move")
     stats = probe.get_by_test_id("probe-stats").inner_text()
-    assert re.search(rf"min [−+]?\d\.\d+ · max [−+]?\d\.\d+ · [−+]?\d\.\d+", stats), stats
+    assert re.search(r"min [−+]?\d\.\d+ · max [−+]?\d\.\d+ · [−+]?\d\.\d+", stats), stats
     assert probe.locator("polyline").count() == 1
     # a second probe from another wire's context menu; both stay anchored as the view pans
     mood = "mood.out->mix.mood"
@@ -136,7 +147,10 @@ def test_hovering_a_wire_shows_its_live_value_and_pins_probes(page):
     page.mouse.move(pane["x"] + pane["width"] - 200, pane["y"] + 70, steps=5)
     page.mouse.up(button="middle")
     after = probe.bounding_box()
-    assert abs((after["x"] - before["x"]) - 60) < 6 and abs((after["y"] - before["y"]) - 40) < 6, (before, after)
+    assert abs((after["x"] - before["x"]) - 60) < 6 and abs((after["y"] - before["y"]) - 40) < 6, (
+        before,
+        after,
+    )
     page.screenshot(path=str(ARTIFACTS / "editor-live-probes.png"))
     second.get_by_test_id("probe-close").click()
     wait_until(lambda: second.count() == 0, what="the second probe to be unpinned")
@@ -169,7 +183,10 @@ def test_a_parameter_driven_by_a_wire_says_so(page):
     assert "driven by breath_amplitude.value" in driven.inner_text()
     assert re.match(r"^[+−]?\d\.\d{3}$", page.get_by_test_id("driven-value-amplitude").inner_text())
     assert page.get_by_test_id("param-amplitude").is_disabled()  # the wire overrides the slider
-    assert page.get_by_test_id("driven-frequency").count() == 0 and page.get_by_test_id("param-frequency").is_enabled()
+    assert (
+        page.get_by_test_id("driven-frequency").count() == 0
+        and page.get_by_test_id("param-frequency").is_enabled()
+    )
     page.screenshot(path=str(ARTIFACTS / "editor-live-driven.png"))
     page.get_by_test_id("driven-jump-amplitude").click()
     page.get_by_test_id("param-panel").locator("h3").filter(has_text="breath_amplitude").wait_for()
@@ -184,44 +201,63 @@ def test_layer_stack_mutes_solos_and_weights_layers_on_the_server(page, server):
     # mute: the server fades the layer out; unmute brings it back
     page.get_by_test_id("ls-mute-idle").click()
     wait_until(lambda: not telemetry_layers(server)["idle"]["active"], what="the idle layer to be muted")
-    wait_until(lambda: page.get_by_test_id("ls-idle").get_attribute("data-active") == "0", what="the row to show it")
+    wait_until(
+        lambda: page.get_by_test_id("ls-idle").get_attribute("data-active") == "0", what="the row to show it"
+    )
     page.get_by_test_id("ls-mute-idle").click()
     wait_until(lambda: telemetry_layers(server)["idle"]["active"], what="the idle layer to be back")
     # solo: only that layer active; un-solo restores the others
     before = {k: v["active"] for k, v in telemetry_layers(server).items()}
     page.get_by_test_id("ls-solo-wander").click()
-    wait_until(lambda: [k for k, v in telemetry_layers(server).items() if v["active"]] == ["wander"],
-               what="only the soloed layer active")
+    wait_until(
+        lambda: [k for k, v in telemetry_layers(server).items() if v["active"]] == ["wander"],
+        what="only the soloed layer active",
+    )
     page.screenshot(path=str(ARTIFACTS / "editor-live-layer-solo.png"))
     page.get_by_test_id("ls-solo-wander").click()
-    wait_until(lambda: {k: v["active"] for k, v in telemetry_layers(server).items()} == before,
-               what="the layers before the solo")
+    wait_until(
+        lambda: {k: v["active"] for k, v in telemetry_layers(server).items()} == before,
+        what="the layers before the solo",
+    )
     # a weight: the running program has it, and the live bar follows
     page.get_by_test_id("ls-weight-wander").fill("0.4")
     layer = lambda: next(l for l in running_node(server, "mix")["params"]["layers"] if l["name"] == "wander")
     wait_until(lambda: layer().get("weight") == 0.4, what="the wander layer's weight on the server")
     live = page.get_by_test_id("ls-live-wander")
-    wait_until(lambda: abs(float(live.get_attribute("data-effective") or 0) - 0.4) < 0.02, what="the live weight bar")
+    wait_until(
+        lambda: abs(float(live.get_attribute("data-effective") or 0) - 0.4) < 0.02, what="the live weight bar"
+    )
     # a mask: typed as DoF globs, the running program's layer has it
     mask = page.get_by_test_id("ls-mask-wander")
     mask.fill("head_*, neck_pitch")
     mask.press("Enter")
-    wait_until(lambda: layer().get("mask") == ["head_*", "neck_pitch"], what="the wander layer's mask on the server")
+    wait_until(
+        lambda: layer().get("mask") == ["head_*", "neck_pitch"], what="the wander layer's mask on the server"
+    )
     # adding a layer gives the mixer its input; removing it takes the input away again
     page.get_by_test_id("ls-new-name").fill("extra")
     page.get_by_test_id("ls-add").click()
-    page.locator("[data-testid=node-mix] .react-flow__handle.target[data-handleid='extra']").wait_for(state="attached")
-    wait_until(lambda: "extra" in [l["name"] for l in running_node(server, "mix")["params"]["layers"]],
-               what="the new layer on the server")
+    page.locator("[data-testid=node-mix] .react-flow__handle.target[data-handleid='extra']").wait_for(
+        state="attached"
+    )
+    wait_until(
+        lambda: "extra" in [l["name"] for l in running_node(server, "mix")["params"]["layers"]],
+        what="the new layer on the server",
+    )
     page.get_by_test_id("ls-remove-extra").click()
-    wait_until(lambda: "extra" not in [l["name"] for l in running_node(server, "mix")["params"]["layers"]],
-               what="the layer removed on the server")
+    wait_until(
+        lambda: "extra" not in [l["name"] for l in running_node(server, "mix")["params"]["layers"]],
+        what="the layer removed on the server",
+    )
     # reorder: shift one up (a program edit: the server runs the new order), then back
     order = lambda: [l["name"] for l in running_node(server, "mix")["params"]["layers"]]
     names = order()
     i = names.index("shift")
     page.get_by_test_id("ls-up-shift").click()
-    wait_until(lambda: order() == names[:i - 1] + ["shift", names[i - 1]] + names[i + 1:], what="shift moved up on the server")
+    wait_until(
+        lambda: order() == [*names[: i - 1], "shift", names[i - 1], *names[i + 1 :]],
+        what="shift moved up on the server",
+    )
     page.get_by_test_id("ls-down-shift").click()
     wait_until(lambda: order() == names, what="the original order back")
 
@@ -252,12 +288,19 @@ def test_previz_pane_enlarges_and_shrinks(page):
     box = page.get_by_test_id("previz-box")
     small = box.bounding_box()
     page.get_by_test_id("previz-enlarge").click()
-    wait_until(lambda: box.bounding_box()["width"] > small["width"] * 1.4 and box.bounding_box()["height"] > small["height"] * 1.4,
-               what="the Pre-Viz to enlarge")
+    wait_until(
+        lambda: (
+            box.bounding_box()["width"] > small["width"] * 1.4
+            and box.bounding_box()["height"] > small["height"] * 1.4
+        ),
+        what="the Pre-Viz to enlarge",
+    )
     assert page.get_by_test_id("previz-enlarge").get_attribute("aria-pressed") == "true"
     page.screenshot(path=str(ARTIFACTS / "editor-live-previz-big.png"))
     page.get_by_test_id("previz-enlarge").click()
-    wait_until(lambda: abs(box.bounding_box()["width"] - small["width"]) < 2, what="the Pre-Viz back in its corner")
+    wait_until(
+        lambda: abs(box.bounding_box()["width"] - small["width"]) < 2, what="the Pre-Viz back in its corner"
+    )
     assert page.get_by_test_id("previz-popout").is_disabled()  # this server runs without a Pre-Viz
 
 
@@ -267,9 +310,13 @@ def test_console_follows_new_lines_and_resizes(page):
     for _ in range(25):
         page.get_by_role("button", name="say hello").click()
     at_bottom = "el => el.scrollHeight - el.scrollTop - el.clientHeight <= 6"
-    wait_until(lambda: console.evaluate("el => el.scrollHeight > el.clientHeight") and console.evaluate(at_bottom),
-               what="the console to follow new lines")
-    console.evaluate("el => { el.scrollTop = 0; el.dispatchEvent(new Event('scroll')); }")  # the user scrolls up
+    wait_until(
+        lambda: console.evaluate("el => el.scrollHeight > el.clientHeight") and console.evaluate(at_bottom),
+        what="the console to follow new lines",
+    )
+    console.evaluate(
+        "el => { el.scrollTop = 0; el.dispatchEvent(new Event('scroll')); }"
+    )  # the user scrolls up
     page.get_by_role("button", name="say hello").click()
     time.sleep(0.5)
     assert console.evaluate("el => el.scrollTop") == 0  # reading: not pulled down
@@ -290,7 +337,9 @@ def test_curve_axis_shows_minus_signs(page, server):
     time.sleep(1.0)
     server["client"]._call("PUT", "/api/inputs/gaze_target", json={"value": [0.8, -0.5, 0.35]})
     plot = page.get_by_test_id("curve-panel").locator(".plot")
-    wait_until(lambda: MINUS in (plot.get_attribute("data-y-ticks") or ""), timeout=15, what="a negative tick")
+    wait_until(
+        lambda: MINUS in (plot.get_attribute("data-y-ticks") or ""), timeout=15, what="a negative tick"
+    )
     labels = (plot.get_attribute("data-y-ticks") or "").split()
     assert any(l.startswith(MINUS) for l in labels) and not any(l.startswith("-") for l in labels), labels
     page.get_by_test_id("curve-panel").screenshot(path=str(ARTIFACTS / "editor-live-curve-axis.png"))
@@ -299,7 +348,9 @@ def test_curve_axis_shows_minus_signs(page, server):
 def test_input_slider_does_not_jump_when_pressed_on_its_thumb(page, server):
     slider = page.get_by_label("input arousal")
     slider.fill("0.5")
-    wait_until(lambda: server["client"]._call("GET", "/api/inputs")["values"]["arousal"] == 0.5, what="arousal set")
+    wait_until(
+        lambda: server["client"]._call("GET", "/api/inputs")["values"]["arousal"] == 0.5, what="arousal set"
+    )
     box = slider.bounding_box()
     # the thumb's centre: the range's own geometry (no padding), thumb width from the browser's default
     thumb = page.evaluate("""() => { const e = document.querySelector('[aria-label="input arousal"]');
@@ -314,5 +365,7 @@ def test_input_slider_does_not_jump_when_pressed_on_its_thumb(page, server):
     page.mouse.up()
     moved = float(slider.input_value())
     assert moved > 0.55
-    wait_until(lambda: abs(server["client"]._call("GET", "/api/inputs")["values"]["arousal"] - moved) < 1e-9,
-               what="the dragged value on the server")
+    wait_until(
+        lambda: abs(server["client"]._call("GET", "/api/inputs")["values"]["arousal"] - moved) < 1e-9,
+        what="the dragged value on the server",
+    )

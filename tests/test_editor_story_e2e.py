@@ -14,8 +14,17 @@ import re
 import time
 
 import pytest
-
-from editor_browser import ARTIFACTS, BROWSER, VALID, centre, drag_to_point, editor_page, handle, scratch_robot, wait_until
+from editor_browser import (
+    ARTIFACTS,
+    BROWSER,
+    VALID,
+    centre,
+    drag_to_point,
+    editor_page,
+    handle,
+    scratch_robot,
+    wait_until,
+)
 from server_process import running_server
 from test_safe_swaps import assert_smooth, recorded_frames, recorded_positions
 
@@ -33,7 +42,9 @@ def server(tmp_path_factory):
 @pytest.fixture(scope="module")
 def page(server):
     # prompts (the library's name for the subgraph) are answered "idle"
-    with editor_page(server["url"], on_dialog=lambda d: d.accept("idle") if d.type == "prompt" else d.accept()) as pg:
+    with editor_page(
+        server["url"], on_dialog=lambda d: d.accept("idle") if d.type == "prompt" else d.accept()
+    ) as pg:
         yield pg
 
 
@@ -84,8 +95,14 @@ def test_build_group_and_go_live(page, server):
     assert ("rest", "out", "layer_mixer", "base") in draft_edges(page)
     fit(page)
     # the mixer's output dropped on the output's occupied input replaces the rest pose's wire
-    drag_to_point(page, handle(page, "layer_mixer", "out", "source"), *centre(handle(page, "output", "in", "target").bounding_box()))
-    wait_until(lambda: ("layer_mixer", "out", "output", "in") in draft_edges(page), what="the mixer on the output")
+    drag_to_point(
+        page,
+        handle(page, "layer_mixer", "out", "source"),
+        *centre(handle(page, "output", "in", "target").bounding_box()),
+    )
+    wait_until(
+        lambda: ("layer_mixer", "out", "output", "in") in draft_edges(page), what="the mixer on the output"
+    )
     assert ("rest", "out", "output", "in") not in draft_edges(page)
     # two additive layers on the mixer, from its layer stack
     page.locator("[data-testid=node-layer_mixer] .block-header").click()
@@ -106,10 +123,22 @@ def test_build_group_and_go_live(page, server):
     drag_to_point(page, handle(page, "noise", "out", "source"), *pane_point(page, 0.3, 0.9))
     pick(page, "motion filter", "motion_filter")
     fit(page)
-    drag_to_point(page, handle(page, "motion_filter", "out", "source"),
-            *centre(handle(page, "layer_mixer", "wander", "target").bounding_box()))
-    wait_until(lambda: {("breathe", "out", "layer_mixer", "idle"), ("noise", "out", "motion_filter", "in"),
-                        ("motion_filter", "out", "layer_mixer", "wander")} <= draft_edges(page), what="the idle wiring")
+    drag_to_point(
+        page,
+        handle(page, "motion_filter", "out", "source"),
+        *centre(handle(page, "layer_mixer", "wander", "target").bounding_box()),
+    )
+    wait_until(
+        lambda: (
+            {
+                ("breathe", "out", "layer_mixer", "idle"),
+                ("noise", "out", "motion_filter", "in"),
+                ("motion_filter", "out", "layer_mixer", "wander"),
+            }
+            <= draft_edges(page)
+        ),
+        what="the idle wiring",
+    )
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     assert client.status()["swaps"] == swaps  # a draft: the robot has not been touched
     page.screenshot(path=str(ARTIFACTS / "story-built.png"))
@@ -124,8 +153,10 @@ def test_build_group_and_go_live(page, server):
     page.get_by_test_id("node-idle").wait_for()
     assert page.get_by_test_id("node-breathe").count() == 0
     # the wires that crossed the selection now leave the subgraph node, from its exposed outputs
-    assert {("idle", "breathe_out", "layer_mixer", "idle"),
-            ("idle", "motion_filter_out", "layer_mixer", "wander")} <= draft_edges(page), draft_edges(page)
+    assert {
+        ("idle", "breathe_out", "layer_mixer", "idle"),
+        ("idle", "motion_filter_out", "layer_mixer", "wander"),
+    } <= draft_edges(page), draft_edges(page)
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     page.locator("[data-testid=node-idle] .block-header").click()
     page.get_by_test_id("save-subgraph").click()
@@ -134,23 +165,29 @@ def test_build_group_and_go_live(page, server):
 
     # 5. go live: the robot moves to the new program within its limits
     desk = load_embodiment("nutty_desk")
-    rows = lambda: recorded_frames(server["record"])  # noqa: E731
+    rows = lambda: recorded_frames(server["record"])
     start = len(rows())
     page.get_by_test_id("go-live").click()
     page.get_by_test_id("mode").filter(has_text="live").wait_for()
-    wait_until(lambda: any(n["type"] == "subgraph" for n in client.program()["program"]["nodes"]), timeout=30,
-               what="the program on the robot")
+    wait_until(
+        lambda: any(n["type"] == "subgraph" for n in client.program()["program"]["nodes"]),
+        timeout=30,
+        what="the program on the robot",
+    )
     assert client.status()["swaps"] == swaps + 1
     time.sleep(2.5)  # the swap's transition and then some
-    frames = rows()[max(0, start - 5):]
+    frames = rows()[max(0, start - 5) :]
     assert_smooth(desk, recorded_positions(desk, frames), 100.0)
 
     # 6. every block shows its cost, and (zoomed in) its output moving
     ids = ["rest", "layer_mixer", "idle", "output"]
     for node in ids:
         badge = page.get_by_test_id(f"cook-{node}")
-        wait_until(lambda: re.search(r"\d+(\.\d+)?\s*(µs|ms)", badge.inner_text() or ""), timeout=20,
-                   what=f"the cook time of {node}")
+        wait_until(
+            lambda badge=badge: re.search(r"\d+(\.\d+)?\s*(µs|ms)", badge.inner_text() or ""),
+            timeout=20,
+            what=f"the cook time of {node}",
+        )
     page.locator("[data-testid=node-idle] .block-header").click()
     page.keyboard.press("f")  # frame the subgraph node: its outputs' values and sparklines show
     value = page.get_by_test_id("live-idle.breathe_out")

@@ -10,7 +10,6 @@ reopen. Screenshots go to test-artifacts/.
 from __future__ import annotations
 
 import pytest
-
 from editor_browser import ARTIFACTS, BROWSER, ROOT, VALID, editor_page, scratch_robot
 from editor_browser import wait_until as wait
 from server_process import running_server
@@ -40,6 +39,7 @@ def page(server):
             dialog.accept(answers.get(key, dialog.default_value) if key else dialog.default_value)
         else:
             dialog.accept()
+
     with editor_page(server["url"], on_dialog=answer) as pg:
         pg.answers = answers  # what the next prompt is answered with
         yield pg
@@ -58,12 +58,20 @@ def test_group_the_idle_layer_into_a_subgraph(page, server):
     for k, node in enumerate(IDLE):
         header = page.locator(f"[data-testid=node-{node}] .block-header")
         header.click(modifiers=["Shift"] if k else [])
-    wait_until(lambda: page.locator(".react-flow__node.selected").count() == len(IDLE), what="the idle blocks selected")
+    wait_until(
+        lambda: page.locator(".react-flow__node.selected").count() == len(IDLE),
+        what="the idle blocks selected",
+    )
     page.get_by_test_id("group").click()
     dialog = page.get_by_test_id("group-dialog")
     dialog.wait_for()
     # the wires crossing the selection's edge are exposed (checked, and cannot be unchecked)
-    for port in ("input-breathe.amplitude", "input-blink.gaze", "output-breathe.out", "output-eyelid_filter.out"):
+    for port in (
+        "input-breathe.amplitude",
+        "input-blink.gaze",
+        "output-breathe.out",
+        "output-eyelid_filter.out",
+    ):
         box = page.get_by_test_id(f"expose-{port}")
         assert box.is_checked() and box.is_disabled()
     page.screenshot(path=str(ARTIFACTS / "organise-group-dialog.png"))
@@ -75,7 +83,9 @@ def test_group_the_idle_layer_into_a_subgraph(page, server):
     def grouped():
         prog = running(server)["program"]
         return "idle" in (prog.get("subgraphs") or {}) and any(
-            n["id"] == "idle" and n["type"] == "subgraph" for n in prog["nodes"])
+            n["id"] == "idle" and n["type"] == "subgraph" for n in prog["nodes"]
+        )
+
     wait_until(grouped, what="the server to run the grouped program")
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     state = running(server)
@@ -125,7 +135,9 @@ def test_save_to_library_and_add_it_to_another_program(page, server):
     page.locator("[data-testid=node-idle] .block-header").click()
     page.answers["library"] = "idle_layer"
     page.get_by_test_id("save-subgraph").click()
-    wait_until(lambda: "idle_layer" in server["client"]._call("GET", "/api/subgraphs"), what="the saved subgraph")
+    wait_until(
+        lambda: "idle_layer" in server["client"]._call("GET", "/api/subgraphs"), what="the saved subgraph"
+    )
     assert (server["robot"] / "subgraphs" / "idle_layer.json").exists()
     page.get_by_test_id("palette-subgraph-idle_layer").wait_for()
     page.get_by_role("button", name="New").click()
@@ -137,10 +149,17 @@ def test_save_to_library_and_add_it_to_another_program(page, server):
 
     def added():
         prog = running(server)["program"]
-        return "idle_layer" in (prog.get("subgraphs") or {}) and any(n["id"] == "idle_layer" for n in prog["nodes"])
-    wait_until(added, timeout=30, what="the server to run the program with the library's subgraph "
-               f"(mode {page.get_by_test_id('mode').inner_text()!r}, status {page.get_by_test_id('status').inner_text()!r}, "
-               f"console {page.get_by_test_id('console').inner_text()[-300:]!r})")
+        return "idle_layer" in (prog.get("subgraphs") or {}) and any(
+            n["id"] == "idle_layer" for n in prog["nodes"]
+        )
+
+    wait_until(
+        added,
+        timeout=30,
+        what="the server to run the program with the library's subgraph "
+        f"(mode {page.get_by_test_id('mode').inner_text()!r}, status {page.get_by_test_id('status').inner_text()!r}, "
+        f"console {page.get_by_test_id('console').inner_text()[-300:]!r})",
+    )
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     page.screenshot(path=str(ARTIFACTS / "organise-from-library.png"))
 
@@ -154,6 +173,7 @@ def stable_box(locator, what: str) -> dict:
         box = locator.bounding_box()
         same, last = box is not None and box == last, box
         return same
+
     wait_until(settled, timeout=30, what=what)
     return last
 
@@ -170,11 +190,16 @@ def test_comment_and_reroute_survive_save_and_reopen(page, server):
     def kept_by_server():
         ui = running(server)["program"].get("ui") or {}
         return len(ui.get("comments", [])) == 1 and len(ui.get("reroutes", [])) == 1
-    wait_until(kept_by_server, timeout=30, what="the server's program to keep the comment and the reroute in its ui")
+
+    wait_until(
+        kept_by_server, timeout=30, what="the server's program to keep the comment and the reroute in its ui"
+    )
     page.screenshot(path=str(ARTIFACTS / "organise-comment-reroute.png"))
     page.answers["Save program"] = "e2e_organise"
     page.get_by_test_id("save").click()
-    wait_until(lambda: "e2e_organise" in server["client"]._call("GET", "/api/programs"), what="the saved program")
+    wait_until(
+        lambda: "e2e_organise" in server["client"]._call("GET", "/api/programs"), what="the saved program"
+    )
     saved = server["client"]._call("GET", "/api/programs/e2e_organise")
     wire = {"from": {"node": "rest", "port": "out"}, "to": {"node": "output", "port": "in"}}
     assert saved["ui"]["reroutes"][0]["edge"] == wire

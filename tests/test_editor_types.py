@@ -42,20 +42,36 @@ PROGRAM = ROOT / "robots" / "nutty_desk" / "programs" / "interactive.json"
 def test_committed_file_matches_the_backend(name):
     committed = json.loads((GENERATED / name).read_text())
     current = json.loads(json.dumps(schemas()[name], sort_keys=True))
-    assert committed == current, f"frontend/node_editor/generated/{name} is stale: run `npm run gen:types` in frontend/"
+    assert committed == current, (
+        f"frontend/node_editor/generated/{name} is stale: run `npm run gen:types` in frontend/"
+    )
 
 
 def test_committed_typescript_matches_the_schemas():
     if shutil.which("node") is None or not (FRONTEND / "node_modules" / "json-schema-to-typescript").exists():
         pytest.skip("node and frontend/node_modules are needed to compile the schemas")
-    done = subprocess.run(["node", "scripts/gen-types.mjs", "--check"], cwd=FRONTEND, capture_output=True, text=True,
-                          timeout=120)
+    done = subprocess.run(
+        ["node", "scripts/gen-types.mjs", "--check"],
+        cwd=FRONTEND,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
 
 
 def test_generated_typescript_names_every_command_and_api_type():
     ts = (GENERATED / "commands.ts").read_text()
-    for kind in ("play_clip", "go_posture", "set_gaze", "set_layer", "say", "set_led", "set_emotion", "stop_all"):
+    for kind in (
+        "play_clip",
+        "go_posture",
+        "set_gaze",
+        "set_layer",
+        "say",
+        "set_led",
+        "set_emotion",
+        "stop_all",
+    ):
         assert f'"{kind}"' in ts
     assert "export interface Program" in (GENERATED / "program.ts").read_text()
     api_ts = (GENERATED / "api.ts").read_text()
@@ -76,6 +92,7 @@ def test_catalog_carries_every_port_rule_and_the_editor_rules():
 def test_ports_come_only_from_port_rules():
     """The editor applies port_rules; ports computed any other way would be ports it cannot wire."""
     with pytest.raises(TypeError, match="port_rules"):
+
         class Sneaky(Block):
             @classmethod
             def ports(cls, params=None):
@@ -118,8 +135,10 @@ def test_block_catalog_and_robot(client):
     blocks = conforms(list[T.BlockEntry], answer(client.get("/api/blocks")))
     assert json.loads(client.get("/api/blocks").text) == json.loads((GENERATED / "blocks.json").read_text())
     assert {b.type for b in blocks} == set(BLOCKS)
-    ports = conforms(T.BlockPorts, answer(client.post("/api/blocks/layer_mixer/ports",
-                                                      json={"params": {"layers": [{"name": "a"}]}})))
+    ports = conforms(
+        T.BlockPorts,
+        answer(client.post("/api/blocks/layer_mixer/ports", json={"params": {"layers": [{"name": "a"}]}})),
+    )
     assert list(ports.inputs) == ["a", "a_weight"]
     robot = conforms(T.RobotDescription, answer(client.get("/api/robot")))
     assert robot.dofs and robot.postures
@@ -132,10 +151,20 @@ def test_running_program_validation_and_swaps(client):
     assert conforms(T.ValidationReport, answer(client.post("/api/program/validate", json=doc))).valid
     loaded = conforms(T.ProgramLoaded, answer(client.put("/api/program", json=doc)))
     assert loaded.report.valid and loaded.kept
-    broken = {**doc, "edges": [*doc["edges"], {"from": {"node": "nope", "port": "out"}, "to": {"node": "mix", "port": "base"}}]}
+    broken = {
+        **doc,
+        "edges": [
+            *doc["edges"],
+            {"from": {"node": "nope", "port": "out"}, "to": {"node": "mix", "port": "base"}},
+        ],
+    }
     refused = conforms(T.ErrorBody, answer(client.put("/api/program", json=broken), 422))
-    assert refused.detail.code == "invalid_program" and refused.detail.report and not refused.detail.report.valid
-    applied = conforms(T.ParamsApplied, answer(client.patch("/api/program/nodes/nmf/params", json={"sigma": 0.2})))
+    assert (
+        refused.detail.code == "invalid_program" and refused.detail.report and not refused.detail.report.valid
+    )
+    applied = conforms(
+        T.ParamsApplied, answer(client.patch("/api/program/nodes/nmf/params", json={"sigma": 0.2}))
+    )
     assert applied.params["sigma"] == 0.2
     missing = conforms(T.ErrorBody, answer(client.patch("/api/program/nodes/nope/params", json={}), 404))
     assert missing.detail.code == "unknown_node"
@@ -145,24 +174,39 @@ def test_inputs_commands_library_and_previz(client):
     inputs = conforms(T.ExposedInputs, answer(client.get("/api/inputs")))
     assert {ExposedInput.model_validate(d).name for d in inputs.declarations} >= {"arousal", "valence"}
     assert conforms(T.InputSet, answer(client.put("/api/inputs/arousal", json={"value": 0.5}))).value == 0.5
-    accepted = conforms(T.CommandAccepted, answer(client.post("/api/commands", json={"type": "set_emotion", "valence": 0.1,
-                                                                                      "arousal": 0.2})))
+    accepted = conforms(
+        T.CommandAccepted,
+        answer(client.post("/api/commands", json={"type": "set_emotion", "valence": 0.1, "arousal": 0.2})),
+    )
     assert accepted.status == "completed"
     assert conforms(list[str], answer(client.get("/api/clips")))
     program = client.get("/api/program").json()["program"]
-    assert conforms(T.Saved, answer(client.put("/api/programs/drift_check", json=program))).saved == "drift_check"
+    assert (
+        conforms(T.Saved, answer(client.put("/api/programs/drift_check", json=program))).saved
+        == "drift_check"
+    )
     assert conforms(T.PrevizInfo, answer(client.get("/api/previz"))).url is None
-    assert conforms(T.ErrorBody, answer(client.put("/api/previz/ghost", json={"visible": True}), 404)).detail.code == "no_previz"
+    assert (
+        conforms(
+            T.ErrorBody, answer(client.put("/api/previz/ghost", json={"visible": True}), 404)
+        ).detail.code
+        == "no_previz"
+    )
 
 
 def test_telemetry_messages(client):
-    subscribe = T.TelemetrySubscribe(type="subscribe", signals=[T.SignalRef(node="mix", port="out"),
-                                                                 T.SignalRef(node="in_arousal", port="value")],
-                                     frames=True, rate=60)
+    subscribe = T.TelemetrySubscribe(
+        type="subscribe",
+        signals=[T.SignalRef(node="mix", port="out"), T.SignalRef(node="in_arousal", port="value")],
+        frames=True,
+        rate=60,
+    )
     with client.websocket_connect("/ws/telemetry") as ws:
         ws.send_text(subscribe.model_dump_json())
         seen: dict[str, object] = {}
-        while not {"subscribed", "telemetry"} <= seen.keys() or "signals" not in json.loads(seen["telemetry"]):
+        while not {"subscribed", "telemetry"} <= seen.keys() or "signals" not in json.loads(
+            seen["telemetry"]
+        ):
             text = ws.receive_text()
             seen[json.loads(text)["type"]] = text
         ws.send_json({"type": "unsubscribe"})
@@ -172,7 +216,7 @@ def test_telemetry_messages(client):
     messages = {kind: conforms(T.TelemetryMessage, text).root for kind, text in seen.items()}
     telemetry = messages["telemetry"]
     assert {"mix.out", "in_arousal.value"} <= telemetry.signals.keys()
-    assert telemetry.frame.position and [layer.name for layer in telemetry.layers["mix"]][0] == "base"
+    assert telemetry.frame.position and next(layer.name for layer in telemetry.layers["mix"]) == "base"
     assert messages["error"].code == "invalid_message"
 
 

@@ -114,7 +114,10 @@ def _robot_folder(tmp_path, yaml_text):
         ("name: b\npostures: {p: {ghost: 1}}\n", "unknown DoF 'ghost'"),
         ("name: b\nstationary: [{name: elbow, colour: red}]\n", "colour"),
         ("name: b\npostures: {p: {values: {ghost: 1}}}\n", "unknown DoF 'ghost'"),
-        ("name: b\npostures: {p: {description: up, values: {elbow: 1}, elbow: 1}}\n", "only 'description' and 'values'"),
+        (
+            "name: b\npostures: {p: {description: up, values: {elbow: 1}, elbow: 1}}\n",
+            "only 'description' and 'values'",
+        ),
     ],
 )
 def test_bad_embodiment_yaml_is_explained(tmp_path, yaml_text, fragment):
@@ -124,16 +127,22 @@ def test_bad_embodiment_yaml_is_explained(tmp_path, yaml_text, fragment):
 
 
 def test_postures_load_in_both_shapes_with_their_descriptions(tmp_path, desk):
-    yaml_text = ("name: b\nstationary: [{name: elbow}, {name: shoulder}]\npostures:\n"
-                 "  flat: {elbow: 0.5}\n  described: {description: Arm up., values: {elbow: 1.0, shoulder: 0.2}}\n")
+    yaml_text = (
+        "name: b\nstationary: [{name: elbow}, {name: shoulder}]\npostures:\n"
+        "  flat: {elbow: 0.5}\n  described: {description: Arm up., values: {elbow: 1.0, shoulder: 0.2}}\n"
+    )
     emb = load_embodiment(_robot_folder(tmp_path, yaml_text))
     assert emb.postures == {"flat": {"elbow": 0.5}, "described": {"elbow": 1.0, "shoulder": 0.2}}
     assert emb.posture_descriptions == {"flat": "", "described": "Arm up."}
-    assert all(desk.posture_descriptions[name] for name in desk.postures)  # every bundled posture is described
+    assert all(
+        desk.posture_descriptions[name] for name in desk.postures
+    )  # every bundled posture is described
 
 
 def test_symbolic_range_follows_its_joints(tmp_path):
-    emb = load_embodiment(_robot_folder(tmp_path, "name: b\nstationary: [{name: both, drives: {shoulder: 0.5, elbow: 1.0}}]\n"))
+    emb = load_embodiment(
+        _robot_folder(tmp_path, "name: b\nstationary: [{name: both, drives: {shoulder: 0.5, elbow: 1.0}}]\n")
+    )
     d = emb.dof("both")
     # shoulder allows [-1, 1.5] / 0.5 = [-2, 3]; elbow [-2, 2] -> intersection [-2, 2]
     assert (d.min, d.max) == (-2.0, 2.0)
@@ -172,7 +181,11 @@ def _example_robot_data():
     import glob
     import site
 
-    roots = [p for s in site.getsitepackages() for p in glob.glob(f"{s}/cmeel.prefix/share/example-robot-data/robots")]
+    roots = [
+        p
+        for s in site.getsitepackages()
+        for p in glob.glob(f"{s}/cmeel.prefix/share/example-robot-data/robots")
+    ]
     if not roots:
         pytest.skip("example-robot-data is not installed (optional extra `robots`, ~440 MB)")
     return roots[0]
@@ -188,9 +201,13 @@ def test_third_party_panda_urdf_loads_with_mimic_finger():
     assert np.all(emb.min < emb.max)
 
 
-@pytest.mark.parametrize("rel", ["ur_description/urdf/ur5_robot.urdf", "talos_data/robots/talos_reduced.urdf"])
+@pytest.mark.parametrize(
+    "rel", ["ur_description/urdf/ur5_robot.urdf", "talos_data/robots/talos_reduced.urdf"]
+)
 def test_third_party_urdfs_load(rel):
     emb = load_embodiment(f"{_example_robot_data()}/{rel}")
     assert emb.dimension_counts()["stationary"] >= 6
     assert np.all(np.isfinite(emb.vel_limit)) and np.all(emb.vel_limit > 0)
-    np.testing.assert_allclose(emb.joint_positions(emb.rest)[: len(emb.dofs)], emb.rest[: len(emb.joints)][: len(emb.dofs)])
+    np.testing.assert_allclose(
+        emb.joint_positions(emb.rest)[: len(emb.dofs)], emb.rest[: len(emb.joints)][: len(emb.dofs)]
+    )

@@ -15,11 +15,11 @@ from types import SimpleNamespace
 
 import httpx
 import pytest
+from server_process import running_app
 from websockets.sync.client import connect as ws_connect
 
 from backend.api import create_app
 from backend.session import EngineSession
-from server_process import running_app
 
 INTERACTIVE = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs" / "interactive.json"
 
@@ -29,7 +29,7 @@ def server(desk):
     session = EngineSession.create(desk, rate=100, program_text=INTERACTIVE.read_text())
     session.engine.start()
     try:
-        with running_app(create_app(session, frontend_dir=None)) as (_, _, port):
+        with running_app(create_app(session, frontend_dir=None)) as (_, _, port):  # noqa: SIM117 (the client needs the port the app was given)
             with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30.0) as http:
                 yield SimpleNamespace(port=port, http=http, session=session)
     finally:
@@ -89,12 +89,15 @@ class Control:
         return [e["event"] for e in self.events[cid]]
 
 
-@pytest.mark.parametrize("command", [
-    {"type": "go_posture", "posture": "curious", "duration": 0.2},
-    {"type": "play_clip", "clip": "nod", "layer": "gesture", "speed": 5.0},
-    {"type": "say", "text": "hi"},
-    {"type": "play_sound", "sound": "chirp"},
-])
+@pytest.mark.parametrize(
+    "command",
+    [
+        {"type": "go_posture", "posture": "curious", "duration": 0.2},
+        {"type": "play_clip", "clip": "nod", "layer": "gesture", "speed": 5.0},
+        {"type": "say", "text": "hi"},
+        {"type": "play_sound", "sound": "chirp"},
+    ],
+)
 def test_a_long_action_is_started_once_then_completed_all_under_its_id(control, command):
     cid = f"long-{command['type']}"
     ack = control.send({"id": cid, **command})
@@ -116,10 +119,18 @@ def test_an_instant_command_gets_one_completed_event(control, server):
 
 
 def test_cancel_is_acked_under_its_own_id_and_the_target_gets_cancelled(control, server):
-    assert control.send({"id": "slow", "type": "go_posture", "posture": "sad", "duration": 20})["status"] == "started"
+    assert (
+        control.send({"id": "slow", "type": "go_posture", "posture": "sad", "duration": 20})["status"]
+        == "started"
+    )
     control.until("slow", "started")
     ack = control.send({"id": "k1", "type": "cancel", "target": "slow"})
-    assert ack == {"type": "ack", "id": "k1", "status": "completed", "result": {"target": "slow", "status": "cancelled"}}
+    assert ack == {
+        "type": "ack",
+        "id": "k1",
+        "status": "completed",
+        "result": {"target": "slow", "status": "cancelled"},
+    }
     control.until("slow", "cancelled")
     control.until("k1", "completed")
     control.settle()
@@ -137,7 +148,9 @@ def test_cancel_is_acked_under_its_own_id_and_the_target_gets_cancelled(control,
 
 
 def test_delete_cancels_once_and_a_new_action_preempts_the_old(control, server):
-    r = server.http.post("/api/commands", json={"id": "rest1", "type": "go_posture", "posture": "sad", "duration": 20})
+    r = server.http.post(
+        "/api/commands", json={"id": "rest1", "type": "go_posture", "posture": "sad", "duration": 20}
+    )
     assert r.json() == {"id": "rest1", "status": "started", "result": r.json()["result"]}
     control.until("rest1", "started")
     assert server.http.delete("/api/commands/rest1").json() == {"id": "rest1", "status": "cancelled"}
@@ -158,7 +171,9 @@ def test_ids_of_live_commands_are_unique(control, server):
     r = server.http.post("/api/commands", json={"id": "dup", "type": "set_led", "colour": [1, 0, 0]})
     assert r.status_code == 409
     control.send({"id": "stop-dup", "type": "cancel", "target": "dup"})
-    assert control.send({"id": "dup", "type": "set_led", "colour": [1, 0, 0]})["type"] == "ack"  # ended: reusable
+    assert (
+        control.send({"id": "dup", "type": "set_led", "colour": [1, 0, 0]})["type"] == "ack"
+    )  # ended: reusable
 
 
 def test_rest_commands_get_ids_and_their_events_reach_the_socket(control, server):

@@ -30,7 +30,9 @@ SCRIPT = [  # (time s, command): an AI driving the interactive program
 
 
 def run_program(desk, name, seconds=10.0, script=()):
-    session = EngineSession.create(desk, rate=100, program=json.loads((PROGRAMS / f"{name}.json").read_text()))
+    session = EngineSession.create(
+        desk, rate=100, program=json.loads((PROGRAMS / f"{name}.json").read_text())
+    )
     notes = []
     session.on_note(notes.append)
     frames, pending = [], list(script)
@@ -62,7 +64,7 @@ def test_bundled_programs_run_within_the_robot_limits(desk, name):
 
 
 def test_interactive_program_answers_an_ai(desk):
-    session, frames, notes = run_program(desk, "interactive", seconds=10.0, script=SCRIPT)
+    _session, frames, notes = run_program(desk, "interactive", seconds=10.0, script=SCRIPT)
     done = {(n.get("clip") or n.get("posture") or n.get("text")) for n in notes if n["event"] == "completed"}
     assert {"wave", "surprised", "nod", "sad"} <= done
     cancelled = {n.get("clip") for n in notes if n["event"] == "cancelled"}
@@ -79,11 +81,12 @@ def test_interactive_program_answers_an_ai(desk):
 
 
 def test_breathe_anything_runs_on_another_robot():
-    from backend.engine.embodiment import load_embodiment
     from test_embodiment import _example_robot_data
 
+    from backend.engine.embodiment import load_embodiment
+
     panda = load_embodiment(f"{_example_robot_data()}/panda_description/urdf/panda.urdf")
-    session, frames, _ = run_program(panda, "breathe-anything", seconds=3.0)
+    _session, frames, _ = run_program(panda, "breathe-anything", seconds=3.0)
     pos = np.array([f.position for f in frames])
     assert np.ptp(pos[:, panda.continuous_mask], axis=0).max() > 0.005
     assert_within_limits(panda, frames)

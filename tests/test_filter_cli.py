@@ -23,7 +23,17 @@ def test_filter_cli_samples_irregular_input(tmp_path):
     out = tmp_path / "out.csv"
     assert main(["filter", str(src), str(out), "--preset", "D", "--rate", "10"]) == 0
     header, data = _read(out)
-    assert header == ["t", "yaw", "yaw.vel", "yaw.acc", "yaw.jerk", "pitch", "pitch.vel", "pitch.acc", "pitch.jerk"]
+    assert header == [
+        "t",
+        "yaw",
+        "yaw.vel",
+        "yaw.acc",
+        "yaw.jerk",
+        "pitch",
+        "pitch.vel",
+        "pitch.acc",
+        "pitch.jerk",
+    ]
     np.testing.assert_allclose(data[:, 0], np.arange(11) / 10)  # t0 + k/rate up to the last input (floor)
     assert np.isfinite(data).all()
     # hold-latest: before t=0.33 the set-point is 0, so the output stays exactly at rest
@@ -36,8 +46,28 @@ def test_filter_cli_matches_the_python_api(tmp_path):
     src = tmp_path / "in.csv"
     src.write_text("t,x\n" + "".join(f"{a:.10f},{b}\n" for a, b in zip(t, sp)))
     out = tmp_path / "out.csv"
-    assert main(["filter", str(src), str(out), "--preset", "B", "--order", "2", "--limiter", "hard",
-                 "--sigma", "0.3", "--pmin", "-1", "--pmax", "2.5"]) == 0
+    assert (
+        main(
+            [
+                "filter",
+                str(src),
+                str(out),
+                "--preset",
+                "B",
+                "--order",
+                "2",
+                "--limiter",
+                "hard",
+                "--sigma",
+                "0.3",
+                "--pmin",
+                "-1",
+                "--pmax",
+                "2.5",
+            ]
+        )
+        == 0
+    )
     _, data = _read(out)
     f = MotionFilter.from_preset("B", 1, 60, order=2, limiter="hard", sigma=0.3, pmin=-1, pmax=2.5)
     ref = f.run(sp[:, None])
@@ -45,12 +75,15 @@ def test_filter_cli_matches_the_python_api(tmp_path):
     assert data[:, 1].max() <= 2.5
 
 
-@pytest.mark.parametrize("content, fragment", [
-    ("x,a\n0,1\n", "header must be 't,<name>,...'"),
-    ("t,a\n0,1\n0.5,zz\n", "row 3, column 'a': not a number"),
-    ("t,a\n1,1\n0.5,2\n", "must be sorted by t"),
-    ("t,a\n", "no set-points"),
-])
+@pytest.mark.parametrize(
+    "content, fragment",
+    [
+        ("x,a\n0,1\n", "header must be 't,<name>,...'"),
+        ("t,a\n0,1\n0.5,zz\n", "row 3, column 'a': not a number"),
+        ("t,a\n1,1\n0.5,2\n", "must be sorted by t"),
+        ("t,a\n", "no set-points"),
+    ],
+)
 def test_filter_cli_explains_bad_input(tmp_path, capsys, content, fragment):
     src = tmp_path / "in.csv"
     src.write_text(content)
@@ -68,8 +101,18 @@ def test_filter_cli_rejects_bad_parameters(tmp_path, capsys):
 def test_figures_command_draws_every_figure(tmp_path):
     assert main(["figures", str(tmp_path)]) == 0
     names = sorted(p.name for p in tmp_path.glob("*.png"))
-    assert names == sorted(["nmf_inputs.png", "nmf_h.png", "nmf_omega.png", "nmf_presets_phi_l.png",
-                            "nmf_orders.png", "nmf_presets_phi_r.png", "nmf_presets_phi_c.png", "nmf_overview.png"])
+    assert names == sorted(
+        [
+            "nmf_inputs.png",
+            "nmf_h.png",
+            "nmf_omega.png",
+            "nmf_presets_phi_l.png",
+            "nmf_orders.png",
+            "nmf_presets_phi_r.png",
+            "nmf_presets_phi_c.png",
+            "nmf_overview.png",
+        ]
+    )
     assert all(p.stat().st_size > 20_000 for p in tmp_path.glob("*.png"))
 
 
@@ -79,8 +122,26 @@ def test_filter_cli_sample_times_survive_decimal_rounding(tmp_path):
     src = tmp_path / "in.csv"
     src.write_text(f"t,a\n0,0\n{0.1 + 0.2!r},1\n0.7,2\n")
     out = tmp_path / "out.csv"
-    assert main(["filter", str(src), str(out), "--rate", "10", "--preset", "W", "--order", "1", "--limiter",
-                 "hard", "--vel", "1000"]) == 0
+    assert (
+        main(
+            [
+                "filter",
+                str(src),
+                str(out),
+                "--rate",
+                "10",
+                "--preset",
+                "W",
+                "--order",
+                "1",
+                "--limiter",
+                "hard",
+                "--vel",
+                "1000",
+            ]
+        )
+        == 0
+    )
     _, data = _read(out)
     np.testing.assert_allclose(data[:, 0], np.arange(8) / 10)
     # W, order 1, hard, V large: the output reaches each set-point at its own sample
@@ -93,8 +154,7 @@ def test_filter_cli_empty_cell_holds_that_dof(tmp_path):
     out = tmp_path / "out.csv"
     assert main(["filter", str(src), str(out), "--rate", "10", "--preset", "D"]) == 0
     _, data = _read(out)
-    ref = MotionFilter.from_preset("D", 2, 10).run(
-        np.array([[0, np.nan]] * 5 + [[0, 3]] * 5 + [[1, 3]]))
+    ref = MotionFilter.from_preset("D", 2, 10).run(np.array([[0, np.nan]] * 5 + [[0, 3]] * 5 + [[1, 3]]))
     np.testing.assert_array_equal(data[:, 1], ref.position[:, 0])
     np.testing.assert_array_equal(data[:, 5], ref.position[:, 1])
     assert (data[:5, 5] == 0).all() and data[5, 5] == 3.0  # waits, then starts at its first set-point
@@ -140,12 +200,15 @@ def test_filter_cli_missing_file_and_bad_options(tmp_path, capsys):
     assert "cannot write" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("content, fragment", [
-    ("t,a,a\n0,1,2\n", "repeated column names in header: a"),
-    ("t,a\n0,1\n\n0.5,1,2\n", "row 4 has 3 cells"),
-    ("t,a\n0,1\n0.5,inf\n", "row 3, column 'a': value must be finite"),
-    ("t,a\n0,1\n\n2,1\n1,1\n", "row 5 (t=1) goes back in time"),
-])
+@pytest.mark.parametrize(
+    "content, fragment",
+    [
+        ("t,a,a\n0,1,2\n", "repeated column names in header: a"),
+        ("t,a\n0,1\n\n0.5,1,2\n", "row 4 has 3 cells"),
+        ("t,a\n0,1\n0.5,inf\n", "row 3, column 'a': value must be finite"),
+        ("t,a\n0,1\n\n2,1\n1,1\n", "row 5 (t=1) goes back in time"),
+    ],
+)
 def test_filter_cli_names_row_and_column(tmp_path, capsys, content, fragment):
     src = tmp_path / "in.csv"
     src.write_text(content)

@@ -11,8 +11,8 @@ import time
 import numpy as np
 import pytest
 
-from backend.engine.embodiment import load_embodiment
 from backend.client import NuttyError
+from backend.engine.embodiment import load_embodiment
 from backend.fleet import Fleet
 from tests.fleet_processes import NuttyProcess, local_config, loopback, poll
 from tests.server_process import free_port
@@ -48,11 +48,43 @@ def test_three_engines_a_fleet_and_a_bridge(tmp_path):
     hub = loopback()  # this test's own session is the router the others connect to
     fleet = Fleet(mode="router", listen=[hub], config=config, timeout=10.0)
     common = ("--zenoh-config", config, "--zenoh-connect", hub)
-    engines = {rid: NuttyProcess("serve", "--port", str(free_port()), "--no-previz", "--rate", f"{RATE:g}", "--zenoh",
-                                 "--robot-id", rid, "--zenoh-listen", loopback(), *common) for rid in ROBOTS}
+    engines = {
+        rid: NuttyProcess(
+            "serve",
+            "--port",
+            str(free_port()),
+            "--no-previz",
+            "--rate",
+            f"{RATE:g}",
+            "--zenoh",
+            "--robot-id",
+            rid,
+            "--zenoh-listen",
+            loopback(),
+            *common,
+        )
+        for rid in ROBOTS
+    }
     recording = tmp_path / "museum-3.jsonl"
-    bridge = NuttyProcess("bridge", "--zenoh", "--robot-id", "museum-3", "--robot", "nutty_desk", "--driver", "record", "--record",
-                          str(recording), "--timeout", "0.3", "--report", "1", "--wait", "150", *common)
+    bridge = NuttyProcess(
+        "bridge",
+        "--zenoh",
+        "--robot-id",
+        "museum-3",
+        "--robot",
+        "nutty_desk",
+        "--driver",
+        "record",
+        "--record",
+        str(recording),
+        "--timeout",
+        "0.3",
+        "--report",
+        "1",
+        "--wait",
+        "150",
+        *common,
+    )
     frames = Frames()
     subscriber = None
     try:
@@ -78,7 +110,9 @@ def test_three_engines_a_fleet_and_a_bridge(tmp_path):
         # A pattern: every matching robot acks under one id and shows it.
         acks = fleet.group("museum-*").face("smile")
         assert sorted(acks) == list(ROBOTS)
-        assert len({a["id"] for a in acks.values()}) == 1 and all(a["status"] == "completed" for a in acks.values())
+        assert len({a["id"] for a in acks.values()}) == 1 and all(
+            a["status"] == "completed" for a in acks.values()
+        )
         poll(lambda: all(frames.mouth(r) == "smile" for r in ROBOTS), 10, "every robot smiles")
         assert fleet.send("nobody-*", {"type": "reset"}) == {}
 
@@ -107,7 +141,10 @@ def test_three_engines_a_fleet_and_a_bridge(tmp_path):
             assert engines[rid].wait_exit(20) == 0, engines[rid].output
             last = frames.latest[rid]["dofs"]
             for name in emb.continuous_names:
-                assert last[name]["position"] == emb.rest[emb.channel_index[name]] and last[name]["velocity"] == 0.0
+                assert (
+                    last[name]["position"] == emb.rest[emb.channel_index[name]]
+                    and last[name]["velocity"] == 0.0
+                )
         poll(lambda: fleet.robots() == [], 15, "no robot left")
     finally:
         if subscriber is not None:
@@ -150,8 +187,12 @@ def test_the_readme_recipe_runs_as_written(tmp_path):
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
     block = re.search(r"## Many robots, many machines \(Zenoh\).*?```sh\n(.*?)```", readme, re.S).group(1)
     lines = [shlex.split(line) for line in block.strip().splitlines()]
-    assert [line[:2] for line in lines] == [["nutty", "serve"], ["nutty", "bridge"], ["nutty", "fleet"],
-                                           ["nutty", "fleet"]]
+    assert [line[:2] for line in lines] == [
+        ["nutty", "serve"],
+        ["nutty", "bridge"],
+        ["nutty", "fleet"],
+        ["nutty", "fleet"],
+    ]
     endpoint, isolated = loopback(), ["--zenoh-config", local_config(tmp_path)]
 
     def as_here(line: list[str]) -> list[str]:
@@ -161,8 +202,15 @@ def test_the_readme_recipe_runs_as_written(tmp_path):
     engine, bridge = NuttyProcess(*as_here(lines[0])), NuttyProcess(*as_here(lines[1]))
     try:
         assert bridge.wait_output("following robot 'desk-1'", 150), engine.output + bridge.output
-        run = [subprocess.run([sys.executable, "-m", "backend.cli", *as_here(line)], capture_output=True, text=True,
-                              timeout=60) for line in lines[2:]]
+        run = [
+            subprocess.run(
+                [sys.executable, "-m", "backend.cli", *as_here(line)],
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
+            for line in lines[2:]
+        ]
         assert run[0].returncode == 0 and run[0].stdout.split() == ["desk-1"], run[0].stderr
         assert run[1].returncode == 0, run[1].stdout + run[1].stderr
         ack = json.loads(run[1].stdout)["desk-1"]

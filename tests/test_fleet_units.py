@@ -13,7 +13,7 @@ from backend.cli import build_parser, main
 from backend.commands.bridge import chosen_drivers
 from backend.session import EngineSession
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import FrameDoc, decode_frame, encode_frame, read_session, read_stamp, stamp
+from backend.zenoh_link.codec import FrameDoc, decode_frame, encode_frame, read_stamp, stamp
 from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, endpoint_arg
 
 
@@ -22,8 +22,19 @@ def test_robot_ids(good):
     assert keys.check_robot_id(good) == good
 
 
-@pytest.mark.parametrize("bad, why", [("", "empty"), ("a/b", "'/'"), ("museum-*", "'*'"), ("$x", "'\\$'"),
-                                      ("-x", "start"), ("a" * 65, "longer"), ("é", "'é'"), ("a b", "' '")])
+@pytest.mark.parametrize(
+    "bad, why",
+    [
+        ("", "empty"),
+        ("a/b", "'/'"),
+        ("museum-*", "'*'"),
+        ("$x", "'\\$'"),
+        ("-x", "start"),
+        ("a" * 65, "longer"),
+        ("é", "'é'"),
+        ("a b", "' '"),
+    ],
+)
 def test_bad_robot_ids_say_what_is_wrong(bad, why):
     with pytest.raises(keys.RobotIdError, match=why):
         keys.check_robot_id(bad)
@@ -85,19 +96,27 @@ def run_cli(capsys, *argv) -> tuple[int, str]:
 
 
 def test_serve_refuses_zenoh_options_without_zenoh(capsys):
-    code, err = run_cli(capsys, "serve", "--no-previz", "--robot-id", "museum-1", "--zenoh-listen", "tcp/127.0.0.1:0")
+    code, err = run_cli(
+        capsys, "serve", "--no-previz", "--robot-id", "museum-1", "--zenoh-listen", "tcp/127.0.0.1:0"
+    )
     assert code == 2 and "--zenoh-listen, --robot-id only apply with --zenoh" in err
     code, err = run_cli(capsys, "serve", "--zenoh", "--robot-id", "museum/1")
     assert code == 2 and "may only hold letters" in err
 
 
 def bridge_args(*argv):
-    return build_parser().parse_args(["bridge", "--zenoh", "--robot-id", "r1", "--robot", "nutty_desk", *argv])
+    return build_parser().parse_args(
+        ["bridge", "--zenoh", "--robot-id", "r1", "--robot", "nutty_desk", *argv]
+    )
 
 
 def test_the_bridge_takes_its_drivers_from_the_registry():
-    assert chosen_drivers(bridge_args("--driver", "osc", "--osc", "127.0.0.1:9000")) == [("osc", ("127.0.0.1", 9000))]
-    assert chosen_drivers(bridge_args("--driver", "sim-servo")) == [("sim-servo", 8.0)]  # the driver's default
+    assert chosen_drivers(bridge_args("--driver", "osc", "--osc", "127.0.0.1:9000")) == [
+        ("osc", ("127.0.0.1", 9000))
+    ]
+    assert chosen_drivers(bridge_args("--driver", "sim-servo")) == [
+        ("sim-servo", 8.0)
+    ]  # the driver's default
     with pytest.raises(ValueError, match="--driver record needs --record FILE.jsonl"):
         chosen_drivers(bridge_args("--driver", "record"))
     with pytest.raises(ValueError, match="--osc is given but not --driver osc"):
@@ -109,12 +128,27 @@ def test_the_bridge_takes_its_drivers_from_the_registry():
 def test_bridge_and_fleet_command_lines_refuse_bad_input(capsys):
     code, err = run_cli(capsys, "bridge", "--robot-id", "r1", "--driver", "sim-servo")
     assert code == 2 and "--zenoh" in err
-    code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "teleport", "--robot", "nutty_desk")
+    code, err = run_cli(
+        capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "teleport", "--robot", "nutty_desk"
+    )
     assert code == 2 and "invalid choice: 'teleport'" in err
     code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "sim-servo")
-    assert code == 2 and "the following arguments are required: --robot" in err  # limits come from local files only
-    code, err = run_cli(capsys, "bridge", "--zenoh", "--robot-id", "r1", "--driver", "sim-servo", "--robot", "nutty_desk",
-                        "--timeout", "0")
+    assert (
+        code == 2 and "the following arguments are required: --robot" in err
+    )  # limits come from local files only
+    code, err = run_cli(
+        capsys,
+        "bridge",
+        "--zenoh",
+        "--robot-id",
+        "r1",
+        "--driver",
+        "sim-servo",
+        "--robot",
+        "nutty_desk",
+        "--timeout",
+        "0",
+    )
     assert code == 2 and "--timeout must be within" in err
     code, err = run_cli(capsys, "fleet", "send", "museum/*", "{}")
     assert code == 2 and "neither a robot id nor a pattern" in err

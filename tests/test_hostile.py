@@ -20,9 +20,8 @@ import httpx
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from websockets.sync.client import connect as ws_connect
-
 from server_process import running_server_proc
+from websockets.sync.client import connect as ws_connect
 
 ROBOT = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk"
 REST_EXAMPLES = 200
@@ -49,8 +48,10 @@ def server(tmp_path_factory):
         srv.state = _state(http)
         yield srv
         http.close()
-    print(f"\nhostile suite: {SENT['rest']} REST requests, {SENT['ws']} WebSocket messages; "
-          f"answers: {dict(sorted(STATUSES.items(), key=lambda kv: -kv[1]))}")
+    print(
+        f"\nhostile suite: {SENT['rest']} REST requests, {SENT['ws']} WebSocket messages; "
+        f"answers: {dict(sorted(STATUSES.items(), key=lambda kv: -kv[1]))}"
+    )
 
 
 def _state(http: httpx.Client) -> tuple[str, str]:
@@ -59,10 +60,19 @@ def _state(http: httpx.Client) -> tuple[str, str]:
 
 
 def _routes(node: str) -> list[tuple[str, str]]:
-    return [("POST", "/api/commands"), ("PUT", "/api/program"), ("POST", "/api/program/validate"),
-            ("PATCH", f"/api/program/nodes/{node}/params"), ("PUT", "/api/inputs/arousal"),
-            ("PUT", "/api/inputs/gaze_target"), ("PUT", "/api/postures/hostile"), ("PUT", "/api/clips/hostile"),
-            ("PUT", "/api/programs/hostile"), ("POST", "/api/blocks/layer_mixer/ports"), ("PUT", "/api/previz/ghost")]
+    return [
+        ("POST", "/api/commands"),
+        ("PUT", "/api/program"),
+        ("POST", "/api/program/validate"),
+        ("PATCH", f"/api/program/nodes/{node}/params"),
+        ("PUT", "/api/inputs/arousal"),
+        ("PUT", "/api/inputs/gaze_target"),
+        ("PUT", "/api/postures/hostile"),
+        ("PUT", "/api/clips/hostile"),
+        ("PUT", "/api/programs/hostile"),
+        ("POST", "/api/blocks/layer_mixer/ports"),
+        ("PUT", "/api/previz/ghost"),
+    ]
 
 
 def _check_response(srv, r: httpx.Response) -> None:
@@ -81,26 +91,73 @@ def _check_response(srv, r: httpx.Response) -> None:
 
 surrogates = st.integers(0xD800, 0xDFFF).map(chr)
 huge = st.integers(1_000, 300_000).map(lambda n: "x" * n)
-small_strings = st.one_of(st.text(max_size=30), st.lists(st.one_of(surrogates, st.characters()), max_size=8).map("".join),
-                          st.sampled_from(["wave", "gesture", "happy", "arousal", "breathe", "smile", "chirp", ""]))
+small_strings = st.one_of(
+    st.text(max_size=30),
+    st.lists(st.one_of(surrogates, st.characters()), max_size=8).map("".join),
+    st.sampled_from(["wave", "gesture", "happy", "arousal", "breathe", "smile", "chirp", ""]),
+)
 strings = st.one_of(small_strings, small_strings, small_strings, small_strings, huge)  # huge ones 1 in 5
-numbers = st.one_of(st.integers(-2 ** 70, 2 ** 70), st.floats(allow_nan=True, allow_infinity=True),
-                    st.sampled_from([float("nan"), float("inf"), -float("inf"), 1e308, 2 ** 64, -0.0, 0.5]))
+numbers = st.one_of(
+    st.integers(-(2**70), 2**70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([float("nan"), float("inf"), -float("inf"), 1e308, 2**64, -0.0, 0.5]),
+)
 scalars = st.one_of(st.none(), st.booleans(), numbers, strings)
-values = st.recursive(scalars, lambda kids: st.one_of(st.lists(kids, max_size=5),
-                                                      st.dictionaries(strings, kids, max_size=5)), max_leaves=20)
-FIELDS = ["id", "clip", "speed", "mode", "anchors", "node", "layer", "t", "posture", "duration", "easing", "target",
-          "name", "value", "values", "active", "fade", "mixer", "text", "sound", "dof", "colour", "expression",
-          "valence", "arousal", "visible", "params", "nodes", "edges", "format", "tracks"]
+values = st.recursive(
+    scalars,
+    lambda kids: st.one_of(st.lists(kids, max_size=5), st.dictionaries(strings, kids, max_size=5)),
+    max_leaves=20,
+)
+FIELDS = [
+    "id",
+    "clip",
+    "speed",
+    "mode",
+    "anchors",
+    "node",
+    "layer",
+    "t",
+    "posture",
+    "duration",
+    "easing",
+    "target",
+    "name",
+    "value",
+    "values",
+    "active",
+    "fade",
+    "mixer",
+    "text",
+    "sound",
+    "dof",
+    "colour",
+    "expression",
+    "valence",
+    "arousal",
+    "visible",
+    "params",
+    "nodes",
+    "edges",
+    "format",
+    "tracks",
+]
 TEMPLATES = [  # valid commands for the bundled interactive program; one field at a time goes wrong
-    {"type": "play_clip", "clip": "wave", "layer": "gesture", "speed": 1.5}, {"type": "stop_clip", "fade": 0.2},
-    {"type": "seek_clip", "t": 0.1}, {"type": "go_posture", "posture": "happy", "duration": 0.2, "easing": "sine"},
-    {"type": "set_gaze", "target": [0.6, 0.1, 0.3]}, {"type": "set_input", "name": "arousal", "value": 0.2},
+    {"type": "play_clip", "clip": "wave", "layer": "gesture", "speed": 1.5},
+    {"type": "stop_clip", "fade": 0.2},
+    {"type": "seek_clip", "t": 0.1},
+    {"type": "go_posture", "posture": "happy", "duration": 0.2, "easing": "sine"},
+    {"type": "set_gaze", "target": [0.6, 0.1, 0.3]},
+    {"type": "set_input", "name": "arousal", "value": 0.2},
     {"type": "set_inputs", "values": {"valence": 0.1, "arousal": -0.1}},
-    {"type": "set_layer", "layer": "idle", "active": True, "fade": 0.2}, {"type": "say", "text": "hi"},
-    {"type": "play_sound", "sound": "chirp"}, {"type": "set_led", "colour": [1, 0, 0]},
-    {"type": "set_face", "expression": "smile"}, {"type": "set_emotion", "valence": 0.1, "arousal": 0.1},
-    {"type": "cancel", "target": "nothing"}, {"type": "reset", "fade": 0.1}]
+    {"type": "set_layer", "layer": "idle", "active": True, "fade": 0.2},
+    {"type": "say", "text": "hi"},
+    {"type": "play_sound", "sound": "chirp"},
+    {"type": "set_led", "colour": [1, 0, 0]},
+    {"type": "set_face", "expression": "smile"},
+    {"type": "set_emotion", "valence": 0.1, "arousal": 0.1},
+    {"type": "cancel", "target": "nothing"},
+    {"type": "reset", "fade": 0.1},
+]
 
 
 def _mutate(draw, doc):
@@ -130,8 +187,11 @@ def _mutate(draw, doc):
     return doc
 
 
-shaped = st.builds(lambda t, extra: {"type": t, **extra}, st.sampled_from([c["type"] for c in TEMPLATES] + ["dance"]),
-                   st.dictionaries(st.sampled_from(FIELDS), values, max_size=4))
+shaped = st.builds(
+    lambda t, extra: {"type": t, **extra},
+    st.sampled_from([c["type"] for c in TEMPLATES] + ["dance"]),
+    st.dictionaries(st.sampled_from(FIELDS), values, max_size=4),
+)
 documents = st.one_of(values, shaped, st.dictionaries(st.sampled_from(FIELDS), values, max_size=5))
 
 
@@ -142,11 +202,21 @@ def _encode(v) -> bytes:
 
 nested = st.integers(60, 5_000).map(lambda d: ("[" * d + "]" * d).encode())
 nested_objects = st.integers(60, 3_000).map(lambda d: ('{"a":' * d + "1" + "}" * d).encode())
-raw_bodies = st.one_of(documents.map(_encode), nested, nested_objects, st.binary(max_size=64),
-                       st.text(max_size=64).map(lambda s: s.encode("utf-8", "surrogatepass")),
-                       st.integers(900_000, 1_200_000).map(lambda n: b'"' + b"y" * n + b'"'))
-HOSTILE = settings(max_examples=REST_EXAMPLES, derandomize=True, deadline=None, database=None,
-                   suppress_health_check=list(HealthCheck))
+raw_bodies = st.one_of(
+    documents.map(_encode),
+    nested,
+    nested_objects,
+    st.binary(max_size=64),
+    st.text(max_size=64).map(lambda s: s.encode("utf-8", "surrogatepass")),
+    st.integers(900_000, 1_200_000).map(lambda n: b'"' + b"y" * n + b'"'),
+)
+HOSTILE = settings(
+    max_examples=REST_EXAMPLES,
+    derandomize=True,
+    deadline=None,
+    database=None,
+    suppress_health_check=list(HealthCheck),
+)
 
 
 def _plausible(draw, srv, path: str):
@@ -160,7 +230,9 @@ def _plausible(draw, srv, path: str):
     if path.startswith("/api/inputs/"):
         return _mutate(draw, {"value": [0.5, 0.0, 0.3] if path.endswith("gaze_target") else 0.2})
     if path.startswith("/api/postures/"):
-        return _mutate(draw, {"name": "p", "values": {"head_yaw": 0.2, "mouth": "smile", "eye_leds": [1, 0, 0]}})
+        return _mutate(
+            draw, {"name": "p", "values": {"head_yaw": 0.2, "mouth": "smile", "eye_leds": [1, 0, 0]}}
+        )
     if path.startswith("/api/clips/"):
         return _mutate(draw, srv.clip)
     if path.startswith("/api/blocks/"):
@@ -184,10 +256,14 @@ def test_rest_body_routes_never_5xx_and_rejections_change_nothing(server, data):
     _check_response(server, r)
 
 
-ws_messages = st.one_of(documents.map(lambda v: json.dumps(v, allow_nan=True)),
-                        st.sampled_from(TEMPLATES), st.binary(max_size=256),
-                        st.text(max_size=40), nested.map(bytes.decode),
-                        st.integers(60_000, 200_000).map(lambda n: json.dumps({"type": "say", "text": "z" * n})))
+ws_messages = st.one_of(
+    documents.map(lambda v: json.dumps(v, allow_nan=True)),
+    st.sampled_from(TEMPLATES),
+    st.binary(max_size=256),
+    st.text(max_size=40),
+    nested.map(bytes.decode),
+    st.integers(60_000, 200_000).map(lambda n: json.dumps({"type": "say", "text": "z" * n})),
+)
 
 
 @settings(HOSTILE, max_examples=WS_EXAMPLES)
@@ -231,16 +307,23 @@ def _reply(ws, timeout: float = 30.0) -> dict:
 def test_deep_nesting_is_a_4xx_on_every_body_route(server, depth):
     for method, path in _routes(server.node):
         for body in ("[" * depth + "]" * depth, '{"a":' * depth + "1" + "}" * depth):
-            r = server.http.request(method, path, content=body.encode(), headers={"content-type": "application/json"})
+            r = server.http.request(
+                method, path, content=body.encode(), headers={"content-type": "application/json"}
+            )
             SENT["rest"] += 1
             assert r.status_code in (400, 413), (path, r.status_code, r.text[:200])
             _check_response(server, r)
 
 
 def test_bare_nan_and_nan_fields_are_4xx_that_serialise(server):
-    for path, body in [("/api/inputs/arousal", b"NaN"), ("/api/inputs/arousal", b'{"value": NaN}'),
-                       ("/api/inputs/arousal", b'{"value": 1e999}'), ("/api/previz/ghost", b'{"visible": NaN}'),
-                       ("/api/previz/ghost", b"NaN"), ("/api/inputs/arousal", b'{"value": Infinity}')]:
+    for path, body in [
+        ("/api/inputs/arousal", b"NaN"),
+        ("/api/inputs/arousal", b'{"value": NaN}'),
+        ("/api/inputs/arousal", b'{"value": 1e999}'),
+        ("/api/previz/ghost", b'{"visible": NaN}'),
+        ("/api/previz/ghost", b"NaN"),
+        ("/api/inputs/arousal", b'{"value": Infinity}'),
+    ]:
         r = server.http.put(path, content=body, headers={"content-type": "application/json"})
         SENT["rest"] += 1
         assert 400 <= r.status_code < 500 and r.json()["detail"]["code"] == "non_finite", (path, body, r.text)
@@ -256,7 +339,9 @@ def test_lone_surrogates_are_rejected_and_never_kill_a_socket(server, control_so
         SENT["ws"] += 1
         err = _reply(control_socket)
         assert err["type"] == "error" and err["code"] == "invalid_unicode"
-    control_socket.send(json.dumps({"id": "still-open", "type": "set_emotion", "valence": 0.0, "arousal": 0.0}))
+    control_socket.send(
+        json.dumps({"id": "still-open", "type": "set_emotion", "valence": 0.0, "arousal": 0.0})
+    )
     assert _reply(control_socket)["id"] == "still-open"
     server.state = _state(server.http)
 
@@ -282,10 +367,16 @@ def test_binary_messages_are_answered_on_every_websocket(server):
 def test_library_writes_are_validated_before_anything_is_stored(server):
     http, postures = server.http, server.robot / "postures"
     junk = {"values": {"head_yaw": [[[[[[{"a": [1, 2, 3]}]]]]]]}, "padding": ["x" * 50] * 100}
-    for kind, doc in [("postures", junk), ("postures", {"name": "x", "values": {"head_yaw": 99.0}}),
-                      ("postures", {"values": {"no_such_dof": 0.1}}), ("postures", {"values": {}}),
-                      ("postures", {"head_yaw": 0.1}), ("clips", {"tracks": {"no_such_dof": [{"t": 0, "v": 0}]}}),
-                      ("clips", junk), ("programs", junk)]:
+    for kind, doc in [
+        ("postures", junk),
+        ("postures", {"name": "x", "values": {"head_yaw": 99.0}}),
+        ("postures", {"values": {"no_such_dof": 0.1}}),
+        ("postures", {"values": {}}),
+        ("postures", {"head_yaw": 0.1}),
+        ("clips", {"tracks": {"no_such_dof": [{"t": 0, "v": 0}]}}),
+        ("clips", junk),
+        ("programs", junk),
+    ]:
         r = http.put(f"/api/{kind}/stored", json=doc)
         SENT["rest"] += 1
         assert r.status_code == 422, (kind, doc, r.text)
@@ -305,8 +396,10 @@ def test_a_chunked_body_is_stopped_at_the_limit_with_413(server):
     """11 MB of chunked body (no Content-Length): the server answers 413 once it has read 1 MB, while
     the body is still incomplete; before, it read everything and only then answered."""
     with socket.create_connection(("127.0.0.1", server.port), timeout=30) as s:
-        s.sendall(b"POST /api/commands HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nContent-Type: application/json\r\n"
-                  b"Transfer-Encoding: chunked\r\n\r\n" % server.port)
+        s.sendall(
+            b"POST /api/commands HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nContent-Type: application/json\r\n"
+            b"Transfer-Encoding: chunked\r\n\r\n" % server.port
+        )
         chunk = b"[" + b"1," * 32_000 + b"1]"
         sent = 0
         try:
@@ -327,17 +420,21 @@ def test_a_chunked_body_is_stopped_at_the_limit_with_413(server):
 
 
 def test_a_declared_oversized_body_is_refused_before_reading(server):
-    r = server.http.post("/api/commands", content=b"x" * 1_000_001, headers={"content-type": "application/json"})
+    r = server.http.post(
+        "/api/commands", content=b"x" * 1_000_001, headers={"content-type": "application/json"}
+    )
     SENT["rest"] += 1
     assert r.status_code == 413 and r.json()["detail"]["code"] == "too_large"
     _check_response(server, r)
 
 
 def test_wrong_types_name_the_field(server):
-    for path, body, field in [("/api/inputs/arousal", {"value": "loud"}, "arousal"),
-                              ("/api/inputs/arousal", {"volume": 1}, "value"),
-                              ("/api/previz/ghost", {"visible": [1]}, "visible"),
-                              ("/api/commands", {"type": "set_led", "colour": "red"}, "colour")]:
+    for path, body, field in [
+        ("/api/inputs/arousal", {"value": "loud"}, "arousal"),
+        ("/api/inputs/arousal", {"volume": 1}, "value"),
+        ("/api/previz/ghost", {"visible": [1]}, "visible"),
+        ("/api/commands", {"type": "set_led", "colour": "red"}, "colour"),
+    ]:
         r = server.http.request("POST" if path.endswith("commands") else "PUT", path, json=body)
         SENT["rest"] += 1
         assert r.status_code == 422 and r.json()["detail"]["field"] == field, r.text

@@ -63,8 +63,9 @@ class GltfBuilder:
         self.gltf.nodes.append(pygltflib.Node(name=name))
         return len(self.gltf.nodes) - 1
 
-    def accessor(self, arr: np.ndarray, type_: str, *, stride_pad: int = 0, ctype: int = 5126,
-                 normalized: bool = False) -> int:
+    def accessor(
+        self, arr: np.ndarray, type_: str, *, stride_pad: int = 0, ctype: int = 5126, normalized: bool = False
+    ) -> int:
         arr = np.asarray(arr)
         width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[type_]
         arr = arr.reshape(-1, width)
@@ -79,23 +80,41 @@ class GltfBuilder:
         stride = elem + stride_pad
         for row in data:
             self.blob += row.tobytes() + b"\0" * stride_pad
-        view = pygltflib.BufferView(buffer=0, byteOffset=offset, byteLength=stride * len(data),
-                                    byteStride=stride if stride_pad else None)
+        view = pygltflib.BufferView(
+            buffer=0,
+            byteOffset=offset,
+            byteLength=stride * len(data),
+            byteStride=stride if stride_pad else None,
+        )
         self.gltf.bufferViews.append(view)
-        self.gltf.accessors.append(pygltflib.Accessor(bufferView=len(self.gltf.bufferViews) - 1,
-                                                      componentType=ctype, count=len(data), type=type_,
-                                                      normalized=normalized))
+        self.gltf.accessors.append(
+            pygltflib.Accessor(
+                bufferView=len(self.gltf.bufferViews) - 1,
+                componentType=ctype,
+                count=len(data),
+                type=type_,
+                normalized=normalized,
+            )
+        )
         return len(self.gltf.accessors) - 1
 
     def channel(self, node: int, path: str, times, values, type_: str, interp: str = "LINEAR", **kw) -> None:
-        s = pygltflib.AnimationSampler(input=self.accessor(np.asarray(times), "SCALAR"),
-                                       output=self.accessor(values, type_, **kw), interpolation=interp)
+        s = pygltflib.AnimationSampler(
+            input=self.accessor(np.asarray(times), "SCALAR"),
+            output=self.accessor(values, type_, **kw),
+            interpolation=interp,
+        )
         self.samplers.append(s)
-        self.channels.append(pygltflib.AnimationChannel(
-            sampler=len(self.samplers) - 1, target=pygltflib.AnimationChannelTarget(node=node, path=path)))
+        self.channels.append(
+            pygltflib.AnimationChannel(
+                sampler=len(self.samplers) - 1, target=pygltflib.AnimationChannelTarget(node=node, path=path)
+            )
+        )
 
     def save(self, path: Path, mode: str = "datauri") -> Path:
-        self.gltf.animations = [pygltflib.Animation(name="wave", samplers=self.samplers, channels=self.channels)]
+        self.gltf.animations = [
+            pygltflib.Animation(name="wave", samplers=self.samplers, channels=self.channels)
+        ]
         blob = bytes(self.blob)
         if mode == "glb":
             self.gltf.buffers = [pygltflib.Buffer(byteLength=len(blob))]
@@ -157,7 +176,9 @@ def build_gltf(path: Path, mode: str = "datauri") -> Path:
     b.channel(neck, "rotation", NECK_T, qa(G([0, 1, 0]), NECK_A), "VEC4")
     b.channel(neck, "translation", NECK_T, np.array([[0, 0, 0.1], [0, 0, 0.2]]), "VEC3")
     # normalised int16 quaternions
-    b.channel(ear, "rotation", EAR_T, qa(G(urdf_axis("ear_left")), EAR_A), "VEC4", ctype=5122, normalized=True)
+    b.channel(
+        ear, "rotation", EAR_T, qa(G(urdf_axis("ear_left")), EAR_A), "VEC4", ctype=5122, normalized=True
+    )
     b.channel(tail, "rotation", [0.0, 1.0], qa(G([0, 0, 1]), [0.0, 1.0]), "VEC4")
     # CUBICSPLINE morph-target weight (scalar): exact bezier keys
     wt = np.array([[i, v, o] for i, v, o in zip(FACE_IN, FACE_V, FACE_OUT)]).reshape(-1)
@@ -169,8 +190,12 @@ def hermite(t, times, v, tin, tout):
     k = int(np.searchsorted(times, t, side="right") - 1)
     dt = times[k + 1] - times[k]
     s = (t - times[k]) / dt
-    return ((2 * s**3 - 3 * s**2 + 1) * v[k] + (s**3 - 2 * s**2 + s) * dt * tout[k]
-            + (-2 * s**3 + 3 * s**2) * v[k + 1] + (s**3 - s**2) * dt * tin[k + 1])
+    return (
+        (2 * s**3 - 3 * s**2 + 1) * v[k]
+        + (s**3 - 2 * s**2 + s) * dt * tout[k]
+        + (-2 * s**3 + 3 * s**2) * v[k + 1]
+        + (s**3 - s**2) * dt * tin[k + 1]
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -230,14 +255,32 @@ def test_gltf_import_cli(tmp_path, capsys, emb, mode):
 def test_gltf_mapping_file_and_json_report(tmp_path, capsys, emb):
     src = build_gltf(tmp_path / "anim.gltf")
     mapping = tmp_path / "map.json"
-    mapping.write_text(json.dumps({"joints": {
-        "Neck": {"dof": "neck_pitch", "scale": 0.5},
-        "Face.weights[0]": "mouth_open",
-        "Tail": None,
-    }}))
+    mapping.write_text(
+        json.dumps(
+            {
+                "joints": {
+                    "Neck": {"dof": "neck_pitch", "scale": 0.5},
+                    "Face.weights[0]": "mouth_open",
+                    "Tail": None,
+                }
+            }
+        )
+    )
     out = tmp_path / "clip.json"
-    code, stdout, err = nutty(capsys, "import", src, "--robot", "nutty_desk", "--out", out, "--map", mapping,
-                              "--name", "wave_clip", "--json")
+    code, stdout, err = nutty(
+        capsys,
+        "import",
+        src,
+        "--robot",
+        "nutty_desk",
+        "--out",
+        out,
+        "--map",
+        mapping,
+        "--name",
+        "wave_clip",
+        "--json",
+    )
     assert code == 0, err
     report = json.loads(stdout)
     doc = json.loads(out.read_text())
@@ -331,7 +374,7 @@ def test_bvh_import(tmp_path, capsys, emb):
     assert "Hips.translation: translation channel" in stdout
     assert "Hips.rotation: no DoF" in stdout
     # decimation: the linear yaw ramp needs only its two ends
-    doc2, report = import_clip(src, emb, tolerance=1e-3)
+    doc2, _report = import_clip(src, emb, tolerance=1e-3)
     assert len(doc2["tracks"]["head_yaw"]) == 2
     assert sample(doc2, emb, "head_yaw", 0.55) == pytest.approx(math.radians(22), abs=1e-3)
     assert len(doc2["tracks"]["head_pitch"]) <= n
@@ -372,7 +415,9 @@ def test_errors(tmp_path, capsys):
     code, _, err = nutty(capsys, "import", src, "--robot", "no_such_robot", "--out", out)
     assert code == 2 and "no_such_robot" in err
     empty = tmp_path / "empty.gltf"
-    pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0"), nodes=[pygltflib.Node(name="a")]).save_json(str(empty))
+    pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0"), nodes=[pygltflib.Node(name="a")]).save_json(
+        str(empty)
+    )
     code, _, err = nutty(capsys, "import", empty, "--out", out)
     assert code == 2 and "no animations" in err
     bad_map = tmp_path / "map.json"
@@ -426,8 +471,10 @@ def test_yaml_mapping_translation_to_linear_dof(tmp_path, emb):
     src = build_gltf(tmp_path / "anim.gltf")
     mapping = tmp_path / "map.yaml"
     # axes are in the robot's frame: the node's glTF +Z (0.1, 0.2) is the robot's -Y
-    mapping.write_text("joints:\n  Neck.translation: {dof: base_x, axis: [0, -1, 0], scale: 2.0, offset: -0.1}\n"
-                       "  Tail: {dof: body_yaw}\n")
+    mapping.write_text(
+        "joints:\n  Neck.translation: {dof: base_x, axis: [0, -1, 0], scale: 2.0, offset: -0.1}\n"
+        "  Tail: {dof: body_yaw}\n"
+    )
     doc, report = import_clip(src, emb, mapping)
     np.testing.assert_allclose([k["v"] for k in doc["tracks"]["base_x"]], [0.1, 0.3], atol=1e-6)
     np.testing.assert_allclose([k["v"] for k in doc["tracks"]["body_yaw"]], [0.0, 1.0], atol=1e-6)

@@ -46,7 +46,9 @@ def angle_errors(folder: Path, file: str, tmp_path: Path, capsys) -> tuple[dict,
     expected = json.loads((folder / "expected.json").read_text())
     rig, between, options = FILES[file]
     out = tmp_path / f"{file}.json"
-    code = main(["import", str(folder / file), "--robot", "nutty_desk", "--out", str(out), "--json", *options])
+    code = main(
+        ["import", str(folder / file), "--robot", "nutty_desk", "--out", str(out), "--json", *options]
+    )
     stdout, err = capsys.readouterr()
     assert code == 0, err
     report = json.loads(stdout)
@@ -62,7 +64,15 @@ def angle_errors(folder: Path, file: str, tmp_path: Path, capsys) -> tuple[dict,
 
 
 def check(report: dict, errs: dict[str, np.ndarray], rig: str, options: list[str]) -> None:
-    assert set(errs) == {"body_yaw", "neck_pitch", "head_yaw", "head_pitch", "head_roll", "ear_left", "ear_right"}
+    assert set(errs) == {
+        "body_yaw",
+        "neck_pitch",
+        "head_yaw",
+        "head_pitch",
+        "head_roll",
+        "ear_left",
+        "ear_right",
+    }
     worst = {d: float(e.max()) for d, e in errs.items()}
     assert max(worst.values()) < TOLERANCE_DEG, worst
     how = {m["dof"]: m["how"] for m in report["mapped"]}
@@ -91,7 +101,7 @@ def test_blender_rest_tilt_and_local_axes_are_not_leaked(tmp_path, capsys):
     angles = expected["rigs"]["joints"]["angles"]
     assert max(abs(a) for a in angles["head_yaw"]) > 0.5  # the rig really turns and tilts
     assert max(abs(a) for a in angles["ear_left"]) > 0.5
-    report, errs = angle_errors(ASSETS, "joints.gltf", tmp_path, capsys)
+    _report, errs = angle_errors(ASSETS, "joints.gltf", tmp_path, capsys)
     # within the key tolerance (1e-3 rad = 0.057 deg); the old importer was off by up to 44 deg
     assert float(errs["ear_left"].max()) < 0.06 and float(errs["head_yaw"].max()) < 0.06
 
@@ -100,14 +110,18 @@ def _bpy_available() -> bool:
     return importlib.util.find_spec("bpy") is not None
 
 
-@pytest.mark.skipif(not _bpy_available(), reason="bpy (Blender as a Python module) is not installed: "
-                                                  "pip install bpy (Python 3.11) to regenerate the rig")
+@pytest.mark.skipif(
+    not _bpy_available(),
+    reason="bpy (Blender as a Python module) is not installed: "
+    "pip install bpy (Python 3.11) to regenerate the rig",
+)
 def test_blender_script_regenerates_and_matches(tmp_path, capsys):
     """Run the generator with real Blender and import its fresh files (about 2 s)."""
     folder = tmp_path / "rig"
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.run([sys.executable, str(SCRIPT), str(folder)], capture_output=True, text=True,
-                          timeout=300, env=env)
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPT), str(folder)], capture_output=True, text=True, timeout=300, env=env
+    )
     if proc.returncode != 0 and "No module named 'bpy'" in proc.stderr:
         pytest.skip("bpy cannot be imported")
     assert proc.returncode == 0, proc.stderr[-2000:]

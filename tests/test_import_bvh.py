@@ -128,9 +128,33 @@ ROOT Hips
 }}
 """
 
-JOINTS = ["Hips", "LHipJoint", "LUpLeg", "LLeg", "LFoot", "LToeBase", "RHipJoint", "RUpLeg", "RLeg", "RFoot",
-          "RToeBase", "LowerBack", "Spine", "Spine1", "Neck", "Neck1", "Head", "LeftShoulder", "LeftArm",
-          "LeftForeArm", "LeftHand", "RightShoulder", "RightArm", "RightForeArm", "RightHand"]
+JOINTS = [
+    "Hips",
+    "LHipJoint",
+    "LUpLeg",
+    "LLeg",
+    "LFoot",
+    "LToeBase",
+    "RHipJoint",
+    "RUpLeg",
+    "RLeg",
+    "RFoot",
+    "RToeBase",
+    "LowerBack",
+    "Spine",
+    "Spine1",
+    "Neck",
+    "Neck1",
+    "Head",
+    "LeftShoulder",
+    "LeftArm",
+    "LeftForeArm",
+    "LeftHand",
+    "RightShoulder",
+    "RightArm",
+    "RightForeArm",
+    "RightHand",
+]
 
 
 def motion(n: int = 240, seed: int = 1) -> dict[str, np.ndarray]:
@@ -145,17 +169,27 @@ def motion(n: int = 240, seed: int = 1) -> dict[str, np.ndarray]:
         out[j] = amp * np.sin(2 * np.pi * 0.5 * t[:, None] + ph)
     out["Neck"] = np.stack([0 * t, 0 * t, 15 * np.sin(2 * np.pi * 0.5 * t)], axis=1)  # Z Y X: a nod about X
     out["Head"] = np.stack([0 * t, 30 * np.sin(2 * np.pi * 0.25 * t), 3 * np.sin(2 * np.pi * t)], axis=1)
-    hips_pos = np.stack([0.5 * np.sin(t), 17.0 + 0.1 * np.sin(4 * t), 20 * t], axis=1)  # walking +Z, in inches
+    hips_pos = np.stack(
+        [0.5 * np.sin(t), 17.0 + 0.1 * np.sin(4 * t), 20 * t], axis=1
+    )  # walking +Z, in inches
     out["Hips"] = np.concatenate([hips_pos, out["Hips"]], axis=1)
     return out
 
 
-def write_bvh(path: Path, mot: dict[str, np.ndarray], frames: int | str | None = None, frame_time: str | None = None,
-              hierarchy: str = HIERARCHY) -> Path:
+def write_bvh(
+    path: Path,
+    mot: dict[str, np.ndarray],
+    frames: int | str | None = None,
+    frame_time: str | None = None,
+    hierarchy: str = HIERARCHY,
+) -> Path:
     n = len(mot["Hips"])
     rows = np.concatenate([mot[j] for j in JOINTS], axis=1)
-    lines = [hierarchy + "MOTION", f"Frames: {n if frames is None else frames}",
-             f"Frame Time: {frame_time or repr(1 / RATE)}"]
+    lines = [
+        hierarchy + "MOTION",
+        f"Frames: {n if frames is None else frames}",
+        f"Frame Time: {frame_time or repr(1 / RATE)}",
+    ]
     lines += [" ".join(f"{v:.6f}" for v in row) for row in rows]
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -226,13 +260,16 @@ def test_naive_map_forward_z_gives_the_right_axes(cmu, tmp_path, capsys, desk):
     mp = tmp_path / "map.json"
     mp.write_text(json.dumps(NAIVE))
     out = tmp_path / "clip.json"
-    code, stdout, err = nutty(capsys, "import", src, "--map", mp, "--out", out, "--forward", "z",
-                              "--tolerance", "0", "--json")
+    code, stdout, err = nutty(
+        capsys, "import", src, "--map", mp, "--out", out, "--forward", "z", "--tolerance", "0", "--json"
+    )
     assert code == 0, err
     report = json.loads(stdout)
     doc = json.loads(out.read_text())
     times = np.arange(len(mot["Head"])) / RATE
-    nod = np.radians(mot["Neck"][:, 2])  # + about X: the head goes toward +Z, forward: the robot leans forward
+    nod = np.radians(
+        mot["Neck"][:, 2]
+    )  # + about X: the head goes toward +Z, forward: the robot leans forward
     expect = np.clip(nod, desk.dof("neck_pitch").min, desk.dof("neck_pitch").max)
     np.testing.assert_allclose(track(doc, desk, "neck_pitch", times), expect, atol=1e-6)
     np.testing.assert_allclose(track(doc, desk, "head_yaw", times), np.radians(mot["Head"][:, 1]), atol=1e-6)
@@ -241,7 +278,7 @@ def test_naive_map_forward_z_gives_the_right_axes(cmu, tmp_path, capsys, desk):
 
 
 def test_one_source_drives_two_dofs_in_order(tmp_path, desk):
-    """"Head": [head_yaw, head_pitch]: the rotation is split as yaw then pitch (Davenport angles about
+    """ "Head": [head_yaw, head_pitch]: the rotation is split as yaw then pitch (Davenport angles about
     the DoFs' axes in the listed order, what the roll axis would add is the leftover), not two twists."""
     n = 60
     t = np.arange(n) / RATE
@@ -251,9 +288,12 @@ def test_one_source_drives_two_dofs_in_order(tmp_path, desk):
     mot = motion(n)
     mot["Head"] = np.stack([yaw, nod, roll], axis=1)
     # the Head's channels in the robot's chain order: yaw (file Y), pitch (file X), roll (file Z)
-    hierarchy = HIERARCHY.replace("""OFFSET -0.0024 1.4843 -0.0592
-              CHANNELS 3 Zrotation Yrotation Xrotation""", """OFFSET -0.0024 1.4843 -0.0592
-              CHANNELS 3 Yrotation Xrotation Zrotation""")
+    hierarchy = HIERARCHY.replace(
+        """OFFSET -0.0024 1.4843 -0.0592
+              CHANNELS 3 Zrotation Yrotation Xrotation""",
+        """OFFSET -0.0024 1.4843 -0.0592
+              CHANNELS 3 Yrotation Xrotation Zrotation""",
+    )
     assert hierarchy != HIERARCHY
     src = write_bvh(tmp_path / "head.bvh", mot, hierarchy=hierarchy)
     mapping = {"joints": {"Head": [{"dof": "head_yaw"}, {"dof": "head_pitch"}]}}
@@ -262,7 +302,9 @@ def test_one_source_drives_two_dofs_in_order(tmp_path, desk):
     np.testing.assert_allclose(track(doc, desk, "head_pitch", t), np.radians(nod), atol=1e-7)
     m = {x["dof"]: x for x in report["mapped"]}
     assert "split in order head_yaw then head_pitch" in m["head_pitch"]["how"]
-    assert m["head_yaw"]["swing_max_deg"] == pytest.approx(np.abs(roll).max(), abs=1e-3)  # the roll, left over
+    assert m["head_yaw"]["swing_max_deg"] == pytest.approx(
+        np.abs(roll).max(), abs=1e-3
+    )  # the roll, left over
     # two twists of the same rotation get the pitch wrong by degrees
     q = quat_axis_angle([0, 0, 1], np.radians(yaw))
     q = quat_mul(q, quat_axis_angle([0, 1, 0], np.radians(nod)))
@@ -292,8 +334,22 @@ def test_t_pose_first_frame_warns_and_skip_frames(tmp_path, capsys, desk):
     assert [w["code"] for w in warns] == ["first_frame"]
     assert "neck_pitch" in warns[0]["message"] and "rest pose" in warns[0]["message"]
     assert warns[0]["hint"] == "--skip-frames 1 drops it"
-    code, stdout, err = nutty(capsys, "import", src, "--map", mp, "--forward", "z", "--out", out, "--json",
-                              "--skip-frames", "1", "--tolerance", "0")
+    code, stdout, err = nutty(
+        capsys,
+        "import",
+        src,
+        "--map",
+        mp,
+        "--forward",
+        "z",
+        "--out",
+        out,
+        "--json",
+        "--skip-frames",
+        "1",
+        "--tolerance",
+        "0",
+    )
     assert code == 0, err
     report = json.loads(stdout)
     assert report["warnings"] == []
@@ -308,8 +364,9 @@ def test_rest_frame_and_root_translation(tmp_path, desk):
     for j in ("Hips", "LowerBack", "Spine", "Spine1"):  # the neck's parents hold still: its axis stays X
         mot[j][:, -3:] = 0.0
     src = write_bvh(tmp_path / "walk.bvh", mot)
-    mapping = {"joints": {"Neck": "neck_pitch",
-                          "Hips.translation": {"dof": "base_x", "scale": 0.0254}}}  # inches -> m
+    mapping = {
+        "joints": {"Neck": "neck_pitch", "Hips.translation": {"dof": "base_x", "scale": 0.0254}}
+    }  # inches -> m
     doc, report = import_clip(src, desk, mapping, forward="z", rest_frame=30, tolerance=0)
     t = np.arange(120) / RATE
     neck = track(doc, desk, "neck_pitch", t)
@@ -346,6 +403,8 @@ Frame Time: 0.5
     code, stdout, err = nutty(capsys, "import", src, "--out", out, "--tolerance", "0")
     assert code == 0, err
     doc = json.loads(out.read_text())
-    np.testing.assert_allclose([k["v"] for k in doc["tracks"]["head_yaw"]], np.radians([0, 30, -20]), atol=1e-12)
+    np.testing.assert_allclose(
+        [k["v"] for k in doc["tracks"]["head_yaw"]], np.radians([0, 30, -20]), atol=1e-12
+    )
     assert "axes: source +y up and x forward -> robot +Z up, +X forward" in stdout
     assert "rest: the OFFSET pose" in stdout and "BVH channel order XZY" in stdout

@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pygltflib
 import pytest
-
-from backend.cli import main
 from test_import import G, GltfBuilder, build_gltf, qa, urdf_axis
 from test_import_bvh import HIERARCHY, JOINTS, motion, write_bvh
+
+from backend.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -78,13 +78,16 @@ def test_bvh_inf_and_text_values(walk, tmp_path, capsys):
     assert_short_error(code, err, "frame 5", "'oops', not a number")
 
 
-@pytest.mark.parametrize("header, needles", [
-    ("Frames: nan", ["Frames:", "whole number", "'nan'"]),
-    ("Frames: -3", ["Frames:", ">= 0"]),
-    ("Frame Time: nan", ["Frame Time:", "finite number", "'nan'"]),
-    ("Frame Time: inf", ["Frame Time:", "'inf'"]),
-    ("Frame Time: 0", ["Frame Time:", "> 0"]),
-])
+@pytest.mark.parametrize(
+    "header, needles",
+    [
+        ("Frames: nan", ["Frames:", "whole number", "'nan'"]),
+        ("Frames: -3", ["Frames:", ">= 0"]),
+        ("Frame Time: nan", ["Frame Time:", "finite number", "'nan'"]),
+        ("Frame Time: inf", ["Frame Time:", "'inf'"]),
+        ("Frame Time: 0", ["Frame Time:", "> 0"]),
+    ],
+)
 def test_bvh_bad_motion_header(walk, tmp_path, capsys, header, needles):
     path, mot = walk
     write_bvh(path, mot)
@@ -98,7 +101,9 @@ def test_bvh_bad_motion_header(walk, tmp_path, capsys, header, needles):
 
 def test_bvh_nan_offset(walk, tmp_path, capsys):
     path, mot = walk
-    write_bvh(path, mot, hierarchy=HIERARCHY.replace("OFFSET -0.0033 1.4612 0.0826", "OFFSET -0.0033 nan 0.0826"))
+    write_bvh(
+        path, mot, hierarchy=HIERARCHY.replace("OFFSET -0.0033 1.4612 0.0826", "OFFSET -0.0033 nan 0.0826")
+    )
     code, _, err = nutty(capsys, path, "--out", tmp_path / "c.json")
     assert_short_error(code, err, "joint 'Neck1'", "OFFSET", "'nan'")
 
@@ -118,8 +123,21 @@ def test_bvh_fill(walk, tmp_path, capsys, mode):
     mot["Head"][0, 1] = np.nan  # at the very start: held from the next good frame
     write_bvh(path, mot)
     out = tmp_path / "clip.json"
-    code, stdout, err = nutty(capsys, path, "--out", out, "--map", _naive(tmp_path), "--forward", "z",
-                              "--fill", mode, "--tolerance", "0", "--json")
+    code, stdout, err = nutty(
+        capsys,
+        path,
+        "--out",
+        out,
+        "--map",
+        _naive(tmp_path),
+        "--forward",
+        "z",
+        "--fill",
+        mode,
+        "--tolerance",
+        "0",
+        "--json",
+    )
     assert code == 0, err
     report = json.loads(stdout)
     assert f"--fill {mode}: filled 4 sample(s) (Neck.Xrotation 3, Head.Yrotation 1)" in report["notes"]
@@ -217,13 +235,20 @@ def test_real_cli_has_no_traceback(walk, tmp_path):
     write_bvh(path, mot)
     for text in (path.read_text(), path.read_text().replace("Frames: 60", "Frames: nan")):
         path.write_text(text)
-        proc = subprocess.run([sys.executable, "-m", "backend.cli", "import", str(path), "--out",
-                               str(tmp_path / "c.json")], capture_output=True, text=True, cwd=ROOT, timeout=120)
+        proc = subprocess.run(
+            [sys.executable, "-m", "backend.cli", "import", str(path), "--out", str(tmp_path / "c.json")],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+            timeout=120,
+        )
         assert proc.returncode == 2, proc.stderr
         assert "Traceback" not in proc.stderr and proc.stdout == ""
         assert proc.stderr.count("\n") <= 3 and len(proc.stderr) < 500, proc.stderr
-        assert ("frame 7 (t = 0.0583 s): Spine.Zrotation is nan" in proc.stderr
-                or "Frames: expected a whole number, got 'nan'" in proc.stderr)
+        assert (
+            "frame 7 (t = 0.0583 s): Spine.Zrotation is nan" in proc.stderr
+            or "Frames: expected a whole number, got 'nan'" in proc.stderr
+        )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -231,16 +256,25 @@ def test_real_cli_has_no_traceback(walk, tmp_path):
 # --------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("joints, needles", [
-    ({"Nek": "neck_pitch"}, ["joints.Nek", "no animated source 'Nek'", "closest: Neck"]),
-    ({"Neck": "neck_pich"}, ["joints.Neck", "no DoF 'neck_pich'", "closest: neck_pitch"]),
-    ({"Head": "head_yaw", "Head.rotation": "head_pitch"}, ["'Head' and 'Head.rotation'"]),
-    ({"Neck": "neck_pitch", "Neck1": "neck_pitch"}, ["DoF 'neck_pitch' is driven by both 'Neck' and 'Neck1'"]),
-    ({"Head": [{"dof": "head_yaw"}, {"dof": "head_yaw"}]}, ["listed twice"]),
-    ({"Head": [{"dof": "head_yaw"}, {"dof": "body_yaw"}]}, ["head_yaw then body_yaw", "parallel"]),
-    ({"Hips.translation": [{"dof": "base_x"}, {"dof": "base_y"}]}, ["only a rotation can drive several DoFs"]),
-    ({"Neck": {"dof": "neck_pitch", "axs": [0, 1, 0]}}, ["unknown keys ['axs']"]),
-])
+@pytest.mark.parametrize(
+    "joints, needles",
+    [
+        ({"Nek": "neck_pitch"}, ["joints.Nek", "no animated source 'Nek'", "closest: Neck"]),
+        ({"Neck": "neck_pich"}, ["joints.Neck", "no DoF 'neck_pich'", "closest: neck_pitch"]),
+        ({"Head": "head_yaw", "Head.rotation": "head_pitch"}, ["'Head' and 'Head.rotation'"]),
+        (
+            {"Neck": "neck_pitch", "Neck1": "neck_pitch"},
+            ["DoF 'neck_pitch' is driven by both 'Neck' and 'Neck1'"],
+        ),
+        ({"Head": [{"dof": "head_yaw"}, {"dof": "head_yaw"}]}, ["listed twice"]),
+        ({"Head": [{"dof": "head_yaw"}, {"dof": "body_yaw"}]}, ["head_yaw then body_yaw", "parallel"]),
+        (
+            {"Hips.translation": [{"dof": "base_x"}, {"dof": "base_y"}]},
+            ["only a rotation can drive several DoFs"],
+        ),
+        ({"Neck": {"dof": "neck_pitch", "axs": [0, 1, 0]}}, ["unknown keys ['axs']"]),
+    ],
+)
 def test_mapping_errors(walk, tmp_path, capsys, joints, needles):
     path, mot = walk
     write_bvh(path, mot)

@@ -9,15 +9,23 @@ import math
 
 import numpy as np
 import pytest
+from test_import import G, GltfBuilder, qa, urdf_axis
+from test_import_bvh import RATE, motion, write_bvh
 
 from backend.cli import main
 from backend.engine import trajectory
 from backend.importers import hermite_keys, import_clip
 from backend.importers.limits import analyse_clip, sampler
-from backend.importers.rotations import (axis_conversion, davenport, principal_axis, quat_axis_angle,
-                                         quat_from_matrix, quat_mul, quat_to_matrix, slerp)
-from test_import import G, GltfBuilder, qa, urdf_axis
-from test_import_bvh import RATE, motion, write_bvh
+from backend.importers.rotations import (
+    axis_conversion,
+    davenport,
+    principal_axis,
+    quat_axis_angle,
+    quat_from_matrix,
+    quat_mul,
+    quat_to_matrix,
+    slerp,
+)
 
 
 def nutty(capsys, *argv) -> tuple[int, str, str]:
@@ -32,7 +40,9 @@ def test_gltf_swing_warning_names_channel_and_axis(tmp_path, capsys):
     b = GltfBuilder()
     n = b.node("head_yaw")
     t = np.linspace(0, 1, 11)
-    q = quat_mul(qa(G([0, 0, 1]), 0.1 * np.sin(2 * np.pi * t)), qa(G([1, 0, 0]), 0.35 * np.sin(2 * np.pi * t)))
+    q = quat_mul(
+        qa(G([0, 0, 1]), 0.1 * np.sin(2 * np.pi * t)), qa(G([1, 0, 0]), 0.35 * np.sin(2 * np.pi * t))
+    )
     b.channel(n, "rotation", t, q, "VEC4")
     src = b.save(tmp_path / "roll.gltf")
     out = tmp_path / "clip.json"
@@ -41,7 +51,9 @@ def test_gltf_swing_warning_names_channel_and_axis(tmp_path, capsys):
     report = json.loads(stdout)
     (w,) = report["warnings"]
     assert w["code"] == "swing" and w["channel"] == "head_yaw.rotation" and w["dofs"] == ["head_yaw"]
-    assert w["swing_max_deg"] == pytest.approx(math.degrees(0.35 * math.sin(0.4 * math.pi)), abs=0.2)  # at t=0.2
+    assert w["swing_max_deg"] == pytest.approx(
+        math.degrees(0.35 * math.sin(0.4 * math.pi)), abs=0.2
+    )  # at t=0.2
     assert float(np.dot(w["suggested_axis"], [1, 0, 0])) > 0.95  # mostly the roll (some yaw too)
     assert "map it to 'head_roll'" in w["hint"] and '"axis": [' in w["hint"]
     m = report["mapped"][0]
@@ -72,7 +84,9 @@ def test_limits_report_fit_and_nmf(tmp_path, capsys, desk):
     mp = tmp_path / "map.json"
     mp.write_text(json.dumps({"joints": {"Neck": "neck_pitch"}}))
     out = tmp_path / "clip.json"
-    code, stdout, err = nutty(capsys, src, "--map", mp, "--forward", "z", "--out", out, "--json", "--tolerance", "0")
+    code, stdout, err = nutty(
+        capsys, src, "--map", mp, "--forward", "z", "--out", out, "--json", "--tolerance", "0"
+    )
     assert code == 0, err
     lim = json.loads(stdout)["limits"]
     row = lim["dofs"]["neck_pitch"]
@@ -88,7 +102,9 @@ def test_limits_report_fit_and_nmf(tmp_path, capsys, desk):
     code, stdout, err = nutty(capsys, src, "--map", mp, "--forward", "z", "--out", out, "--tolerance", "0")
     assert "neck_pitch: velocity" in stdout and "to fit: play it 1.5" in stdout and "NMF preset" in stdout
     # --fit-limits slows it down and says so; the clip is then within the limits
-    code, stdout, err = nutty(capsys, src, "--map", mp, "--forward", "z", "--out", out, "--json", "--fit-limits")
+    code, stdout, err = nutty(
+        capsys, src, "--map", mp, "--forward", "z", "--out", out, "--json", "--fit-limits"
+    )
     assert code == 0, err
     report = json.loads(stdout)
     s = report["limits"]["fit_applied"]
@@ -105,11 +121,11 @@ def test_limits_report_fit_and_nmf(tmp_path, capsys, desk):
 def test_within_limits_says_so(tmp_path, capsys):
     src = tmp_path / "slow.csv"
     src.write_text("time,head_yaw\n0,0\n2,0.2\n4,0\n")
-    code, stdout, err = nutty(capsys, src, "--out", tmp_path / "c.json", "--json")
+    _code, stdout, _err = nutty(capsys, src, "--out", tmp_path / "c.json", "--json")
     lim = json.loads(stdout)["limits"]
     # linear keys: a corner at t = 2 s is a jump in velocity (acceleration over the limit at 100 Hz)
     assert lim["dofs"]["head_yaw"]["velocity"] == 0
-    code, stdout, err = nutty(capsys, src, "--out", tmp_path / "c.json", "--interp", "bezier")
+    _code, stdout, _err = nutty(capsys, src, "--out", tmp_path / "c.json", "--interp", "bezier")
     assert "limits: every DoF is within its velocity, acceleration and jerk limits" in stdout
 
 
@@ -119,10 +135,18 @@ def test_trajectory_helpers():
     x = np.stack([0.3 * np.sin(2 * np.pi * t), 0.01 * t], axis=1)
     counts = trajectory.limit_counts(x, rate, [1.5, 1.0], [5.0, 1.0], [60.0, 1.0])
     a = trajectory.analyze(x, rate, [1.5, 1.0], [5.0, 1.0], [60.0, 1.0])
-    assert counts[1] == {"samples": 300, "velocity": 0, "max_velocity": pytest.approx(0.01),
-                         "velocity_limit": 1.0, "acceleration": 0, "max_acceleration": pytest.approx(0.0, abs=1e-9),
-                         "acceleration_limit": 1.0, "jerk": 0, "max_jerk": pytest.approx(0.0, abs=1e-6),
-                         "jerk_limit": 1.0}
+    assert counts[1] == {
+        "samples": 300,
+        "velocity": 0,
+        "max_velocity": pytest.approx(0.01),
+        "velocity_limit": 1.0,
+        "acceleration": 0,
+        "max_acceleration": pytest.approx(0.0, abs=1e-9),
+        "acceleration_limit": 1.0,
+        "jerk": 0,
+        "max_jerk": pytest.approx(0.0, abs=1e-6),
+        "jerk_limit": 1.0,
+    }
     # the same samples as analyze's classes (a sample over several limits counts in each here)
     over_any = (np.abs(a.velocity) > 1.5) | (np.abs(a.acceleration) > 5) | (np.abs(a.jerk) > 60)
     assert int(over_any[:, 0].sum()) == int((a.classes[:, 0] != 0).sum())
@@ -183,7 +207,9 @@ def test_rotation_maths():
     # Davenport: angles about 3 chain axes in order, exact; with 2 axes the third is the leftover
     z, y, x = np.eye(3)[2], np.eye(3)[1], np.eye(3)[0]
     a = rng.uniform(-1.2, 1.2, size=(50, 3))
-    q = quat_mul(quat_mul(quat_axis_angle(z, a[:, 0]), quat_axis_angle(y, a[:, 1])), quat_axis_angle(x, a[:, 2]))
+    q = quat_mul(
+        quat_mul(quat_axis_angle(z, a[:, 0]), quat_axis_angle(y, a[:, 1])), quat_axis_angle(x, a[:, 2])
+    )
     ang, left = davenport(q, [z, y, x])
     np.testing.assert_allclose(ang, a, atol=1e-9)
     assert left.max() < 1e-7

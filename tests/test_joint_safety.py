@@ -14,16 +14,19 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from joint_truth import TEST_ROBOTS, joint_truth
+from test_safe_swaps import program
 
 from backend.engine.embodiment import load_embodiment
 from backend.engine.runtime import Sink
 from backend.engine.safety import SafetyNet
 from backend.session import EngineSession
-from joint_truth import TEST_ROBOTS, joint_truth
-from test_safe_swaps import program
 
-ROBOTS = {"nutty_desk": "nutty_desk", "pan_tilt_eyes": TEST_ROBOTS / "pan_tilt_eyes",
-          "lift_arm": TEST_ROBOTS / "lift_arm"}
+ROBOTS = {
+    "nutty_desk": "nutty_desk",
+    "pan_tilt_eyes": TEST_ROBOTS / "pan_tilt_eyes",
+    "lift_arm": TEST_ROBOTS / "lift_arm",
+}
 _EMB: dict[str, object] = {}
 
 
@@ -45,8 +48,9 @@ def drive(emb, targets: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray
 
 # --- random streams -------------------------------------------------------------------------------
 
-SEGMENT = st.tuples(st.sampled_from(["step", "noise", "sine", "hold"]), st.integers(3, 60),
-                    st.integers(0, 2**31 - 1))
+SEGMENT = st.tuples(
+    st.sampled_from(["step", "noise", "sine", "hold"]), st.integers(3, 60), st.integers(0, 2**31 - 1)
+)
 
 
 def stream(emb, segments, rate: float) -> np.ndarray:
@@ -94,7 +98,7 @@ def test_random_streams_keep_every_joint_within_its_limits(name, rate, segments)
 
 
 def test_a_feasible_composition_passes_through_bit_for_bit():
-    emb, truth = robot("nutty_desk")
+    emb, _truth = robot("nutty_desk")
     rate = 100.0
     t = np.arange(400) / rate
     targets = np.tile(emb.rest, (len(t), 1))
@@ -103,7 +107,7 @@ def test_a_feasible_composition_passes_through_bit_for_bit():
     fade_in = u**3 * (10 - 15 * u + 6 * u**2)  # smooth to the second derivative
     targets[:, ci["gaze_yaw"]] = 0.3 * np.sin(2 * np.pi * 0.3 * t) * fade_in
     targets[:, ci["head_yaw"]] = 0.2 * np.sin(2 * np.pi * 0.2 * t) * fade_in
-    out, joints, net = drive(emb, targets, rate)
+    out, _joints, net = drive(emb, targets, rate)
     assert np.array_equal(out, targets)
     assert not net.joint_corrections.any() and net.corrected_ticks == 0
 
@@ -160,10 +164,14 @@ def test_a_puppet_stream_on_joint_and_gaze_channels_stays_within_the_joints(desk
     session = EngineSession.create(desk, rate=100.0, program=program("interactive"))
     frames = run(session, 10)
     rng = np.random.default_rng(7)
-    for k in range(150):
+    for _k in range(150):
         v = rng.uniform(-1, 1, 3)
-        session.execute({"type": "puppet", "values": {"body_yaw": 2.5 * v[0], "gaze_yaw": 1.5 * v[1],
-                                                      "head_yaw": 1.2 * v[2]}})
+        session.execute(
+            {
+                "type": "puppet",
+                "values": {"body_yaw": 2.5 * v[0], "gaze_yaw": 1.5 * v[1], "head_yaw": 1.2 * v[2]},
+            }
+        )
         frames += run(session, 2)
     session.execute({"type": "puppet", "release": True})
     frames += run(session, 200)
@@ -219,18 +227,24 @@ def test_saving_a_posture_or_clip_that_leaves_a_joint_range_warns_naming_the_joi
     session = EngineSession.create(desk, rate=100, program=builtin_idle(desk.name))
     session.library.folder = tmp_path
     with TestClient(create_app(session, frontend_dir=None)) as client:
-        bow = client.put("/api/postures/bow", json={"values": {"neck_pitch": 0.5, "gaze_pitch": 0.45,
-                                                               "head_pitch": 0.45}}).json()
+        bow = client.put(
+            "/api/postures/bow", json={"values": {"neck_pitch": 0.5, "gaze_pitch": 0.45, "head_pitch": 0.45}}
+        ).json()
         assert bow["saved"] == "bow"
         neck, head = bow["warnings"]
         # 0.5 + 0.6 x 0.45 = 0.77 against 0.5; 0.45 + 0.4 x 0.45 = 0.63 against 0.45
         assert "'neck_pitch'" in neck and "0.770" in neck and "0.27 above its upper limit 0.5" in neck
         assert "'head_pitch'" in head and "0.18 above its upper limit 0.45" in head
-        assert client.put("/api/postures/fine", json={"values": {"neck_pitch": 0.2, "gaze_pitch": 0.3}}).json() \
-            == {"saved": "fine"}
-        clip = {"format": "nutty-clip/1", "tracks": {
-            "gaze_yaw": [{"t": 0.0, "v": 0.0}, {"t": 1.0, "v": 1.5}],
-            "head_yaw": [{"t": 0.0, "v": 0.0}, {"t": 1.0, "v": 1.0}]}}
+        assert client.put(
+            "/api/postures/fine", json={"values": {"neck_pitch": 0.2, "gaze_pitch": 0.3}}
+        ).json() == {"saved": "fine"}
+        clip = {
+            "format": "nutty-clip/1",
+            "tracks": {
+                "gaze_yaw": [{"t": 0.0, "v": 0.0}, {"t": 1.0, "v": 1.5}],
+                "head_yaw": [{"t": 0.0, "v": 0.0}, {"t": 1.0, "v": 1.0}],
+            },
+        }
         saved = client.put("/api/clips/look_far", json=clip).json()
         (warning,) = saved["warnings"]
         # head_yaw joint: 1.0 + 0.7 x 1.5 = 2.05 against 1.2, at the clip's end
@@ -241,8 +255,11 @@ def test_saving_a_posture_or_clip_that_leaves_a_joint_range_warns_naming_the_joi
 
 
 @pytest.mark.parametrize("name", ["pan_tilt_eyes", "lift_arm"])
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                               HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=6,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
 @given(data=st.data())
 def test_random_postures_swaps_and_resets_keep_the_joints_within_limits(name, data):
     from backend.commands.serve import builtin_idle
@@ -255,8 +272,13 @@ def test_random_postures_swaps_and_resets_keep_the_joints_within_limits(name, da
         for k in range(data.draw(st.integers(1, 3), label="postures")):
             values = {d.name: data.draw(st.floats(d.min, d.max), label=d.name) for d in cont}
             emb.postures[f"random{k}"] = values
-            session.execute({"type": "go_posture", "posture": f"random{k}",
-                             "duration": data.draw(st.floats(0.05, 1.0), label="duration")})
+            session.execute(
+                {
+                    "type": "go_posture",
+                    "posture": f"random{k}",
+                    "duration": data.draw(st.floats(0.05, 1.0), label="duration"),
+                }
+            )
             frames += run(session, data.draw(st.integers(10, 150), label="ticks"))
             if data.draw(st.booleans(), label="swap"):
                 session.load_program(builtin_idle(emb.name))

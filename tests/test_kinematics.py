@@ -72,7 +72,7 @@ def test_jacobians_match_finite_differences(desk, tip):
     for _ in range(5):
         q = rng.uniform(chain.lower, chain.upper)
         j = chain.jacobian(q, point)
-        _, p, d, jp, jd = chain.kinematics(q, point, direction)
+        _, _p, d, jp, jd = chain.kinematics(q, point, direction)
         assert np.allclose(j[:3], jp)
         for i in range(chain.n):
             dq = np.zeros(chain.n)

@@ -29,8 +29,13 @@ DOCUMENTED_URL = "http://127.0.0.1:8000"  # the server URL docs/ai.md configures
 
 
 def clip_doc(name: str) -> dict:
-    return {"format": "nutty-clip/1", "name": name, "description": f"{name}: a quick look left and back.",
-            "relative": True, "tracks": {"head_yaw": [{"t": 0, "v": 0}, {"t": 0.3, "v": 0.25}, {"t": 0.6, "v": 0}]}}
+    return {
+        "format": "nutty-clip/1",
+        "name": name,
+        "description": f"{name}: a quick look left and back.",
+        "relative": True,
+        "tracks": {"head_yaw": [{"t": 0, "v": 0}, {"t": 0.3, "v": 0.25}, {"t": 0.6, "v": 0}]},
+    }
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +61,9 @@ def documented_config(url: str) -> StdioServerParameters:
     entry = json.loads(block)["mcpServers"]["nutty"]
     assert entry["command"] == "nutty" and entry["args"][:2] == ["mcp", "--url"]
     command = mcp_command(*[url if a == DOCUMENTED_URL else a for a in entry["args"][1:]])
-    return StdioServerParameters(command=command[0], args=command[1:], env={**os.environ, **entry.get("env", {})})
+    return StdioServerParameters(
+        command=command[0], args=command[1:], env={**os.environ, **entry.get("env", {})}
+    )
 
 
 def text_of(result: types.CallToolResult) -> str:
@@ -74,8 +81,18 @@ def test_the_documented_client_lists_plays_waits_cancels_and_sees_the_tools_chan
         params = documented_config(server.url)
         async with mcp.Client(params, mode="legacy", message_handler=on_message) as client:
             tools = {t.name: t for t in (await client.list_tools()).tools}
-            assert {"play_clip", "set_posture", "look_at", "set_emotion", "say", "set_led", "set_face", "stop",
-                    "cancel", "get_status"} <= set(tools)
+            assert {
+                "play_clip",
+                "set_posture",
+                "look_at",
+                "set_emotion",
+                "say",
+                "set_led",
+                "set_face",
+                "stop",
+                "cancel",
+                "get_status",
+            } <= set(tools)
             clips = sorted(p.stem for p in (server.folder / "clips").glob("*.json"))
             assert tools["play_clip"].input_schema["properties"]["clip"]["enum"] == clips
 
@@ -128,8 +145,12 @@ def wait_for_port(port: int, proc: subprocess.Popen, timeout: float = 60.0) -> N
 
 def test_streamable_http_client_with_subscriptions(server):
     port = free_port()
-    proc = subprocess.Popen(mcp_command("--url", server.url, "--http", str(port)), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        mcp_command("--url", server.url, "--http", str(port)),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         wait_for_port(port, proc)
 
@@ -141,7 +162,9 @@ def test_streamable_http_client_with_subscriptions(server):
                 assert '"nutty_desk"' in robot.contents[0].text
                 async with client.listen(tools_list_changed=True) as events:
                     async with httpx.AsyncClient(base_url=server.url) as http:
-                        assert (await http.put("/api/clips/glance", json=clip_doc("glance"))).status_code == 200
+                        assert (
+                            await http.put("/api/clips/glance", json=clip_doc("glance"))
+                        ).status_code == 200
                     await asyncio.wait_for(events.__anext__(), TIMEOUT)
                 tools = {t.name: t for t in (await client.list_tools()).tools}
                 assert "glance" in tools["play_clip"].input_schema["properties"]["clip"]["enum"]
@@ -171,7 +194,9 @@ def test_an_unreachable_server_is_a_tool_error_not_a_crash():
     asyncio.run(main())
 
 
-@pytest.mark.parametrize("args, fragment", [(["--url", "ftp://robot"], "--url"), (["--http", "70000"], "--http")])
+@pytest.mark.parametrize(
+    "args, fragment", [(["--url", "ftp://robot"], "--url"), (["--http", "70000"], "--http")]
+)
 def test_bad_command_line_is_refused(capsys, args, fragment):
     from backend.cli import main
 
@@ -183,9 +208,15 @@ def test_stdio_answers_every_line_and_goes_on_working():
     """A line that is not JSON, NaN, Infinity, a lone surrogate, deep nesting, a duplicate key and a
     message that is no JSON-RPC each get a JSON-RPC error (the field named where there is one), and
     the session still answers a handshake afterwards. No server is needed for any of this."""
-    proc = subprocess.Popen(mcp_command("--url", f"http://127.0.0.1:{free_port()}"), stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, encoding="utf-8",
-                            errors="surrogatepass")
+    proc = subprocess.Popen(
+        mcp_command("--url", f"http://127.0.0.1:{free_port()}"),
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        encoding="utf-8",
+        errors="surrogatepass",
+    )
 
     def ask(line: str) -> dict:
         proc.stdin.write(line + "\n")
@@ -198,9 +229,15 @@ def test_stdio_answers_every_line_and_goes_on_working():
         assert bad["error"]["code"] == -32700 and bad["id"] is None
         nan = ask(call % (2, '{"valence": NaN, "arousal": 0}'))
         assert nan["id"] == 2 and nan["error"]["code"] == -32602
-        assert nan["error"]["data"]["field"] == "params.arguments.valence" and "NaN" in nan["error"]["message"]
+        assert (
+            nan["error"]["data"]["field"] == "params.arguments.valence" and "NaN" in nan["error"]["message"]
+        )
         inf = ask(call % (3, '{"valence": 0, "arousal": -Infinity}'))
-        assert inf["id"] == 3 and inf["error"]["code"] == -32602 and "infinity" in inf["error"]["message"].lower()
+        assert (
+            inf["id"] == 3
+            and inf["error"]["code"] == -32602
+            and "infinity" in inf["error"]["message"].lower()
+        )
         sur = ask(call % (4, '{"valence": 0, "arousal": 0, "note": "\\ud800"}'))
         assert sur["id"] == 4 and sur["error"]["data"]["field"] == "params.arguments.note"
         deep = ask(call % (5, "[" * 5000 + "]" * 5000))
@@ -209,8 +246,20 @@ def test_stdio_answers_every_line_and_goes_on_working():
         assert dup["error"]["data"] == {"field": "id", "code": "duplicate_key"}
         odd = ask('{"jsonrpc": "2.0", "id": 8}')
         assert odd["id"] == 8 and odd["error"]["code"] == -32600
-        hello = ask(json.dumps({"jsonrpc": "2.0", "id": 9, "method": "initialize", "params": {
-            "protocolVersion": "2025-06-18", "capabilities": {}, "clientInfo": {"name": "t", "version": "1"}}}))
+        hello = ask(
+            json.dumps(
+                {
+                    "jsonrpc": "2.0",
+                    "id": 9,
+                    "method": "initialize",
+                    "params": {
+                        "protocolVersion": "2025-06-18",
+                        "capabilities": {},
+                        "clientInfo": {"name": "t", "version": "1"},
+                    },
+                }
+            )
+        )
         assert hello["id"] == 9 and hello["result"]["serverInfo"]["name"] == "nutty"
     finally:
         proc.stdin.close()

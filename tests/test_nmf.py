@@ -27,7 +27,7 @@ def test_omega_fades_toward_limits_only():
     assert omega(2.0, 12.5, -10, 20, 1) == pytest.approx(2.0 * 0.75)
     assert omega(-2.0, 12.5, -10, 20, 1) == -2.0  # moving away from the limit: untouched
     assert omega(2.0, 20.0, -10, 20, 5) == 0.0
-    assert omega(-3.0, -2.5, -10, 20, 2) == pytest.approx(-3.0 * (1 - 0.5 ** 4))
+    assert omega(-3.0, -2.5, -10, 20, 2) == pytest.approx(-3.0 * (1 - 0.5**4))
 
 
 def test_h_at_known_points():
@@ -95,8 +95,9 @@ def test_hard_limiter_and_bypass_by_hand():
 
 
 def test_position_clip_zeroes_velocity_and_acceleration():
-    f = MotionFilter(1, 60, order=1, bypass=True, limiter="hard", vel_limit=1000, pmin=-1, pmax=1, x0=0.9,
-                     beta=1e9)  # beta huge: Ω is ~identity until the very edge
+    f = MotionFilter(
+        1, 60, order=1, bypass=True, limiter="hard", vel_limit=1000, pmin=-1, pmax=1, x0=0.9, beta=1e9
+    )  # beta huge: Ω is ~identity until the very edge
     f.step(np.array([5.0]))
     assert f.position[0] == 1.0
     assert f.velocity[0] == 0.0 and f.acceleration[0] == 0.0
@@ -117,8 +118,9 @@ def test_nan_setpoint_holds_latest():
 @pytest.mark.parametrize("name", list(PRESETS))
 @pytest.mark.parametrize("layout", ["few", "many", "grouped"])  # one-pass kernel, passes, coupled passes
 def test_compiled_kernel_equals_numpy_reference_and_run_equals_step(order, limiter, name, layout):
-    x = np.concatenate([np.stack([ex.phi_l(), ex.phi_r(), ex.phi_c()], axis=1)] * (1 if layout == "few" else 3),
-                       axis=1)
+    x = np.concatenate(
+        [np.stack([ex.phi_l(), ex.phi_r(), ex.phi_c()], axis=1)] * (1 if layout == "few" else 3), axis=1
+    )
     x = x[::2]  # 5 s at 60 Hz: every step of the inputs, half the time (the numpy reference is slow)
     x[::7, 1] = np.nan  # "no new set-point" every 7th sample on one DoF
     n = x.shape[1]
@@ -134,15 +136,23 @@ def test_compiled_kernel_equals_numpy_reference_and_run_equals_step(order, limit
     # differences on, so the two agree to 1e-11 relative, not bit for bit
     for q in ("position", "velocity", "acceleration", "jerk"):
         ref_q = getattr(oracle, q)
-        np.testing.assert_allclose(getattr(batch, q), ref_q, rtol=1e-11, atol=1e-11 * np.abs(ref_q).max(), err_msg=q)
+        np.testing.assert_allclose(
+            getattr(batch, q), ref_q, rtol=1e-11, atol=1e-11 * np.abs(ref_q).max(), err_msg=q
+        )
     np.testing.assert_array_equal(np.array([stepper.step(row).copy() for row in x]), batch.position)
     np.testing.assert_array_equal(stepper.jerk, batch.jerk[-1])
 
 
 def test_own_tanh_is_within_4_ulp_of_libm():
     rng = np.random.default_rng(3)
-    x = np.concatenate([rng.uniform(-25, 25, 200_000), rng.normal(0, 1e-3, 10_000), np.logspace(-300, 2, 3000),
-                        [0.0, 19.0, 20.0, 21.0, 1e300, -1e300]])
+    x = np.concatenate(
+        [
+            rng.uniform(-25, 25, 200_000),
+            rng.normal(0, 1e-3, 10_000),
+            np.logspace(-300, 2, 3000),
+            [0.0, 19.0, 20.0, 21.0, 1e300, -1e300],
+        ]
+    )
     got = tanh_np(x)
     want = np.tanh(x)
     ulp = np.abs(got - want) / np.spacing(np.maximum(np.abs(want), np.finfo(float).tiny))
@@ -152,11 +162,15 @@ def test_own_tanh_is_within_4_ulp_of_libm():
 
 def test_own_power_is_within_2e_13_of_libm():
     rng = np.random.default_rng(4)
-    b = np.concatenate([10.0 ** rng.uniform(-300, 12, 100_000), [5e-324, 1e-310, 2.0 ** -500, 1.0, 1e12,
-                                                                  math.sqrt(2), math.sqrt(2) - 1e-16]])
+    b = np.concatenate(
+        [
+            10.0 ** rng.uniform(-300, 12, 100_000),
+            [5e-324, 1e-310, 2.0**-500, 1.0, 1e12, math.sqrt(2), math.sqrt(2) - 1e-16],
+        ]
+    )
     e = rng.uniform(0.0, 1.0, b.size)
     e[:500] = 1e-12
-    want = b ** e
+    want = b**e
     got = pow_np(b, e)
     ok = want > 1e-290  # below, e ln b < -700 is clamped: the result is < 1e-304 either way
     assert (np.abs(got - want)[ok] <= 2e-13 * want[ok]).all()
@@ -167,8 +181,9 @@ def test_own_power_is_within_2e_13_of_libm():
 def test_omega_and_h_inside_one_step_by_hand():
     # order 1, hard limiter with a huge V: the step is x' = x + H(Ω(v)) dt exactly as in the spec
     x0, s, rate = 6.0, 9.0, 50.0
-    f = MotionFilter(1, rate, order=1, limiter="hard", vel_limit=1e9, sigma=1.0, rho=0.0, pmin=-10, pmax=10,
-                     beta=2, x0=x0)
+    f = MotionFilter(
+        1, rate, order=1, limiter="hard", vel_limit=1e9, sigma=1.0, rho=0.0, pmin=-10, pmax=10, beta=2, x0=x0
+    )
     f.step(np.array([s]))
     v = (s - x0) * rate * (1 - (x0 / 10) ** 4)  # centre 0, alpha 10, 2 beta = 4
     u = v * 0.5 * (math.tanh(1.0 - math.pi) + 1)  # sigma = 1: the power is 1 for every v
@@ -181,7 +196,11 @@ def test_omega_and_h_inside_one_step_by_hand():
 
 
 def _phi_l(name, limiter="tanh", order=3):
-    return MotionFilter.from_preset(name, 1, 60, order=order, limiter=limiter).run(ex.phi_l()[:, None]).position[:, 0]
+    return (
+        MotionFilter.from_preset(name, 1, 60, order=order, limiter=limiter)
+        .run(ex.phi_l()[:, None])
+        .position[:, 0]
+    )
 
 
 def test_presets_behave_as_the_paper_reports():
@@ -207,8 +226,10 @@ def test_a_sustains_low_speed_far_below_its_limit():
 
 
 def test_lower_order_higher_sustained_velocity():
-    peaks = [np.abs(MotionFilter.from_preset("W", 1, 60, order=o).run(ex.phi_l()[:, None]).velocity).max()
-             for o in (1, 2, 3)]
+    peaks = [
+        np.abs(MotionFilter.from_preset("W", 1, 60, order=o).run(ex.phi_l()[:, None]).velocity).max()
+        for o in (1, 2, 3)
+    ]
     assert peaks[0] > peaks[1] >= peaks[2] - 1e-9
 
 
@@ -291,7 +312,9 @@ def test_per_dof_parameters_and_bypass():
 
 
 def test_infinite_position_bound_clips_only_the_finite_side():
-    f = MotionFilter(1, 60, order=1, bypass=True, limiter="hard", vel_limit=1000, pmin=-np.inf, pmax=1.0, x0=0.0)
+    f = MotionFilter(
+        1, 60, order=1, bypass=True, limiter="hard", vel_limit=1000, pmin=-np.inf, pmax=1.0, x0=0.0
+    )
     f.step(np.array([5.0]))
     assert f.position[0] == 1.0 and f.velocity[0] == 0.0
     f.step(np.array([-50.0]))

@@ -35,20 +35,44 @@ def _fd(x, x0, rate):
     return vel, acc, jerk
 
 
-@settings(max_examples=200, deadline=None, derandomize=True, database=None,
-          suppress_health_check=[HealthCheck.too_slow])
-@given(sps=setpoint_streams, order=st.sampled_from([1, 2, 3]), sigma=st.floats(0, 1), rho=st.floats(0, 1),
-       V=st.floats(0.5, 200), a_ratio=st.floats(2, 20), q=st.floats(0.01, 3.0),
-       rate=st.sampled_from([30.0, 60.0, 100.0, 200.0, 500.0]),
-       bypass=st.booleans(), limits=st.booleans(), beta=st.floats(1, 100))
+@settings(
+    max_examples=200,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+@given(
+    sps=setpoint_streams,
+    order=st.sampled_from([1, 2, 3]),
+    sigma=st.floats(0, 1),
+    rho=st.floats(0, 1),
+    V=st.floats(0.5, 200),
+    a_ratio=st.floats(2, 20),
+    q=st.floats(0.01, 3.0),
+    rate=st.sampled_from([30.0, 60.0, 100.0, 200.0, 500.0]),
+    bypass=st.booleans(),
+    limits=st.booleans(),
+    beta=st.floats(1, 100),
+)
 def test_limits_hold_on_the_output(sps, order, sigma, rho, V, a_ratio, q, rate, bypass, limits, beta):
     # Inputs are arbitrary; A = 2-20 V (the presets: 5-8 V); J = q A rate, i.e. one sample's jerk
     # budget J dt is q A (the presets at 60 Hz: q = 1.2-1.7).
     A = V * a_ratio
     J = q * A * rate
     kw = dict(pmin=-20.0, pmax=20.0, beta=beta) if limits else {}
-    f = MotionFilter(1, rate, order=order, sigma=sigma, rho=rho, vel_limit=V, acc_limit=A, jerk_limit=J,
-                     bypass=bypass, **kw)
+    f = MotionFilter(
+        1,
+        rate,
+        order=order,
+        sigma=sigma,
+        rho=rho,
+        vel_limit=V,
+        acc_limit=A,
+        jerk_limit=J,
+        bypass=bypass,
+        **kw,
+    )
     x0 = float(sps[0])
     x0 = min(max(x0, -20.0), 20.0) if limits else x0
     f.reset(x0)
@@ -70,10 +94,10 @@ def test_limits_hold_on_the_output(sps, order, sigma, rho, V, a_ratio, q, rate, 
     ulp = np.spacing(np.abs(np.r_[x0, x]).max())
     assert (np.abs(vel[ok]) <= V / 2 * (1 + TOL) + 2 * ulp * rate).all()
     if order >= 2:
-        assert (np.abs(acc[ok]) <= A * (1 + TOL) + 4 * ulp * rate ** 2).all()
+        assert (np.abs(acc[ok]) <= A * (1 + TOL) + 4 * ulp * rate**2).all()
     if order == 3:
         bound = J if q >= Q_MIN else 1.7 * J  # see Q_MIN
-        assert (np.abs(jerk[ok]) <= bound * (1 + TOL) + 8 * ulp * rate ** 3).all()
+        assert (np.abs(jerk[ok]) <= bound * (1 + TOL) + 8 * ulp * rate**3).all()
 
 
 def test_known_limit_of_the_spec_small_jerk_budget():
@@ -88,22 +112,47 @@ def test_known_limit_of_the_spec_small_jerk_budget():
     assert 1.0 < np.abs(jerk).max() / J < 1.7
 
 
-log_floats = st.floats(-6, 100).map(lambda e: 10.0 ** e)
+log_floats = st.floats(-6, 100).map(lambda e: 10.0**e)
 
 
 @settings(max_examples=120, deadline=None, derandomize=True, database=None)
-@given(n=st.integers(1, 6), order=st.sampled_from([1, 2, 3]), limiter=st.sampled_from(["tanh", "hard"]),
-       sps=st.lists(st.floats(allow_nan=False, allow_infinity=False), min_size=6, max_size=6),
-       sigma=st.floats(0, 1), rho=st.floats(0, 1), V=log_floats, A=log_floats, J=log_floats,
-       rate=st.sampled_from([1e-3, 1.0, 60.0, 1e6]), limits=st.booleans(), bound=log_floats,
-       beta=st.floats(1, 1e6), grouped=st.booleans(), numba=st.booleans())
-def test_never_nan_or_inf_for_finite_inputs(n, order, limiter, sps, sigma, rho, V, A, J, rate, limits, bound, beta,
-                                            grouped, numba):
+@given(
+    n=st.integers(1, 6),
+    order=st.sampled_from([1, 2, 3]),
+    limiter=st.sampled_from(["tanh", "hard"]),
+    sps=st.lists(st.floats(allow_nan=False, allow_infinity=False), min_size=6, max_size=6),
+    sigma=st.floats(0, 1),
+    rho=st.floats(0, 1),
+    V=log_floats,
+    A=log_floats,
+    J=log_floats,
+    rate=st.sampled_from([1e-3, 1.0, 60.0, 1e6]),
+    limits=st.booleans(),
+    bound=log_floats,
+    beta=st.floats(1, 1e6),
+    grouped=st.booleans(),
+    numba=st.booleans(),
+)
+def test_never_nan_or_inf_for_finite_inputs(
+    n, order, limiter, sps, sigma, rho, V, A, J, rate, limits, bound, beta, grouped, numba
+):
     # Any in-range parameters and any finite set-points (up to ±1.8e308), coupled or not, compiled or
     # the numpy reference: every reported quantity stays finite.
     kw = dict(pmin=-bound, pmax=bound, beta=beta) if limits else {}
-    f = MotionFilter(n, rate, order=order, limiter=limiter, sigma=sigma, rho=rho, vel_limit=V, acc_limit=A,
-                     jerk_limit=J, groups=[[0, n - 1]] if grouped and n > 1 else None, use_numba=numba, **kw)
+    f = MotionFilter(
+        n,
+        rate,
+        order=order,
+        limiter=limiter,
+        sigma=sigma,
+        rho=rho,
+        vel_limit=V,
+        acc_limit=A,
+        jerk_limit=J,
+        groups=[[0, n - 1]] if grouped and n > 1 else None,
+        use_numba=numba,
+        **kw,
+    )
     for k, s in enumerate(sps):
         f.step(np.full(n, s) * (-1.0) ** np.arange(n))
         for q in (f.position, f.velocity, f.acceleration, f.jerk):
@@ -111,8 +160,12 @@ def test_never_nan_or_inf_for_finite_inputs(n, order, limiter, sps, sigma, rho, 
 
 
 @settings(max_examples=40, deadline=None, derandomize=True, database=None)
-@given(name=st.sampled_from([p for p in PRESETS if PRESETS[p].sigma < 1 or PRESETS[p].bypass]),
-       order=st.sampled_from([1, 2, 3]), start=st.floats(-10, 10), target=st.floats(-10, 10))
+@given(
+    name=st.sampled_from([p for p in PRESETS if PRESETS[p].sigma < 1 or PRESETS[p].bypass]),
+    order=st.sampled_from([1, 2, 3]),
+    start=st.floats(-10, 10),
+    target=st.floats(-10, 10),
+)
 def test_constant_setpoint_is_reached_and_held(name, order, start, target):
     f = MotionFilter.from_preset(name, 1, 60, order=order, x0=start)
     res = f.run(np.full((60 * 20, 1), target))

@@ -10,8 +10,10 @@ from backend.engine.blocks.posture import ease
 from backend.session import EngineSession
 
 
-@pytest.mark.parametrize("name", ["linear", "sine_in_out", "quad_in_out", "cubic_in_out", "quint_in_out",
-                                  "back_out", "elastic_out"])
+@pytest.mark.parametrize(
+    "name",
+    ["linear", "sine_in_out", "quad_in_out", "cubic_in_out", "quint_in_out", "back_out", "elastic_out"],
+)
 def test_easings_start_at_0_and_end_at_1(name):
     assert ease(name, 0.0) == pytest.approx(0.0, abs=1e-9)
     assert ease(name, 1.0) == pytest.approx(1.0)

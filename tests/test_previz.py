@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from server_process import free_port
 
 from backend.engine.frames import FrameEvent
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
-from server_process import free_port
 
 
 @pytest.fixture()
@@ -27,9 +27,7 @@ def previz(desk):
 
 def test_frames_pose_robot_leds_face_and_captions(previz, desk):
     session = previz.session
-    frame = None
-    for frame in session.run_headless(30):
-        pass
+    frame = list(session.run_headless(30))[-1]
     frame.position[desk.dof("eye_leds").channels] = [1.0, 0.0, 0.5]
     frame.position[desk.dof("mouth").channels] = 1
     frame.events = [FrameEvent("speech", "say", {"text": "hello there"})]
@@ -78,8 +76,13 @@ def test_gaze_drags_count_only_from_trusted_clients(previz):
     previz.session.engine.tick()
     assert previz.session.inputs()["gaze_target"] == pytest.approx([1.0, 0.0, 0.3])
     url = f"ws://127.0.0.1:{previz.port}"
-    with connect(url, subprotocols=[f"viser-v{viser.__version__}"], origin=f"http://localhost:{previz.port}",
-                 max_size=None, open_timeout=30) as ws:
+    with connect(
+        url,
+        subprotocols=[f"viser-v{viser.__version__}"],
+        origin=f"http://localhost:{previz.port}",
+        max_size=None,
+        open_timeout=30,
+    ) as ws:
         ws.recv(timeout=30)  # connected and checked: its drags count
         (client_id,) = previz.trusted_clients
         assert previz.drag_gaze([0.4, -0.2, 0.3], client_id=client_id)
@@ -112,7 +115,9 @@ def test_the_proxy_fetches_viser_pages(previz):
     from backend.previz import fetch_page
 
     status, headers, body = asyncio.run(fetch_page(previz.port, ""))
-    assert status == 200 and headers["content-type"].startswith("text/html") and b"<html" in body[:500].lower()
+    assert (
+        status == 200 and headers["content-type"].startswith("text/html") and b"<html" in body[:500].lower()
+    )
     status, _, _ = asyncio.run(fetch_page(previz.port, "../../etc/passwd"))
     assert status == 404
 
@@ -148,7 +153,11 @@ def test_the_editor_embeds_the_page_without_viser_panel_and_notices(previz):
         embedded, alone = c.get("/previz/?embed=1"), c.get("/previz/")
     assert embedded.status_code == alone.status_code == 200
     style = embedded.text.split('<style id="nutty-embed">', 1)[1].split("</style>", 1)[0]
-    assert "[data-floating-window]" in style and ".mantine-Notifications-root" in style and "display: none" in style
+    assert (
+        "[data-floating-window]" in style
+        and ".mantine-Notifications-root" in style
+        and "display: none" in style
+    )
     assert embedded.text.index("nutty-embed") < embedded.text.index("</head>")
     assert "nutty-embed" not in alone.text  # popped out, the page keeps viser's own panel
 

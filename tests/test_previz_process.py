@@ -7,10 +7,10 @@ import time
 
 import numpy as np
 import pytest
+from server_process import free_port
 
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
-from server_process import free_port
 
 
 def wait_until(predicate, timeout: float = 30.0, what: str = "") -> None:
@@ -27,8 +27,11 @@ def remote(desk):
 
     b = ProgramBuilder("gaze")
     b.expose("gaze_target", type="vec3", default=[1.0, 0.0, 0.3])
-    b.chain(b.node("sine", "s", dofs=["head_yaw"], amplitude=0.3, frequency=0.5),
-            b.node("nmf_stage2", "nmf"), b.output())
+    b.chain(
+        b.node("sine", "s", dofs=["head_yaw"], amplitude=0.3, frequency=0.5),
+        b.node("nmf_stage2", "nmf"),
+        b.output(),
+    )
     session = EngineSession.create(desk, rate=100, program=b.build())
     pv = PreVizProcess(session, port=free_port())
     pv.wait_ready()
@@ -71,8 +74,13 @@ def test_gaze_drags_set_the_servers_input_from_trusted_clients_only(remote):
     session.engine.tick()
     assert session.inputs()["gaze_target"] == pytest.approx([0.5, 0.2, 0.4])
     url = f"ws://127.0.0.1:{remote.port}"
-    with connect(url, subprotocols=[f"viser-v{viser.__version__}"], origin=f"http://localhost:{remote.port}",
-                 max_size=None, open_timeout=30) as ws:
+    with connect(
+        url,
+        subprotocols=[f"viser-v{viser.__version__}"],
+        origin=f"http://localhost:{remote.port}",
+        max_size=None,
+        open_timeout=30,
+    ) as ws:
         ws.recv(timeout=30)
         wait_until(lambda: len(remote.trusted_clients) == 1, what="the child's report of a trusted client")
         (client_id,) = remote.trusted_clients
@@ -141,11 +149,18 @@ def test_with_a_token_the_childs_port_serves_nobody_but_the_proxy(desk):
     try:
         pv.wait_ready()
         url = f"ws://127.0.0.1:{pv.port}"
-        with connect(url, subprotocols=[f"viser-v{viser.__version__}"], origin=f"http://localhost:{pv.port}",
-                     max_size=None, open_timeout=30) as ws:
-            with pytest.raises(ConnectionClosed) as closed:
-                while True:
-                    ws.recv(timeout=30)
+        with (
+            connect(
+                url,
+                subprotocols=[f"viser-v{viser.__version__}"],
+                origin=f"http://localhost:{pv.port}",
+                max_size=None,
+                open_timeout=30,
+            ) as ws,
+            pytest.raises(ConnectionClosed) as closed,
+        ):
+            while True:
+                ws.recv(timeout=30)
         assert closed.value.rcvd.code == 4403 and "token" in closed.value.rcvd.reason
         assert pv.trusted_clients == frozenset()
     finally:

@@ -37,7 +37,9 @@ def test_one_tick_in_every_is_timed_node_by_node(session):
     assert [n["node"] for n in summary["nodes"]] == [s.node_id for s in apu.steps]  # tick order
     look_at = next(n for n in summary["nodes"] if n["node"] == "look_at")
     assert look_at["type"] == "ik" and 0 < look_at["p50_us"] <= look_at["p99_us"] <= look_at["max_us"]
-    assert sum(n["share"] for n in summary["nodes"]) == pytest.approx(1.0, abs=0.2)  # the APU's own loop aside
+    assert sum(n["share"] for n in summary["nodes"]) == pytest.approx(
+        1.0, abs=0.2
+    )  # the APU's own loop aside
     assert summary["apu"]["mean_us"] >= max(n["mean_us"] for n in summary["nodes"])
     Profile.model_validate(summary)
 
@@ -95,8 +97,14 @@ def test_clients_subscribed_alike_share_one_message_per_slot(session):
     subs = []
     for _ in range(3):
         sub = Subscription()
-        sub.update({"type": "subscribe", "signals": [{"node": "gaze", "port": "on_target"}], "frames": True,
-                    "rate": 30})
+        sub.update(
+            {
+                "type": "subscribe",
+                "signals": [{"node": "gaze", "port": "on_target"}],
+                "frames": True,
+                "rate": 30,
+            }
+        )
         sub.profile_at = float("inf")  # no cook times in these messages
         subs.append(sub)
     first = subs[0].text(session, session.engine.last_frame, slot=(30.0, 7))
@@ -117,7 +125,16 @@ def test_signals_are_written_together_as_one_at_a_time(session, desk):
         session.engine.run_ticks(7)
         values = [apu.signal_value(node, port) for node, port in ports]
         assert [signal_json(desk, v) for v in values] == signals_json(desk, values)
-    odd = [float("nan"), np.float64(0.25), 3, True, "text", None, np.arange(20.0), PartialFrame.empty(desk.n_channels)]
+    odd = [
+        float("nan"),
+        np.float64(0.25),
+        3,
+        True,
+        "text",
+        None,
+        np.arange(20.0),
+        PartialFrame.empty(desk.n_channels),
+    ]
     assert signals_json(desk, odd) == [signal_json(desk, v) for v in odd]
     short = PartialFrame(np.ones(3), np.ones(3, dtype=bool))  # not over the robot's channels: one at a time
     assert signals_json(desk, [short, odd[-1]]) == [signal_json(desk, short), signal_json(desk, odd[-1])]
@@ -125,7 +142,9 @@ def test_signals_are_written_together_as_one_at_a_time(session, desk):
 
 def test_run_profile_prints_a_table(capsys, tmp_path):
     out = tmp_path / "out.csv"
-    code = main(["run", str(PROGRAMS / "interactive.json"), "--seconds", "0.3", "--out", str(out), "--profile"])
+    code = main(
+        ["run", str(PROGRAMS / "interactive.json"), "--seconds", "0.3", "--out", str(out), "--profile"]
+    )
     printed = capsys.readouterr().out.splitlines()
     assert code == 0 and printed[0].split()[:2] == ["node", "type"]
     rows = [line.split() for line in printed[1:-1]]

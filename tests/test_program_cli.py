@@ -54,13 +54,18 @@ def test_validate_json_report(capsys):
     assert code == 0
     report = json.loads(out)
     assert report == {"valid": True, "level": 3, "errors": [], "warnings": []}
-    code, out, _ = nutty(capsys, "validate", GOLDEN / "invalid" / "unknown_dof.json", "--robot", "nutty_desk", "--json")
+    code, out, _ = nutty(
+        capsys, "validate", GOLDEN / "invalid" / "unknown_dof.json", "--robot", "nutty_desk", "--json"
+    )
     assert code == 1
     report = json.loads(out)
     assert report["valid"] is False and report["level"] == 2
     (err,) = report["errors"]
-    assert {k: err[k] for k in ("code", "node", "port")} == {"code": "unknown_dof", "node": "mixer",
-                                                            "port": "layers[1].mask"}
+    assert {k: err[k] for k in ("code", "node", "port")} == {
+        "code": "unknown_dof",
+        "node": "mixer",
+        "port": "layers[1].mask",
+    }
     assert "tail" in err["message"] and err["path"] == "nodes[3].params.layers[1].mask[1]"
 
 
@@ -100,13 +105,20 @@ def test_validate_level_limit_and_warnings(capsys, tmp_path):
 def test_validate_cannot_read(capsys, tmp_path):
     code, _, err = nutty(capsys, "validate", tmp_path / "missing.json")
     assert code == 2 and "cannot read program" in err
-    code, _, err = nutty(capsys, "validate", GOLDEN / "valid" / "level0_rest.json", "--robot", tmp_path / "nobot")
+    code, _, err = nutty(
+        capsys, "validate", GOLDEN / "valid" / "level0_rest.json", "--robot", tmp_path / "nobot"
+    )
     assert code == 2 and "no robot" in err
 
 
 def test_validate_as_a_real_command():
-    proc = subprocess.run([sys.executable, "-m", "backend.cli", "validate", str(GOLDEN / "invalid" / "cycle.json"),
-                           "--json"], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "backend.cli", "validate", str(GOLDEN / "invalid" / "cycle.json"), "--json"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 1
     assert [e["code"] for e in json.loads(proc.stdout)["errors"]] == ["cycle"]
 
@@ -145,7 +157,9 @@ def test_new_layers_template_switches_its_look_layer(capsys, tmp_path):
     commands = tmp_path / "cmd.jsonl"
     commands.write_text('{"t": 1.0, "type": "set_layer", "layer": "look", "active": true, "fade": 0.2}\n')
     out = tmp_path / "out.csv"
-    assert nutty(capsys, "run", path, "--seconds", 2, "--rate", 50, "--out", out, "--commands", commands)[0] == 0
+    assert (
+        nutty(capsys, "run", path, "--seconds", 2, "--rate", 50, "--out", out, "--commands", commands)[0] == 0
+    )
     header, data = read_csv(out)
     col = header.index("body_yaw")
     assert abs(data[40, col]) < 0.05 < abs(data[-1, col])
@@ -156,8 +170,19 @@ def test_new_layers_template_switches_its_look_layer(capsys, tmp_path):
 
 def test_run_writes_exactly_seconds_times_rate_rows(capsys, tmp_path):
     out = tmp_path / "out.csv"
-    code, _, err = nutty(capsys, "run", GOLDEN / "valid" / "level3_safe_idle.json", "--robot", "nutty_desk",
-                         "--seconds", 1.5, "--rate", 80, "--out", out)
+    code, _, err = nutty(
+        capsys,
+        "run",
+        GOLDEN / "valid" / "level3_safe_idle.json",
+        "--robot",
+        "nutty_desk",
+        "--seconds",
+        1.5,
+        "--rate",
+        80,
+        "--out",
+        out,
+    )
     assert code == 0, err
     header, data = read_csv(out)
     assert header == ["t", *load_embodiment("nutty_desk").continuous_names]
@@ -165,7 +190,9 @@ def test_run_writes_exactly_seconds_times_rate_rows(capsys, tmp_path):
     assert np.allclose(np.diff(data[:, 0]), 1 / 80)
     assert "wrote 120 frames" in err
     # The program's own rate is the default.
-    code, _, _ = nutty(capsys, "run", GOLDEN / "valid" / "level3_safe_idle.json", "--seconds", 0.5, "--out", out)
+    code, _, _ = nutty(
+        capsys, "run", GOLDEN / "valid" / "level3_safe_idle.json", "--seconds", 0.5, "--out", out
+    )
     assert code == 0 and read_csv(out)[1].shape[0] == 100  # "rate": 200 in the file
 
 
@@ -187,10 +214,14 @@ def test_run_set_changes_the_output(capsys, tmp_path):
 def test_run_commands_replays_timed_inputs(capsys, tmp_path):
     program = GOLDEN / "valid" / "level1_chain.json"
     commands = tmp_path / "cmd.jsonl"
-    commands.write_text("# arousal drops to zero after half a second\n"
-                        '{"t": 0.5, "type": "set_input", "name": "arousal", "value": 0.0}\n')
+    commands.write_text(
+        "# arousal drops to zero after half a second\n"
+        '{"t": 0.5, "type": "set_input", "name": "arousal", "value": 0.0}\n'
+    )
     out = tmp_path / "out.csv"
-    code, _, err = nutty(capsys, "run", program, "--seconds", 2, "--rate", 100, "--out", out, "--commands", commands)
+    code, _, err = nutty(
+        capsys, "run", program, "--seconds", 2, "--rate", 100, "--out", out, "--commands", commands
+    )
     assert code == 0, err
     header, data = read_csv(out)
     col = header.index("head_yaw")
@@ -206,7 +237,9 @@ def test_run_commands_replays_timed_inputs(capsys, tmp_path):
 
 def test_run_invalid_program_prints_every_error(capsys, tmp_path):
     out = tmp_path / "out.csv"
-    code, _, err = nutty(capsys, "run", GOLDEN / "invalid" / "edge_into_unknown_type.json", "--seconds", 1, "--out", out)
+    code, _, err = nutty(
+        capsys, "run", GOLDEN / "invalid" / "edge_into_unknown_type.json", "--seconds", 1, "--out", out
+    )
     assert code == 1
     assert "[unknown_block_type] breath:" in err
 
@@ -216,9 +249,24 @@ def test_run_unsafe_no_limits_writes_the_programs_own_frames(capsys, tmp_path):
     commands = tmp_path / "cmd.jsonl"
     commands.write_text('{"t": 0.5, "type": "set_input", "name": "arousal", "value": 0.0}\n')
     safe, raw = tmp_path / "safe.csv", tmp_path / "raw.csv"
-    assert nutty(capsys, "run", program, "--seconds", 1, "--rate", 100, "--out", safe, "--commands", commands)[0] == 0
-    code, _, err = nutty(capsys, "run", program, "--seconds", 1, "--rate", 100, "--out", raw, "--commands", commands,
-                         "--unsafe-no-limits")
+    assert (
+        nutty(capsys, "run", program, "--seconds", 1, "--rate", 100, "--out", safe, "--commands", commands)[0]
+        == 0
+    )
+    code, _, err = nutty(
+        capsys,
+        "run",
+        program,
+        "--seconds",
+        1,
+        "--rate",
+        100,
+        "--out",
+        raw,
+        "--commands",
+        commands,
+        "--unsafe-no-limits",
+    )
     assert code == 0 and "safety net is OFF" in err
     header, s = read_csv(safe)
     _, r = read_csv(raw)

@@ -73,7 +73,7 @@ def test_invalid_program_reports_exactly_its_error(desk, name):
     if "line" in exp:
         assert (err.line, err.column) == (exp["line"], exp["column"])
         assert f"line {exp['line']}" in err.message
-    assert err.message and err.message[0].islower() or err.message[0] in "'\"["
+    assert (err.message and err.message[0].islower()) or err.message[0] in "'\"["
     assert err.code in err.render() and err.message in err.render()
 
 
@@ -87,14 +87,16 @@ def test_all_errors_are_reported_at_once(desk):
     doc["inputs"].append({"name": "breath_depth", "type": "float"})  # duplicate_input
     result = compile_program(json.dumps(doc), desk)
     got = sorted((e.code, e.node, e.port) for e in result.report.errors)
-    assert got == sorted([
-        ("invalid_param", "breath", "amplitude"),
-        ("unknown_dof", "look", "values"),
-        ("unknown_dof", "mixer", "layers[1].mask"),
-        ("unknown_block_type", "bogus", None),
-        ("unknown_node", "ghost", "out"),
-        ("duplicate_input", None, "breath_depth"),
-    ]), [e.render() for e in result.report.errors]
+    assert got == sorted(
+        [
+            ("invalid_param", "breath", "amplitude"),
+            ("unknown_dof", "look", "values"),
+            ("unknown_dof", "mixer", "layers[1].mask"),
+            ("unknown_block_type", "bogus", None),
+            ("unknown_node", "ghost", "out"),
+            ("duplicate_input", None, "breath_depth"),
+        ]
+    ), [e.render() for e in result.report.errors]
     # The level is still computed for the parts that are fine.
     assert result.report.level == 2
 
@@ -128,7 +130,9 @@ def test_union_type_errors_are_one_error_per_value(desk):
     b = ProgramBuilder("pose")
     b.chain(b.node("pose", "p", values={"head_yaw": {"deg": 30}}), b.output())
     errors = compile_program(b.to_dict(), desk).report.errors
-    assert [(e.code, e.port, e.path) for e in errors] == [("invalid_param", "values", "nodes[0].params.values.head_yaw")]
+    assert [(e.code, e.port, e.path) for e in errors] == [
+        ("invalid_param", "values", "nodes[0].params.values.head_yaw")
+    ]
 
 
 def test_edges_around_a_broken_node_do_not_cascade(desk):
@@ -153,7 +157,10 @@ def test_edge_checks_still_apply_on_the_known_end_of_an_unknown_block(desk):
     b.connect(x, b.output(), "out", "input")
     errors = compile_program(b.to_dict(), desk).report.errors
     assert sorted((e.code, e.node, e.port) for e in errors) == [
-        ("missing_input", "output", "in"), ("unknown_block_type", "x", None), ("unknown_port", "output", "input")]
+        ("missing_input", "output", "in"),
+        ("unknown_block_type", "x", None),
+        ("unknown_port", "output", "input"),
+    ]
 
 
 def test_cycle_reports_the_loop_not_what_it_feeds(desk):
@@ -179,14 +186,26 @@ def test_top_level_field_errors_do_not_hide_graph_errors(desk):
     doc["rate"] = 5000
     doc["nodes"][0]["type"] = "resting"
     errors = compile_program(doc, desk).report.errors
-    assert sorted((e.code, e.path) for e in errors) == [("schema", "rate"), ("unknown_block_type", "nodes[0].type")]
+    assert sorted((e.code, e.path) for e in errors) == [
+        ("schema", "rate"),
+        ("unknown_block_type", "nodes[0].type"),
+    ]
 
 
-@pytest.mark.parametrize("source, code", [
-    ("", "malformed_json"), ("[1, 2", "malformed_json"), ("[]", "schema"), ("42", "schema"), ("null", "schema"),
-    ({"nodes": []}, "wrong_format"), ({"format": 1}, "wrong_format"), ("[" * 100000, "malformed_json"),
-    (b'\xef\xbb\xbf{"format": "nutty-program/1", "nodes": 3}', "schema"),
-])
+@pytest.mark.parametrize(
+    "source, code",
+    [
+        ("", "malformed_json"),
+        ("[1, 2", "malformed_json"),
+        ("[]", "schema"),
+        ("42", "schema"),
+        ("null", "schema"),
+        ({"nodes": []}, "wrong_format"),
+        ({"format": 1}, "wrong_format"),
+        ("[" * 100000, "malformed_json"),
+        (b'\xef\xbb\xbf{"format": "nutty-program/1", "nodes": 3}', "schema"),
+    ],
+)
 def test_garbage_documents(desk, source, code):
     result = compile_program(source, desk)
     assert result.report.errors and result.report.errors[0].code == code
@@ -204,8 +223,9 @@ def test_level_check_names_the_binding_limit(desk):
     errors = compile_program(text, desk, max_level=0).report.errors
     assert [(e.code, e.node) for e in errors] == [("level_too_high", "scale")]
     # An engine that refuses the level: the session rejects the program and keeps running the old one.
-    session = EngineSession.create(desk, program_text=(GOLDEN / "valid" / "level0_rest.json").read_text(),
-                                   max_level=1)
+    session = EngineSession.create(
+        desk, program_text=(GOLDEN / "valid" / "level0_rest.json").read_text(), max_level=1
+    )
     apu = session.engine.apu
     with pytest.raises(SessionError) as exc:
         session.load_program((GOLDEN / "valid" / "level3_safe_idle.json").read_text())
@@ -213,12 +233,15 @@ def test_level_check_names_the_binding_limit(desk):
     assert session.engine.apu is apu
 
 
-@pytest.mark.parametrize("mutate, code", [
-    (lambda d: d["nodes"].append({"id": "lonely", "type": "sine"}), "unconnected_node"),
-    (lambda d: d["nodes"][4]["params"]["layers"][2].update(weight=0.0), "zero_weight_layer"),
-    (lambda d: d["edges"].pop(3), "empty_layer"),
-    (lambda d: d["inputs"].append({"name": "spare", "type": "bool"}), "unused_input"),
-])
+@pytest.mark.parametrize(
+    "mutate, code",
+    [
+        (lambda d: d["nodes"].append({"id": "lonely", "type": "sine"}), "unconnected_node"),
+        (lambda d: d["nodes"][4]["params"]["layers"][2].update(weight=0.0), "zero_weight_layer"),
+        (lambda d: d["edges"].pop(3), "empty_layer"),
+        (lambda d: d["inputs"].append({"name": "spare", "type": "bool"}), "unused_input"),
+    ],
+)
 def test_warnings(desk, mutate, code):
     doc = json.loads((GOLDEN / "valid" / "level2_layers.json").read_text())
     mutate(doc)
@@ -271,7 +294,13 @@ def test_paths_count_items_left_out_for_schema_errors(desk):
     doc["edges"].append({"from": {"node": "sway", "port": "out"}, "to": {"node": "output", "port": "in"}})
     doc["inputs"].append({"name": "arousal"})
     errors = compile_program(doc, desk).report.errors
-    assert sorted((e.code, e.path) for e in errors) == sorted([
-        ("schema", "nodes[0].params"), ("schema", "edges[0].from.port"), ("schema", "inputs[0].name"),
-        ("invalid_param", "nodes[3].params.gain"), ("multiple_edges", "edges[5]"),
-        ("duplicate_input", "inputs[2].name")]), [e.render() for e in errors]
+    assert sorted((e.code, e.path) for e in errors) == sorted(
+        [
+            ("schema", "nodes[0].params"),
+            ("schema", "edges[0].from.port"),
+            ("schema", "inputs[0].name"),
+            ("invalid_param", "nodes[3].params.gain"),
+            ("multiple_edges", "edges[5]"),
+            ("duplicate_input", "inputs[2].name"),
+        ]
+    ), [e.render() for e in errors]

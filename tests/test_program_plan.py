@@ -113,7 +113,8 @@ def test_a_block_class_check_hook_is_called_and_reports(desk, monkeypatch):
     assert calls == [(Sine, ["head_yaw"], "s", "sine", 0)]
     assert plan is None
     assert [(e.code, e.node, e.port, e.path, e.message) for e in report.errors] == [
-        ("invalid_param", "s", "dofs", "nodes[0].params.dofs[0]", "node 's' (sine): the check hook says no")]
+        ("invalid_param", "s", "dofs", "nodes[0].params.dofs[0]", "node 's' (sine): the check hook says no")
+    ]
     assert configured == []  # a node whose own check failed is not configured
 
 
@@ -148,7 +149,8 @@ def test_the_mixer_and_input_rules_live_on_their_blocks(desk):
     doc["nodes"][2]["params"]["name"] = "breath_dept"
     report = compile_program(doc, desk).report
     assert [(e.code, e.node, e.port, e.path) for e in report.errors] == [
-        ("unknown_exposed_input", "in_breath_depth", "name", "nodes[2].params.name")]
+        ("unknown_exposed_input", "in_breath_depth", "name", "nodes[2].params.name")
+    ]
     assert "did you mean 'breath_depth'?" in report.errors[0].message
     assert [(w.code, w.node, w.port, w.path) for w in report.warnings] == [
         ("unconnected_node", "look", None, "nodes[3]"),
@@ -165,8 +167,9 @@ def _type_name_tests(tree: ast.AST) -> list[str]:
     for n in ast.walk(tree):
         if isinstance(n, ast.Compare):
             parts = [n.left, *n.comparators]
-            consts = [c for p in parts for c in ([p] if isinstance(p, ast.Constant) else
-                                                  getattr(p, "elts", []))]
+            consts = [
+                c for p in parts for c in ([p] if isinstance(p, ast.Constant) else getattr(p, "elts", []))
+            ]
             found += [c.value for c in consts if isinstance(c, ast.Constant) and c.value in names]
         elif isinstance(n, ast.Subscript) and isinstance(n.slice, ast.Constant) and n.slice.value in names:
             found.append(n.slice.value)
@@ -177,8 +180,9 @@ def test_the_checker_names_no_block_type():
     graph = Path(__file__).parent.parent / "backend" / "graph"
     for path in [graph / "compiler.py", graph / "plan.py", *sorted((graph / "checks").glob("*.py"))]:
         assert _type_name_tests(ast.parse(path.read_text())) == [], path.name
-    assert _type_name_tests(ast.parse('if node.type == "layer_mixer" or kind in ("input", "x"): BLOCKS["sine"]')) == [
-        "layer_mixer", "input", "sine"]
+    assert _type_name_tests(
+        ast.parse('if node.type == "layer_mixer" or kind in ("input", "x"): BLOCKS["sine"]')
+    ) == ["layer_mixer", "input", "sine"]
 
 
 def test_compile_builds_each_block_once_and_a_second_apu_afresh(desk, monkeypatch):

@@ -23,8 +23,18 @@ from backend.graph.schema import FORMAT, Program
 
 EMB = load_embodiment("nutty_desk")
 CONTINUOUS = EMB.continuous_names
-SELECTORS = [d.name for d in EMB.dofs] + ["*", "head_*", "ear_?", "*_pitch", "stationary:*", "display:*",
-                                          "stationary:neck_*", "type:continuous", "!ear_left", "tail_*"]
+SELECTORS = [d.name for d in EMB.dofs] + [
+    "*",
+    "head_*",
+    "ear_?",
+    "*_pitch",
+    "stationary:*",
+    "display:*",
+    "stationary:neck_*",
+    "type:continuous",
+    "!ear_left",
+    "tail_*",
+]
 SETTINGS = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 # --- random parameters from the blocks' own schemas ----------------------------------------------------
@@ -56,7 +66,9 @@ def _field(name: str, info):
     if widget == "dofs":
         return st.lists(st.sampled_from(SELECTORS), min_size=1, max_size=4)
     if widget == "pose":
-        return st.dictionaries(st.sampled_from(CONTINUOUS), st.floats(-3, 3).map(lambda x: round(x, 4)), max_size=4)
+        return st.dictionaries(
+            st.sampled_from(CONTINUOUS), st.floats(-3, 3).map(lambda x: round(x, 4)), max_size=4
+        )
     if widget in ("posture", "clip", "layers"):
         return None  # robot resources and structure: handled by the graph strategy
     if ann is float:
@@ -89,10 +101,17 @@ def params_for(draw, model, block=None):
     return out
 
 
-ui = st.fixed_dictionaries({"x": st.floats(-2000, 2000).map(lambda v: round(v, 1)),
-                            "y": st.floats(-2000, 2000).map(lambda v: round(v, 1))},
-                           optional={"colour": st.sampled_from(["#ff0000", "#7fb3d5"]), "collapsed": st.booleans(),
-                                     "label": st.text(max_size=12)})
+ui = st.fixed_dictionaries(
+    {
+        "x": st.floats(-2000, 2000).map(lambda v: round(v, 1)),
+        "y": st.floats(-2000, 2000).map(lambda v: round(v, 1)),
+    },
+    optional={
+        "colour": st.sampled_from(["#ff0000", "#7fb3d5"]),
+        "collapsed": st.booleans(),
+        "label": st.text(max_size=12),
+    },
+)
 
 
 # --- random valid graphs ---------------------------------------------------------------------------
@@ -111,8 +130,11 @@ def _usable(kind: str) -> bool:
     return all(not p.required or name == "in" for name, p in ins.items())
 
 
-SOURCES = sorted(k for k, c in BLOCKS.items() if c.role is Role.source and _usable(k)
-                 and not any(p.required for p in c.ports(c.Params())[0].values()))
+SOURCES = sorted(
+    k
+    for k, c in BLOCKS.items()
+    if c.role is Role.source and _usable(k) and not any(p.required for p in c.ports(c.Params())[0].values())
+)
 OPERATORS = sorted(k for k, c in BLOCKS.items() if c.role is Role.operator and _usable(k))
 STAGE2 = sorted(k for k, c in BLOCKS.items() if c.role is Role.stage2 and _usable(k))
 
@@ -148,8 +170,15 @@ def valid_programs(draw):
 
     def maybe_drive(node_id: str) -> None:
         kind = next(n["type"] for n in nodes if n["id"] == node_id)
-        ports = [p for p, port in BLOCKS[kind].ports(BLOCKS[kind].Params.model_validate(
-            next(n["params"] for n in nodes if n["id"] == node_id)))[0].items() if port.type.value == "float"]
+        ports = [
+            p
+            for p, port in BLOCKS[kind]
+            .ports(
+                BLOCKS[kind].Params.model_validate(next(n["params"] for n in nodes if n["id"] == node_id))
+            )[0]
+            .items()
+            if port.type.value == "float"
+        ]
         if ports and draw(st.booleans()):
             port = draw(st.sampled_from(ports))
             name = f"knob_{len(inputs)}"
@@ -181,10 +210,16 @@ def valid_programs(draw):
         head, level = lim, 3
     link(head, add("output", {}))
     order = draw(st.permutations(range(len(nodes))))
-    doc = {"format": FORMAT, "name": draw(st.text(min_size=1, max_size=20)),
-           "description": draw(st.text(max_size=30)), "max_level": 3,
-           "inputs": inputs, "nodes": [nodes[k] for k in order], "edges": draw(st.permutations(edges)),
-           "ui": draw(st.dictionaries(st.sampled_from(["zoom", "x", "y"]), st.floats(-10, 10)))}
+    doc = {
+        "format": FORMAT,
+        "name": draw(st.text(min_size=1, max_size=20)),
+        "description": draw(st.text(max_size=30)),
+        "max_level": 3,
+        "inputs": inputs,
+        "nodes": [nodes[k] for k in order],
+        "edges": draw(st.permutations(edges)),
+        "ui": draw(st.dictionaries(st.sampled_from(["zoom", "x", "y"]), st.floats(-10, 10))),
+    }
     if draw(st.booleans()):
         doc["rate"] = draw(st.sampled_from([50, 100, 200]))
     return doc, level
@@ -212,14 +247,18 @@ def test_random_valid_programs_round_trip_and_compile(case):
     # Compiled program -> graph is lossless, and it runs.
     assert apu_to_program(result.apu) == program
     for _ in range(3):
-        final, stage1, _ = result.apu.tick(0.01)
+        final, _stage1, _ = result.apu.tick(0.01)
         assert final.shape == (EMB.n_channels,)
 
 
 # --- random mutations never crash the validator --------------------------------------------------------
 
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True) | st.text(max_size=10),
+    st.none()
+    | st.booleans()
+    | st.integers(-(10**6), 10**6)
+    | st.floats(allow_nan=True)
+    | st.text(max_size=10),
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner, max_size=3),
     max_leaves=8,
 )
@@ -246,8 +285,22 @@ def mutated(draw):
     doc, _ = draw(valid_programs())
     doc = copy.deepcopy(doc)
     ids = [n["id"] for n in doc["nodes"]]
-    kind = draw(st.sampled_from(["drop_node", "rename_node", "rewire", "corrupt_param", "change_type",
-                                 "delete_field", "replace_subtree", "add_edge", "text_garbage", "truncate"]))
+    kind = draw(
+        st.sampled_from(
+            [
+                "drop_node",
+                "rename_node",
+                "rewire",
+                "corrupt_param",
+                "change_type",
+                "delete_field",
+                "replace_subtree",
+                "add_edge",
+                "text_garbage",
+                "truncate",
+            ]
+        )
+    )
     if kind == "drop_node":
         doc["nodes"].pop(draw(st.integers(0, len(doc["nodes"]) - 1)))
     elif kind == "rename_node":
@@ -257,11 +310,13 @@ def mutated(draw):
         edge = draw(st.sampled_from(doc["edges"]))
         end = edge[draw(st.sampled_from(["from", "to"]))]
         end["node"] = draw(st.sampled_from(ids) | st.text(max_size=5))
-        end["port"] = draw(st.sampled_from(["in", "out", "value", "amplitude", "gain", "layer0", "base"])
-                           | st.text(max_size=5))
+        end["port"] = draw(
+            st.sampled_from(["in", "out", "value", "amplitude", "gain", "layer0", "base"])
+            | st.text(max_size=5)
+        )
     elif kind == "corrupt_param":
         node = draw(st.sampled_from(doc["nodes"]))
-        keys = list(node["params"]) + ["dofs", "amplitude", "layers", "values", "name", "bogus"]
+        keys = [*list(node["params"]), "dofs", "amplitude", "layers", "values", "name", "bogus"]
         node["params"][draw(st.sampled_from(keys))] = draw(json_values)
     elif kind == "change_type":
         node = draw(st.sampled_from(doc["nodes"]))
@@ -277,8 +332,12 @@ def mutated(draw):
         _get(doc, path[:-1])[path[-1]] = draw(json_values)
     elif kind == "add_edge":
         a, b = draw(st.sampled_from(ids)), draw(st.sampled_from(ids))
-        doc["edges"].append({"from": {"node": a, "port": "out"},
-                             "to": {"node": b, "port": draw(st.sampled_from(["in", "layer0", "gain"]))}})
+        doc["edges"].append(
+            {
+                "from": {"node": a, "port": "out"},
+                "to": {"node": b, "port": draw(st.sampled_from(["in", "layer0", "gain"]))},
+            }
+        )
     elif kind == "text_garbage":
         return draw(st.text(max_size=40) | st.binary(max_size=40))
     elif kind == "truncate":
@@ -322,8 +381,10 @@ def test_any_json_value_is_an_error_not_a_crash(value):
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), -1e308, 1e308])
 def test_non_finite_params_are_rejected(bad):
-    doc = {"format": FORMAT, "nodes": [{"id": "s", "type": "sine", "params": {"amplitude": bad}},
-                                       {"id": "o", "type": "output"}],
-           "edges": [{"from": {"node": "s", "port": "out"}, "to": {"node": "o", "port": "in"}}]}
+    doc = {
+        "format": FORMAT,
+        "nodes": [{"id": "s", "type": "sine", "params": {"amplitude": bad}}, {"id": "o", "type": "output"}],
+        "edges": [{"from": {"node": "s", "port": "out"}, "to": {"node": "o", "port": "in"}}],
+    }
     errors = compile_program(doc, EMB).report.errors
     assert [(e.code, e.node, e.port) for e in errors] == [("invalid_param", "s", "amplitude")]

@@ -25,7 +25,9 @@ def test_golden_programs_come_back_unchanged(desk, path):
     assert back is not apu.source  # a copy: editing it does not touch the running program
     # Compiling what came back gives the same program again.
     again = compile_or_raise(apu_to_json(apu), desk).apu
-    assert [(s.node_id, s.type_name, s.wires) for s in again.steps] == [(s.node_id, s.type_name, s.wires) for s in apu.steps]
+    assert [(s.node_id, s.type_name, s.wires) for s in again.steps] == [
+        (s.node_id, s.type_name, s.wires) for s in apu.steps
+    ]
     assert json.loads(apu_to_json(apu)) == back.to_json_dict()
 
 
@@ -44,8 +46,15 @@ def test_live_parameter_changes_are_saved(desk):
     assert back.inputs == original.inputs and back.edges == original.edges and back.ui == original.ui
     # A change made on the block directly (not through the session) is seen too.
     block = session.engine.apu.block("mixer")
-    new = block.Params.model_validate({"layers": [{"name": "base"}, {"name": "idle", "mode": "additive"},
-                                                  {"name": "look", "weight": 0.25, "active": False}]})
+    new = block.Params.model_validate(
+        {
+            "layers": [
+                {"name": "base"},
+                {"name": "idle", "mode": "additive"},
+                {"name": "look", "weight": 0.25, "active": False},
+            ]
+        }
+    )
     block.update_params(new)
     layers = apu_to_program(session.engine.apu).node("mixer").params["layers"]
     assert layers[2] == {"name": "look", "weight": 0.25, "active": False}
@@ -56,7 +65,9 @@ def test_live_parameter_changes_are_saved(desk):
 
 
 def test_an_apu_without_a_source_cannot_be_saved(desk):
-    apu = compile_or_raise((Path(__file__).parent / "golden" / "valid" / "level0_rest.json").read_text(), desk).apu
+    apu = compile_or_raise(
+        (Path(__file__).parent / "golden" / "valid" / "level0_rest.json").read_text(), desk
+    ).apu
     bare = APU(apu.steps, apu.output, apu.level, apu.stage1_tap)
     with pytest.raises(RoundTripError):
         apu_to_program(bare)

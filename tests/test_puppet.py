@@ -25,7 +25,7 @@ def session(desk):
 def run(session, seconds, message=None):
     """Tick for `seconds`, sending `message` before every tick (a 100 Hz stream) when given."""
     frames = []
-    for _ in range(int(round(seconds * RATE))):
+    for _ in range(round(seconds * RATE)):
         if message is not None:
             session.execute(message)
         frames += list(session.run_headless(1, []))
@@ -51,7 +51,10 @@ def test_stream_pulls_the_output_to_the_pose_then_the_watchdog_fades_it_out(sess
     idle = run(session, 1.0)
     assert puppet_weight(session) == 0.0
     before = idle[-1].position[yaw]
-    pose = {"type": "puppet", "values": {"head_yaw": 0.7, "ear_left": -0.5, "mouth": "grin", "eye_leds": [1, 0, 0]}}
+    pose = {
+        "type": "puppet",
+        "values": {"head_yaw": 0.7, "ear_left": -0.5, "mouth": "grin", "eye_leds": [1, 0, 0]},
+    }
     live = run(session, 2.5, pose)
     assert puppet_weight(session) == 1.0
     assert abs(live[-1].position[yaw] - 0.7) < 0.01 and abs(live[-1].position[ear] + 0.5) < 0.01
@@ -82,17 +85,20 @@ def test_release_fades_out_at_once_and_a_new_stream_starts_clean(session, desk):
     assert layer.mask[yaw] and not layer.mask[ear]
 
 
-@pytest.mark.parametrize("message, field", [
-    ({"values": {"head_yaw": 1.5}}, "values.head_yaw"),  # beyond its limit (1.2 rad)
-    ({"values": {"head_yaw": True}}, "values.head_yaw"),
-    ({"values": {"nope": 0.1}}, "values.nope"),
-    ({"values": {"speech": 0.1}}, "values.speech"),
-    ({"values": {"mouth": "sneer"}}, "values.mouth"),
-    ({"values": {"eye_leds": [1, 0]}}, "values.eye_leds"),
-    ({"values": {}}, "values"),
-    ({"values": [0.1]}, "values"),
-    ({"values": {"head_yaw": 0.1}, "release": True}, "release"),
-])
+@pytest.mark.parametrize(
+    "message, field",
+    [
+        ({"values": {"head_yaw": 1.5}}, "values.head_yaw"),  # beyond its limit (1.2 rad)
+        ({"values": {"head_yaw": True}}, "values.head_yaw"),
+        ({"values": {"nope": 0.1}}, "values.nope"),
+        ({"values": {"speech": 0.1}}, "values.speech"),
+        ({"values": {"mouth": "sneer"}}, "values.mouth"),
+        ({"values": {"eye_leds": [1, 0]}}, "values.eye_leds"),
+        ({"values": {}}, "values"),
+        ({"values": [0.1]}, "values"),
+        ({"values": {"head_yaw": 0.1}, "release": True}, "release"),
+    ],
+)
 def test_bad_messages_change_nothing(session, message, field):
     run(session, 0.2, {"type": "puppet", "values": {"head_yaw": 0.2}})
     block = session.engine.apu.steps[session.engine.apu.index["puppet"]].block
@@ -107,8 +113,10 @@ def test_bad_messages_change_nothing(session, message, field):
 def test_puppet_over_the_control_socket(session):
     session.engine.start()
     try:
-        with TestClient(create_app(session, frontend_dir=None)) as client, \
-                client.websocket_connect("/ws/control") as ws:
+        with (
+            TestClient(create_app(session, frontend_dir=None)) as client,
+            client.websocket_connect("/ws/control") as ws,
+        ):
             ws.send_json({"type": "puppet", "id": "p1", "values": {"head_roll": 0.2}})
             msgs = [ws.receive_json() for _ in range(2)]  # its ack and its `completed` event, in any order
             ack = next(m for m in msgs if m["type"] == "ack")
@@ -125,8 +133,8 @@ def test_the_envelope_is_the_mixer_fade_law(desk):
     """The block's scalar envelope follows blend.advance_fades exactly, through fade-in, the watchdog's
     fade-out and a fresh stream (it was computed with that array function before it was made scalar)."""
     from backend.engine.blend import advance_fades
-    from backend.engine.blocks.puppet import Puppet, PuppetParams
     from backend.engine.blocks.base import BlockContext
+    from backend.engine.blocks.puppet import Puppet, PuppetParams
 
     block = Puppet(PuppetParams(timeout=0.2, fade_in=0.3, fade_out=0.45), BlockContext(desk, 100.0), "p")
     env, silence, live, seen, expected = np.zeros(1), 0.0, False, [], []
@@ -143,4 +151,4 @@ def test_the_envelope_is_the_mixer_fade_law(desk):
         seen.append(out["weight"])
         assert out["live"] is live
     assert seen == expected
-    assert 0.0 < max(seen) and seen[100] == 0.0 and seen[135] > 0.0 and seen[-1] == 0.0
+    assert max(seen) > 0.0 and seen[100] == 0.0 and seen[135] > 0.0 and seen[-1] == 0.0

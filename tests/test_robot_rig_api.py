@@ -73,10 +73,22 @@ def test_scene_glb_has_every_visual_in_the_base_frame(client, desk):
     # glTF y = robot z
     head, _ = scene.graph["head|0"]
     assert np.allclose(head[:3, 3], [0.0, 0.064 + 0.175 + 0.08 + 0.01 + 0.07, 0.0], atol=1e-9)
-    gltf = json.loads(r.content[20:20 + int.from_bytes(r.content[12:16], "little")])
+    gltf = json.loads(r.content[20 : 20 + int.from_bytes(r.content[12:16], "little")])
     links = {m["extras"]["nutty_link"] for m in gltf["meshes"]}
-    assert links == {"base_link", "torso", "chest_led", "neck", "head", "eye_left", "eye_right", "eyelid_left_link",
-                     "eyelid_right_link", "mouth", "ear_left_link", "ear_right_link"}
+    assert links == {
+        "base_link",
+        "torso",
+        "chest_led",
+        "neck",
+        "head",
+        "eye_left",
+        "eye_right",
+        "eyelid_left_link",
+        "eyelid_right_link",
+        "mouth",
+        "ear_left_link",
+        "ear_right_link",
+    }
 
 
 def test_analyze_reports_ranges_like_the_trajectory_helper(client, desk):
@@ -84,20 +96,24 @@ def test_analyze_reports_ranges_like_the_trajectory_helper(client, desk):
     t = np.arange(72) / rate
     fast = np.where(t < 1.0, 0.0, 0.9 * np.sin(2 * np.pi * 1.5 * (t - 1.0)))  # still, then too fast
     slow = 0.05 * np.sin(2 * np.pi * 0.2 * t)
-    out = client.post("/api/analyze", json={"rate": rate, "tracks": {"head_yaw": fast.tolist(),
-                                                                       "ear_left": slow.tolist()}}).json()
+    out = client.post(
+        "/api/analyze", json={"rate": rate, "tracks": {"head_yaw": fast.tolist(), "ear_left": slow.tolist()}}
+    ).json()
     assert out["ok"] is False and out["samples"] == 72 and out["colours"]["jerk"] == "#e5383b"
     assert [r for r in out["ranges"] if r["dof"] == "ear_left"] == []
     dof = desk.dof("head_yaw")
     ref = trajectory.analyze(fast, rate, dof.velocity, dof.acceleration, dof.jerk, dof.min, dof.max)
     codes = np.zeros(72, int)
     for r in out["ranges"]:
-        codes[r["start"]:r["end"] + 1] = {"velocity": 1, "acceleration": 2, "jerk": 3, "position": 4}[r["kind"]]
+        codes[r["start"] : r["end"] + 1] = {"velocity": 1, "acceleration": 2, "jerk": 3, "position": 4}[
+            r["kind"]
+        ]
     assert np.array_equal(codes, ref.classes[:, 0])
     assert min(r["start"] for r in out["ranges"]) == 25  # the first sample after the still second
     worst = max(out["ranges"], key=lambda r: r["worst_ratio"])
     assert worst["kind"] == "jerk" and worst["worst_ratio"] == pytest.approx(
-        np.abs(ref.jerk[:, 0]).max() / dof.jerk)
+        np.abs(ref.jerk[:, 0]).max() / dof.jerk
+    )
     assert out["dofs"]["head_yaw"]["limits"]["velocity"] == dof.velocity
 
 
@@ -108,8 +124,17 @@ def test_filter_is_the_stage2_filter_from_the_first_sample(client, desk):
     out = client.post("/api/filter", json=body).json()
     assert out["preset"] == "program" and out["params"]["preset"] == "D"
     dof = desk.dof("head_yaw")
-    f = MotionFilter.from_preset("D", 1, rate, vel_limit=2 * dof.velocity, acc_limit=dof.acceleration,
-                                 jerk_limit=dof.jerk, pmin=dof.min, pmax=dof.max, x0=[0.0])
+    f = MotionFilter.from_preset(
+        "D",
+        1,
+        rate,
+        vel_limit=2 * dof.velocity,
+        acc_limit=dof.acceleration,
+        jerk_limit=dof.jerk,
+        pmin=dof.min,
+        pmax=dof.max,
+        x0=[0.0],
+    )
     assert np.allclose(out["tracks"]["head_yaw"], f.run(x[:, None]).position[:, 0], atol=1e-12)
     got = np.array(out["tracks"]["head_yaw"])
     assert got[-1] > 0.5 and np.abs(np.diff(got) * rate).max() < dof.velocity
@@ -117,15 +142,22 @@ def test_filter_is_the_stage2_filter_from_the_first_sample(client, desk):
     assert named["preset"] == "W" and named["tracks"]["head_yaw"] != out["tracks"]["head_yaw"]
 
 
-@pytest.mark.parametrize("body, field, code", [
-    ({"rate": 24, "tracks": {"nope": [0.0]}}, "tracks.nope", "invalid_track"),
-    ({"rate": 24, "tracks": {"mouth": [0.0]}}, "tracks.mouth", "invalid_track"),
-    ({"rate": 24, "tracks": {"head_yaw": [0.0, 1.0], "ear_left": [0.0]}}, "tracks.ear_left", "invalid_track"),
-    ({"rate": 24, "tracks": {"head_yaw": []}}, "tracks.head_yaw", "invalid_track"),
-    ({"rate": 0, "tracks": {"head_yaw": [0.0]}}, "rate", "invalid_body"),
-    ({"rate": 24, "tracks": {}}, "tracks", "invalid_body"),
-    ({"rate": 24, "tracks": {"head_yaw": ["a"]}}, "tracks.head_yaw.0", "invalid_body"),
-])
+@pytest.mark.parametrize(
+    "body, field, code",
+    [
+        ({"rate": 24, "tracks": {"nope": [0.0]}}, "tracks.nope", "invalid_track"),
+        ({"rate": 24, "tracks": {"mouth": [0.0]}}, "tracks.mouth", "invalid_track"),
+        (
+            {"rate": 24, "tracks": {"head_yaw": [0.0, 1.0], "ear_left": [0.0]}},
+            "tracks.ear_left",
+            "invalid_track",
+        ),
+        ({"rate": 24, "tracks": {"head_yaw": []}}, "tracks.head_yaw", "invalid_track"),
+        ({"rate": 0, "tracks": {"head_yaw": [0.0]}}, "rate", "invalid_body"),
+        ({"rate": 24, "tracks": {}}, "tracks", "invalid_body"),
+        ({"rate": 24, "tracks": {"head_yaw": ["a"]}}, "tracks.head_yaw.0", "invalid_body"),
+    ],
+)
 def test_bad_tracks_are_refused_naming_the_field(client, body, field, code):
     for route in ("/api/analyze", "/api/filter"):
         r = client.post(route, json=body)

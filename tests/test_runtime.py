@@ -33,9 +33,15 @@ def level2(weight=1.0):
     rest = b.node("rest_pose", "rest")
     s = b.node("sine", "wave", dofs=["head_yaw"], amplitude=0.3, frequency=1.0)
     ears = b.node("sine", "ears", dofs=["ear_*"], amplitude=0.2, frequency=2.0)
-    mix = b.node("layer_mixer", "mix", layers=[
-        {"name": "base"}, {"name": "idle", "mode": "additive"},
-        {"name": "gesture", "mode": "override", "weight": weight, "mask": ["head_*"]}])
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        layers=[
+            {"name": "base"},
+            {"name": "idle", "mode": "additive"},
+            {"name": "gesture", "mode": "override", "weight": weight, "mask": ["head_*"]},
+        ],
+    )
     b.connect(rest, mix, "out", "base").connect(ears, mix, "out", "idle").connect(s, mix, "out", "gesture")
     b.chain(mix, b.output())
     return b
@@ -152,7 +158,9 @@ def test_call_soon_applies_at_tick_boundary_from_other_threads(desk):
     eng.start()
     try:
         results = []
-        threads = [threading.Thread(target=lambda k=k: results.append(eng.call(lambda: k * 2))) for k in range(20)]
+        threads = [
+            threading.Thread(target=lambda k=k: results.append(eng.call(lambda: k * 2))) for k in range(20)
+        ]
         for t in threads:
             t.start()
         for t in threads:
@@ -253,7 +261,7 @@ def test_wall_clock_waits_end_at_the_deadline_or_when_stopped():
 def test_sink_decimation_and_errors(desk):
     eng = Engine(desk, rate=100)
     got = []
-    sink = eng.add_sink(Sink("every4", got.append, max_queue=100, decimate=4))
+    eng.add_sink(Sink("every4", got.append, max_queue=100, decimate=4))
     bad = eng.add_sink(Sink("bad", lambda f: 1 / 0, max_queue=100))
     eng.run_ticks(40)
     eng.close()

@@ -15,13 +15,13 @@ from pathlib import Path
 import httpx
 import numpy as np
 import pytest
+from joint_truth import joint_truth
+from server_process import running_server
+from test_safety import ROUNDING
 
 from backend.engine.runtime import Sink
 from backend.engine.safety import SafetyNet
 from backend.session import EngineSession
-from server_process import running_server
-from joint_truth import joint_truth
-from test_safety import ROUNDING
 
 PROGRAMS = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs"
 
@@ -42,10 +42,12 @@ def worst_ratios(desk, positions: np.ndarray, rate: float) -> dict[str, float]:
     a = np.diff(v, axis=0) * rate
     j = np.diff(a, axis=0) * rate
     joints = joint_truth(desk.name).worst(joint_truth(desk.name).compose(desk, positions), rate)
-    return {"v": max(float((np.abs(v) / desk.vel_limit[cont]).max()), joints["v"]),
-            "a": max(float((np.abs(a) / desk.acc_limit[cont]).max()), joints["a"]),
-            "j": max(float((np.abs(j) / desk.jerk_limit[cont]).max()), joints["j"]),
-            "outside": max(float(np.maximum(desk.min[cont] - p, p - desk.max[cont]).max()), joints["outside"])}
+    return {
+        "v": max(float((np.abs(v) / desk.vel_limit[cont]).max()), joints["v"]),
+        "a": max(float((np.abs(a) / desk.acc_limit[cont]).max()), joints["a"]),
+        "j": max(float((np.abs(j) / desk.jerk_limit[cont]).max()), joints["j"]),
+        "outside": max(float(np.maximum(desk.min[cont] - p, p - desk.max[cont]).max()), joints["outside"]),
+    }
 
 
 def recorded_frames(path: Path) -> list[dict]:
@@ -100,7 +102,7 @@ def test_swapping_with_the_gaze_turned_stays_within_limits(desk, swap_to):
 
 def test_the_jump_is_blended_out_not_only_clipped(desk):
     """A swap is an inertialized transition: the safety net has little or nothing left to correct."""
-    session, frames = turned_gaze(desk)
+    session, _frames = turned_gaze(desk)
     before = session.engine.safety.corrected_ticks
     session.load_program(program("idle"))
     list(session.run_headless(300))
@@ -115,10 +117,12 @@ def test_reset_restores_the_program_and_commands_work_after_it(desk):
     frames = list(session.run_headless(300))
     mixer = next(s.block for s in session.engine.apu.steps if s.block.type_name == "layer_mixer")
     declared = mixer.params.model_dump()["layers"]
-    assert [s["fade"] for s in mixer.layer_states()] == [1.0 if layer.get("active", True) else 0.0
-                                                       for layer in declared]
+    assert [s["fade"] for s in mixer.layer_states()] == [
+        1.0 if layer.get("active", True) else 0.0 for layer in declared
+    ]
     assert session.inputs()["gaze_target"] == session.program.input("gaze_target").coerce(
-        session.program.input("gaze_target").default)
+        session.program.input("gaze_target").default
+    )
     yaw = desk.channel_index["body_yaw"]
     assert abs(frames[-1].position[yaw]) < 0.05  # looking ahead again
     # The defect: after reset every layer but the base stayed off and clips did nothing.

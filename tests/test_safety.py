@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from joint_truth import joint_truth
 
 from backend.engine.safety import SafetyNet, plan_gains, plan_horizons
 from backend.engine.trajectory import analyze
-from joint_truth import joint_truth
 
 RATES = (30.0, 100.0, 1000.0)
 # Finite differences of float positions at 1000 Hz amplify rounding by 1/dt^3 = 1e9: this is that
@@ -45,9 +45,13 @@ def limit_ratios(net: SafetyNet, out: np.ndarray, start: np.ndarray) -> dict[str
     v = np.diff(p, axis=0) * rate
     a = np.diff(v, axis=0) * rate
     j = np.diff(a, axis=0) * rate
-    return {"v": float((np.abs(v) / net.V[k]).max()), "a": float((np.abs(a) / net.A[k]).max()),
-            "j": float((np.abs(j) / net.J[k]).max()),
-            "below": float((net.lo[k] - p).max()), "above": float((p - net.hi[k]).max())}
+    return {
+        "v": float((np.abs(v) / net.V[k]).max()),
+        "a": float((np.abs(a) / net.A[k]).max()),
+        "j": float((np.abs(j) / net.J[k]).max()),
+        "below": float((net.lo[k] - p).max()),
+        "above": float((p - net.hi[k]).max()),
+    }
 
 
 def assert_within_limits(net: SafetyNet, out: np.ndarray, start: np.ndarray) -> None:
@@ -58,7 +62,9 @@ def assert_within_limits(net: SafetyNet, out: np.ndarray, start: np.ndarray) -> 
     assert r["below"] <= 1e-12 and r["above"] <= 1e-12, r
     truth = joint_truth(net.emb.name)
     # A robot stands within its joints' ranges: a start whose channels compose past one starts at the limit.
-    start_q = np.clip(truth.compose(net.emb, np.clip(start, net.emb.min, net.emb.max)), truth.lower, truth.upper)
+    start_q = np.clip(
+        truth.compose(net.emb, np.clip(start, net.emb.min, net.emb.max)), truth.lower, truth.upper
+    )
     truth.assert_within(np.vstack([start_q] * 3 + [truth.compose(net.emb, out)]), 1.0 / net.h, "joints")
 
 
@@ -102,8 +108,12 @@ def test_every_limit_holds_on_the_finite_differences(desk, rate, kind):
 
 
 @settings(max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
-@given(kind=st.sampled_from(["steps", "noise", "chirp", "beyond", "spikes"]), rate=st.sampled_from(RATES),
-       seed=st.integers(0, 2**31 - 1), start=st.floats(-1.0, 1.0))
+@given(
+    kind=st.sampled_from(["steps", "noise", "chirp", "beyond", "spikes"]),
+    rate=st.sampled_from(RATES),
+    seed=st.integers(0, 2**31 - 1),
+    start=st.floats(-1.0, 1.0),
+)
 def test_limits_hold_from_any_start_property(desk, kind, rate, seed, start):
     """Random programs from a random starting pose (within the limits)."""
     pose = np.clip(desk.rest + start * (desk.max - desk.min) / 2, desk.min, desk.max)
@@ -144,11 +154,13 @@ def test_reaching_and_holding_a_position_limit_passes_through(desk):
     i = desk.channel_index["neck_pitch"]
     u = np.clip(np.arange(400) / 200.0, 0.0, 1.0)  # 2 s smootherstep from rest to the limit, then hold
     frames = np.tile(desk.rest, (400, 1))
-    frames[:, i] = desk.max[i] * u ** 3 * (u * (6 * u - 15) + 10)
+    frames[:, i] = desk.max[i] * u**3 * (u * (6 * u - 15) + 10)
     out = run(net, frames)
     assert np.array_equal(out, frames)
     assert out[-1, i] == desk.max[i]
-    assert out[-1, desk.channel_index["mouth_open"]] == desk.min[desk.channel_index["mouth_open"]]  # rest at a limit
+    assert (
+        out[-1, desk.channel_index["mouth_open"]] == desk.min[desk.channel_index["mouth_open"]]
+    )  # rest at a limit
 
 
 @pytest.mark.parametrize("rate", [100.0, 1000.0])
@@ -165,10 +177,10 @@ def test_relocks_after_a_step_on_a_smooth_program(desk, rate):
     exact = out[:, i] == program[:, i]
     assert exact[: int(rate)].all()  # before the step: pass-through
     assert not exact[int(rate)]  # the step is corrected
-    relock = int(rate) + int(np.argmax(exact[int(rate):]))
-    assert exact[relock: int(3.5 * rate)].all()  # once re-locked it stays locked
+    relock = int(rate) + int(np.argmax(exact[int(rate) :]))
+    assert exact[relock : int(3.5 * rate)].all()  # once re-locked it stays locked
     assert (relock - rate) / rate < 2.0, (relock - rate) / rate
-    relock2 = int(3.5 * rate) + int(np.argmax(exact[int(3.5 * rate):]))
+    relock2 = int(3.5 * rate) + int(np.argmax(exact[int(3.5 * rate) :]))
     assert exact[relock2:].all() and (relock2 - 3.5 * rate) / rate < 2.0
 
 
@@ -223,11 +235,11 @@ def test_plan_gains_bring_a_triple_integrator_to_rest():
         n = starts[k + 1] - starts[k]
         s = rng.normal(size=3)
         e, f, g = s
-        for u in gains[starts[k]:starts[k + 1]] @ s:
+        for u in gains[starts[k] : starts[k + 1]] @ s:
             g = g + u
             f = f + g
             e = e + f
-        assert abs(e) + abs(f) + abs(g) < 1e-9 * (1 + n ** 3), n
+        assert abs(e) + abs(f) + abs(g) < 1e-9 * (1 + n**3), n
 
 
 def test_the_trajectory_helper_agrees(desk):
@@ -236,6 +248,13 @@ def test_the_trajectory_helper_agrees(desk):
     out = run(net, hostile_program(desk, "steps", 100.0, 4.0, seed=11))
     idx = net.idx[channel_stage(net)]  # (the joints' own channels are judged as joints)
     pos = np.vstack([np.tile(desk.rest[idx], (3, 1)), out[:, idx]])
-    res = analyze(pos, 100.0, desk.vel_limit[idx] * (1 + ROUNDING), desk.acc_limit[idx] * (1 + ROUNDING),
-                  desk.jerk_limit[idx] * (1 + ROUNDING), desk.min[idx], desk.max[idx])
+    res = analyze(
+        pos,
+        100.0,
+        desk.vel_limit[idx] * (1 + ROUNDING),
+        desk.acc_limit[idx] * (1 + ROUNDING),
+        desk.jerk_limit[idx] * (1 + ROUNDING),
+        desk.min[idx],
+        desk.max[idx],
+    )
     assert res.ok, res.summary

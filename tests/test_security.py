@@ -12,14 +12,23 @@ from backend import control
 from backend.security import AccessPolicy, JsonSafetyError, check_json, default_origins, dumps, loads
 
 
-@pytest.mark.parametrize("raw, code, field", [
-    (b"NaN", "non_finite", None), (b'{"a": [1, Infinity]}', "non_finite", None),
-    (b'{"a": [1, 1e999]}', "non_finite", "a[1]"), (b'{"a": {"b": -1e400}}', "non_finite", "a.b"),
-    (b'{"t": "\\ud800"}', "invalid_unicode", "t"), (b'{"\\udfff": 1}', "invalid_unicode", None),
-    (b"\xff\xfe{}", "invalid_unicode", None), (b'{"n": 99999999999999999999999}', "number_too_large", "n"),
-    (b"[" * 65 + b"]" * 65, "too_deep", None), (b"[" * 100_000 + b"]" * 100_000, "too_deep", None),
-    (b"{", "malformed_json", None), (b"1" * 5000, "malformed_json", None),
-])
+@pytest.mark.parametrize(
+    "raw, code, field",
+    [
+        (b"NaN", "non_finite", None),
+        (b'{"a": [1, Infinity]}', "non_finite", None),
+        (b'{"a": [1, 1e999]}', "non_finite", "a[1]"),
+        (b'{"a": {"b": -1e400}}', "non_finite", "a.b"),
+        (b'{"t": "\\ud800"}', "invalid_unicode", "t"),
+        (b'{"\\udfff": 1}', "invalid_unicode", None),
+        (b"\xff\xfe{}", "invalid_unicode", None),
+        (b'{"n": 99999999999999999999999}', "number_too_large", "n"),
+        (b"[" * 65 + b"]" * 65, "too_deep", None),
+        (b"[" * 100_000 + b"]" * 100_000, "too_deep", None),
+        (b"{", "malformed_json", None),
+        (b"1" * 5000, "malformed_json", None),
+    ],
+)
 def test_loads_refuses_with_a_code_and_the_field(raw, code, field):
     with pytest.raises(JsonSafetyError) as err:
         loads(raw)
@@ -38,9 +47,11 @@ def test_loads_accepts_the_limits():
 
 
 def test_commands_share_the_validator_for_in_process_callers():
-    for bad, field in [({"type": "set_input", "name": "a", "value": float("nan")}, "value"),
-                       ({"type": "set_gaze", "target": [np.float64("inf"), 0, 0]}, "target[0]"),
-                       ({"type": "say", "text": "\udc00"}, "text")]:
+    for bad, field in [
+        ({"type": "set_input", "name": "a", "value": float("nan")}, "value"),
+        ({"type": "set_gaze", "target": [np.float64("inf"), 0, 0]}, "target[0]"),
+        ({"type": "say", "text": "\udc00"}, "text"),
+    ]:
         with pytest.raises(control.CommandError) as err:
             control.parse_command(bad)
         assert err.value.field == field
@@ -58,30 +69,65 @@ def test_dumps_writes_the_values_the_standard_library_would():
     """orjson writes what json.dumps (and the sanitiser after it) would: keys of any JSON type as
     strings, numpy numbers as floats, non-finite numbers as null; what orjson refuses (an integer past
     64 bits, a lone surrogate) goes the standard library's way."""
-    value = {"a": [1, 2.5, -0.0, 1e-05, 1e16, True, None, "é"], 1: "one", 2.5: "x", None: "n",
-             "np": [np.float64(0.1), np.int64(3), np.float32(np.inf)], "t": (1, 2),
-             "nested": {"deep": [{"x": float("-inf")}]}}
-    same = {"a": [1, 2.5, -0.0, 1e-05, 1e16, True, None, "é"], 1: "one", 2.5: "x", None: "n",
-            "np": [0.1, 3.0, None], "t": [1, 2], "nested": {"deep": [{"x": None}]}}
+    value = {
+        "a": [1, 2.5, -0.0, 1e-05, 1e16, True, None, "é"],
+        1: "one",
+        2.5: "x",
+        None: "n",
+        "np": [np.float64(0.1), np.int64(3), np.float32(np.inf)],
+        "t": (1, 2),
+        "nested": {"deep": [{"x": float("-inf")}]},
+    }
+    same = {
+        "a": [1, 2.5, -0.0, 1e-05, 1e16, True, None, "é"],
+        1: "one",
+        2.5: "x",
+        None: "n",
+        "np": [0.1, 3.0, None],
+        "t": [1, 2],
+        "nested": {"deep": [{"x": None}]},
+    }
     assert json.loads(dumps(value)) == json.loads(json.dumps(same))
-    assert json.loads(dumps({"big": 2 ** 70, "x": np.float64(1.5)})) == {"big": 2 ** 70, "x": 1.5}
+    assert json.loads(dumps({"big": 2**70, "x": np.float64(1.5)})) == {"big": 2**70, "x": 1.5}
     assert dumps({"s": "lone \udc80"}) == json.dumps({"s": "lone \\udc80"}, separators=(",", ":"))
 
 
 def test_origin_and_host_policy():
     p = AccessPolicy(port=8000, bind_host="127.0.0.1", allowed_origins=["https://app.example"])
     assert set(default_origins("127.0.0.1", 8000)) == {
-        "http://localhost:8000", "http://127.0.0.1:8000", "http://[::1]:8000"}
-    for origin in ("http://localhost:8000", "http://127.0.0.1:8000", "http://[::1]:8000", "https://app.example",
-                   None):
+        "http://localhost:8000",
+        "http://127.0.0.1:8000",
+        "http://[::1]:8000",
+    }
+    for origin in (
+        "http://localhost:8000",
+        "http://127.0.0.1:8000",
+        "http://[::1]:8000",
+        "https://app.example",
+        None,
+    ):
         assert p.origin_problem(origin, "127.0.0.1:8000") is None, origin
-    for origin in ("http://evil.example", "null", "http://localhost:8001", "file://", "http://localhost:8000/x",
-                   "http://localhost:8000, http://evil.example"):
+    for origin in (
+        "http://evil.example",
+        "null",
+        "http://localhost:8001",
+        "file://",
+        "http://localhost:8000/x",
+        "http://localhost:8000, http://evil.example",
+    ):
         assert p.origin_problem(origin, "127.0.0.1:8000") is not None, origin
     for host in ("127.0.0.1:8000", "localhost:8000", "[::1]:8000", "app.example:443", "app.example:8000"):
         assert p.host_problem(host) is None, host
-    for host in ("evil.example:8000", "127.0.0.1:8001", "localhost", "10.0.0.2:8000", "", None, "a:b:c",
-                 "127.0.0.1:8000, evil.example"):
+    for host in (
+        "evil.example:8000",
+        "127.0.0.1:8001",
+        "localhost",
+        "10.0.0.2:8000",
+        "",
+        None,
+        "a:b:c",
+        "127.0.0.1:8000, evil.example",
+    ):
         assert p.host_problem(host) is not None, host
     wide = AccessPolicy(port=8000, bind_host="0.0.0.0")
     assert wide.host_problem("192.168.1.20:8000") is None and wide.host_problem("[fe80::1]:8000") is None

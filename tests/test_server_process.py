@@ -11,9 +11,9 @@ import time
 
 import pytest
 import websockets
+from server_process import running_server
 
 from backend.client import NuttyError
-from server_process import running_server
 
 
 @pytest.fixture(scope="module")
@@ -44,8 +44,11 @@ def test_driver_client_gets_frames_while_others_churn_and_one_stalls(server):
         got = 0
         for _ in range(3):
             async with websockets.connect(f"ws://127.0.0.1:{port}/ws/telemetry") as ws:
-                await ws.send(json.dumps({"type": "subscribe", "signals": [{"node": "breathe", "port": "out"}],
-                                          "rate": 30}))
+                await ws.send(
+                    json.dumps(
+                        {"type": "subscribe", "signals": [{"node": "breathe", "port": "out"}], "rate": 30}
+                    )
+                )
                 for _ in range(5):
                     json.loads(await ws.recv())
                     got += 1
@@ -60,8 +63,9 @@ def test_driver_client_gets_frames_while_others_churn_and_one_stalls(server):
 
     async def main():
         done = asyncio.Event()
-        return await asyncio.wait_for(asyncio.gather(driver(done), stalled(done), *(churn(k) for k in range(20))),
-                                      120)  # bounds a hang only
+        return await asyncio.wait_for(
+            asyncio.gather(driver(done), stalled(done), *(churn(k) for k in range(20))), 120
+        )  # bounds a hang only
 
     seqs, stalled_seqs, *churned = asyncio.run(main())
     assert len(seqs) == DRIVER_FRAMES and all(a < b for a, b in zip(seqs, seqs[1:]))  # in order, no repeats
@@ -97,6 +101,10 @@ def test_python_client_round_trip(server):
 
 
 def test_token_required_off_localhost():
-    out = subprocess.run([sys.executable, "-m", "backend.cli", "serve", "--host", "0.0.0.0", "--no-previz"],
-                         capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [sys.executable, "-m", "backend.cli", "serve", "--host", "0.0.0.0", "--no-previz"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert out.returncode == 2 and "--token" in out.stderr

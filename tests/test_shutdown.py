@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import json
 import os
 import signal
@@ -25,12 +26,12 @@ from types import SimpleNamespace
 import pytest
 import websockets
 from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from server_process import free_port, server_process
 from starlette.testclient import TestClient
 
 from backend import shutdown
 from backend.commands import serve
 from backend.engine.embodiment import DofType, load_embodiment
-from server_process import free_port, server_process
 
 SHUTDOWN_TIMEOUT = 3.0
 EXIT_SLACK = 5.0  # the process must be gone within shutdown-timeout + this
@@ -68,8 +69,12 @@ def raw_websocket(port: int, path: str, rcvbuf: int | None = None) -> socket.soc
     s.settimeout(10)
     s.connect(("127.0.0.1", port))
     key = base64.b64encode(os.urandom(16)).decode()
-    s.sendall((f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-               f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
+    s.sendall(
+        (
+            f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+        ).encode()
+    )
     head = b""
     while b"\r\n\r\n" not in head:
         chunk = s.recv(4096)
@@ -85,8 +90,15 @@ def abort(s: socket.socket) -> None:
     s.close()
 
 
-async def scenario(srv, rest: dict[str, float], sig: int, *, zombies: bool, extra_signals: tuple[int, ...] = (),
-                   timeout: float = SHUTDOWN_TIMEOUT) -> dict:
+async def scenario(
+    srv,
+    rest: dict[str, float],
+    sig: int,
+    *,
+    zombies: bool,
+    extra_signals: tuple[int, ...] = (),
+    timeout: float = SHUTDOWN_TIMEOUT,
+) -> dict:
     """Turn the gaze with a driver on /ws/frames, add misbehaving clients, signal, wait for the exit."""
     frames: list[dict] = []
     moved = asyncio.Event()
@@ -124,23 +136,24 @@ async def scenario(srv, rest: dict[str, float], sig: int, *, zombies: bool, extr
     exited = await asyncio.to_thread(srv.wait_exit, timeout + EXIT_SLACK)
     if not exited:
         srv.kill()
-    try:
+    with contextlib.suppress(TimeoutError, OSError, websockets.WebSocketException):
         await asyncio.wait_for(reader, 10)
-    except (asyncio.TimeoutError, OSError, websockets.WebSocketException):
-        pass
     for h in held:
         if isinstance(h, socket.socket):
             h.close()
     return {"exited": exited, "frames": frames}
 
 
-def run_shutdown(tmp_path, rest, sig, *, zombies=True, extra_signals=(), timeout=SHUTDOWN_TIMEOUT,
-                 previz=False) -> tuple[dict, object, object]:
+def run_shutdown(
+    tmp_path, rest, sig, *, zombies=True, extra_signals=(), timeout=SHUTDOWN_TIMEOUT, previz=False
+) -> tuple[dict, object, object]:
     record = tmp_path / "frames.jsonl"
     args = ["--record", str(record), "--shutdown-timeout", f"{timeout:g}", "--rate", "100"]
     args += ["--previz-port", str(free_port())] if previz else ["--no-previz"]
     with server_process(*args) as srv:
-        out = asyncio.run(scenario(srv, rest, sig, zombies=zombies, extra_signals=extra_signals, timeout=timeout))
+        out = asyncio.run(
+            scenario(srv, rest, sig, zombies=zombies, extra_signals=extra_signals, timeout=timeout)
+        )
         proc = srv.proc
         output = srv.output
     return out, proc, (record, output)
@@ -166,8 +179,14 @@ def test_signal_parks_the_robot_at_rest_despite_zombie_clients(tmp_path, rest, s
 
 @pytest.mark.slow
 def test_second_signal_hurries_but_still_reaches_rest(tmp_path, rest):
-    out, proc, (record, output) = run_shutdown(tmp_path, rest, signal.SIGINT, zombies=True, timeout=2.0,
-                                               extra_signals=(signal.SIGINT, signal.SIGTERM))
+    out, proc, (record, output) = run_shutdown(
+        tmp_path,
+        rest,
+        signal.SIGINT,
+        zombies=True,
+        timeout=2.0,
+        extra_signals=(signal.SIGINT, signal.SIGTERM),
+    )
     assert out["exited"], output
     assert proc.returncode in (0, 1), output
     assert "hurrying" in output and "already stopping" in output, output
@@ -186,8 +205,12 @@ def test_sigterm_with_previz_closes_everything(tmp_path, rest):
 
 
 def test_shutdown_timeout_is_checked():
-    out = subprocess.run([sys.executable, "-m", "backend.cli", "serve", "--no-previz", "--shutdown-timeout", "0"],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-m", "backend.cli", "serve", "--no-previz", "--shutdown-timeout", "0"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 2 and "--shutdown-timeout" in out.stderr
 
 
@@ -379,7 +402,6 @@ def test_gate_refuses_commands_and_new_websockets_once_closing():
         r = c.post("/api/commands")
         assert r.status_code == 503 and r.json()["detail"]["code"] == "shutting_down"
         assert c.get("/api/status").json() == {"ok": True}  # reads still work
-        with pytest.raises(WebSocketDisconnect) as refused:
-            with c.websocket_connect("/ws/control"):
-                pass
+        with pytest.raises(WebSocketDisconnect) as refused, c.websocket_connect("/ws/control"):
+            pass
         assert refused.value.code == 1001

@@ -9,10 +9,10 @@ import json
 
 import pytest
 from fastapi.testclient import TestClient
+from test_safe_swaps import program
 
 from backend.api import create_app
 from backend.session import EngineSession
-from test_safe_swaps import program
 
 
 @pytest.fixture(scope="module")
@@ -27,15 +27,22 @@ def post(client, path: str, raw: str):
     return client.post(path, content=raw, headers={"content-type": "application/json"})
 
 
-@pytest.mark.parametrize("raw, field, words", [
-    ('{"type": "play_clip", "clip": "nod", "speed": "2"}', "speed", 'speed must be a number, not "2"'),
-    ('{"type": "play_clip", "clip": "nod", "speed": true}', "speed", "speed must be a number, not true"),
-    ('{"type": "set_emotion", "valence": 1e30, "arousal": 0}', "valence", "valence must be between -1 and 1"),
-    ('{"type": "set_emotion", "valence": 0, "arousal": -2}', "arousal", "arousal must be between"),
-    ('{"type": "set_gaze", "target": [1e308, 0, 0]}', "target.0", "target.0 must be between -20 and 20"),
-    ('{"type": "set_gaze", "target": [1, 0, true]}', "target.2", "target.2 must be a number, not true"),
-    ('{"type": "set_gaze", "target": "1,2,3"}', "target", "a JSON array"),
-])
+@pytest.mark.parametrize(
+    "raw, field, words",
+    [
+        ('{"type": "play_clip", "clip": "nod", "speed": "2"}', "speed", 'speed must be a number, not "2"'),
+        ('{"type": "play_clip", "clip": "nod", "speed": true}', "speed", "speed must be a number, not true"),
+        (
+            '{"type": "set_emotion", "valence": 1e30, "arousal": 0}',
+            "valence",
+            "valence must be between -1 and 1",
+        ),
+        ('{"type": "set_emotion", "valence": 0, "arousal": -2}', "arousal", "arousal must be between"),
+        ('{"type": "set_gaze", "target": [1e308, 0, 0]}', "target.0", "target.0 must be between -20 and 20"),
+        ('{"type": "set_gaze", "target": [1, 0, true]}', "target.2", "target.2 must be a number, not true"),
+        ('{"type": "set_gaze", "target": "1,2,3"}', "target", "a JSON array"),
+    ],
+)
 def test_commands_and_tools_refuse_what_they_would_have_coerced(client, raw, field, words):
     for path, body in (("/api/commands", raw), (f"/api/tools/{_tool(raw)}", _arguments(raw))):
         r = post(client, path, body)
@@ -61,9 +68,14 @@ def test_a_key_given_twice_is_refused_naming_it(client):
     assert r.json()["detail"]["field"] == "clip" and "twice" in r.json()["detail"]["message"]
 
 
-@pytest.mark.parametrize("raw", ['{"type": "set_emotion", "valence": NaN, "arousal": 0}',
-                                 '{"type": "set_gaze", "target": [Infinity, 0, 0]}',
-                                 '{"type": "set_gaze", "target": [1e999, 0, 0]}'])
+@pytest.mark.parametrize(
+    "raw",
+    [
+        '{"type": "set_emotion", "valence": NaN, "arousal": 0}',
+        '{"type": "set_gaze", "target": [Infinity, 0, 0]}',
+        '{"type": "set_gaze", "target": [1e999, 0, 0]}',
+    ],
+)
 def test_non_finite_numbers_are_refused(client, raw):
     r = post(client, "/api/commands", raw)
     assert r.status_code == 400 and r.json()["detail"]["code"] in ("non_finite", "malformed_json")

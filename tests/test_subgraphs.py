@@ -9,7 +9,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pytest
 from fastapi.testclient import TestClient
 
 from backend.api import create_app
@@ -49,9 +48,22 @@ def grouped(name: str = "idle", definition: str = "idle") -> dict:
         else:
             edges.append(e)
     nodes = [n for n in d["nodes"] if n["id"] not in IDLE]
-    nodes.insert(pos, {"id": name, "type": "subgraph", "params": {"subgraph": definition}, "ui": {"x": 620, "y": 600}})
-    d.update(nodes=nodes, edges=edges, subgraphs={definition: {
-        "description": "the idle layer", "nodes": inner, "edges": inner_edges, "inputs": ins, "outputs": outs}})
+    nodes.insert(
+        pos, {"id": name, "type": "subgraph", "params": {"subgraph": definition}, "ui": {"x": 620, "y": 600}}
+    )
+    d.update(
+        nodes=nodes,
+        edges=edges,
+        subgraphs={
+            definition: {
+                "description": "the idle layer",
+                "nodes": inner,
+                "edges": inner_edges,
+                "inputs": ins,
+                "outputs": outs,
+            }
+        },
+    )
     return d
 
 
@@ -78,12 +90,15 @@ def errors(desk, doc) -> list:
 
 # --- format and checks -----------------------------------------------------------------------------
 
+
 def test_grouped_program_is_valid_and_keeps_its_document(desk):
     doc = grouped()
     Program.model_validate(doc)
     result = compile_program(doc, desk)
     assert result.ok, [e.render() for e in result.report.errors]
-    assert result.program.subgraphs is not None and "idle" in result.program.subgraphs  # the document as written
+    assert (
+        result.program.subgraphs is not None and "idle" in result.program.subgraphs
+    )  # the document as written
     assert result.program.node("idle").type == "subgraph"
     ids = [s.node_id for s in result.apu.steps]
     assert {f"idle/{i}" for i in IDLE} <= set(ids) and "idle" not in ids and "breathe" not in ids
@@ -141,7 +156,9 @@ def test_missing_exposed_port(desk):
     assert errs[0].code == "unknown_exposed_port" and "no node 'breath'" in errs[0].message
     assert errs[0].path == "subgraphs.idle.outputs[0].node"
     doc = grouped()
-    doc["edges"].append({"from": {"node": "idle", "port": "nope"}, "to": {"node": "look_at_weight", "port": "b"}})
+    doc["edges"].append(
+        {"from": {"node": "idle", "port": "nope"}, "to": {"node": "look_at_weight", "port": "b"}}
+    )
     errs = errors(desk, doc)
     assert [e.code for e in errs] == ["unknown_exposed_port"]
     assert errs[0].node == "idle" and errs[0].port == "nope" and "breathe_out" in errs[0].message
@@ -175,10 +192,14 @@ def test_nested_subgraphs_flatten_with_paths(desk):
     doc = grouped()
     doc["subgraphs"]["outer"] = {
         "nodes": [{"id": "idle", "type": "subgraph", "params": {"subgraph": "idle"}}],
-        "inputs": [{"name": "amp", "node": "idle", "port": "breathe_amplitude"},
-                   {"name": "gaze", "node": "idle", "port": "blink_gaze"}],
-        "outputs": [{"name": o["name"], "node": "idle", "port": o["name"]}
-                    for o in doc["subgraphs"]["idle"]["outputs"]],
+        "inputs": [
+            {"name": "amp", "node": "idle", "port": "breathe_amplitude"},
+            {"name": "gaze", "node": "idle", "port": "blink_gaze"},
+        ],
+        "outputs": [
+            {"name": o["name"], "node": "idle", "port": o["name"]}
+            for o in doc["subgraphs"]["idle"]["outputs"]
+        ],
     }
     node = next(n for n in doc["nodes"] if n["id"] == "idle")
     node.update(id="life", params={"subgraph": "outer"})
@@ -190,7 +211,9 @@ def test_nested_subgraphs_flatten_with_paths(desk):
     result = compile_program(doc, desk)
     assert result.ok, [e.render() for e in result.report.errors]
     assert "life/idle/breathe" in result.apu.index
-    assert ("breath_amplitude", "value", "life/idle/breathe", "amplitude") in {e.key() for e in result.flat.edges}
+    assert ("breath_amplitude", "value", "life/idle/breathe", "amplitude") in {
+        e.key() for e in result.flat.edges
+    }
 
 
 def test_ids_inside_subgraphs_cannot_contain_a_slash(desk):
@@ -200,6 +223,7 @@ def test_ids_inside_subgraphs_cannot_contain_a_slash(desk):
 
 
 # --- running ------------------------------------------------------------------------------------------
+
 
 def test_frames_identical_to_the_same_blocks_written_flat(desk):
     a = EngineSession.create(desk, rate=100, program=grouped())
@@ -225,12 +249,17 @@ def test_live_patch_of_an_inner_param_and_round_trip(desk):
         doc = apu_to_program(session.engine.apu).to_json_dict()
         inner = next(n for n in doc["subgraphs"]["idle"]["nodes"] if n["id"] == "breathe")
         assert inner["params"]["frequency"] == 0.4 and doc["nodes"] == [
-            n for n in Program.model_validate(grouped()).to_json_dict()["nodes"]]
+            n for n in Program.model_validate(grouped()).to_json_dict()["nodes"]
+        ]
         # A PUT of the same document with a changed inner parameter keeps every block (parameter-only).
         doc2 = copy.deepcopy(doc)
-        next(n for n in doc2["subgraphs"]["idle"]["nodes"] if n["id"] == "breathe")["params"]["frequency"] = 0.3
-        doc2["ui"] = {"comments": [{"id": "c1", "x": 0, "y": 0, "w": 300, "h": 200, "title": "Idle", "colour": "#446"}]}
-        _, kept = session.load_program(doc2)
+        next(n for n in doc2["subgraphs"]["idle"]["nodes"] if n["id"] == "breathe")["params"]["frequency"] = (
+            0.3
+        )
+        doc2["ui"] = {
+            "comments": [{"id": "c1", "x": 0, "y": 0, "w": 300, "h": 200, "title": "Idle", "colour": "#446"}]
+        }
+        _, _kept = session.load_program(doc2)
         assert session.engine.apu.block("idle/breathe") is block and block.params.frequency == 0.3
         assert apu_to_program(session.engine.apu).to_json_dict()["ui"] == doc2["ui"]
     finally:
@@ -246,7 +275,10 @@ def test_api_patch_profile_and_program_of_a_grouped_program(desk, tmp_path):
             assert r.status_code == 200, r.text
             assert r.json()["params"]["amplitude"] == 0.05
             assert session.engine.apu.block("idle/breathe").params.amplitude == 0.05
-            assert client.patch("/api/program/nodes/idle/nope/params", json={"amplitude": 0.05}).status_code == 404
+            assert (
+                client.patch("/api/program/nodes/idle/nope/params", json={"amplitude": 0.05}).status_code
+                == 404
+            )
             session.engine.run_ticks(30)
             profile = client.get("/api/profile").json()
             assert {f"idle/{i}" for i in IDLE} <= {n["node"] for n in profile["nodes"]}
@@ -258,6 +290,7 @@ def test_api_patch_profile_and_program_of_a_grouped_program(desk, tmp_path):
 
 
 # --- the library -----------------------------------------------------------------------------------
+
 
 def test_library_subgraphs_save_list_get_delete(desk, tmp_path):
     session = EngineSession.create(desk, rate=100, program=grouped())
@@ -280,7 +313,10 @@ def test_library_subgraphs_save_list_get_delete(desk, tmp_path):
             assert r.status_code == 422
             nested = {"nodes": [{"id": "inner", "type": "subgraph", "params": {"subgraph": "idle"}}]}
             r = client.put("/api/subgraphs/bad", json=nested)
-            assert r.status_code == 422 and "self-contained" in r.json()["detail"]["report"]["errors"][0]["message"]
+            assert (
+                r.status_code == 422
+                and "self-contained" in r.json()["detail"]["report"]["errors"][0]["message"]
+            )
             assert client.get("/api/subgraphs").json() == ["idle"]
             assert client.delete("/api/subgraphs/idle").status_code == 200
             assert client.get("/api/subgraphs").json() == []
@@ -295,7 +331,9 @@ def test_a_hot_swap_keeps_the_state_of_inner_blocks(desk):
         session.run_headless(50)
         phase = session.engine.apu.block("idle/breathe").state
         doc = grouped()
-        doc["nodes"].append({"id": "spare", "type": "sine", "params": {"dofs": ["head_yaw"], "amplitude": 0.01}})
+        doc["nodes"].append(
+            {"id": "spare", "type": "sine", "params": {"dofs": ["head_yaw"], "amplitude": 0.01}}
+        )
         _, kept = session.load_program(doc)  # a structural change: a new APU
         assert {f"idle/{i}" for i in IDLE} <= set(kept)
         assert session.engine.apu.block("idle/breathe").state == phase
@@ -317,7 +355,9 @@ def test_grouping_a_running_program_keeps_every_block_going(desk):
         fb = list(b.run_headless(400))
         # the program's own frames are the same; the robot's only through the swap's (blended) transition
         np.testing.assert_array_equal(np.array([f.program for f in fa]), np.array([f.program for f in fb]))
-        np.testing.assert_allclose(np.array([f.position for f in fa]), np.array([f.position for f in fb]), atol=1e-3)
+        np.testing.assert_allclose(
+            np.array([f.position for f in fa]), np.array([f.position for f in fb]), atol=1e-3
+        )
         # and back: ungrouped again, the blocks keep going too
         _, kept = a.load_program(interactive())
         assert set(IDLE) <= set(kept)

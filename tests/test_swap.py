@@ -36,8 +36,12 @@ def variant(k: int) -> dict:
     layers = [{"name": "base"}, {"name": "idle", "mode": "additive", "mask": ["head_pitch"]}]
     links = [(rest, "base"), (breath, "idle")]
     if k % 2 == 0:
-        wiggle = b.node("sine", "wiggle", dofs=["ear_*"], amplitude=0.05 + 0.01 * (k % 10), frequency=1.0 + k % 3)
-        layers.append({"name": "ears", "mode": "additive", "mask": ["ear_*"], "weight": 0.5 + 0.05 * (k % 10)})
+        wiggle = b.node(
+            "sine", "wiggle", dofs=["ear_*"], amplitude=0.05 + 0.01 * (k % 10), frequency=1.0 + k % 3
+        )
+        layers.append(
+            {"name": "ears", "mode": "additive", "mask": ["ear_*"], "weight": 0.5 + 0.05 * (k % 10)}
+        )
         links.append((wiggle, "ears"))
     else:
         look = b.node("pose", "look", values={"head_yaw": 0.02 * (k % 5)})
@@ -177,8 +181,11 @@ def test_update_params_rejects_bad_values_and_changes_nothing(desk):
     session = EngineSession.create(desk, rate=RATE, program=variant(0))
     breath = session.engine.apu.block("breath")
     params = breath.params
-    for bad, code in [({"amplitude": 99}, "invalid_param"), ({"amplitude_x": 1}, "unknown_param"),
-                      ({"dofs": ["head_pich"]}, None)]:
+    for bad, code in [
+        ({"amplitude": 99}, "invalid_param"),
+        ({"amplitude_x": 1}, "unknown_param"),
+        ({"dofs": ["head_pich"]}, None),
+    ]:
         with pytest.raises(SessionError) as exc:
             session.update_params("breath", bad)
         if code:

@@ -18,8 +18,13 @@ from backend.session import EngineSession
 from tests.tool_calls import example_arguments
 
 INTERACTIVE = robots_dir() / "nutty_desk" / "programs" / "interactive.json"
-NEW_CLIP = {"format": "nutty-clip/1", "name": "peek", "description": "A quick peek to the left and back.",
-            "relative": True, "tracks": {"head_yaw": [{"t": 0, "v": 0}, {"t": 0.4, "v": 0.3}, {"t": 0.8, "v": 0}]}}
+NEW_CLIP = {
+    "format": "nutty-clip/1",
+    "name": "peek",
+    "description": "A quick peek to the left and back.",
+    "relative": True,
+    "tracks": {"head_yaw": [{"t": 0, "v": 0}, {"t": 0.4, "v": 0.3}, {"t": 0.8, "v": 0}]},
+}
 
 
 @pytest.fixture()
@@ -52,24 +57,48 @@ def call(client, name, **arguments):
 
 def test_tools_come_from_the_robot_program_and_library(client, robot):
     doc = client.get("/api/tools").json()
-    assert doc["format"] == "nutty-tools/1" and doc["robot"] == "nutty_desk" and doc["program"] == "interactive"
+    assert (
+        doc["format"] == "nutty-tools/1" and doc["robot"] == "nutty_desk" and doc["program"] == "interactive"
+    )
     tools = {t["name"]: t for t in doc["tools"]}
-    assert list(tools) == ["play_clip", "set_posture", "look_at", "set_emotion", "set_inputs", "say", "play_sound",
-                           "set_led", "set_face", "set_layer", "stop", "cancel", "get_status"]
+    assert list(tools) == [
+        "play_clip",
+        "set_posture",
+        "look_at",
+        "set_emotion",
+        "set_inputs",
+        "say",
+        "play_sound",
+        "set_led",
+        "set_face",
+        "set_layer",
+        "stop",
+        "cancel",
+        "get_status",
+    ]
     clips = sorted(p.stem for p in (robot / "clips").glob("*.json"))
     clip = tools["play_clip"]["parameters"]["properties"]["clip"]
     assert clip["enum"] == clips
-    assert "- nod (1.25 s): A friendly 'yes'" in clip["description"]  # each clip with its description and duration
+    assert (
+        "- nod (1.25 s): A friendly 'yes'" in clip["description"]
+    )  # each clip with its description and duration
     posture = tools["set_posture"]["parameters"]["properties"]["posture"]
     assert posture["enum"] == ["curious", "happy", "neutral", "sad", "sleepy", "surprised"]
     assert "- sleepy: Drowsy:" in posture["description"]
-    assert tools["set_face"]["parameters"]["properties"]["expression"]["enum"][:3] == ["neutral", "smile", "grin"]
+    assert tools["set_face"]["parameters"]["properties"]["expression"]["enum"][:3] == [
+        "neutral",
+        "smile",
+        "grin",
+    ]
     assert "x forward, y to the robot's left, z up" in tools["look_at"]["description"]
     assert "yaw -3.8..3.8 rad" in tools["look_at"]["description"]
     emotion = tools["set_emotion"]["parameters"]["properties"]
     assert (emotion["valence"]["minimum"], emotion["valence"]["maximum"]) == (-1.0, 1.0)
-    assert set(tools["set_inputs"]["parameters"]["properties"]["values"]["properties"]) == \
-        {"gaze_target", "valence", "arousal"}
+    assert set(tools["set_inputs"]["parameters"]["properties"]["values"]["properties"]) == {
+        "gaze_target",
+        "valence",
+        "arousal",
+    }
     assert tools["play_clip"]["long_action"] and "wait" in tools["play_clip"]["parameters"]["properties"]
     assert tools["stop"]["command"] == "stop_all" and tools["get_status"]["command"] is None
     assert [c["name"] for c in doc["library"]["clips"]] == clips
@@ -79,7 +108,10 @@ def test_tools_come_from_the_robot_program_and_library(client, robot):
 def test_every_dialect_is_valid_json_schema(client, fmt):
     body = client.get(f"/api/tools?format={fmt}").json()
     if fmt == "openai":
-        assert all(t["type"] == "function" and set(t["function"]) == {"name", "description", "parameters"} for t in body)
+        assert all(
+            t["type"] == "function" and set(t["function"]) == {"name", "description", "parameters"}
+            for t in body
+        )
         schemas = {t["function"]["name"]: t["function"]["parameters"] for t in body}
     elif fmt == "anthropic":
         assert all(set(t) == {"name", "description", "input_schema"} for t in body)
@@ -107,16 +139,18 @@ def test_a_generated_call_of_every_tool_executes(client):
 
 def test_bad_arguments_name_the_field_and_change_nothing(client, session):
     before = session.inputs()
-    cases = [("play_clip", {"clip": "moonwalk"}, 422, "clip"),
-             ("play_clip", {"clip": "nod", "speed": 50}, 422, "speed"),
-             ("play_clip", {"clip": "nod", "wait": True, "timeout": 999}, 422, "timeout"),
-             ("set_emotion", {"valence": 3, "arousal": 0}, 422, "valence"),
-             ("set_inputs", {"values": {"valence": 2}}, 422, "valence"),
-             ("look_at", {"target": [1, 2]}, 422, "target"),
-             ("set_posture", {"posture": "happy", "bogus": 1}, 422, "bogus"),
-             ("stop", {"fade": 1.0}, 422, "fade"),
-             ("get_status", {"id": "nobody"}, 404, "id"),
-             ("fly", {}, 404, "name")]
+    cases = [
+        ("play_clip", {"clip": "moonwalk"}, 422, "clip"),
+        ("play_clip", {"clip": "nod", "speed": 50}, 422, "speed"),
+        ("play_clip", {"clip": "nod", "wait": True, "timeout": 999}, 422, "timeout"),
+        ("set_emotion", {"valence": 3, "arousal": 0}, 422, "valence"),
+        ("set_inputs", {"values": {"valence": 2}}, 422, "valence"),
+        ("look_at", {"target": [1, 2]}, 422, "target"),
+        ("set_posture", {"posture": "happy", "bogus": 1}, 422, "bogus"),
+        ("stop", {"fade": 1.0}, 422, "fade"),
+        ("get_status", {"id": "nobody"}, 404, "id"),
+        ("fly", {}, 404, "name"),
+    ]
     for name, arguments, status, field in cases:
         r = client.post(f"/api/tools/{name}", json=arguments)
         assert r.status_code == status and r.json()["detail"]["field"].split(".")[0] == field, (name, r.text)
@@ -134,7 +168,9 @@ def test_wait_poll_and_cancel_a_long_action(client):
     assert status["playing"][0]["layers"] == ["gesture"]
     cancel = call(client, "cancel", target=running["id"])
     assert cancel["result"] == {"target": running["id"], "status": "cancelled"}
-    assert call(client, "get_status", id=running["id"], wait=True, timeout=5)["command"]["status"] == "cancelled"
+    assert (
+        call(client, "get_status", id=running["id"], wait=True, timeout=5)["command"]["status"] == "cancelled"
+    )
     short = call(client, "set_posture", posture="curious", duration=5.0, wait=True, timeout=0.3)
     assert short["timed_out"] and short["status"] == "started"  # the move goes on after the wait's timeout
 
@@ -153,7 +189,10 @@ def test_if_busy_replace_queue_and_reject(client):
         assert client.get(f"/api/commands/{queued['id']}").json()["status"] == "queued"
         call(client, "cancel", target=dropped["id"])  # cancelled while it waits: it never starts
         call(client, "cancel", target=first["id"])  # the queued clip starts now
-        assert call(client, "get_status", id=queued["id"], wait=True, timeout=20)["command"]["status"] == "completed"
+        assert (
+            call(client, "get_status", id=queued["id"], wait=True, timeout=20)["command"]["status"]
+            == "completed"
+        )
         replaced = call(client, "play_clip", clip="sad")
         call(client, "play_clip", clip="nod")  # replace (the default) crossfades: the first is cancelled
         events = {}
@@ -190,9 +229,22 @@ def test_tools_change_with_the_library_and_program(client, session):
         assert client.put("/api/program", json=builtin_idle("nutty_desk")).status_code == 200
         msg = next_tools_changed(ws)
         # The built-in idle program has no clip player and no gaze input: no such tools.
-        assert msg["tools"] == ["set_posture", "set_emotion", "set_inputs", "say", "play_sound", "set_led", "set_face", "set_layer",
-                                "stop", "cancel", "get_status"]
-    assert client.post("/api/tools/play_clip", json={"clip": "nod"}).json()["detail"]["code"] == "unknown_tool"
+        assert msg["tools"] == [
+            "set_posture",
+            "set_emotion",
+            "set_inputs",
+            "say",
+            "play_sound",
+            "set_led",
+            "set_face",
+            "set_layer",
+            "stop",
+            "cancel",
+            "get_status",
+        ]
+    assert (
+        client.post("/api/tools/play_clip", json={"clip": "nod"}).json()["detail"]["code"] == "unknown_tool"
+    )
 
 
 def test_get_status_reports_layers_gaze_mood_and_health(client):

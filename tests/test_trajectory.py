@@ -5,8 +5,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from backend.engine.trajectory import (ACCELERATION, JERK, OK, POSITION, VELOCITY, analyze, ghost, overshoot,
-                                     settle_time, step_metrics)
+from backend.engine.trajectory import (
+    ACCELERATION,
+    JERK,
+    OK,
+    POSITION,
+    VELOCITY,
+    analyze,
+    ghost,
+    overshoot,
+    settle_time,
+    step_metrics,
+)
 
 
 def test_classification_most_severe_wins():
@@ -45,8 +55,11 @@ def test_metrics():
 def test_step_metrics_per_step():
     rate = 10.0
     sp = np.r_[np.zeros(5), np.ones(10), np.zeros(10)]
-    y = np.r_[np.zeros(5), [0.5, 1.2, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0], [0.6, 0.3, -0.1, 0.0, 0.0, 0.0, 0.0,
-                                                                                0.0, 0.0, 0.0]]
+    y = np.r_[
+        np.zeros(5),
+        [0.5, 1.2, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0],
+        [0.6, 0.3, -0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    ]
     m = step_metrics(sp, y, rate)
     assert m.overshoot == pytest.approx([0.2, 0.1])
     assert m.settle == pytest.approx([0.2, 0.3])

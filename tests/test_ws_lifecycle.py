@@ -11,13 +11,13 @@ from pathlib import Path
 
 import pytest
 import websockets
+from server_process import running_app, running_server_proc
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect as ws_connect
 
 from backend.api import create_app
 from backend.commands.serve import builtin_idle
 from backend.session import EngineSession
-from server_process import running_app, running_server_proc
 
 pytestmark = pytest.mark.slow
 
@@ -47,7 +47,10 @@ def _wait_for(probe, want, what: str, timeout: float = 60.0):
 
 async def _open_and_abort(port: int, n: int) -> None:
     """Open `n` /ws/frames clients, let each receive a frame, then drop them all without a close frame."""
-    conns = [await websockets.connect(f"ws://127.0.0.1:{port}/ws/frames?decimate=20", max_queue=4) for _ in range(n)]
+    conns = [
+        await websockets.connect(f"ws://127.0.0.1:{port}/ws/frames?decimate=20", max_queue=4)
+        for _ in range(n)
+    ]
     for c in conns:
         await asyncio.wait_for(c.recv(), 30)
     for c in conns:
@@ -64,8 +67,10 @@ def test_abruptly_closed_frame_clients_leave_nothing_behind():
         async def opened_then_aborted():
             # decimate=1000: after its first frame each handler waits ~10 s on its queue for the next,
             # which is when the clients vanish (before, a handler noticed only when a send failed)
-            conns = [await websockets.connect(f"ws://127.0.0.1:{srv.port}/ws/frames?decimate=1000", max_queue=4)
-                     for _ in range(n)]
+            conns = [
+                await websockets.connect(f"ws://127.0.0.1:{srv.port}/ws/frames?decimate=1000", max_queue=4)
+                for _ in range(n)
+            ]
             for c in conns:
                 await asyncio.wait_for(c.recv(), 30)
             assert _frames_state(srv.client) == (n, n)  # each client has its sink (and its thread)
@@ -74,11 +79,18 @@ def test_abruptly_closed_frame_clients_leave_nothing_behind():
                 c.transport.abort()
 
         asyncio.run(opened_then_aborted())
-        _wait_for(lambda: _frames_state(srv.client), lambda v: v == (0, 0),
-                  "clients.frames and the ws-frames sinks to reach 0")
+        _wait_for(
+            lambda: _frames_state(srv.client),
+            lambda v: v == (0, 0),
+            "clients.frames and the ws-frames sinks to reach 0",
+        )
         # a leak is one thread per client (+50); the slack covers worker threads of the event loop's
         # default executor (at most min(32, cores + 4)) that the teardown may start on first use
-        _wait_for(lambda: _threads(srv.proc.pid), lambda v: v <= before + 8, f"the sink threads to end (before: {before})")
+        _wait_for(
+            lambda: _threads(srv.proc.pid),
+            lambda v: v <= before + 8,
+            f"the sink threads to end (before: {before})",
+        )
 
 
 @pytest.fixture()
@@ -105,16 +117,25 @@ def _silent_clients(port: int):
 
 
 def test_a_frames_client_closing_while_its_handler_waits_is_noticed(live_server):
-    session, app, server, thread, port = live_server
+    session, app, _server, _thread, port = live_server
     hub = app.state.hub
     frames, telemetry = _silent_clients(port)
-    _wait_for(lambda: dict(hub.clients), lambda c: c["frames"] == 1 and c["telemetry"] == 1, "both clients counted")
+    _wait_for(
+        lambda: dict(hub.clients), lambda c: c["frames"] == 1 and c["telemetry"] == 1, "both clients counted"
+    )
     assert any(s.name.startswith("ws-frames-") for s in session.engine.sinks)
     frames.close()
     telemetry.close()
-    _wait_for(lambda: dict(hub.clients), lambda c: c["frames"] == 0 and c["telemetry"] == 0, "the handlers to notice")
-    _wait_for(lambda: [s.name for s in session.engine.sinks], lambda names: not any(n.startswith("ws-frames-") for n in names),
-              "the sink to go")
+    _wait_for(
+        lambda: dict(hub.clients),
+        lambda c: c["frames"] == 0 and c["telemetry"] == 0,
+        "the handlers to notice",
+    )
+    _wait_for(
+        lambda: [s.name for s in session.engine.sinks],
+        lambda names: not any(n.startswith("ws-frames-") for n in names),
+        "the sink to go",
+    )
 
 
 def test_silent_clients_do_not_hold_a_graceful_shutdown(live_server):
@@ -132,7 +153,7 @@ def test_silent_clients_do_not_hold_a_graceful_shutdown(live_server):
 
 
 def test_the_app_shutdown_event_closes_every_socket(live_server):
-    session, app, server, thread, port = live_server
+    _session, app, _server, _thread, port = live_server
     hub = app.state.hub
     frames, telemetry = _silent_clients(port)
     control = ws_connect(f"ws://127.0.0.1:{port}/ws/control")

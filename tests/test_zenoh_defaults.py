@@ -10,10 +10,10 @@ import sys
 import time
 
 import pytest
+from test_authority import _listening
 
 from backend.cli import main
 from backend.zenoh_link.session import ZenohOptions, is_loopback_endpoint
-from test_authority import _listening
 from tests.server_process import free_port, stop_process
 
 
@@ -23,7 +23,10 @@ def setting(options: ZenohOptions, key: str):
 
 def test_by_default_a_session_listens_on_loopback_and_does_not_scout():
     opts = ZenohOptions()
-    assert opts.listen_endpoints() == ["tcp/127.0.0.1:0"] and setting(opts, "scouting/multicast/enabled") is False
+    assert (
+        opts.listen_endpoints() == ["tcp/127.0.0.1:0"]
+        and setting(opts, "scouting/multicast/enabled") is False
+    )
     assert opts.exposure_warning() is None
     assert setting(ZenohOptions(scout=True), "scouting/multicast/enabled") is True
     wide = ZenohOptions(listen=["tcp/0.0.0.0:7447"])
@@ -33,22 +36,40 @@ def test_by_default_a_session_listens_on_loopback_and_does_not_scout():
 
 def test_a_config_file_decides_what_it_sets(tmp_path):
     f = tmp_path / "z.json5"
-    f.write_text('{ listen: { endpoints: ["tcp/0.0.0.0:7000"] }, scouting: { multicast: { enabled: true } } }')
+    f.write_text(
+        '{ listen: { endpoints: ["tcp/0.0.0.0:7000"] }, scouting: { multicast: { enabled: true } } }'
+    )
     opts = ZenohOptions(config_file=str(f))
-    assert opts.listen_endpoints() == ["tcp/0.0.0.0:7000"] and setting(opts, "scouting/multicast/enabled") is True
+    assert (
+        opts.listen_endpoints() == ["tcp/0.0.0.0:7000"]
+        and setting(opts, "scouting/multicast/enabled") is True
+    )
     acl = tmp_path / "acl.json5"
-    acl.write_text('{ listen: { endpoints: ["tcp/0.0.0.0:7000"] }, access_control: { enabled: true, '
-                   'default_permission: "deny" } }')
+    acl.write_text(
+        '{ listen: { endpoints: ["tcp/0.0.0.0:7000"] }, access_control: { enabled: true, '
+        'default_permission: "deny" } }'
+    )
     assert ZenohOptions(config_file=str(acl)).exposure_warning() is None  # access control: no warning
     quiet = tmp_path / "q.json5"
     quiet.write_text("{ mode: 'peer' }  // says nothing of listening or scouting")
     opts = ZenohOptions(config_file=str(quiet))
-    assert opts.listen_endpoints() == ["tcp/127.0.0.1:0"] and setting(opts, "scouting/multicast/enabled") is False
+    assert (
+        opts.listen_endpoints() == ["tcp/127.0.0.1:0"]
+        and setting(opts, "scouting/multicast/enabled") is False
+    )
 
 
-@pytest.mark.parametrize("endpoint, local", [("tcp/127.0.0.1:7447", True), ("tcp/[::1]:7447", True),
-                                             ("tcp/localhost:1", True), ("tcp/0.0.0.0:7447", False),
-                                             ("tls/192.168.1.2:7447", False), ("tcp/[::]:0", False)])
+@pytest.mark.parametrize(
+    "endpoint, local",
+    [
+        ("tcp/127.0.0.1:7447", True),
+        ("tcp/[::1]:7447", True),
+        ("tcp/localhost:1", True),
+        ("tcp/0.0.0.0:7447", False),
+        ("tls/192.168.1.2:7447", False),
+        ("tcp/[::]:0", False),
+    ],
+)
 def test_loopback_endpoints(endpoint, local):
     assert is_loopback_endpoint(endpoint) is local
 
@@ -77,16 +98,22 @@ def test_serve_refuses_a_token_with_zenoh_without_access_control(capsys):
 def test_the_router_listens_where_its_config_says(tmp_path):
     port = free_port()
     f = tmp_path / "router.json5"
-    f.write_text('{ listen: { endpoints: ["tcp/127.0.0.1:%d"] } }' % port)
-    proc = subprocess.Popen([sys.executable, "-m", "backend.cli", "fleet", "router", "--zenoh-config", str(f)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    f.write_text('{ listen: { endpoints: ["tcp/127.0.0.1:' + str(port) + '"] } }')
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "backend.cli", "fleet", "router", "--zenoh-config", str(f)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         deadline = time.monotonic() + 60
         while ("127.0.0.1", port) not in _listening(proc.pid):
-            assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read() if proc.poll() else ""
+            assert proc.poll() is None and time.monotonic() < deadline, (
+                proc.stderr.read() if proc.poll() else ""
+            )
             time.sleep(0.1)
         assert [(a, p) for a, p in _listening(proc.pid)] == [("127.0.0.1", port)]  # not 0.0.0.0:7447
     finally:
         stop_process(proc)
-    out, err = proc.communicate()
+    _out, err = proc.communicate()
     assert "warning" not in err  # loopback only: nothing to warn about

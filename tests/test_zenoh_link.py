@@ -83,7 +83,7 @@ BAD_COMMANDS = [
     b'{"type": "say", "text": "hi", "n": 123456789012345678901234567890}',
     b'{"type": "say", "text": "hi"',
     b'{"type": "cancel", "target": "nothing-by-that-id"}',
-    b'\xff\xfe',
+    b"\xff\xfe",
 ]
 
 
@@ -96,7 +96,11 @@ def test_a_command_from_zenoh_is_validated_exactly_like_one_from_rest(served):
         want = r.json()["detail"]
         got = ask_raw(fleet, "unit-1", raw)
         assert got["type"] == "error", raw
-        assert (got["status"], got["code"], got.get("field")) == (r.status_code, want["code"], want.get("field")), raw
+        assert (got["status"], got["code"], got.get("field")) == (
+            r.status_code,
+            want["code"],
+            want.get("field"),
+        ), raw
     assert fleet["unit-1"].status()["zenoh"]["errors"] == len(BAD_COMMANDS)
 
 
@@ -107,8 +111,12 @@ def test_a_good_command_is_acked_logged_and_its_events_follow_under_its_id(serve
         ack = fleet["unit-1"].command("say", text="hello from zenoh", id="z-say-1")
         assert ack == {"id": "z-say-1", "status": "started", "result": ack["result"]}
         events = []
-        poll(lambda: events.append(watch.get(timeout=0.2)) or any(
-            e and e.get("event") == "completed" for e in events))
+        poll(
+            lambda: (
+                events.append(watch.get(timeout=0.2))
+                or any(e and e.get("event") == "completed" for e in events)
+            )
+        )
     events = [e for e in events if e]
     assert [e["event"] for e in events] == ["started", "completed"]
     assert all(e["id"] == "z-say-1" and e["command"] == "say" and e["robot"] == "unit-1" for e in events)
@@ -125,17 +133,31 @@ def test_a_good_command_is_acked_logged_and_its_events_follow_under_its_id(serve
 def test_a_put_command_is_answered_on_events_and_rest_commands_are_published_too(served):
     engine, fleet = served
     with fleet.watch("unit-1", presence=False) as watch:
-        fleet.session.put(keys.key("unit-1", keys.COMMANDS), encode_json({"type": "set_face", "expression": "grin",
-                                                                           "id": "put-1"}))
+        fleet.session.put(
+            keys.key("unit-1", keys.COMMANDS),
+            encode_json({"type": "set_face", "expression": "grin", "id": "put-1"}),
+        )
         fleet.session.put(keys.key("unit-1", keys.COMMANDS), b'{"type": "set_face", "id": "put-2"}')
-        TestClient(engine.app).post("/api/commands", json={"type": "set_face", "expression": "smile", "id": "rest-1"})
+        TestClient(engine.app).post(
+            "/api/commands", json={"type": "set_face", "expression": "smile", "id": "rest-1"}
+        )
         seen: list = []
         poll(lambda: seen.append(watch.get(timeout=0.2)) or sum(1 for e in seen if e) >= 4)
     seen = [e for e in seen if e]
-    assert {"type": "ack", "id": "put-1", "status": "completed", "robot": "unit-1",
-            "result": {"dof": "mouth", "expression": "grin"}} in seen
+    assert {
+        "type": "ack",
+        "id": "put-1",
+        "status": "completed",
+        "robot": "unit-1",
+        "result": {"dof": "mouth", "expression": "grin"},
+    } in seen
     error = next(e for e in seen if e["type"] == "error")
-    assert (error["id"], error["code"], error["field"], error["status"]) == ("put-2", "invalid_command", "expression", 422)
+    assert (error["id"], error["code"], error["field"], error["status"]) == (
+        "put-2",
+        "invalid_command",
+        "expression",
+        422,
+    )
     completed = {e["id"] for e in seen if e.get("event") == "completed"}
     assert completed == {"put-1", "rest-1"}  # a REST command's events reach Zenoh watchers as well
 
@@ -145,10 +167,13 @@ def test_only_the_commands_key_itself_carries_commands(served):
     before = engine.link.counts["commands"]
     fleet.session.put("nutty/**", encode_json({"type": "set_face", "expression": "frown"}))
     answers = [r.ok for r in fleet.session.get("nutty/**", payload=encode_json({"type": "reset"}), timeout=3)]
-    command_answers = [json.loads(s.payload.to_string()) for s in answers if s and str(s.key_expr).endswith("/commands")]
+    command_answers = [
+        json.loads(s.payload.to_string()) for s in answers if s and str(s.key_expr).endswith("/commands")
+    ]
     assert command_answers and all(a["code"] == "not_a_command_key" for a in command_answers)
-    assert {str(s.key_expr) for s in answers if s} == {f"nutty/unit-1/{leaf}" for leaf in
-                                                        ("commands", "status", "robot", "program")}  # reads do answer
+    assert {str(s.key_expr) for s in answers if s} == {
+        f"nutty/unit-1/{leaf}" for leaf in ("commands", "status", "robot", "program")
+    }  # reads do answer
     time.sleep(0.3)
     assert engine.link.counts["commands"] == before
 
@@ -174,7 +199,7 @@ def test_queries_answer_as_the_rest_api_does(served):
 
 
 def test_frames_are_the_ws_frames_content_with_an_emission_stamp(served, desk):
-    engine, fleet = served
+    _engine, fleet = served
     got: list = []
     began = time.time()
     sub = fleet.frames("unit-1", lambda rid, doc, sent: got.append((rid, doc, sent, time.time())))
@@ -233,9 +258,13 @@ def test_the_access_control_examples_let_operators_command_and_viewers_only_watc
     try:
         if topology == "router":
             router = Fleet(listen=[endpoint], config=shipped("router.json5", tmp_path))
-            engine = Served(desk, ZenohOptions(connect=[endpoint], config_file=shipped("member.json5", tmp_path)))
+            engine = Served(
+                desk, ZenohOptions(connect=[endpoint], config_file=shipped("member.json5", tmp_path))
+            )
         else:
-            engine = Served(desk, ZenohOptions(listen=[endpoint], config_file=shipped("engine.json5", tmp_path)))
+            engine = Served(
+                desk, ZenohOptions(listen=[endpoint], config_file=shipped("engine.json5", tmp_path))
+            )
         opened.append(engine)
         operator = Fleet(connect=[endpoint], config=shipped("operator.json5", tmp_path), timeout=3.0)
         opened.append(operator)
@@ -245,8 +274,9 @@ def test_the_access_control_examples_let_operators_command_and_viewers_only_watc
         poll(lambda: operator.robots() == ["unit-1"] and viewer.robots() == ["unit-1"])
         assert viewer["unit-1"].status()["robot_id"] == "unit-1"
         forged: list = []
-        sub = operator.frames("unit-1", lambda rid, doc, sent: forged.append(doc) if doc.get("embodiment") == "forged"
-                              else None)
+        sub = operator.frames(
+            "unit-1", lambda rid, doc, sent: forged.append(doc) if doc.get("embodiment") == "forged" else None
+        )
         opened.append(sub)
 
         # A viewer's command gets no answer (Zenoh drops it), runs nothing, and cannot be smuggled in on
@@ -254,7 +284,9 @@ def test_the_access_control_examples_let_operators_command_and_viewers_only_watc
         with pytest.raises(NuttyError) as refused:
             viewer["unit-1"].face("frown")
         assert refused.value.code == "no_reply"
-        viewer.session.put(keys.key("unit-1", keys.COMMANDS), encode_json({"type": "set_face", "expression": "frown"}))
+        viewer.session.put(
+            keys.key("unit-1", keys.COMMANDS), encode_json({"type": "set_face", "expression": "frown"})
+        )
         viewer.session.put("nutty/**", encode_json({"type": "set_face", "expression": "frown"}))
         viewer.session.put(keys.key("unit-1", keys.FRAMES), b"\x82\xaaembodiment\xa6forged\xa4dofs\x80")
         time.sleep(0.5)
@@ -276,8 +308,11 @@ def test_the_access_control_example_turns_away_unknown_users(desk, tmp_path, cre
     engine = Served(desk, ZenohOptions(listen=[endpoint], config_file=shipped("engine.json5", tmp_path)))
     try:
         text = (DOCS / "viewer.json5").read_text()
-        text = (re.sub(r"transport: .*\n", "", text) if credentials is None else
-                text.replace("change-me-viewer", credentials[1]))
+        text = (
+            re.sub(r"transport: .*\n", "", text)
+            if credentials is None
+            else text.replace("change-me-viewer", credentials[1])
+        )
         path = tmp_path / "stranger.json5"
         path.write_text(text)
         with pytest.raises(ZenohSetupError, match="cannot join Zenoh"):
@@ -287,10 +322,15 @@ def test_the_access_control_example_turns_away_unknown_users(desk, tmp_path, cre
 
 
 def test_status_is_published_and_liveliness_is_seen_by_a_watch(served):
-    engine, fleet = served
+    _engine, fleet = served
     with fleet.watch("unit-*", status=True) as watch:
         seen: list = []
-        poll(lambda: seen.append(watch.get(timeout=0.5)) or sum(1 for e in seen if e and e["type"] == "status") >= 2)
+        poll(
+            lambda: (
+                seen.append(watch.get(timeout=0.5))
+                or sum(1 for e in seen if e and e["type"] == "status") >= 2
+            )
+        )
     statuses = [e for e in seen if e and e["type"] == "status"]
     assert all(s["robot"] == s["robot_id"] == "unit-1" for s in statuses)
     assert statuses[1]["ticks"] > statuses[0]["ticks"]
@@ -306,8 +346,12 @@ def test_the_bridge_follows_only_the_running_engines_frames_on_its_own_key(serve
 
     engine, fleet = served
     got, refused = [], []
-    follower = follow_frames(fleet.session, "unit-1", lambda doc, sent, sid: got.append((doc["seq"], sid)),
-                             lambda why, kind="rejected": refused.append(kind))
+    follower = follow_frames(
+        fleet.session,
+        "unit-1",
+        lambda doc, sent, sid: got.append((doc["seq"], sid)),
+        lambda why, kind="rejected": refused.append(kind),
+    )
     try:
         poll(lambda: len(got) >= 5, 10, "the engine's frames")
         sid = engine.link.session_id.hex()

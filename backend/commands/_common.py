@@ -13,5 +13,8 @@ def fail(message: str, code: int = 2) -> int:
 
 def warn_unsafe() -> None:
     """Say loudly that the engine's safety net is off (`--unsafe-no-limits`)."""
-    print("nutty: WARNING: --unsafe-no-limits: the engine's safety net is OFF; frames are not limited to the "
-          "robot's position, velocity, acceleration or jerk limits", file=sys.stderr)
+    print(
+        "nutty: WARNING: --unsafe-no-limits: the engine's safety net is OFF; frames are not limited to the "
+        "robot's position, velocity, acceleration or jerk limits",
+        file=sys.stderr,
+    )

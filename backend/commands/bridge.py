@@ -21,28 +21,64 @@ WAIT_SECONDS = 60.0  # s to wait at start for the engine to answer
 
 
 def register(sub) -> None:
-    p = sub.add_parser("bridge", help="on the robot's computer: follow an engine's frames over Zenoh into a driver",
-                       description="Follow one robot's frames over Zenoh and feed them to local drivers, through the "
-                                   "robot's limits; when frames stop for --timeout seconds, take the robot to rest by "
-                                   "itself, and blend back when they return. Logs latency and gaps.")
-    p.add_argument("--zenoh", action="store_true", required=True, help="follow the robot over Zenoh (required)")
+    p = sub.add_parser(
+        "bridge",
+        help="on the robot's computer: follow an engine's frames over Zenoh into a driver",
+        description="Follow one robot's frames over Zenoh and feed them to local drivers, through the "
+        "robot's limits; when frames stop for --timeout seconds, take the robot to rest by "
+        "itself, and blend back when they return. Logs latency and gaps.",
+    )
+    p.add_argument(
+        "--zenoh", action="store_true", required=True, help="follow the robot over Zenoh (required)"
+    )
     p.add_argument("--robot-id", required=True, type=robot_id_arg, metavar="ID", help="the robot to follow")
-    p.add_argument("--driver", action="append", required=True, choices=sorted(DRIVER_OPTIONS), metavar="NAME",
-                   help=f"a driver to feed ({', '.join(sorted(DRIVER_OPTIONS))}; repeatable); its option below "
-                        "says where (e.g. --driver osc --osc 10.0.0.5:9000)")
+    p.add_argument(
+        "--driver",
+        action="append",
+        required=True,
+        choices=sorted(DRIVER_OPTIONS),
+        metavar="NAME",
+        help=f"a driver to feed ({', '.join(sorted(DRIVER_OPTIONS))}; repeatable); its option below "
+        "says where (e.g. --driver osc --osc 10.0.0.5:9000)",
+    )
     add_driver_options(p)  # every driver's own option, from the registry: a new driver needs no edit here
-    p.add_argument("--robot", required=True,
-                   help="the robot folder, URDF or bundled name: its limits are the bridge's own, never taken "
-                        "from the network")
-    p.add_argument("--rate", type=float, default=None, help="the engine's tick rate in Hz (default: ask the engine)")
-    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT, metavar="SECONDS",
-                   help=f"take the robot to rest after this long without a frame (default {DEFAULT_TIMEOUT:g})")
-    p.add_argument("--wait", type=float, default=WAIT_SECONDS, metavar="SECONDS",
-                   help=f"wait this long at start for the engine to answer (default {WAIT_SECONDS:g})")
-    p.add_argument("--report", type=float, default=REPORT_SECONDS, metavar="SECONDS",
-                   help=f"log latency and gaps this often (default {REPORT_SECONDS:g}; 0: only at the end)")
-    p.add_argument("--shutdown-timeout", type=float, default=DEFAULT_SHUTDOWN_TIMEOUT, metavar="SECONDS",
-                   help=f"on SIGTERM/SIGINT, give the robot this long to reach rest (default {DEFAULT_SHUTDOWN_TIMEOUT:g})")
+    p.add_argument(
+        "--robot",
+        required=True,
+        help="the robot folder, URDF or bundled name: its limits are the bridge's own, never taken "
+        "from the network",
+    )
+    p.add_argument(
+        "--rate", type=float, default=None, help="the engine's tick rate in Hz (default: ask the engine)"
+    )
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT,
+        metavar="SECONDS",
+        help=f"take the robot to rest after this long without a frame (default {DEFAULT_TIMEOUT:g})",
+    )
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=WAIT_SECONDS,
+        metavar="SECONDS",
+        help=f"wait this long at start for the engine to answer (default {WAIT_SECONDS:g})",
+    )
+    p.add_argument(
+        "--report",
+        type=float,
+        default=REPORT_SECONDS,
+        metavar="SECONDS",
+        help=f"log latency and gaps this often (default {REPORT_SECONDS:g}; 0: only at the end)",
+    )
+    p.add_argument(
+        "--shutdown-timeout",
+        type=float,
+        default=DEFAULT_SHUTDOWN_TIMEOUT,
+        metavar="SECONDS",
+        help=f"on SIGTERM/SIGINT, give the robot this long to reach rest (default {DEFAULT_SHUTDOWN_TIMEOUT:g})",
+    )
     add_zenoh_options(p)
     p.set_defaults(func=run)
 
@@ -111,8 +147,9 @@ def _follow(session, args, drivers, robot) -> int:
     sinks = []
     try:
         try:
-            rate = wait_for_engine(session, args.robot_id, rate=args.rate, wait=args.wait, log=log,
-                                   stop=signals.first)
+            rate = wait_for_engine(
+                session, args.robot_id, rate=args.rate, wait=args.wait, log=log, stop=signals.first
+            )
             if signals.first.is_set():  # stopped while waiting: nothing was ever sent
                 return 0
             sinks = [DRIVER_OPTIONS[name].build(robot, value) for name, value in drivers]
@@ -121,14 +158,19 @@ def _follow(session, args, drivers, robot) -> int:
             return fail(str(exc), 1)
         relay.start()
         subscriber = follow_frames(session, args.robot_id, relay.receive, relay.reject)
-        print(f"nutty bridge: following robot '{args.robot_id}' ({robot.name}, {rate:g} Hz) into "
-              f"{', '.join(s.name for s in sinks)}; rest after {args.timeout:g} s without frames", flush=True)
+        print(
+            f"nutty bridge: following robot '{args.robot_id}' ({robot.name}, {rate:g} Hz) into "
+            f"{', '.join(s.name for s in sinks)}; rest after {args.timeout:g} s without frames",
+            flush=True,
+        )
         while not signals.first.wait(args.report or 3600.0):
             log(report_line(args.robot_id, relay.summary()))
         subscriber.undeclare()
         subscriber = None
         at_rest = True if signals.second.is_set() else relay.park(args.shutdown_timeout)
-        log(f"nutty bridge: {'robot at rest' if at_rest else 'warning: the robot did not reach rest'}; closing")
+        log(
+            f"nutty bridge: {'robot at rest' if at_rest else 'warning: the robot did not reach rest'}; closing"
+        )
         return 0 if at_rest else 1
     finally:
         if subscriber is not None:

@@ -10,9 +10,14 @@ from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embod
 
 
 def register(sub) -> None:
-    p = sub.add_parser("embodiment", help="print a robot's kinematronics (DoFs per dimension, limits)",
-                       description="Print the kinematronics summary and DoF table of a robot folder or URDF file.")
-    p.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name")
+    p = sub.add_parser(
+        "embodiment",
+        help="print a robot's kinematronics (DoFs per dimension, limits)",
+        description="Print the kinematronics summary and DoF table of a robot folder or URDF file.",
+    )
+    p.add_argument(
+        "robot", nargs="?", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name"
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(func=run)
 
@@ -52,8 +57,20 @@ def run(args) -> int:
             notes.append("options " + "/".join(d.options))
         if d.kind:
             notes.append(d.kind + (": " + "/".join(d.sounds) if d.sounds else ""))
-        rows.append((d.name, d.dimension.value, d.type.value, _fmt(d.min), _fmt(d.max), _fmt(d.velocity),
-                     _fmt(d.acceleration), _fmt(d.jerk), _fmt(d.rest), "; ".join(notes)))
+        rows.append(
+            (
+                d.name,
+                d.dimension.value,
+                d.type.value,
+                _fmt(d.min),
+                _fmt(d.max),
+                _fmt(d.velocity),
+                _fmt(d.acceleration),
+                _fmt(d.jerk),
+                _fmt(d.rest),
+                "; ".join(notes),
+            )
+        )
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
     print()
     print("  ".join(h.ljust(w) for h, w in zip(header, widths)).rstrip())

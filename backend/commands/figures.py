@@ -8,9 +8,12 @@ from backend.commands._common import fail
 
 
 def register(sub) -> None:
-    p = sub.add_parser("figures", help="regenerate the paper's motion-filter figures (PNG)",
-                       description="Draw the NMF figures of the paper (inputs, H, Ω, presets, orders) from the "
-                                   "filter itself into OUT_DIR.")
+    p = sub.add_parser(
+        "figures",
+        help="regenerate the paper's motion-filter figures (PNG)",
+        description="Draw the NMF figures of the paper (inputs, H, Ω, presets, orders) from the "
+        "filter itself into OUT_DIR.",
+    )
     p.add_argument("out_dir", nargs="?", default="docs/figures", help="output folder (default docs/figures)")
     p.set_defaults(func=run)
 

@@ -18,19 +18,28 @@ from backend.commands._common import fail
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "filter", help="filter set-points from a CSV with the Nutty Motion Filter",
+        "filter",
+        help="filter set-points from a CSV with the Nutty Motion Filter",
         description="Filter stepped set-points (CSV: t,<name>,...) into motor-safe motion with the NMF. "
-                    "IN: a header 't,<name>,...', rows sorted by t (s), at any times; an empty cell means "
-                    "'no new set-point for that DoF' (the latest one is held). OUT: "
-                    "t,<name>,<name>.vel,<name>.acc,<name>.jerk sampled at t0 + k/rate up to the last input "
-                    "time, each sample using the latest set-point at or before it. Without --preset the "
-                    "filter is preset W (regular: H bypassed, V/A/J 20/100/10000) unless --sigma or --rho "
-                    "is given, which switches H on; explicit values override the preset's.")
+        "IN: a header 't,<name>,...', rows sorted by t (s), at any times; an empty cell means "
+        "'no new set-point for that DoF' (the latest one is held). OUT: "
+        "t,<name>,<name>.vel,<name>.acc,<name>.jerk sampled at t0 + k/rate up to the last input "
+        "time, each sample using the latest set-point at or before it. Without --preset the "
+        "filter is preset W (regular: H bypassed, V/A/J 20/100/10000) unless --sigma or --rho "
+        "is given, which switches H on; explicit values override the preset's.",
+    )
     p.add_argument("input", help="input CSV: header t,<name>,...; rows sorted by t (s)")
     p.add_argument("output", help="output CSV")
-    p.add_argument("--preset", default=None, help="W (regular), A, B, C, D or E (the paper's table; default W)")
-    p.add_argument("--order", type=int, default=3, choices=(1, 2, 3),
-                   help="continuity order: 1 velocity, 2 acceleration, 3 jerk limited (default 3)")
+    p.add_argument(
+        "--preset", default=None, help="W (regular), A, B, C, D or E (the paper's table; default W)"
+    )
+    p.add_argument(
+        "--order",
+        type=int,
+        default=3,
+        choices=(1, 2, 3),
+        help="continuity order: 1 velocity, 2 acceleration, 3 jerk limited (default 3)",
+    )
     p.add_argument("--limiter", default="tanh", choices=("tanh", "hard"), help="limiter (default tanh)")
     p.add_argument("--rate", type=float, default=60.0, help="output rate in Hz (default 60)")
     p.add_argument("--sigma", type=float, help="smoothness σ in [0, 1] (switches H on)")
@@ -55,7 +64,9 @@ def read_setpoints(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
         raise ValueError(f"{path}: empty file")
     header = [h.strip() for h in rows[0]]
     if len(header) < 2 or header[0] != "t" or not all(header[1:]):
-        raise ValueError(f"{path}: header must be 't,<name>,...' with non-empty names, got {','.join(header)!r}")
+        raise ValueError(
+            f"{path}: header must be 't,<name>,...' with non-empty names, got {','.join(header)!r}"
+        )
     names = header[1:]
     repeated = sorted({nm for nm in names if names.count(nm) > 1})
     if repeated:
@@ -87,7 +98,9 @@ def read_setpoints(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         k = int(back[0]) + 1
-        raise ValueError(f"{path}: rows must be sorted by t; row {row_numbers[k]} (t={t[k]:g}) goes back in time")
+        raise ValueError(
+            f"{path}: rows must be sorted by t; row {row_numbers[k]} (t={t[k]:g}) goes back in time"
+        )
     return names, t, arr[:, 1:]
 
 
@@ -105,7 +118,7 @@ def resample_latest(t: np.ndarray, values: np.ndarray, rate: float) -> tuple[np.
         have = ~np.isnan(col)
         last = np.maximum.accumulate(np.where(have, np.arange(col.size), -1))
         filled[:, j] = np.where(last >= 0, col[np.maximum(last, 0)], np.nan)
-    count = int(math.floor((t[-1] - t[0]) * rate + _SAMPLE_TOL)) + 1
+    count = math.floor((t[-1] - t[0]) * rate + _SAMPLE_TOL) + 1
     ts = t[0] + np.arange(count) / rate
     idx = np.searchsorted(t, ts + _SAMPLE_TOL / rate, side="right") - 1
     return ts, filled[np.clip(idx, 0, len(t) - 1)]
@@ -124,8 +137,10 @@ def run(args) -> int:
         return fail(str(exc))
     samples = (t[-1] - t[0]) * args.rate
     if samples > MAX_SAMPLES:
-        return fail(f"{args.input} spans {t[-1] - t[0]:g} s: {samples:.3g} samples at {args.rate:g} Hz "
-                    f"(at most {MAX_SAMPLES:g}); lower --rate")
+        return fail(
+            f"{args.input} spans {t[-1] - t[0]:g} s: {samples:.3g} samples at {args.rate:g} Hz "
+            f"(at most {MAX_SAMPLES:g}); lower --rate"
+        )
     ts, sps = resample_latest(t, values, args.rate)
     try:
         base = preset(args.preset or "W")
@@ -133,15 +148,34 @@ def run(args) -> int:
         return fail(str(exc))
     # σ or ρ given explicitly means "shape with H": it would otherwise be silently ignored under W.
     wants_h = args.sigma is not None or args.rho is not None
-    kw = dict(sigma=base.sigma, rho=base.rho, vel_limit=base.vel_limit, acc_limit=base.acc_limit,
-              jerk_limit=base.jerk_limit, bypass=args.bypass or (base.bypass and not wants_h))
-    for opt, key in (("sigma", "sigma"), ("rho", "rho"), ("vel", "vel_limit"), ("acc", "acc_limit"),
-                     ("jerk", "jerk_limit")):
+    kw = dict(
+        sigma=base.sigma,
+        rho=base.rho,
+        vel_limit=base.vel_limit,
+        acc_limit=base.acc_limit,
+        jerk_limit=base.jerk_limit,
+        bypass=args.bypass or (base.bypass and not wants_h),
+    )
+    for opt, key in (
+        ("sigma", "sigma"),
+        ("rho", "rho"),
+        ("vel", "vel_limit"),
+        ("acc", "acc_limit"),
+        ("jerk", "jerk_limit"),
+    ):
         if getattr(args, opt) is not None:
             kw[key] = getattr(args, opt)
     try:
-        f = MotionFilter(len(names), args.rate, order=args.order, limiter=args.limiter, pmin=args.pmin,
-                         pmax=args.pmax, beta=args.beta, **kw)
+        f = MotionFilter(
+            len(names),
+            args.rate,
+            order=args.order,
+            limiter=args.limiter,
+            pmin=args.pmin,
+            pmax=args.pmax,
+            beta=args.beta,
+            **kw,
+        )
     except ValueError as exc:
         return fail(str(exc))
     res = f.run(sps)
@@ -150,7 +184,12 @@ def run(args) -> int:
         header += [nm, f"{nm}.vel", f"{nm}.acc", f"{nm}.jerk"]
     out = np.empty((len(ts), 1 + 4 * len(names)))
     out[:, 0] = ts
-    out[:, 1::4], out[:, 2::4], out[:, 3::4], out[:, 4::4] = res.position, res.velocity, res.acceleration, res.jerk
+    out[:, 1::4], out[:, 2::4], out[:, 3::4], out[:, 4::4] = (
+        res.position,
+        res.velocity,
+        res.acceleration,
+        res.jerk,
+    )
     try:
         with open(args.output, "w", newline="") as fh:
             w = csv.writer(fh)

@@ -23,23 +23,36 @@ ROUTER_ENDPOINT = "tcp/0.0.0.0:7447"  # Zenoh's usual port
 
 
 def register(sub) -> None:
-    p = sub.add_parser("fleet", help="list, watch and command the robots on Zenoh",
-                       description="Every Nutty engine on Zenoh (nutty serve --zenoh): list the live ones, read their "
-                                   "status, send a command to one robot or a pattern (museum-*), watch their events.")
+    p = sub.add_parser(
+        "fleet",
+        help="list, watch and command the robots on Zenoh",
+        description="Every Nutty engine on Zenoh (nutty serve --zenoh): list the live ones, read their "
+        "status, send a command to one robot or a pattern (museum-*), watch their events.",
+    )
     fs = p.add_subparsers(dest="fleet_command", metavar="ACTION", required=True)
 
     def action(name: str, help: str):
         a = fs.add_parser(name, help=help, description=help)
         add_zenoh_options(a)
-        a.add_argument("--timeout", type=float, default=5.0, metavar="SECONDS",
-                       help="wait this long for answers (default 5)")
+        a.add_argument(
+            "--timeout",
+            type=float,
+            default=5.0,
+            metavar="SECONDS",
+            help="wait this long for answers (default 5)",
+        )
         return a
 
     a = action("list", "the live robots' ids (liveliness), one per line")
     a.add_argument("pattern", nargs="?", default="*", help="only ids matching this pattern (e.g. museum-*)")
     a.add_argument("--json", action="store_true", help="print a JSON list")
-    a.add_argument("--wait", type=int, default=0, metavar="N",
-                   help="wait up to --timeout for at least N robots before listing")
+    a.add_argument(
+        "--wait",
+        type=int,
+        default=0,
+        metavar="N",
+        help="wait up to --timeout for at least N robots before listing",
+    )
     a.set_defaults(func=run_list)
 
     a = action("status", "the status of every robot a pattern matches (JSON by robot id)")
@@ -48,8 +61,11 @@ def register(sub) -> None:
 
     a = action("send", "send one command to a robot or to every robot a pattern matches")
     a.add_argument("target", metavar="ID|PATTERN", help="a robot id, or a pattern such as museum-* or *")
-    a.add_argument("command", metavar="COMMAND-JSON", help='a command of the REST union, e.g. \'{"type": "say", '
-                                                           '"text": "hello"}\'')
+    a.add_argument(
+        "command",
+        metavar="COMMAND-JSON",
+        help='a command of the REST union, e.g. \'{"type": "say", "text": "hello"}\'',
+    )
     a.set_defaults(func=run_send)
 
     a = action("watch", "print events, acks and errors, and robots appearing and vanishing, as JSON lines")

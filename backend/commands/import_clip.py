@@ -33,6 +33,7 @@ def _whole(min_value: int):
         if v < min_value:
             raise argparse.ArgumentTypeError(f"expected a whole number >= {min_value}, got {v}")
         return v
+
     return parse
 
 
@@ -47,50 +48,103 @@ def _finite(text: str) -> float:
 
 
 def register(sub) -> None:
-    p = sub.add_parser("import", help="import a glTF/GLB, BVH or CSV animation as a nutty-clip/1 clip",
-                       description="Import an animation file (.gltf/.glb, .bvh, .csv) as a keyframed clip "
-                                   "(nutty-clip/1) for a robot, mapping source joints to DoFs by name or a "
-                                   "mapping file. Rotations are taken relative to the rest pose, in the robot's "
-                                   "axes, and reduced to each DoF's URDF axis; the report gives the rotation "
-                                   "each mapping drops and the clip's samples over the robot's limits. "
-                                   "See docs/importing.md. Exit 0 on success, 1 on warnings with --strict, "
-                                   "2 on errors.")
+    p = sub.add_parser(
+        "import",
+        help="import a glTF/GLB, BVH or CSV animation as a nutty-clip/1 clip",
+        description="Import an animation file (.gltf/.glb, .bvh, .csv) as a keyframed clip "
+        "(nutty-clip/1) for a robot, mapping source joints to DoFs by name or a "
+        "mapping file. Rotations are taken relative to the rest pose, in the robot's "
+        "axes, and reduced to each DoF's URDF axis; the report gives the rotation "
+        "each mapping drops and the clip's samples over the robot's limits. "
+        "See docs/importing.md. Exit 0 on success, 1 on warnings with --strict, "
+        "2 on errors.",
+    )
     p.add_argument("file", help="animation file: .gltf, .glb, .bvh or .csv (header time,<dof>,...)")
     p.add_argument("--robot", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name")
     p.add_argument("--out", required=True, help="clip JSON file to write")
     p.add_argument("--name", help="clip name (default: the file name without extension)")
-    p.add_argument("--map", dest="mapping", help="mapping file (.json or .yaml): "
-                   '{"joints": {"Src": "dof" | {"dof": ..., "axis": [x, y, z], "scale": 1, "offset": 0} | '
-                   '[{"dof": "head_yaw"}, {"dof": "head_pitch"}] | null}}')
+    p.add_argument(
+        "--map",
+        dest="mapping",
+        help="mapping file (.json or .yaml): "
+        '{"joints": {"Src": "dof" | {"dof": ..., "axis": [x, y, z], "scale": 1, "offset": 0} | '
+        '[{"dof": "head_yaw"}, {"dof": "head_pitch"}] | null}}',
+    )
     p.add_argument("--animation", help="glTF: animation name or index (default the first)")
-    p.add_argument("--format", dest="fmt", choices=("gltf", "bvh", "csv"), help="override the file-extension guess")
-    p.add_argument("--tolerance", type=_finite, default=1e-3,
-                   help="rad/m: drop BVH keys that linear interpolation reproduces within this (0 keeps all; "
-                        "default 1e-3)")
-    p.add_argument("--interp", choices=("constant", "linear", "bezier"),
-                   help="CSV: interpolation of the keys (default linear)")
-    p.add_argument("--up", choices=("y", "z"), help="the source's up axis (default y: glTF and BVH are +Y up; "
-                   "z for files already +Z up like the robot)")
-    p.add_argument("--forward", default="x", choices=("x", "-x", "y", "-y", "z", "-z"),
-                   help="the source axis that faces the robot's +X (default x; z for CMU-style BVH, whose "
-                        "actor faces +Z)")
-    p.add_argument("--rest-frame", type=_whole(0), metavar="N",
-                   help="BVH: frame N is the rest pose (default: the pose the OFFSETs define)")
-    p.add_argument("--skip-frames", type=_whole(0), default=0, metavar="N",
-                   help="drop the source's first N frames (e.g. a T-pose frame); the clip starts after them")
-    p.add_argument("--fill", choices=("hold", "linear"),
-                   help="repair short gaps of NaN/inf samples (hold the last value, or interpolate) "
-                        "instead of stopping")
-    p.add_argument("--max-gap", type=_whole(1), default=10, metavar="N",
-                   help="--fill repairs gaps of at most N samples (default 10)")
-    p.add_argument("--swing-warn", type=_finite, default=5.0, metavar="DEG",
-                   help="warn when a mapping drops more than DEG degrees of rotation about other axes (default 5)")
+    p.add_argument(
+        "--format", dest="fmt", choices=("gltf", "bvh", "csv"), help="override the file-extension guess"
+    )
+    p.add_argument(
+        "--tolerance",
+        type=_finite,
+        default=1e-3,
+        help="rad/m: drop BVH keys that linear interpolation reproduces within this (0 keeps all; "
+        "default 1e-3)",
+    )
+    p.add_argument(
+        "--interp",
+        choices=("constant", "linear", "bezier"),
+        help="CSV: interpolation of the keys (default linear)",
+    )
+    p.add_argument(
+        "--up",
+        choices=("y", "z"),
+        help="the source's up axis (default y: glTF and BVH are +Y up; "
+        "z for files already +Z up like the robot)",
+    )
+    p.add_argument(
+        "--forward",
+        default="x",
+        choices=("x", "-x", "y", "-y", "z", "-z"),
+        help="the source axis that faces the robot's +X (default x; z for CMU-style BVH, whose "
+        "actor faces +Z)",
+    )
+    p.add_argument(
+        "--rest-frame",
+        type=_whole(0),
+        metavar="N",
+        help="BVH: frame N is the rest pose (default: the pose the OFFSETs define)",
+    )
+    p.add_argument(
+        "--skip-frames",
+        type=_whole(0),
+        default=0,
+        metavar="N",
+        help="drop the source's first N frames (e.g. a T-pose frame); the clip starts after them",
+    )
+    p.add_argument(
+        "--fill",
+        choices=("hold", "linear"),
+        help="repair short gaps of NaN/inf samples (hold the last value, or interpolate) instead of stopping",
+    )
+    p.add_argument(
+        "--max-gap",
+        type=_whole(1),
+        default=10,
+        metavar="N",
+        help="--fill repairs gaps of at most N samples (default 10)",
+    )
+    p.add_argument(
+        "--swing-warn",
+        type=_finite,
+        default=5.0,
+        metavar="DEG",
+        help="warn when a mapping drops more than DEG degrees of rotation about other axes (default 5)",
+    )
     p.add_argument("--strict", action="store_true", help="warnings are errors: exit 1 and write nothing")
-    p.add_argument("--rate", type=_finite, default=100.0, metavar="HZ",
-                   help="rate at which the trajectory-helper samples the clip (the engine's tick rate; default 100)")
-    p.add_argument("--fit-limits", action="store_true",
-                   help="slow the clip down uniformly by the factor that fits the robot's velocity, "
-                        "acceleration and jerk limits")
+    p.add_argument(
+        "--rate",
+        type=_finite,
+        default=100.0,
+        metavar="HZ",
+        help="rate at which the trajectory-helper samples the clip (the engine's tick rate; default 100)",
+    )
+    p.add_argument(
+        "--fit-limits",
+        action="store_true",
+        help="slow the clip down uniformly by the factor that fits the robot's velocity, "
+        "acceleration and jerk limits",
+    )
     p.add_argument("--json", action="store_true", help="print the whole report as JSON")
     p.set_defaults(func=run)
 
@@ -104,11 +158,25 @@ def run(args) -> int:
     except EmbodimentError as exc:
         return fail(str(exc))
     try:
-        doc, report = import_clip(path, emb, args.mapping, name=args.name, animation=args.animation,
-                                  tolerance=args.tolerance, interp=args.interp, fmt=args.fmt, up=args.up,
-                                  forward=args.forward, rest_frame=args.rest_frame, fill=args.fill,
-                                  max_gap=args.max_gap, skip_frames=args.skip_frames, swing_warn=args.swing_warn,
-                                  rate=args.rate, fit_limits=args.fit_limits)
+        doc, report = import_clip(
+            path,
+            emb,
+            args.mapping,
+            name=args.name,
+            animation=args.animation,
+            tolerance=args.tolerance,
+            interp=args.interp,
+            fmt=args.fmt,
+            up=args.up,
+            forward=args.forward,
+            rest_frame=args.rest_frame,
+            fill=args.fill,
+            max_gap=args.max_gap,
+            skip_frames=args.skip_frames,
+            swing_warn=args.swing_warn,
+            rate=args.rate,
+            fit_limits=args.fit_limits,
+        )
     except ClipImportError as exc:
         return fail(str(exc))
     except (ValueError, TypeError, KeyError, IndexError, OverflowError, ArithmeticError, OSError) as exc:

@@ -10,17 +10,28 @@ DEFAULT_URL = "http://127.0.0.1:8000"
 
 
 def register(sub) -> None:
-    p = sub.add_parser("mcp", help="offer a running robot's tools to AIs over MCP (stdio, or HTTP)",
-                       description="Speak the Model Context Protocol for a running `nutty serve`: its tools (play_clip, "
-                                   "set_posture, look_at, ... generated from the robot, program and library), and "
-                                   "its robot, program, library and status as resources. Over stdio by default "
-                                   "(for an MCP client that starts it); with --http PORT over streamable HTTP at "
-                                   "http://127.0.0.1:PORT/mcp. Logs go to stderr.")
+    p = sub.add_parser(
+        "mcp",
+        help="offer a running robot's tools to AIs over MCP (stdio, or HTTP)",
+        description="Speak the Model Context Protocol for a running `nutty serve`: its tools (play_clip, "
+        "set_posture, look_at, ... generated from the robot, program and library), and "
+        "its robot, program, library and status as resources. Over stdio by default "
+        "(for an MCP client that starts it); with --http PORT over streamable HTTP at "
+        "http://127.0.0.1:PORT/mcp. Logs go to stderr.",
+    )
     p.add_argument("--url", default=DEFAULT_URL, help=f"the Nutty server (default {DEFAULT_URL})")
-    p.add_argument("--token", default=os.environ.get("NUTTY_TOKEN"),
-                   help="the server's --token (default: the NUTTY_TOKEN environment variable)")
-    p.add_argument("--http", type=int, default=None, metavar="PORT",
-                   help="serve streamable HTTP on 127.0.0.1:PORT (path /mcp) instead of stdio")
+    p.add_argument(
+        "--token",
+        default=os.environ.get("NUTTY_TOKEN"),
+        help="the server's --token (default: the NUTTY_TOKEN environment variable)",
+    )
+    p.add_argument(
+        "--http",
+        type=int,
+        default=None,
+        metavar="PORT",
+        help="serve streamable HTTP on 127.0.0.1:PORT (path /mcp) instead of stdio",
+    )
     p.set_defaults(func=run)
 
 
@@ -36,7 +47,8 @@ def run(args) -> int:
     if args.http is not None and not 1 <= args.http <= 65535:
         return fail(f"--http must be a port within 1..65535, got {args.http}")
     logging.basicConfig(stream=sys.stderr, level=logging.WARNING, format="nutty mcp: %(message)s")
-    from backend.mcp_bridge import Remote, run as serve
+    from backend.mcp_bridge import Remote
+    from backend.mcp_bridge import run as serve
 
     try:
         asyncio.run(serve(Remote(args.url, args.token), http=args.http))

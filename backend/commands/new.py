@@ -23,13 +23,20 @@ COL, ROW = 280, 160  # editor grid: one column per stage, one row per layer
 
 
 def register(sub) -> None:
-    p = sub.add_parser("new", help="write a valid starter Animation Program for a robot",
-                       description="Write a valid, laid-out starter Animation Program for a robot.")
+    p = sub.add_parser(
+        "new",
+        help="write a valid starter Animation Program for a robot",
+        description="Write a valid, laid-out starter Animation Program for a robot.",
+    )
     p.add_argument("program", help="file to write (PROGRAM.json)")
     p.add_argument("--robot", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name")
-    p.add_argument("--template", default="idle", choices=TEMPLATES,
-                   help="idle: breathing over the rest pose with a safety limiter (default); blank: rest pose only; "
-                        "layers: idle plus a switchable look layer")
+    p.add_argument(
+        "--template",
+        default="idle",
+        choices=TEMPLATES,
+        help="idle: breathing over the rest pose with a safety limiter (default); blank: rest pose only; "
+        "layers: idle plus a switchable look layer",
+    )
     p.add_argument("--name", default=None, help="program name (default: from the file name)")
     p.add_argument("--force", action="store_true", help="overwrite PROGRAM.json if it exists")
     p.set_defaults(func=run)
@@ -45,11 +52,25 @@ def _edge(src: str, dst: str, port: str = "in", src_port: str = "out") -> dict[s
 
 def starter_program(emb, template: str = "idle", name: str = "starter") -> dict[str, Any]:
     """The starter document for `emb` (valid for it by construction; `nutty new` checks it anyway)."""
-    movable = [d for d in emb.dofs if d.type is DofType.continuous and d.dimension.value == "stationary"
-               and d.max > d.min and not d.drives]
+    movable = [
+        d
+        for d in emb.dofs
+        if d.type is DofType.continuous
+        and d.dimension.value == "stationary"
+        and d.max > d.min
+        and not d.drives
+    ]
     breathe_on = ["stationary:*"] if movable else ["*"]
-    doc: dict[str, Any] = {"format": "nutty-program/1", "name": name, "robot": emb.name,
-                           "description": "", "max_level": 3, "inputs": [], "nodes": [], "edges": []}
+    doc: dict[str, Any] = {
+        "format": "nutty-program/1",
+        "name": name,
+        "robot": emb.name,
+        "description": "",
+        "max_level": 3,
+        "inputs": [],
+        "nodes": [],
+        "edges": [],
+    }
     nodes, edges, inputs = doc["nodes"], doc["edges"], doc["inputs"]
     if template == "blank":
         doc["description"] = "The robot's rest pose. Add sources and operators between 'rest' and 'output'."
@@ -58,36 +79,68 @@ def starter_program(emb, template: str = "idle", name: str = "starter") -> dict[
         edges.append(_edge("rest", "output"))
         return doc
 
-    doc["description"] = ("Breathing over the rest pose; set 'breath_rate' to change its pace. A safety "
-                          "limiter keeps every DoF within its limits.")
-    inputs.append({"name": "breath_rate", "type": "float", "default": 0.25, "min": 0.05, "max": 1.0,
-                   "description": "breaths per second"})
-    layers: list[dict[str, Any]] = [{"name": "base", "mode": "override"},
-                                    {"name": "breathing", "mode": "additive", "mask": breathe_on}]
+    doc["description"] = (
+        "Breathing over the rest pose; set 'breath_rate' to change its pace. A safety "
+        "limiter keeps every DoF within its limits."
+    )
+    inputs.append(
+        {
+            "name": "breath_rate",
+            "type": "float",
+            "default": 0.25,
+            "min": 0.05,
+            "max": 1.0,
+            "description": "breaths per second",
+        }
+    )
+    layers: list[dict[str, Any]] = [
+        {"name": "base", "mode": "override"},
+        {"name": "breathing", "mode": "additive", "mask": breathe_on},
+    ]
     nodes += [
         _node("rest", "rest_pose", 1, 0, dofs=["*"]),
         _node("in_breath_rate", "input", 0, 1, name="breath_rate", type="float"),
         _node("breath", "sine", 1, 1, dofs=breathe_on, amplitude=0.02, frequency=0.25, phase_spread=0.4),
     ]
-    edges += [_edge("rest", "mixer", "base"), _edge("in_breath_rate", "breath", "frequency", "value"),
-              _edge("breath", "mixer", "breathing")]
+    edges += [
+        _edge("rest", "mixer", "base"),
+        _edge("in_breath_rate", "breath", "frequency", "value"),
+        _edge("breath", "mixer", "breathing"),
+    ]
     if template == "layers":
-        doc["description"] = ("Breathing over the rest pose, plus a 'look' layer (a pose) that starts off: "
-                              "send {\"type\": \"set_layer\", \"layer\": \"look\", \"active\": true} to fade it "
-                              "in. 'energy' scales the breathing depth.")
-        inputs.append({"name": "energy", "type": "float", "default": 1.0, "min": 0.0, "max": 3.0,
-                       "description": "how deep the breathing is (1 = normal)"})
-        look = {d.name: round(d.rest + 0.3 * ((d.max if d.max - d.rest >= d.rest - d.min else d.min) - d.rest), 4)
-                for d in movable[:2]}
+        doc["description"] = (
+            "Breathing over the rest pose, plus a 'look' layer (a pose) that starts off: "
+            'send {"type": "set_layer", "layer": "look", "active": true} to fade it '
+            "in. 'energy' scales the breathing depth."
+        )
+        inputs.append(
+            {
+                "name": "energy",
+                "type": "float",
+                "default": 1.0,
+                "min": 0.0,
+                "max": 3.0,
+                "description": "how deep the breathing is (1 = normal)",
+            }
+        )
+        look = {
+            d.name: round(d.rest + 0.3 * ((d.max if d.max - d.rest >= d.rest - d.min else d.min) - d.rest), 4)
+            for d in movable[:2]
+        }
         nodes += [
             _node("in_energy", "input", 1, 2, name="energy", type="float"),
             _node("depth", "gain_offset", 2, 1, dofs=breathe_on, gain=1.0),
             _node("look", "pose", 1, 3, values=look),
         ]
-        edges[-1:] = [_edge("breath", "depth"), _edge("in_energy", "depth", "gain", "value"),
-                      _edge("depth", "mixer", "breathing"), _edge("look", "mixer", "look")]
-        layers.append({"name": "look", "mode": "override", "fade": 0.6, "mask": list(look) or ["*"],
-                       "active": False})
+        edges[-1:] = [
+            _edge("breath", "depth"),
+            _edge("in_energy", "depth", "gain", "value"),
+            _edge("depth", "mixer", "breathing"),
+            _edge("look", "mixer", "look"),
+        ]
+        layers.append(
+            {"name": "look", "mode": "override", "fade": 0.6, "mask": list(look) or ["*"], "active": False}
+        )
     nodes += [
         _node("mixer", "layer_mixer", 3, 1, layers=layers),
         _node("limit", "safety_limiter", 4, 1, velocity_scale=1.0, margin=0.02),
@@ -108,7 +161,9 @@ def run(args) -> int:
         emb = load_embodiment(args.robot)
     except EmbodimentError as exc:
         return fail(str(exc))
-    doc = starter_program(emb, args.template, args.name or out.stem.replace("_", " ").replace("-", " ") or "starter")
+    doc = starter_program(
+        emb, args.template, args.name or out.stem.replace("_", " ").replace("-", " ") or "starter"
+    )
     result = compile_program(doc, emb)
     if not result.ok:  # a bug in a template, not the user's fault: say so rather than write a broken file
         for issue in result.report.errors:
@@ -119,8 +174,13 @@ def run(args) -> int:
         out.write_text(format_json(doc))
     except OSError as exc:
         return fail(f"cannot write '{out}': {exc.strerror or exc}")
-    print(f"wrote {out}: template '{args.template}', APU level {result.report.level}, {len(doc['nodes'])} nodes, "
-          f"for robot '{emb.name}'", file=sys.stderr)
-    print(f"try: nutty run {out} --robot {args.robot} --seconds 5 --out {out.with_suffix('.csv').name}",
-          file=sys.stderr)
+    print(
+        f"wrote {out}: template '{args.template}', APU level {result.report.level}, {len(doc['nodes'])} nodes, "
+        f"for robot '{emb.name}'",
+        file=sys.stderr,
+    )
+    print(
+        f"try: nutty run {out} --robot {args.robot} --seconds 5 --out {out.with_suffix('.csv').name}",
+        file=sys.stderr,
+    )
     return 0

@@ -18,25 +18,45 @@ from backend.engine.runtime import MAX_RATE, MIN_RATE
 
 
 def register(sub) -> None:
-    p = sub.add_parser("run", help="run an Animation Program headless and write its frames",
-                       description="Run an Animation Program (JSON) on a robot without a clock and write "
-                                   "every frame to CSV or JSONL.")
+    p = sub.add_parser(
+        "run",
+        help="run an Animation Program headless and write its frames",
+        description="Run an Animation Program (JSON) on a robot without a clock and write "
+        "every frame to CSV or JSONL.",
+    )
     p.add_argument("program", help="Animation Program JSON file")
     p.add_argument("--robot", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name")
     p.add_argument("--seconds", type=float, required=True, help="duration to run (s)")
-    p.add_argument("--rate", type=float, default=None, help="tick rate in Hz (default: the program's, else 100)")
+    p.add_argument(
+        "--rate", type=float, default=None, help="tick rate in Hz (default: the program's, else 100)"
+    )
     p.add_argument("--out", required=True, help="output file: .csv or .jsonl")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="set an exposed input (VALUE parsed as JSON, else taken as a string); repeatable")
-    p.add_argument("--commands", default=None, metavar="FILE.jsonl",
-                   help="replay timed commands: one JSON object per line with 't' (s) and a command")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="set an exposed input (VALUE parsed as JSON, else taken as a string); repeatable",
+    )
+    p.add_argument(
+        "--commands",
+        default=None,
+        metavar="FILE.jsonl",
+        help="replay timed commands: one JSON object per line with 't' (s) and a command",
+    )
     p.add_argument("--max-level", type=int, default=3, choices=(0, 1, 2, 3), help="highest APU level allowed")
-    p.add_argument("--profile", action="store_true",
-                   help="time every block on every tick and print a table of cook times (µs), the most "
-                        "expensive node first")
-    p.add_argument("--unsafe-no-limits", action="store_true",
-                   help="write the program's frames without the engine's safety net (position, velocity, "
-                        "acceleration and jerk limits): for inspecting a program, never for a robot")
+    p.add_argument(
+        "--profile",
+        action="store_true",
+        help="time every block on every tick and print a table of cook times (µs), the most "
+        "expensive node first",
+    )
+    p.add_argument(
+        "--unsafe-no-limits",
+        action="store_true",
+        help="write the program's frames without the engine's safety net (position, velocity, "
+        "acceleration and jerk limits): for inspecting a program, never for a robot",
+    )
     p.set_defaults(func=run)
 
 
@@ -70,8 +90,9 @@ def run(args) -> int:
     try:
         if args.unsafe_no_limits:
             warn_unsafe()
-        session = EngineSession.create(emb, rate=args.rate, program_text=text, max_level=args.max_level,
-                                       safety=not args.unsafe_no_limits)
+        session = EngineSession.create(
+            emb, rate=args.rate, program_text=text, max_level=args.max_level, safety=not args.unsafe_no_limits
+        )
     except SessionError as exc:
         print(exc.render(), file=sys.stderr)
         return 1
@@ -86,7 +107,7 @@ def run(args) -> int:
     except (ValueError, OSError) as exc:
         return fail(str(exc))
 
-    n = int(round(args.seconds * rate))
+    n = round(args.seconds * rate)
     if args.profile:
         session.engine.set_profiling(every=1, window=max(1, n))
     frames_written = 0

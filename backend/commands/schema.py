@@ -9,10 +9,13 @@ from backend.commands._common import fail
 
 
 def register(sub) -> None:
-    p = sub.add_parser("schema", help="export JSON Schemas (program, commands, API), the block catalog and rules",
-                       description="Write program.schema.json, commands.schema.json, api.schema.json (the API's "
-                                   "responses and messages), blocks.json (the block catalog) and rules.json (the "
-                                   "wiring rule, the palette's categories) to OUT_DIR.")
+    p = sub.add_parser(
+        "schema",
+        help="export JSON Schemas (program, commands, API), the block catalog and rules",
+        description="Write program.schema.json, commands.schema.json, api.schema.json (the API's "
+        "responses and messages), blocks.json (the block catalog) and rules.json (the "
+        "wiring rule, the palette's categories) to OUT_DIR.",
+    )
     p.add_argument("out_dir", help="output folder")
     p.set_defaults(func=run)
 
@@ -23,8 +26,13 @@ def schemas() -> dict[str, object]:
     from backend.engine.blocks import block_catalog, editor_rules
     from backend.graph.schema import program_json_schema
 
-    return {"program.schema.json": program_json_schema(), "commands.schema.json": command_json_schema(),
-            "api.schema.json": api_json_schema(), "blocks.json": block_catalog(), "rules.json": editor_rules()}
+    return {
+        "program.schema.json": program_json_schema(),
+        "commands.schema.json": command_json_schema(),
+        "api.schema.json": api_json_schema(),
+        "blocks.json": block_catalog(),
+        "rules.json": editor_rules(),
+    }
 
 
 def run(args) -> int:

@@ -9,12 +9,31 @@ from backend.commands._common import fail, warn_unsafe
 from backend.drivers import add_driver_options, build_drivers
 from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embodiment, resolve_robot_path
 from backend.engine.gil import collector_paused, settle_heap
+
 # The shutdown machinery lives in backend.shutdown; its public names stay importable from here.
 from backend.shutdown import (  # noqa: F401
-    COMMAND_SOCKETS, DEFAULT_SHUTDOWN_TIMEOUT, DRAIN_SECONDS, EXIT_BOUND, HOLD_SECONDS, HTTP_GRACE, HURRIED_GRACE,
-    PARK_SLACK, REST_TOLERANCE, SAFE_METHODS, SHUTDOWN_SIGNALS, SHUTTING_DOWN, Shutdown, ShutdownGate, park_robot,
-    rest_and_stop, rest_error, uvicorn_server)
-from backend.zenoh_link.serve import add_serve_options as add_zenoh_options, banner as zenoh_banner, open_for_serve
+    COMMAND_SOCKETS,
+    DEFAULT_SHUTDOWN_TIMEOUT,
+    DRAIN_SECONDS,
+    EXIT_BOUND,
+    HOLD_SECONDS,
+    HTTP_GRACE,
+    HURRIED_GRACE,
+    PARK_SLACK,
+    REST_TOLERANCE,
+    SAFE_METHODS,
+    SHUTDOWN_SIGNALS,
+    SHUTTING_DOWN,
+    Shutdown,
+    ShutdownGate,
+    park_robot,
+    rest_and_stop,
+    rest_error,
+    uvicorn_server,
+)
+from backend.zenoh_link.serve import add_serve_options as add_zenoh_options
+from backend.zenoh_link.serve import banner as zenoh_banner
+from backend.zenoh_link.serve import open_for_serve
 
 LOCAL_HOSTS = {"127.0.0.1", "localhost", "::1"}
 
@@ -22,28 +41,53 @@ MAX_SHUTDOWN_TIMEOUT = 600.0  # seconds: the largest --shutdown-timeout accepted
 
 
 def register(sub) -> None:
-    p = sub.add_parser("serve", help="serve the engine, the API, the editor and the Pre-Viz",
-                       description="Run a robot's program live: engine clock, REST/WebSocket API, browser editor "
-                                   "and 3D Pre-Viz. With no arguments: the bundled robot and its interactive program.")
+    p = sub.add_parser(
+        "serve",
+        help="serve the engine, the API, the editor and the Pre-Viz",
+        description="Run a robot's program live: engine clock, REST/WebSocket API, browser editor "
+        "and 3D Pre-Viz. With no arguments: the bundled robot and its interactive program.",
+    )
     p.add_argument("--robot", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name")
-    p.add_argument("--program", default=None, help="program JSON (default: the robot's programs/interactive.json)")
-    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1; others need --token)")
+    p.add_argument(
+        "--program", default=None, help="program JSON (default: the robot's programs/interactive.json)"
+    )
+    p.add_argument(
+        "--host", default="127.0.0.1", help="address to bind (default 127.0.0.1; others need --token)"
+    )
     p.add_argument("--port", type=int, default=8000, help="HTTP port (default 8000)")
     p.add_argument("--previz-port", type=int, default=8080, help="Pre-Viz (viser) port (default 8080)")
     p.add_argument("--no-previz", action="store_true", help="run without the 3D Pre-Viz")
     p.add_argument("--rate", type=float, default=100.0, help="tick rate in Hz, 30..1000 (default 100)")
     add_driver_options(p)  # --osc, --record, --sim-servo and every other driver in backend/drivers
-    p.add_argument("--token", default=None, help="require 'Authorization: Bearer TOKEN' on mutating routes and WebSockets")
-    p.add_argument("--allowed-origin", action="append", default=[], type=_origin, metavar="ORIGIN",
-                   help="also let pages from ORIGIN (scheme://host[:port]) change the robot (repeatable; "
-                        "the server's own http://localhost|127.0.0.1|[::1]:PORT always may)")
-    p.add_argument("--unsafe-no-limits", action="store_true",
-                   help="switch off the engine's safety net (position, velocity, acceleration and jerk limits on "
-                        "every frame): logged on stderr and in /api/status; never with a robot you care about")
-    p.add_argument("--shutdown-timeout", type=float, default=DEFAULT_SHUTDOWN_TIMEOUT, metavar="SECONDS",
-                   help="on SIGTERM/SIGINT, give the robot at most this long to reach its rest pose before the "
-                        f"drivers close (default {DEFAULT_SHUTDOWN_TIMEOUT:g}; the process exits within it + "
-                        f"{EXIT_BOUND:g} s)")
+    p.add_argument(
+        "--token",
+        default=None,
+        help="require 'Authorization: Bearer TOKEN' on mutating routes and WebSockets",
+    )
+    p.add_argument(
+        "--allowed-origin",
+        action="append",
+        default=[],
+        type=_origin,
+        metavar="ORIGIN",
+        help="also let pages from ORIGIN (scheme://host[:port]) change the robot (repeatable; "
+        "the server's own http://localhost|127.0.0.1|[::1]:PORT always may)",
+    )
+    p.add_argument(
+        "--unsafe-no-limits",
+        action="store_true",
+        help="switch off the engine's safety net (position, velocity, acceleration and jerk limits on "
+        "every frame): logged on stderr and in /api/status; never with a robot you care about",
+    )
+    p.add_argument(
+        "--shutdown-timeout",
+        type=float,
+        default=DEFAULT_SHUTDOWN_TIMEOUT,
+        metavar="SECONDS",
+        help="on SIGTERM/SIGINT, give the robot at most this long to reach its rest pose before the "
+        f"drivers close (default {DEFAULT_SHUTDOWN_TIMEOUT:g}; the process exits within it + "
+        f"{EXIT_BOUND:g} s)",
+    )
     add_zenoh_options(p)  # --zenoh, --robot-id, --zenoh-connect/-listen/-mode/-config (backend/zenoh_link)
     p.set_defaults(func=run)
 
@@ -55,7 +99,9 @@ def _origin(value: str) -> str:
     from backend.security import parse_origin
 
     if parse_origin(value) is None:
-        raise argparse.ArgumentTypeError(f"invalid origin {value!r}: expected scheme://host[:port], e.g. https://robot.example")
+        raise argparse.ArgumentTypeError(
+            f"invalid origin {value!r}: expected scheme://host[:port], e.g. https://robot.example"
+        )
     return value.rstrip("/")
 
 
@@ -73,16 +119,34 @@ def builtin_idle(robot_name: str) -> dict:
     """A small idle program any robot can run: breathing over the rest pose or a posture, filtered."""
     from backend.graph.builder import ProgramBuilder
 
-    b = ProgramBuilder("built-in idle", "Breathing over the rest pose or a posture, motion filter and safety limits.",
-                       robot=robot_name)
+    b = ProgramBuilder(
+        "built-in idle",
+        "Breathing over the rest pose or a posture, motion filter and safety limits.",
+        robot=robot_name,
+    )
     arousal = b.expose("arousal", default=0.0, min=-1.0, max=1.0, description="calm (-1) to excited (+1)")
     rest = b.node("rest_pose", "rest", ui={"x": 0, "y": 0})
-    breathe = b.node("sine", "breathe", ui={"x": 0, "y": 160}, dofs=["stationary:*"], amplitude=0.04,
-                     frequency=0.25, phase_spread=0.6)
+    breathe = b.node(
+        "sine",
+        "breathe",
+        ui={"x": 0, "y": 160},
+        dofs=["stationary:*"],
+        amplitude=0.04,
+        frequency=0.25,
+        phase_spread=0.6,
+    )
     gain = b.node("gain_offset", "arousal_gain", ui={"x": 260, "y": 160}, gain=1.0)
     posture = b.node("posture", "posture", ui={"x": 260, "y": -140}, duration=1.2)
-    mix = b.node("layer_mixer", "mix", ui={"x": 520, "y": 60},
-                 layers=[{"name": "base"}, {"name": "posture", "mode": "override"}, {"name": "idle", "mode": "additive"}])
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        ui={"x": 520, "y": 60},
+        layers=[
+            {"name": "base"},
+            {"name": "posture", "mode": "override"},
+            {"name": "idle", "mode": "additive"},
+        ],
+    )
     nmf = b.node("nmf_stage2", "nmf", ui={"x": 780, "y": 60}, preset="D")
     safety = b.node("safety_limiter", "safety", ui={"x": 1040, "y": 60})
     b.connect(rest, mix, "out", "base").connect(posture, mix, "out", "posture").chain(breathe, gain)
@@ -98,8 +162,10 @@ def run(args) -> int:
     if args.host not in LOCAL_HOSTS and not args.token:
         return fail(f"binding to {args.host} exposes the robot to the network: pass --token TOKEN")
     if not (0 < args.shutdown_timeout <= MAX_SHUTDOWN_TIMEOUT):  # also refuses NaN
-        return fail(f"--shutdown-timeout must be within (0, {MAX_SHUTDOWN_TIMEOUT:g}] seconds, "
-                    f"got {args.shutdown_timeout:g}")
+        return fail(
+            f"--shutdown-timeout must be within (0, {MAX_SHUTDOWN_TIMEOUT:g}] seconds, "
+            f"got {args.shutdown_timeout:g}"
+        )
     try:
         emb = load_embodiment(args.robot)
     except EmbodimentError as exc:
@@ -114,7 +180,9 @@ def run(args) -> int:
             source, label = Path(args.program).read_text(), args.program
         else:
             path = default_program_path(folder)
-            source, label = (path.read_text(), str(path)) if path else (builtin_idle(emb.name), "built-in idle")
+            source, label = (
+                (path.read_text(), str(path)) if path else (builtin_idle(emb.name), "built-in idle")
+            )
         session.load_program(source)
     except OSError as exc:
         return fail(f"cannot read program: {exc}")
@@ -136,8 +204,12 @@ def run(args) -> int:
         # Loopback only, always: the network reaches it through the API's /previz/ proxy and token. In
         # its own process: viser never holds the clock's interpreter lock (backend/previz_process.py);
         # it starts while the server imports.
-        previz = PreVizProcess(session, port=args.previz_port, allowed_origins=args.allowed_origin,
-                               proxy_only=args.token is not None)
+        previz = PreVizProcess(
+            session,
+            port=args.previz_port,
+            allowed_origins=args.allowed_origin,
+            proxy_only=args.token is not None,
+        )
     # The server's own imports come after the first frame: the robot need not wait for them, and the
     # collector waits for them (its full collections would hold the clock up for tens of milliseconds).
     with collector_paused():
@@ -152,15 +224,26 @@ def run(args) -> int:
             previz.wait_ready()
             previz.start()
         except PreVizUnavailable as exc:  # the robot and the API go on without it
-            print(f"nutty: the Pre-Viz did not start ({exc}); serving without it", file=sys.stderr, flush=True)
+            print(
+                f"nutty: the Pre-Viz did not start ({exc}); serving without it", file=sys.stderr, flush=True
+            )
             previz.stop()
             previz = None
     shown = "localhost" if args.host in LOCAL_HOSTS else args.host
     with collector_paused():
-        app = create_app(session, token=args.token, previz=previz, allowed_origins=args.allowed_origin,
-                         host=args.host, port=args.port)
-    print(f"Nutty: robot '{emb.name}', program '{session.program.name}' ({label}), level {session.engine.apu.level}, "
-          f"{session.engine.rate:g} Hz", flush=True)
+        app = create_app(
+            session,
+            token=args.token,
+            previz=previz,
+            allowed_origins=args.allowed_origin,
+            host=args.host,
+            port=args.port,
+        )
+    print(
+        f"Nutty: robot '{emb.name}', program '{session.program.name}' ({label}), level {session.engine.apu.level}, "
+        f"{session.engine.rate:g} Hz",
+        flush=True,
+    )
     print(f"  editor   http://{shown}:{args.port}/", flush=True)
     print(f"  API      http://{shown}:{args.port}/docs", flush=True)
     if previz:
@@ -168,13 +251,27 @@ def run(args) -> int:
         print(f"  Pre-Viz  http://{shown}:{args.port}/previz/{direct}", flush=True)
     hub = getattr(app.state, "hub", None)
     if callable(getattr(hub, "shutdown", None)):
-        shutdown.before_server_stops(hub.shutdown)  # WebSocket handlers close (1001) once the robot is at rest
-    server = shutdown.attach(uvicorn_server(uvicorn.Config(
-        ShutdownGate(app, shutdown.closing), host=args.host, port=args.port, log_level="warning",
-        timeout_graceful_shutdown=HTTP_GRACE, ws_per_message_deflate=False), shutdown))
+        shutdown.before_server_stops(
+            hub.shutdown
+        )  # WebSocket handlers close (1001) once the robot is at rest
+    server = shutdown.attach(
+        uvicorn_server(
+            uvicorn.Config(
+                ShutdownGate(app, shutdown.closing),
+                host=args.host,
+                port=args.port,
+                log_level="warning",
+                timeout_graceful_shutdown=HTTP_GRACE,
+                ws_per_message_deflate=False,
+            ),
+            shutdown,
+        )
+    )
     try:
         if zenoh is not None:
-            zenoh.start(hub, shutdown.closing)  # Zenoh commands are refused from the first signal on, as REST's
+            zenoh.start(
+                hub, shutdown.closing
+            )  # Zenoh commands are refused from the first signal on, as REST's
             print(zenoh_banner(zenoh), flush=True)
         server.run()
     finally:

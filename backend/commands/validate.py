@@ -15,15 +15,23 @@ from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embod
 
 
 def register(sub) -> None:
-    p = sub.add_parser("validate", help="check an Animation Program against a robot, listing every error",
-                       description="Validate an Animation Program (JSON) for a robot: every error at once, "
-                                   "each with its code, node and port. Exit 0 if valid, 1 if not, 2 if the "
-                                   "file or robot cannot be read.")
+    p = sub.add_parser(
+        "validate",
+        help="check an Animation Program against a robot, listing every error",
+        description="Validate an Animation Program (JSON) for a robot: every error at once, "
+        "each with its code, node and port. Exit 0 if valid, 1 if not, 2 if the "
+        "file or robot cannot be read.",
+    )
     p.add_argument("program", help="Animation Program JSON file")
     p.add_argument("--robot", default=DEFAULT_ROBOT, help="robot folder, URDF file or bundled robot name")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
-    p.add_argument("--max-level", type=int, default=3, choices=(0, 1, 2, 3),
-                   help="highest APU level the target engine allows (default 3)")
+    p.add_argument(
+        "--max-level",
+        type=int,
+        default=3,
+        choices=(0, 1, 2, 3),
+        help="highest APU level the target engine allows (default 3)",
+    )
     p.set_defaults(func=run)
 
 
@@ -52,8 +60,10 @@ def run(args) -> int:
         program = result.program
         n_nodes = len(program.nodes) if program else 0
         n_edges = len(program.edges) if program else 0
-        print(f"{path}: valid for robot '{emb.name}' (APU level {report.level}, {_count(n_nodes, 'node')}, "
-              f"{_count(n_edges, 'edge')})")
+        print(
+            f"{path}: valid for robot '{emb.name}' (APU level {report.level}, {_count(n_nodes, 'node')}, "
+            f"{_count(n_edges, 'edge')})"
+        )
     else:
         print(f"{path}: invalid for robot '{emb.name}', {_count(len(report.errors), 'error')}:")
         for issue in report.errors:

@@ -14,26 +14,61 @@ client (`NuttyClient.command`) and the editor pick it up.
 from __future__ import annotations
 
 from backend.control.base import REGISTRY, BaseCommand, BlockCommand, CommandContext, Target
-from backend.control.errors import CommandError
 
 # The concerns, in the order of the union (and of the generated types).
 from backend.control.clips import PlayClip, SeekClip, StopClip
-from backend.control.postures import GoPosture, SetGaze, Vec3
-from backend.control.inputs import SetEmotion, SetInput, SetInputs, SetLayer
-from backend.control.display import PlaySound, Say, SetFace, SetLed
-from backend.control.lifecycle import Cancel, Reset, StopAll
-from backend.control.puppet import Puppet
 from backend.control.dispatch import (
-    cancel_command, command_json_schema, command_union, execute, is_long_action, parse_command)
+    cancel_command,
+    command_json_schema,
+    command_union,
+    execute,
+    is_long_action,
+    parse_command,
+)
+from backend.control.display import PlaySound, Say, SetFace, SetLed
+from backend.control.errors import CommandError
+from backend.control.inputs import SetEmotion, SetInput, SetInputs, SetLayer
+from backend.control.lifecycle import Cancel, Reset, StopAll
+from backend.control.postures import GoPosture, SetGaze, Vec3
+from backend.control.puppet import Puppet
 from backend.control.targets import blocks_of, find_block
 
 Command = command_union()
 LONG_ACTIONS = REGISTRY.long_actions()
 
 __all__ = [
-    "REGISTRY", "BaseCommand", "BlockCommand", "CommandContext", "CommandError", "Target", "Command",
-    "LONG_ACTIONS", "parse_command", "execute", "command_json_schema", "command_union", "is_long_action",
-    "cancel_command", "blocks_of", "find_block", "Vec3",
-    "PlayClip", "StopClip", "SeekClip", "GoPosture", "SetGaze", "SetInput", "SetInputs", "SetLayer",
-    "SetEmotion", "Say", "PlaySound", "SetLed", "SetFace", "Reset", "StopAll", "Cancel", "Puppet",
+    "LONG_ACTIONS",
+    "REGISTRY",
+    "BaseCommand",
+    "BlockCommand",
+    "Cancel",
+    "Command",
+    "CommandContext",
+    "CommandError",
+    "GoPosture",
+    "PlayClip",
+    "PlaySound",
+    "Puppet",
+    "Reset",
+    "Say",
+    "SeekClip",
+    "SetEmotion",
+    "SetFace",
+    "SetGaze",
+    "SetInput",
+    "SetInputs",
+    "SetLayer",
+    "SetLed",
+    "StopAll",
+    "StopClip",
+    "Target",
+    "Vec3",
+    "blocks_of",
+    "cancel_command",
+    "command_json_schema",
+    "command_union",
+    "execute",
+    "find_block",
+    "is_long_action",
+    "parse_command",
 ]

@@ -28,12 +28,15 @@ class PlayClip(BlockCommand):
     clip: str = Field(..., min_length=1, max_length=80, description="name of a clip of the robot's library")
     speed: float | None = Field(None, gt=0.0, le=5.0, description="playback speed (1 = authored timing)")
     mode: Literal["once", "loop", "ping_pong"] | None = Field(
-        None, description="once (default: then it completes), loop or ping_pong (both go on until stopped)")
+        None, description="once (default: then it completes), loop or ping_pong (both go on until stopped)"
+    )
     crossfade: float | None = Field(None, ge=0.0, le=10.0, description="crossfade from the current pose (s)")
     anchors: dict[str, float] | None = Field(None, description="anchor name -> time (s) it must land at")
     if_busy: Literal["replace", "queue", "reject"] | None = Field(
-        None, description="while another clip plays on this player: replace it (crossfade; default), queue "
-                          "behind it, or reject this play")
+        None,
+        description="while another clip plays on this player: replace it (crossfade; default), queue "
+        "behind it, or reject this play",
+    )
 
     def run(self, ctx: CommandContext) -> Any:
         block = self.block(ctx.session)
@@ -43,7 +46,9 @@ class PlayClip(BlockCommand):
             if exc.code != "busy":
                 raise
             layers = layers_of(ctx.session, block.node_id)
-            where = f"layer {', '.join(repr(n) for n in layers)}" if layers else f"clip player '{block.node_id}'"
+            where = (
+                f"layer {', '.join(repr(n) for n in layers)}" if layers else f"clip player '{block.node_id}'"
+            )
             raise CommandError(f"{where} is busy: {exc}", field="if_busy", code="busy") from exc
 
     @classmethod
@@ -56,7 +61,9 @@ class StopClip(BlockCommand):
 
     acts_on = CLIP_PLAYER
     type: Literal["stop_clip"] = "stop_clip"
-    fade: float | None = Field(None, ge=0.0, le=10.0, description="fade-out time (s; default: the player's release)")
+    fade: float | None = Field(
+        None, ge=0.0, le=10.0, description="fade-out time (s; default: the player's release)"
+    )
 
     def run(self, ctx: CommandContext) -> Any:
         return self.tell(ctx, self.block(ctx.session), "stop", {"fade": self.fade})

@@ -4,7 +4,8 @@ name the field, the JSON Schema, and `execute` (look the command up, run it)."""
 from __future__ import annotations
 
 import typing
-from typing import Annotated, Any, Callable, Union
+from collections.abc import Callable
+from typing import Annotated, Any, Union
 
 import annotated_types
 import orjson
@@ -12,8 +13,8 @@ from pydantic import Field, TypeAdapter, ValidationError
 
 from backend.control.base import REGISTRY, BaseCommand, CommandContext
 from backend.control.errors import CommandError
-from backend.security import JsonSafetyError, check_json
 from backend.safe_json import validation_bytes
+from backend.security import JsonSafetyError, check_json
 
 _built: tuple[int, Any, TypeAdapter] | None = None  # (registry generation, union, its adapter)
 
@@ -21,7 +22,7 @@ _built: tuple[int, Any, TypeAdapter] | None = None  # (registry generation, unio
 def _union() -> tuple[Any, TypeAdapter]:
     global _built
     if _built is None or _built[0] != REGISTRY.generation:
-        union = Annotated[Union[REGISTRY.classes()], Field(discriminator="type")]  # Union[...] of a runtime tuple
+        union = Annotated[Union[REGISTRY.classes()], Field(discriminator="type")]  # noqa: UP007 (X | Y cannot spread a runtime tuple)
         _built = (REGISTRY.generation, union, TypeAdapter(union))
     return _built[1], _built[2]
 
@@ -58,7 +59,9 @@ def parse_command(data: Any, where: str = "command") -> BaseCommand:
         if loc and loc[0] == data.get("type"):  # the union's tag, not a field of the command
             loc = loc[1:]
         field = ".".join(loc) or "type"
-        raise CommandError(f"{where}: {plain_error(err, REGISTRY.get(data.get('type')), loc)}", field=field) from exc
+        raise CommandError(
+            f"{where}: {plain_error(err, REGISTRY.get(data.get('type')), loc)}", field=field
+        ) from exc
 
 
 def _bounds(cls: Any, loc: list[str]) -> tuple[Any, Any]:
@@ -85,14 +88,20 @@ def plain_error(err: Any, cls: Any, loc: list[str]) -> str:
     1", "speed must be a number, not true"."""
     name = ".".join(loc) or "type"
     kind, ctx, given = err["type"], err.get("ctx") or {}, err.get("input")
-    shown = orjson.dumps(given).decode()[:60] if isinstance(given, (bool, int, float, str, type(None))) else None
+    shown = (
+        orjson.dumps(given).decode()[:60] if isinstance(given, (bool, int, float, str, type(None))) else None
+    )
     if kind in ("greater_than_equal", "less_than_equal", "greater_than", "less_than"):
         lo, hi = _bounds(cls, loc)
         if lo is not None and hi is not None:
             return f"{name} must be between {lo:g} and {hi:g}, got {shown}"
         bound = next(iter(ctx.values()), "?")
-        word = {"greater_than_equal": "at least", "less_than_equal": "at most", "greater_than": "more than",
-                "less_than": "less than"}[kind]
+        word = {
+            "greater_than_equal": "at least",
+            "less_than_equal": "at most",
+            "greater_than": "more than",
+            "less_than": "less than",
+        }[kind]
         return f"{name} must be {word} {bound}, got {shown}"
     if kind in ("float_type", "int_type", "float_parsing", "int_from_float", "int_parsing"):
         what = "a whole number" if kind.startswith("int") else "a number"
@@ -106,8 +115,13 @@ def plain_error(err: Any, cls: Any, loc: list[str]) -> str:
     return f"{name}: {err['msg']}"
 
 
-def execute(session: Any, command: BaseCommand, command_id: str | None = None, *,
-            cancel: Callable[[str], dict[str, Any]] | None = None) -> Any:
+def execute(
+    session: Any,
+    command: BaseCommand,
+    command_id: str | None = None,
+    *,
+    cancel: Callable[[str], dict[str, Any]] | None = None,
+) -> Any:
     """Carry out a parsed command on an EngineSession (changes land at the next tick boundary).
 
     `command_id` (default: the command's own `id`) tags the events its blocks report; `cancel` is the

@@ -31,7 +31,9 @@ class _Audible(BlockCommand):
             return self.tell(ctx, self.block(session), self.type, self.args())
         dof = next((d for d in session.embodiment.event_dofs if d.kind == self.channel), None)
         if dof is None:
-            raise CommandError(f"robot '{session.embodiment.name}' has no {self.channel} channel", code="no_target")
+            raise CommandError(
+                f"robot '{session.embodiment.name}' has no {self.channel} channel", code="no_target"
+            )
         self.check_channel(dof)
         from backend.engine.frames import FrameEvent
 
@@ -65,7 +67,9 @@ class Say(_Audible):
         if isinstance(pending, dict) and pending.get("command_id") == command_id:
             s.pending = None  # not started yet: drop it
         elif isinstance(current, dict) and current.get("command_id") == command_id:
-            block.handle("stop", {"command_id": command_id})  # cancels the running one (and clears the queue) ...
+            block.handle(
+                "stop", {"command_id": command_id}
+            )  # cancels the running one (and clears the queue) ...
             s.pending = pending  # ... so put back what another command queued
 
 

@@ -60,6 +60,9 @@ class Cancel(BaseCommand):
 
     def run(self, ctx: CommandContext) -> Any:
         if ctx.cancel is None:
-            raise CommandError(f"no command with id '{self.target}' (only a server keeps commands by id)",
-                               field="target", code="unknown_command")
+            raise CommandError(
+                f"no command with id '{self.target}' (only a server keeps commands by id)",
+                field="target",
+                code="unknown_command",
+            )
         return ctx.cancel(self.target)

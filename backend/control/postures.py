@@ -25,7 +25,9 @@ class GoPosture(BlockCommand):
     long_action = True
     type: Literal["go_posture"] = "go_posture"
     posture: str = Field(..., min_length=1, max_length=80, description="name of a posture of the robot")
-    duration: float | None = Field(None, gt=0.0, le=30.0, description="time to get there (s; default: the block's)")
+    duration: float | None = Field(
+        None, gt=0.0, le=30.0, description="time to get there (s; default: the block's)"
+    )
     easing: str | None = Field(None, description="easing curve of the move (default: the block's)")
 
     def run(self, ctx: CommandContext) -> Any:
@@ -43,8 +45,11 @@ class SetGaze(BaseCommand):
 
     acts_on = Target(role="input", what="gaze_target input")
     type: Literal["set_gaze"] = "set_gaze"
-    target: GazePoint = Field(..., description=f"[x, y, z] (m) in the robot's base frame: x forward, y left, z up; "
-                                                f"each within +-{GAZE_REACH:g} m")
+    target: GazePoint = Field(
+        ...,
+        description=f"[x, y, z] (m) in the robot's base frame: x forward, y left, z up; "
+        f"each within +-{GAZE_REACH:g} m",
+    )
 
     def run(self, ctx: CommandContext) -> Any:
         if not declares_input(ctx.session, "gaze_target"):

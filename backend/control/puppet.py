@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal, Union
+from typing import Any, Literal
 
 from pydantic import Field, SkipValidation, StrictFloat, StrictInt, StrictStr
 
@@ -12,7 +12,7 @@ from backend.control.errors import CommandError
 # A target: rad or m for a continuous DoF, [r, g, b] for a colour, an option name for an expression.
 # The schema shows the type; the puppet block checks each target against its DoF (`Puppet.resolve`), with
 # messages that name the DoF and what it takes, so pydantic does not judge the values first.
-PuppetTarget = Union[StrictFloat, StrictInt, list[Union[StrictFloat, StrictInt]], StrictStr]
+PuppetTarget = StrictFloat | StrictInt | list[StrictFloat | StrictInt] | StrictStr
 MAX_TARGETS = 256
 
 
@@ -30,12 +30,15 @@ class Puppet(BlockCommand):
     type: Literal["puppet"] = "puppet"
     values: SkipValidation[dict[str, PuppetTarget]] = Field(
         default_factory=dict,
-        description="DoF name -> target: rad/m within the DoF's limits, [r, g, b] in 0..1, or an option name")
+        description="DoF name -> target: rad/m within the DoF's limits, [r, g, b] in 0..1, or an option name",
+    )
     release: bool = Field(False, description="end the stream now: the layer fades out (give no values)")
 
     def run(self, ctx: CommandContext) -> Any:
         if not isinstance(self.values, dict) or len(self.values) > MAX_TARGETS:
-            raise CommandError(f"puppet: 'values' is an object of at most {MAX_TARGETS} DoF -> target", field="values")
+            raise CommandError(
+                f"puppet: 'values' is an object of at most {MAX_TARGETS} DoF -> target", field="values"
+            )
         if self.release and self.values:
             raise CommandError("puppet: give either 'values' or 'release': true, not both", field="release")
         if not self.release and not self.values:

@@ -29,8 +29,13 @@ def upstream_of_layer(session: Any, layer: str) -> set[str]:
     apu = session.engine.apu
     if apu is None:
         return set()
-    heads = [apu.steps[w.src].node_id for s in apu.steps if s.block.role.value == "mixer"
-             for w in s.wires if w.port == layer]
+    heads = [
+        apu.steps[w.src].node_id
+        for s in apu.steps
+        if s.block.role.value == "mixer"
+        for w in s.wires
+        if w.port == layer
+    ]
     seen: set[str] = set()
     stack = list(heads)
     while stack:
@@ -58,8 +63,9 @@ def layers_of(session: Any, node_id: str, members: dict[str, set[str]] | None = 
     return sorted(name for name, nodes in members.items() if node_id in nodes)
 
 
-def find_block(session: Any, type_names: tuple[str, ...], what: str, node: str | None = None,
-               layer: str | None = None) -> Any:
+def find_block(
+    session: Any, type_names: tuple[str, ...], what: str, node: str | None = None, layer: str | None = None
+) -> Any:
     """The block named by `node`, else the one on `layer`, else the only one of these types.
 
     Raises CommandError `no_target` when there is none, `ambiguous_target` when several could be
@@ -69,22 +75,28 @@ def find_block(session: Any, type_names: tuple[str, ...], what: str, node: str |
     if node:
         found = [b for b in blocks if b.node_id == node]
         if not found:
-            raise CommandError(f"the running program has no {what} with id '{node}'", field="node",
-                               code="no_target")
+            raise CommandError(
+                f"the running program has no {what} with id '{node}'", field="node", code="no_target"
+            )
         return found[0]
     if layer:
         ids = upstream_of_layer(session, layer)
         found = [b for b in blocks if b.node_id in ids]
         if not found:
-            raise CommandError(f"the running program has no {what} on layer '{layer}'", field="layer",
-                               code="no_target")
+            raise CommandError(
+                f"the running program has no {what} on layer '{layer}'", field="layer", code="no_target"
+            )
         return found[0]
     if len(blocks) == 1:
         return blocks[0]
     if not blocks:
         raise CommandError(f"the running program has no {what}", code="no_target")
-    raise CommandError(f"the running program has {len(blocks)} {what}s ({[b.node_id for b in blocks]}); "
-                       f"name one with 'node' or 'layer'", field="node", code="ambiguous_target")
+    raise CommandError(
+        f"the running program has {len(blocks)} {what}s ({[b.node_id for b in blocks]}); "
+        f"name one with 'node' or 'layer'",
+        field="node",
+        code="ambiguous_target",
+    )
 
 
 def tell(session: Any, block: Any, command: str, args: dict[str, Any]) -> Any:
@@ -115,8 +127,11 @@ def set_inputs(session: Any, values: dict[str, Any]) -> dict[str, Any]:
         decl = program.input(name) if program is not None else None
         if decl is None:
             declared = [i.name for i in program.inputs] if program is not None else []
-            raise CommandError(f"the running program has no exposed input '{name}' (declared: {declared})",
-                               field=name, code="invalid_input")
+            raise CommandError(
+                f"the running program has no exposed input '{name}' (declared: {declared})",
+                field=name,
+                code="invalid_input",
+            )
         try:
             out[name] = decl.coerce(value)
         except (ValueError, TypeError, OverflowError) as exc:

@@ -21,5 +21,13 @@ for _info in pkgutil.iter_modules(__path__):
     if not _info.name.startswith("_"):
         importlib.import_module(f"{__name__}.{_info.name}")
 
-__all__ = ["DRIVER_OPTIONS", "FrameRecorder", "OscDriver", "SimulatedServos", "add_driver_options",
-           "build_drivers", "driver_option", "read_recording"]
+__all__ = [
+    "DRIVER_OPTIONS",
+    "FrameRecorder",
+    "OscDriver",
+    "SimulatedServos",
+    "add_driver_options",
+    "build_drivers",
+    "driver_option",
+    "read_recording",
+]

@@ -14,16 +14,22 @@ from __future__ import annotations
 
 import time
 
+from backend.drivers.registry import driver_option, host_port
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import AnimationFrame
-from backend.drivers.registry import driver_option, host_port
 from backend.engine.runtime import Sink
 
 
 @driver_option("osc", metavar="HOST:PORT", parse=host_port, help="also send every frame as OSC to HOST:PORT")
 class OscDriver(Sink):
-    def __init__(self, embodiment: Embodiment, host: str = "127.0.0.1", port: int = 9000, prefix: str = "/nutty",
-                 decimate: int = 1):
+    def __init__(
+        self,
+        embodiment: Embodiment,
+        host: str = "127.0.0.1",
+        port: int = 9000,
+        prefix: str = "/nutty",
+        decimate: int = 1,
+    ):
         from pythonosc.udp_client import SimpleUDPClient
 
         if not 0 < port < 65536:
@@ -34,7 +40,7 @@ class OscDriver(Sink):
         super().__init__(f"osc:{host}:{port}", max_queue=4, decimate=decimate)
 
     @classmethod
-    def from_option(cls, embodiment: Embodiment, address: tuple[str, int]) -> "OscDriver":
+    def from_option(cls, embodiment: Embodiment, address: tuple[str, int]) -> OscDriver:
         host, port = address
         return cls(embodiment, host, port)
 
@@ -53,7 +59,7 @@ class OscDriver(Sink):
                 continue
             msg = OscMessageBuilder(address=f"{self.prefix}/{d.name}")
             for v in frame.position[d.channels]:
-                msg.add_arg(int(round(v)) if d.type is DofType.enum else float(v))
+                msg.add_arg(round(v) if d.type is DofType.enum else float(v))
             bundle.add_content(msg.build())
         for name, q in zip(self.emb.joint_names, frame.joint_values(self.emb).tolist()):
             msg = OscMessageBuilder(address=f"{self.prefix}/joint/{name}")
@@ -61,6 +67,8 @@ class OscDriver(Sink):
             bundle.add_content(msg.build())
         for ev in frame.events:
             msg = OscMessageBuilder(address=f"{self.prefix}/{ev.dof}/{ev.kind}")
-            msg.add_arg(str(ev.payload.get("text") or ev.payload.get("clip") or ev.payload.get("sound") or ""))
+            msg.add_arg(
+                str(ev.payload.get("text") or ev.payload.get("clip") or ev.payload.get("sound") or "")
+            )
             bundle.add_content(msg.build())
         self.client.send(bundle.build())

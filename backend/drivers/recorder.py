@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from backend.drivers.registry import driver_option
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
-from backend.drivers.registry import driver_option
 from backend.engine.runtime import Sink
 
 
@@ -27,7 +27,7 @@ class FrameRecorder(Sink):
         super().__init__(f"recorder:{self.path.name}", max_queue=1024, decimate=decimate, batch=0.01)
 
     @classmethod
-    def from_option(cls, embodiment: Embodiment, path: str) -> "FrameRecorder":
+    def from_option(cls, embodiment: Embodiment, path: str) -> FrameRecorder:
         return cls(embodiment, path)
 
     def consume(self, frame: AnimationFrame) -> None:

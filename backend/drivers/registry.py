@@ -9,8 +9,9 @@ A driver module declares its command-line option with `@driver_option(...)` on i
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from backend.engine.embodiment import Embodiment
 from backend.engine.runtime import Sink
@@ -42,8 +43,15 @@ class DriverOption:
 DRIVER_OPTIONS: dict[str, DriverOption] = {}
 
 
-def driver_option(name: str, *, metavar: str, help: str, parse: Callable[[str], Any] = str,
-                  default: Any = None, enabled: Callable[[Any], bool] = bool):
+def driver_option(
+    name: str,
+    *,
+    metavar: str,
+    help: str,
+    parse: Callable[[str], Any] = str,
+    default: Any = None,
+    enabled: Callable[[Any], bool] = bool,
+):
     """Class decorator: declare a `Sink` subclass's command-line option.
 
     The class must provide `from_option(embodiment, value) -> Sink` (a classmethod).
@@ -51,7 +59,9 @@ def driver_option(name: str, *, metavar: str, help: str, parse: Callable[[str], 
 
     def register(cls: type[Sink]) -> type[Sink]:
         if name in DRIVER_OPTIONS:
-            raise ValueError(f"driver option --{name} is declared twice ({DRIVER_OPTIONS[name].build} and {cls})")
+            raise ValueError(
+                f"driver option --{name} is declared twice ({DRIVER_OPTIONS[name].build} and {cls})"
+            )
         DRIVER_OPTIONS[name] = DriverOption(name, metavar, help, cls.from_option, parse, default, enabled)
         return cls
 
@@ -62,8 +72,14 @@ def add_driver_options(parser: argparse.ArgumentParser) -> None:
     """Add `--<name>` for every declared driver (sorted by name, so `--help` is stable)."""
     for name in sorted(DRIVER_OPTIONS):
         opt = DRIVER_OPTIONS[name]
-        parser.add_argument(f"--{name}", dest=opt.dest, metavar=opt.metavar, type=opt.parse,
-                            default=opt.default, help=opt.help)
+        parser.add_argument(
+            f"--{name}",
+            dest=opt.dest,
+            metavar=opt.metavar,
+            type=opt.parse,
+            default=opt.default,
+            help=opt.help,
+        )
 
 
 def build_drivers(embodiment: Embodiment, args: argparse.Namespace) -> list[Sink]:

@@ -15,16 +15,31 @@ import threading
 import numpy as np
 from numba import njit
 
+from backend.drivers.registry import driver_option, positive_or_off
 from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
-from backend.drivers.registry import driver_option, positive_or_off
 from backend.engine.runtime import Sink
 
 
 @njit(cache=True)
-def _servo_step(position, velocity, idx, gain, vmax, amax, dt, has_samples, q, v, a, max_jerk, sq_jerk, max_error,
-                sq_error):
+def _servo_step(
+    position,
+    velocity,
+    idx,
+    gain,
+    vmax,
+    amax,
+    dt,
+    has_samples,
+    q,
+    v,
+    a,
+    max_jerk,
+    sq_jerk,
+    max_error,
+    sq_error,
+):
     """`SimulatedServos.consume_reference` per DoF, in place (the same operations in the same order)."""
     for k in range(idx.shape[0]):
         target = position[idx[k]]
@@ -43,8 +58,13 @@ def _servo_step(position, velocity, idx, gain, vmax, amax, dt, has_samples, q, v
         sq_error[k] += err * err
 
 
-@driver_option("sim-servo", metavar="HZ", parse=positive_or_off, default=8.0,
-               help="bandwidth of the simulated servos whose tracking error /api/status reports (0 = off)")
+@driver_option(
+    "sim-servo",
+    metavar="HZ",
+    parse=positive_or_off,
+    default=8.0,
+    help="bandwidth of the simulated servos whose tracking error /api/status reports (0 = off)",
+)
 class SimulatedServos(Sink):
     def __init__(self, embodiment: Embodiment, bandwidth_hz: float = 8.0, decimate: int = 1):
         if not bandwidth_hz > 0:
@@ -72,7 +92,7 @@ class SimulatedServos(Sink):
         super().__init__("sim-servo", max_queue=4096, decimate=decimate, batch=0.01)
 
     @classmethod
-    def from_option(cls, embodiment: Embodiment, bandwidth_hz: float) -> "SimulatedServos":
+    def from_option(cls, embodiment: Embodiment, bandwidth_hz: float) -> SimulatedServos:
         return cls(embodiment, bandwidth_hz=bandwidth_hz)
 
     def consume(self, frame: AnimationFrame) -> None:
@@ -81,13 +101,32 @@ class SimulatedServos(Sink):
         self._last_t = frame.t
         if dt <= 0:
             return
-        if self.compiled and frame.position.dtype == np.float64 and frame.velocity.dtype == np.float64 \
-                and frame.position.shape == frame.velocity.shape == self.emb.rest.shape \
-                and frame.position.flags.c_contiguous and frame.velocity.flags.c_contiguous:
+        if (
+            self.compiled
+            and frame.position.dtype == np.float64
+            and frame.velocity.dtype == np.float64
+            and frame.position.shape == frame.velocity.shape == self.emb.rest.shape
+            and frame.position.flags.c_contiguous
+            and frame.velocity.flags.c_contiguous
+        ):
             with self._lock:
-                _servo_step(frame.position, frame.velocity, self._idx64, self.gain, self.vmax, self.amax, float(dt),
-                            self.samples > 0, self.q, self.v, self.a, self.max_jerk, self._sq_jerk, self.max_error,
-                            self._sq_error)
+                _servo_step(
+                    frame.position,
+                    frame.velocity,
+                    self._idx64,
+                    self.gain,
+                    self.vmax,
+                    self.amax,
+                    float(dt),
+                    self.samples > 0,
+                    self.q,
+                    self.v,
+                    self.a,
+                    self.max_jerk,
+                    self._sq_jerk,
+                    self.max_error,
+                    self._sq_error,
+                )
                 self.samples += 1
             return
         self.consume_reference(frame, dt)
@@ -102,13 +141,13 @@ class SimulatedServos(Sink):
             if self.samples:
                 jerk = np.abs(a_new - self.a) / dt
                 self.max_jerk = np.maximum(self.max_jerk, jerk)
-                self._sq_jerk += jerk ** 2
+                self._sq_jerk += jerk**2
             self.a = a_new
             self.v = self.v + dv
             self.q = self.q + self.v * dt
             err = np.abs(target - self.q)
             self.max_error = np.maximum(self.max_error, err)
-            self._sq_error += err ** 2
+            self._sq_error += err**2
             self.samples += 1
 
     def report(self) -> dict[str, dict[str, float]]:
@@ -117,9 +156,15 @@ class SimulatedServos(Sink):
             n = max(self.samples, 1)
             rms = np.sqrt(self._sq_error / n)
             rms_jerk = np.sqrt(self._sq_jerk / n)
-            return {self.emb.channel_names[c]: {"max_error": float(self.max_error[k]), "rms_error": float(rms[k]),
-                                                "max_jerk": float(self.max_jerk[k]), "rms_jerk": float(rms_jerk[k])}
-                    for k, c in enumerate(self.idx)}
+            return {
+                self.emb.channel_names[c]: {
+                    "max_error": float(self.max_error[k]),
+                    "rms_error": float(rms[k]),
+                    "max_jerk": float(self.max_jerk[k]),
+                    "rms_jerk": float(rms_jerk[k]),
+                }
+                for k, c in enumerate(self.idx)
+            }
 
     def stats(self) -> dict:
         base = super().stats()

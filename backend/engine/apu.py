@@ -63,8 +63,14 @@ class APU:
     `cook` holds the per-node cook times: one tick in `cook.every` is timed block by block.
     """
 
-    def __init__(self, steps: list[Step], output: int, level: int, stage1_tap: tuple[int, str] | None = None,
-                 source: Any = None):
+    def __init__(
+        self,
+        steps: list[Step],
+        output: int,
+        level: int,
+        stage1_tap: tuple[int, str] | None = None,
+        source: Any = None,
+    ):
         self.steps = steps
         self.output = output
         self.level = level
@@ -124,7 +130,7 @@ class APU:
         row[-1] = clock() - start
         self.cook.record()
 
-    def adopt_state_from(self, old: "APU") -> list[str]:
+    def adopt_state_from(self, old: APU) -> list[str]:
         """Blocks whose id and type survive keep their state. Returns the ids that kept it.
 
         A block moved into or out of a subgraph changes only the path of its id (`breathe` grouped
@@ -154,7 +160,11 @@ class APU:
                 if len(steps) == 1 and len(gone.get(key, [])) == 1:
                     steps[0].block.adopt_state(gone[key][0])
                     kept.append(steps[0].node_id)
-        self._stage1_held = old._stage1_held.copy() if old._stage1_held.shape == self._stage1_held.shape else self._stage1_held
+        self._stage1_held = (
+            old._stage1_held.copy()
+            if old._stage1_held.shape == self._stage1_held.shape
+            else self._stage1_held
+        )
         return kept
 
     def signal_value(self, node_id: str, port: str) -> Any:

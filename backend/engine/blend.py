@@ -16,12 +16,12 @@ identity).
 
 from __future__ import annotations
 
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
 
-class BlendMode(str, Enum):
+class BlendMode(StrEnum):
     override = "override"
     additive = "additive"
     average = "average"

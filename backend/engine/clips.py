@@ -87,7 +87,7 @@ class Clip(_Model):
     source: dict[str, Any] = Field(default_factory=dict, description="where an imported clip came from")
 
     @model_validator(mode="after")
-    def _check(self) -> "Clip":
+    def _check(self) -> Clip:
         if not self.tracks:
             raise ValueError("a clip needs at least one track")
         for dof, keys in self.tracks.items():
@@ -154,7 +154,9 @@ def compile_clip(clip: Clip | dict[str, Any], emb: Embodiment) -> CompiledClip:
             clip = Clip.model_validate(clip)
         except ValidationError as exc:
             first = exc.errors()[0]
-            raise ClipError(f"invalid clip: {'.'.join(str(p) for p in first['loc'])}: {first['msg']}") from exc
+            raise ClipError(
+                f"invalid clip: {'.'.join(str(p) for p in first['loc'])}: {first['msg']}"
+            ) from exc
     channels: list[int] = []
     curves: list[list[Key]] = []
     relative: list[bool] = []
@@ -174,8 +176,18 @@ def compile_clip(clip: Clip | dict[str, Any], emb: Embodiment) -> CompiledClip:
             if dof.type is DofType.colour and interp == "bezier":
                 interp = "linear"
             for c in range(width):
-                per_channel[c].append(Key(k.t, vals[c], interp, k.easing, k.left_type, k.right_type,
-                                          tuple(k.left) if k.left else None, tuple(k.right) if k.right else None))
+                per_channel[c].append(
+                    Key(
+                        k.t,
+                        vals[c],
+                        interp,
+                        k.easing,
+                        k.left_type,
+                        k.right_type,
+                        tuple(k.left) if k.left else None,
+                        tuple(k.right) if k.right else None,
+                    )
+                )
         for c in range(width):
             channels.append(sl.start + c)
             curves.append(per_channel[c])
@@ -193,8 +205,17 @@ def compile_clip(clip: Clip | dict[str, Any], emb: Embodiment) -> CompiledClip:
         raise ClipError(str(exc)) from exc
     mask = np.zeros(emb.n_channels, dtype=bool)
     mask[channels] = True
-    return CompiledClip(clip.name, clip.length, np.array(channels), curve_set, mask, np.array(relative),
-                        np.array(enum_flags), dict(clip.anchors), events)
+    return CompiledClip(
+        clip.name,
+        clip.length,
+        np.array(channels),
+        curve_set,
+        mask,
+        np.array(relative),
+        np.array(enum_flags),
+        dict(clip.anchors),
+        events,
+    )
 
 
 def _key_values(dof, v: Any, where: str) -> list[float]:
@@ -216,7 +237,9 @@ def _key_values(dof, v: Any, where: str) -> list[float]:
     raise ClipError(f"{where}: DoF '{dof.name}' takes one of {options}, got {v!r}")
 
 
-def time_map(duration: float, speed: float, anchors: dict[str, float], targets: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+def time_map(
+    duration: float, speed: float, anchors: dict[str, float], targets: dict[str, float]
+) -> tuple[np.ndarray, np.ndarray]:
     """Piecewise-linear map from playback time to clip time that lands each anchor at its target.
 
     `anchors` are clip times (s) of named marks, `targets` the playback times (s) they must meet.
@@ -232,7 +255,9 @@ def time_map(duration: float, speed: float, anchors: dict[str, float], targets: 
             raise ClipError(f"anchor '{name}': target time must be a finite number >= 0, got {tt}")
         ct = anchors[name]
         if tt <= pts[-1][0] and ct > pts[-1][1]:
-            raise ClipError(f"anchor '{name}' cannot land at {tt} s: it comes after an anchor landing at {pts[-1][0]} s")
+            raise ClipError(
+                f"anchor '{name}' cannot land at {tt} s: it comes after an anchor landing at {pts[-1][0]} s"
+            )
         pts.append((tt, ct))
     play_end = pts[-1][0] + (duration - pts[-1][1]) / speed
     pts.append((max(play_end, pts[-1][0]), duration))

@@ -24,8 +24,9 @@ x(u) = t), so a clip of 20 DoFs costs the same handful of array operations as on
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Literal
 
 import numpy as np
 
@@ -34,13 +35,39 @@ from backend.engine.compiled import curves as compiled_curves
 
 default_compiled, entry_point = _compiled.default_compiled, _compiled.entry_point
 
-Interp = Literal["constant", "linear", "bezier", "sine", "quad", "cubic", "quart", "quint", "expo", "circ",
-                 "back", "elastic", "bounce"]
+Interp = Literal[
+    "constant",
+    "linear",
+    "bezier",
+    "sine",
+    "quad",
+    "cubic",
+    "quart",
+    "quint",
+    "expo",
+    "circ",
+    "back",
+    "elastic",
+    "bounce",
+]
 EasingMode = Literal["in", "out", "in_out"]
 HandleType = Literal["auto", "auto_clamped", "vector", "aligned", "free"]
 
-INTERPS: tuple[str, ...] = ("constant", "linear", "bezier", "sine", "quad", "cubic", "quart", "quint", "expo",
-                            "circ", "back", "elastic", "bounce")
+INTERPS: tuple[str, ...] = (
+    "constant",
+    "linear",
+    "bezier",
+    "sine",
+    "quad",
+    "cubic",
+    "quart",
+    "quint",
+    "expo",
+    "circ",
+    "back",
+    "elastic",
+    "bounce",
+)
 EASINGS: tuple[str, ...] = INTERPS[3:]
 _CODE = {name: i for i, name in enumerate(INTERPS)}
 _MODE = {"in": 0, "out": 1, "in_out": 2}
@@ -81,12 +108,12 @@ def _ease_in(name: str, u: np.ndarray) -> np.ndarray:
     if name in ("quad", "cubic", "quart", "quint"):
         return u ** {"quad": 2, "cubic": 3, "quart": 4, "quint": 5}[name]
     if name == "expo":
-        return np.where(u <= 0.0, 0.0, 2.0 ** (10.0 * np.minimum(u, 1.0) - 10.0) - (1 - u) * 2.0 ** -10)
+        return np.where(u <= 0.0, 0.0, 2.0 ** (10.0 * np.minimum(u, 1.0) - 10.0) - (1 - u) * 2.0**-10)
     if name == "circ":
         return 1.0 - np.sqrt(np.maximum(0.0, 1.0 - u * u))
     if name == "back":
         c1 = 1.70158
-        return (c1 + 1) * u ** 3 - c1 * u ** 2
+        return (c1 + 1) * u**3 - c1 * u**2
     if name == "elastic":
         out = -(2.0 ** (10 * u - 10)) * np.sin((u * 10 - 10.75) * (2 * math.pi / 3))
         return np.where(u <= 0.0, 0.0, np.where(u >= 1.0, 1.0, out))
@@ -230,7 +257,7 @@ class CurveSet:
                 self.h_left[i, j], self.h_right[i, j] = handles[j][0], handles[j][1]
                 self.code[i, j], self.mode[i, j] = _CODE[k.interp], _MODE[k.easing]
             # pad: repeat the last key so gathers past the end stay finite
-            self.v[i, len(c):] = c[-1].v
+            self.v[i, len(c) :] = c[-1].v
         self.rows = np.arange(n)
         self.start = float(np.min(self.t[:, 0]))
         self.end = float(np.max(self.t[self.rows, self.n_keys - 1]))
@@ -244,7 +271,9 @@ class CurveSet:
             if self._kernel is None:
                 self._kernel = entry_point(compiled_curves.evaluate, compiled_curves.EVALUATE_SIG)
             out = np.empty(len(self.rows))
-            self._kernel(self.t, self.v, self.h_right, self.h_left, self.code, self.mode, self.n_keys, float(t), out)
+            self._kernel(
+                self.t, self.v, self.h_right, self.h_left, self.code, self.mode, self.n_keys, float(t), out
+            )
             return out
         return self.evaluate_reference(t)
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import Enum
+from enum import Enum, StrEnum
 from typing import Any
 
 # Documented defaults used when a URDF (or embodiment.yaml) gives no acceleration/jerk limit:
@@ -23,14 +23,14 @@ DEFAULT_VELOCITY = {"revolute": 2.0, "continuous": 2.0, "prismatic": 0.5}
 COLOUR_VELOCITY, COLOUR_ACCELERATION, COLOUR_JERK = 20.0, 400.0, 20000.0
 
 
-class Dimension(str, Enum):
+class Dimension(StrEnum):
     stationary = "stationary"
     spatial = "spatial"
     display = "display"
     audible = "audible"
 
 
-class DofType(str, Enum):
+class DofType(StrEnum):
     continuous = "continuous"  # one float channel: a position (rad, m, or unitless for display)
     enum = "enum"  # one channel holding an index into `options`
     colour = "colour"  # three channels r, g, b in [0, 1]

@@ -29,11 +29,31 @@ import yaml
 from pydantic import ValidationError
 
 from backend.engine.dofs import (  # noqa: F401
-    ACC_PER_VEL, COLOUR_ACCELERATION, COLOUR_JERK, COLOUR_VELOCITY, DEFAULT_VELOCITY, JERK_PER_ACC, SPATIAL_AXES,
-    ChannelKind, Dimension, Dof, DofType, EmbodimentError, UrdfJoint)
+    ACC_PER_VEL,
+    COLOUR_ACCELERATION,
+    COLOUR_JERK,
+    COLOUR_VELOCITY,
+    DEFAULT_VELOCITY,
+    JERK_PER_ACC,
+    SPATIAL_AXES,
+    ChannelKind,
+    Dimension,
+    Dof,
+    DofType,
+    EmbodimentError,
+    UrdfJoint,
+)
 from backend.engine.kinematronics import (  # noqa: F401
-    AudibleDofConfig, DisplayDofConfig, DofLimits, EmbodimentConfig, SpatialDofConfig, StationaryDofConfig,
-    dofs_from_config, dofs_from_urdf, read_urdf_joints)
+    AudibleDofConfig,
+    DisplayDofConfig,
+    DofLimits,
+    EmbodimentConfig,
+    SpatialDofConfig,
+    StationaryDofConfig,
+    dofs_from_config,
+    dofs_from_urdf,
+    read_urdf_joints,
+)
 
 
 @dataclass(eq=False)  # identity semantics: embodiments are shared, hashed by identity
@@ -200,8 +220,10 @@ class Embodiment:
             "name": self.name,
             "description": self.description,
             "dimensions": self.dimension_counts(),
-            "dofs": [{**d.to_dict(), **({"joint_frame": frames[d.joint]} if d.joint in frames else {})}
-                     for d in self.dofs],
+            "dofs": [
+                {**d.to_dict(), **({"joint_frame": frames[d.joint]} if d.joint in frames else {})}
+                for d in self.dofs
+            ],
             "channels": list(self.channel_names),
             "joints": [j.name for j in self.joints],
             "groups": {g: [self.channel_names[i] for i in ix] for g, ix in self.groups.items()},

@@ -41,18 +41,18 @@ class PartialFrame:
     events: list[FrameEvent] = field(default_factory=list)
 
     @classmethod
-    def empty(cls, n_channels: int) -> "PartialFrame":
+    def empty(cls, n_channels: int) -> PartialFrame:
         return cls(np.zeros(n_channels), np.zeros(n_channels, dtype=bool), [])
 
     @classmethod
-    def full(cls, values: np.ndarray, events: list[FrameEvent] | None = None) -> "PartialFrame":
+    def full(cls, values: np.ndarray, events: list[FrameEvent] | None = None) -> PartialFrame:
         return cls(np.asarray(values, dtype=float), np.ones(len(values), dtype=bool), list(events or []))
 
     @property
     def is_empty(self) -> bool:
         return not self.events and not bool(self.mask.any())
 
-    def copy(self) -> "PartialFrame":
+    def copy(self) -> PartialFrame:
         return PartialFrame(self.values.copy(), self.mask.copy(), list(self.events))
 
     def apply_to(self, base: np.ndarray) -> np.ndarray:
@@ -98,15 +98,27 @@ class AnimationFrame:
         # Python floats of whole vectors at once (what float() of each element gives, without the calls).
         position = self.position.tolist()
         if derivatives:
-            velocity, acceleration, jerk = self.velocity.tolist(), self.acceleration.tolist(), self.jerk.tolist()
+            velocity, acceleration, jerk = (
+                self.velocity.tolist(),
+                self.acceleration.tolist(),
+                self.jerk.tolist(),
+            )
         for d in embodiment.dofs:
             sl = d.channels
             if d.type is DofType.continuous:
                 c = sl.start
-                dofs[d.name] = ({"position": position[c], "velocity": velocity[c], "acceleration": acceleration[c],
-                                 "jerk": jerk[c]} if derivatives else {"position": position[c]})
+                dofs[d.name] = (
+                    {
+                        "position": position[c],
+                        "velocity": velocity[c],
+                        "acceleration": acceleration[c],
+                        "jerk": jerk[c],
+                    }
+                    if derivatives
+                    else {"position": position[c]}
+                )
             elif d.type is DofType.enum:
-                index = int(round(position[sl.start]))
+                index = round(position[sl.start])
                 dofs[d.name] = {"index": index, "option": d.options[index] if d.options else None}
             elif d.type is DofType.colour:
                 dofs[d.name] = {"rgb": position[sl]}
@@ -134,12 +146,14 @@ class FrameHistory:
     primed: bool = False
 
     @classmethod
-    def for_delay(cls, max_seconds: float, rate: float, n_channels: int) -> "FrameHistory":
+    def for_delay(cls, max_seconds: float, rate: float, n_channels: int) -> FrameHistory:
         """Room for delays up to `max_seconds` at `rate` Hz."""
-        capacity = int(math.ceil(max_seconds * rate)) + 2
+        capacity = math.ceil(max_seconds * rate) + 2
         return cls(np.zeros((capacity, n_channels)), np.zeros((capacity, n_channels), dtype=bool))
 
-    def push_read(self, values: np.ndarray, mask: np.ndarray, lag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def push_read(
+        self, values: np.ndarray, mask: np.ndarray, lag: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Store this tick's frame and read each channel `lag[c]` ticks back (0 = now)."""
         cap = self.values.shape[0]
         if not self.primed:  # start as if the first frame had always been there: no jump at start

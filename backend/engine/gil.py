@@ -70,8 +70,12 @@ class ClockPriority:
     _saved = 0.005
     _lock = threading.Lock()
 
-    def __init__(self, interval: float = SWITCH_INTERVAL, nice_boost: int = NICE_BOOST,
-                 realtime_priority: int = REALTIME_PRIORITY):
+    def __init__(
+        self,
+        interval: float = SWITCH_INTERVAL,
+        nice_boost: int = NICE_BOOST,
+        realtime_priority: int = REALTIME_PRIORITY,
+    ):
         self.interval, self.nice_boost = interval, nice_boost
         self.realtime_priority = realtime_priority if os.environ.get(REALTIME_ENV, "1") != "0" else 0
         self.applied = False

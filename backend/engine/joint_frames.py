@@ -79,8 +79,9 @@ def joint_frames(emb: Any) -> dict[str, dict[str, Any]]:
             "axis": [float(x) for x in frame[:3, :3] @ j.axis],
             "links": [name for name in frames if _moving_joint_above(model, name) == j.name],
             "limits": [_finite(lower), _finite(upper)] if j.type != "continuous" else [None, None],
-            "mimic": None if j.mimic is None else
-            {"joint": j.mimic[0], "multiplier": j.mimic[1], "offset": j.mimic[2]},
+            "mimic": None
+            if j.mimic is None
+            else {"joint": j.mimic[0], "multiplier": j.mimic[1], "offset": j.mimic[2]},
         }
     return out
 

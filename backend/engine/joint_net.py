@@ -63,8 +63,12 @@ class JointLimits:
         self.own = np.full(n, -1, dtype=np.int64)
         index = {name: i for i, name in enumerate(self.names)}
         for d in emb.dofs:
-            if (d.dimension is Dimension.stationary and d.type is DofType.continuous and not d.drives
-                    and d.joint in index):
+            if (
+                d.dimension is Dimension.stationary
+                and d.type is DofType.continuous
+                and not d.drives
+                and d.joint in index
+            ):
                 j = index[d.joint]
                 self.own[j] = d.channels.start
                 # The joint's own DoF entry gives its acceleration and jerk (yaml or its documented defaults).
@@ -81,8 +85,14 @@ class JointLimits:
         self.cols = np.array(cols, dtype=np.int64)
         self.coefs = np.array(coefs, dtype=float)
         self.offset = np.ascontiguousarray(emb.joint_offset, dtype=float)
-        finite = (np.isfinite(self.velocity) & np.isfinite(self.acceleration) & np.isfinite(self.jerk)
-                  & (self.velocity > 0) & (self.acceleration > 0) & (self.jerk > 0))
+        finite = (
+            np.isfinite(self.velocity)
+            & np.isfinite(self.acceleration)
+            & np.isfinite(self.jerk)
+            & (self.velocity > 0)
+            & (self.acceleration > 0)
+            & (self.jerk > 0)
+        )
         driven = np.diff(self.starts) > 0
         covered = np.array([self._covered_by_channel(emb, j, channel_governed) for j in range(n)], dtype=bool)
         self.governed = np.flatnonzero(finite & driven & ~covered).astype(np.int64)
@@ -95,15 +105,20 @@ class JointLimits:
             return False
         if not channel_governed[c]:
             return False
-        return bool(emb.min[c] >= self.lower[j] and emb.max[c] <= self.upper[j]
-                    and emb.vel_limit[c] <= self.velocity[j] and emb.acc_limit[c] <= self.acceleration[j]
-                    and emb.jerk_limit[c] <= self.jerk[j])
+        return bool(
+            emb.min[c] >= self.lower[j]
+            and emb.max[c] <= self.upper[j]
+            and emb.vel_limit[c] <= self.velocity[j]
+            and emb.acc_limit[c] <= self.acceleration[j]
+            and emb.jerk_limit[c] <= self.jerk[j]
+        )
 
     def rows(self) -> np.ndarray:
         """Limit rows lo, hi, V, A, J of the governed joints, as the net's kernel takes them."""
         g = self.governed
-        return np.ascontiguousarray(np.stack([self.lower[g], self.upper[g], self.velocity[g],
-                                              self.acceleration[g], self.jerk[g]]))
+        return np.ascontiguousarray(
+            np.stack([self.lower[g], self.upper[g], self.velocity[g], self.acceleration[g], self.jerk[g]])
+        )
 
     def compose(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Joint values (rad or m) of a channel vector, unclipped: what the motors would get."""

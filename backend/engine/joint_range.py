@@ -22,9 +22,15 @@ TOLERANCE = 1e-9
 
 
 def _describe(joint: str, value: float, unit: str, over: float, lo: float, hi: float, when: str) -> str:
-    side = f"{over:.3g} above its upper limit {hi:g}" if over > 0 else f"{-over:.3g} below its lower limit {lo:g}"
-    return (f"joint '{joint}' reaches {value:.3f} {unit}{when}, {side}: the DoFs that drive it add up past its "
-            f"range, so the safety net will hold it at the limit")
+    side = (
+        f"{over:.3g} above its upper limit {hi:g}"
+        if over > 0
+        else f"{-over:.3g} below its lower limit {lo:g}"
+    )
+    return (
+        f"joint '{joint}' reaches {value:.3f} {unit}{when}, {side}: the DoFs that drive it add up past its "
+        f"range, so the safety net will hold it at the limit"
+    )
 
 
 def posture_warnings(values: dict[str, Any], emb: Embodiment) -> list[str]:
@@ -54,6 +60,9 @@ def _range_warnings(emb: Embodiment, q: np.ndarray, times: np.ndarray | None) ->
         k = int(np.argmax(np.abs(over[:, j])))
         unit = "m" if emb.joints[j].type == "prismatic" else "rad"
         when = "" if times is None else f" at {times[k]:.2f} s"
-        out.append(_describe(emb.joint_names[j], float(q[k, j]), unit, float(over[k, j]), float(lo[j]),
-                             float(hi[j]), when))
+        out.append(
+            _describe(
+                emb.joint_names[j], float(q[k, j]), unit, float(over[k, j]), float(lo[j]), float(hi[j]), when
+            )
+        )
     return out

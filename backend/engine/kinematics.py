@@ -57,8 +57,9 @@ def _load_model(path: str) -> _UrdfModel:
     import yourdfpy  # local import: only needed when a robot is loaded
 
     try:
-        urdf = yourdfpy.URDF.load(path, build_scene_graph=False, load_meshes=False,
-                                  build_collision_scene_graph=False)
+        urdf = yourdfpy.URDF.load(
+            path, build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False
+        )
     except Exception as exc:  # yourdfpy raises many types for malformed files
         raise KinematicsError(f"cannot read URDF '{path}': {exc}") from exc
     return _model_from_robot(urdf.robot)
@@ -78,9 +79,14 @@ def _model_from_robot(robot: Any) -> _UrdfModel:
             lower, upper = -2 * np.pi, 2 * np.pi
         mimic = None
         if j.mimic is not None:
-            mimic = (j.mimic.joint, float(j.mimic.multiplier if j.mimic.multiplier is not None else 1.0),
-                     float(j.mimic.offset if j.mimic.offset is not None else 0.0))
-        joints[j.name] = _UrdfJoint(j.name, j.type, j.parent, j.child, origin, axis, float(lower), float(upper), mimic)
+            mimic = (
+                j.mimic.joint,
+                float(j.mimic.multiplier if j.mimic.multiplier is not None else 1.0),
+                float(j.mimic.offset if j.mimic.offset is not None else 0.0),
+            )
+        joints[j.name] = _UrdfJoint(
+            j.name, j.type, j.parent, j.child, origin, axis, float(lower), float(upper), mimic
+        )
     by_child = {j.child: j for j in joints.values()}
     links = tuple(link.name for link in robot.links)
     roots = [name for name in links if name not in by_child]
@@ -211,7 +217,9 @@ class Chain:
             else:
                 leader, k, o = j.mimic
                 if leader not in index:
-                    raise KinematicsError(f"mimic joint '{j.name}' follows '{leader}', which is not in the chain")
+                    raise KinematicsError(
+                        f"mimic joint '{j.name}' follows '{leader}', which is not in the chain"
+                    )
                 src.append(index[leader]), mult.append(k), off.append(o)
         self._src = np.array(src, dtype=np.intp)
         self._mult, self._off = np.array(mult), np.array(off)
@@ -243,8 +251,12 @@ class Chain:
         if self.emb is None:
             raise KinematicsError("this chain was not built from an Embodiment")
         emb, i = self.emb, self.emb_index
-        return (np.ascontiguousarray(emb.joint_matrix[i]), np.ascontiguousarray(emb.joint_offset[i]),
-                np.ascontiguousarray(emb._joint_lower[i]), np.ascontiguousarray(emb._joint_upper[i]))
+        return (
+            np.ascontiguousarray(emb.joint_matrix[i]),
+            np.ascontiguousarray(emb.joint_offset[i]),
+            np.ascontiguousarray(emb._joint_lower[i]),
+            np.ascontiguousarray(emb._joint_upper[i]),
+        )
 
     def q_from_channels(self, values: np.ndarray) -> np.ndarray:
         """The chain's joint positions for a full channel vector (symbolic DoFs resolved, joint limits applied)."""
@@ -287,8 +299,9 @@ class Chain:
             t = t @ motion[k]
         return joint_frames, t @ self._post
 
-    def kinematics(self, q: np.ndarray, point: np.ndarray | None = None,
-                   direction: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def kinematics(
+        self, q: np.ndarray, point: np.ndarray | None = None, direction: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One pass: tip pose T, point p (tip frame `point`, default origin), unit direction d (tip frame
         `direction`, default +x), position Jacobian Jp (3xN) of p and direction Jacobian Jd (3xN) of d."""
         joint_frames, tip = self.frames(q)
@@ -319,7 +332,9 @@ class Chain:
         j = np.concatenate([jv.T, jw.T], axis=0)
         return j if self._identity_map else j @ self._select
 
-    def direction_jacobian(self, q: np.ndarray, direction: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def direction_jacobian(
+        self, q: np.ndarray, direction: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """A tip-fixed unit direction (default +x) in the base frame, and its Jacobian (3xN)."""
         dvec = None if direction is None else np.asarray(direction, dtype=float)
         _, _, d, _, jd = self.kinematics(q, None, dvec)

@@ -15,8 +15,19 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from backend.engine.dofs import (ACC_PER_VEL, COLOUR_ACCELERATION, COLOUR_JERK, COLOUR_VELOCITY, DEFAULT_VELOCITY,
-                                 JERK_PER_ACC, Dimension, Dof, DofType, EmbodimentError, UrdfJoint)
+from backend.engine.dofs import (
+    ACC_PER_VEL,
+    COLOUR_ACCELERATION,
+    COLOUR_JERK,
+    COLOUR_VELOCITY,
+    DEFAULT_VELOCITY,
+    JERK_PER_ACC,
+    Dimension,
+    Dof,
+    DofType,
+    EmbodimentError,
+    UrdfJoint,
+)
 
 
 class _Model(BaseModel):
@@ -67,11 +78,13 @@ class DisplayDofConfig(DofLimits):
     description: str = ""
 
     @model_validator(mode="after")
-    def _check(self) -> "DisplayDofConfig":
+    def _check(self) -> DisplayDofConfig:
         if self.type == "enum" and not self.options:
             raise ValueError(f"display DoF '{self.name}' of type enum needs a non-empty 'options' list")
         if self.rest_option is not None and (not self.options or self.rest_option not in self.options):
-            raise ValueError(f"display DoF '{self.name}': rest_option '{self.rest_option}' is not one of its options")
+            raise ValueError(
+                f"display DoF '{self.name}': rest_option '{self.rest_option}' is not one of its options"
+            )
         if self.rest_colour is not None and not all(0.0 <= c <= 1.0 for c in self.rest_colour):
             raise ValueError(f"display DoF '{self.name}': rest_colour components must be in [0, 1]")
         return self
@@ -99,28 +112,39 @@ class EmbodimentConfig(_Model):
     postures: dict[str, dict[str, Any]] = Field(
         default_factory=dict,
         description="named poses: either DoF name -> value (float, colour list or option name), or "
-                    "{description: one line, values: {DoF name -> value}} (the nutty-posture/1 shape)")
-    gaze: dict[str, Any] = Field(default_factory=dict, description="gaze chain description for look-at blocks")
+        "{description: one line, values: {DoF name -> value}} (the nutty-posture/1 shape)",
+    )
+    gaze: dict[str, Any] = Field(
+        default_factory=dict, description="gaze chain description for look-at blocks"
+    )
 
     @model_validator(mode="after")
-    def _posture_shapes(self) -> "EmbodimentConfig":
+    def _posture_shapes(self) -> EmbodimentConfig:
         for name, pose in self.postures.items():
             if "values" in pose and isinstance(pose["values"], dict):
                 extra = set(pose) - {"values", "description"}
                 if extra:
-                    raise ValueError(f"postures.{name}: a described posture has only 'description' and 'values', "
-                                     f"not {sorted(extra)}")
+                    raise ValueError(
+                        f"postures.{name}: a described posture has only 'description' and 'values', "
+                        f"not {sorted(extra)}"
+                    )
                 if not isinstance(pose.get("description", ""), str):
                     raise ValueError(f"postures.{name}.description: a posture's description is text")
         return self
 
     def posture_values(self) -> dict[str, dict[str, Any]]:
         """Posture name -> {DoF name: value}, whichever of the two shapes each posture was written in."""
-        return {name: dict(pose["values"]) if _described(pose) else dict(pose) for name, pose in self.postures.items()}
+        return {
+            name: dict(pose["values"]) if _described(pose) else dict(pose)
+            for name, pose in self.postures.items()
+        }
 
     def posture_descriptions(self) -> dict[str, str]:
         """Posture name -> its one-line description ('' when the file gives none)."""
-        return {name: str(pose.get("description", "")) if _described(pose) else "" for name, pose in self.postures.items()}
+        return {
+            name: str(pose.get("description", "")) if _described(pose) else ""
+            for name, pose in self.postures.items()
+        }
 
 
 def _described(pose: dict[str, Any]) -> bool:
@@ -144,7 +168,11 @@ def read_urdf_joints(urdf_path: Path) -> tuple[list[UrdfJoint], dict[str, Any]]:
         if j.type == "fixed" or j.type == "floating" or j.type == "planar":
             continue
         if j.mimic is not None:
-            mimics[j.name] = {"joint": j.mimic.joint, "multiplier": j.mimic.multiplier, "offset": j.mimic.offset}
+            mimics[j.name] = {
+                "joint": j.mimic.joint,
+                "multiplier": j.mimic.multiplier,
+                "offset": j.mimic.offset,
+            }
             continue
         lim = j.limit
         lower = lim.lower if lim is not None and lim.lower is not None else None
@@ -238,8 +266,13 @@ def dofs_from_config(cfg: EmbodimentConfig, joints: list[UrdfJoint], mimics: dic
     return out.dofs
 
 
-def _symbolic_dof(s: StationaryDofConfig, where: str, joint_by_name: dict[str, UrdfJoint], mimics: dict[str, Any],
-                  start: int) -> Dof:
+def _symbolic_dof(
+    s: StationaryDofConfig,
+    where: str,
+    joint_by_name: dict[str, UrdfJoint],
+    mimics: dict[str, Any],
+    start: int,
+) -> Dof:
     """A DoF driving several joints (joint += coefficient * value): its range and speed are what
     its joints allow for its coefficients, unless the file says otherwise."""
     for joint in s.drives or {}:
@@ -260,12 +293,26 @@ def _symbolic_dof(s: StationaryDofConfig, where: str, joint_by_name: dict[str, U
     if not lo < hi:
         raise EmbodimentError(f"{where}: min {lo} must be below max {hi}")
     vel = _limit(s.velocity, vel_bound if math.isfinite(vel_bound) else 2.0)
-    return _continuous(s, Dimension.stationary, start, lo, hi, vel, rest=_limit(s.rest, min(max(0.0, lo), hi)),
-                       drives=dict(s.drives or {}), group=s.group)
+    return _continuous(
+        s,
+        Dimension.stationary,
+        start,
+        lo,
+        hi,
+        vel,
+        rest=_limit(s.rest, min(max(0.0, lo), hi)),
+        drives=dict(s.drives or {}),
+        group=s.group,
+    )
 
 
-def _joint_dof(s: StationaryDofConfig, where: str, joint_by_name: dict[str, UrdfJoint], mimics: dict[str, Any],
-               start: int) -> Dof:
+def _joint_dof(
+    s: StationaryDofConfig,
+    where: str,
+    joint_by_name: dict[str, UrdfJoint],
+    mimics: dict[str, Any],
+    start: int,
+) -> Dof:
     """A DoF that is one URDF joint (`joint`, default the DoF's name)."""
     joint = s.joint or s.name
     if joint not in joint_by_name:
@@ -287,42 +334,112 @@ def _spatial_dof(s: SpatialDofConfig, where: str, start: int) -> Dof:
     hi = _limit(s.max, 1.0 if linear else math.pi)
     if not lo < hi:
         raise EmbodimentError(f"{where}: min {lo} must be below max {hi}")
-    return _continuous(s, Dimension.spatial, start, lo, hi, vel, rest=_limit(s.rest, min(max(0.0, lo), hi)),
-                       axis=s.axis, group=s.group)
+    return _continuous(
+        s,
+        Dimension.spatial,
+        start,
+        lo,
+        hi,
+        vel,
+        rest=_limit(s.rest, min(max(0.0, lo), hi)),
+        axis=s.axis,
+        group=s.group,
+    )
 
 
 def _display_dof(s: DisplayDofConfig, where: str, start: int) -> Dof:
     """An LED colour (three channels), an expression (an enum index, switching at once) or a
     continuous face parameter (default [0, 1], full range in a quarter second)."""
-    common = {"name": s.name, "dimension": Dimension.display, "links": tuple(s.links), "description": s.description}
+    common = {
+        "name": s.name,
+        "dimension": Dimension.display,
+        "links": tuple(s.links),
+        "description": s.description,
+    }
     if s.type == "colour":
-        return Dof(type=DofType.colour, channels=slice(start, start + 3), min=0.0, max=1.0,
-                   velocity=_limit(s.velocity, COLOUR_VELOCITY),
-                   acceleration=_limit(s.acceleration, COLOUR_ACCELERATION), jerk=_limit(s.jerk, COLOUR_JERK),
-                   rest=tuple(s.rest_colour or (0.0, 0.0, 0.0)), **common)
+        return Dof(
+            type=DofType.colour,
+            channels=slice(start, start + 3),
+            min=0.0,
+            max=1.0,
+            velocity=_limit(s.velocity, COLOUR_VELOCITY),
+            acceleration=_limit(s.acceleration, COLOUR_ACCELERATION),
+            jerk=_limit(s.jerk, COLOUR_JERK),
+            rest=tuple(s.rest_colour or (0.0, 0.0, 0.0)),
+            **common,
+        )
     if s.type == "enum":
         options = tuple(s.options or ())
-        return Dof(type=DofType.enum, channels=slice(start, start + 1), min=0.0, max=float(len(options) - 1),
-                   velocity=math.inf, acceleration=math.inf, jerk=math.inf,
-                   rest=float(options.index(s.rest_option) if s.rest_option else 0), options=options, **common)
+        return Dof(
+            type=DofType.enum,
+            channels=slice(start, start + 1),
+            min=0.0,
+            max=float(len(options) - 1),
+            velocity=math.inf,
+            acceleration=math.inf,
+            jerk=math.inf,
+            rest=float(options.index(s.rest_option) if s.rest_option else 0),
+            options=options,
+            **common,
+        )
     lo, hi = _limit(s.min, 0.0), _limit(s.max, 1.0)
     if not lo < hi:
         raise EmbodimentError(f"{where}: min {lo} must be below max {hi}")
-    return _continuous(s, Dimension.display, start, lo, hi, _limit(s.velocity, 4.0 * (hi - lo)),
-                       rest=_limit(s.rest, lo), links=tuple(s.links))
+    return _continuous(
+        s,
+        Dimension.display,
+        start,
+        lo,
+        hi,
+        _limit(s.velocity, 4.0 * (hi - lo)),
+        rest=_limit(s.rest, lo),
+        links=tuple(s.links),
+    )
 
 
 def _audible_dof(s: AudibleDofConfig, start: int) -> Dof:
     """Speech or a sound player: no channel, no limits (NaN); it carries events."""
-    return Dof(name=s.name, dimension=Dimension.audible, type=DofType.event, channels=slice(start, start),
-               min=math.nan, max=math.nan, velocity=math.nan, acceleration=math.nan, jerk=math.nan, rest=math.nan,
-               kind=s.kind, sounds=tuple(s.sounds), description=s.description)
+    return Dof(
+        name=s.name,
+        dimension=Dimension.audible,
+        type=DofType.event,
+        channels=slice(start, start),
+        min=math.nan,
+        max=math.nan,
+        velocity=math.nan,
+        acceleration=math.nan,
+        jerk=math.nan,
+        rest=math.nan,
+        kind=s.kind,
+        sounds=tuple(s.sounds),
+        description=s.description,
+    )
 
 
-def _continuous(s: StationaryDofConfig | SpatialDofConfig | DisplayDofConfig, dimension: Dimension, start: int,
-                lo: float, hi: float, vel: float, *, rest: float, **extra: Any) -> Dof:
+def _continuous(
+    s: StationaryDofConfig | SpatialDofConfig | DisplayDofConfig,
+    dimension: Dimension,
+    start: int,
+    lo: float,
+    hi: float,
+    vel: float,
+    *,
+    rest: float,
+    **extra: Any,
+) -> Dof:
     """A one-channel continuous DoF; acceleration and jerk from the file or the documented defaults."""
     acc = _limit(s.acceleration, ACC_PER_VEL * vel)
-    return Dof(name=s.name, dimension=dimension, type=DofType.continuous, channels=slice(start, start + 1),
-               min=lo, max=hi, velocity=vel, acceleration=acc, jerk=_limit(s.jerk, JERK_PER_ACC * acc), rest=rest,
-               description=s.description, **extra)
+    return Dof(
+        name=s.name,
+        dimension=dimension,
+        type=DofType.continuous,
+        channels=slice(start, start + 1),
+        min=lo,
+        max=hi,
+        velocity=vel,
+        acceleration=acc,
+        jerk=_limit(s.jerk, JERK_PER_ACC * acc),
+        rest=rest,
+        description=s.description,
+        **extra,
+    )

@@ -19,8 +19,9 @@ import os
 import re
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -47,8 +48,11 @@ class Posture(BaseModel):
     name: str = Field("", max_length=80)
     description: str = Field("", max_length=2000)
     values: dict[str, float | str | list[float]] = Field(
-        ..., min_length=1, max_length=1000,
-        description="DoF name -> value: rad/m for continuous DoFs, [r, g, b] in 0..1 for colours, an option name")
+        ...,
+        min_length=1,
+        max_length=1000,
+        description="DoF name -> value: rad/m for continuous DoFs, [r, g, b] in 0..1 for colours, an option name",
+    )
     builtin: bool | None = None
 
 
@@ -65,26 +69,41 @@ def check_posture_values(values: dict[str, Any], embodiment: Any) -> None:
 
     for name, value in values.items():
         if not embodiment.has_dof(name):
-            raise LibraryError(f"invalid posture: values.{name}: robot '{embodiment.name}' has no DoF '{name}'")
+            raise LibraryError(
+                f"invalid posture: values.{name}: robot '{embodiment.name}' has no DoF '{name}'"
+            )
         dof = embodiment.dof(name)
         where = f"invalid posture: values.{name}"
         if dof.type is DofType.continuous:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise LibraryError(f"{where}: a continuous DoF takes a finite number, got {value!r}")
             if not dof.min <= value <= dof.max:
-                raise LibraryError(f"{where}: {value:g} is outside the DoF's limits [{dof.min:g}, {dof.max:g}]")
+                raise LibraryError(
+                    f"{where}: {value:g} is outside the DoF's limits [{dof.min:g}, {dof.max:g}]"
+                )
         elif dof.type is DofType.colour:
-            if not isinstance(value, list) or len(value) != 3 or not all(
-                    isinstance(c, (int, float)) and not isinstance(c, bool) and 0.0 <= c <= 1.0 for c in value):
+            if (
+                not isinstance(value, list)
+                or len(value) != 3
+                or not all(
+                    isinstance(c, (int, float)) and not isinstance(c, bool) and 0.0 <= c <= 1.0 for c in value
+                )
+            ):
                 raise LibraryError(f"{where}: a colour DoF takes [r, g, b] within 0..1, got {value!r}")
         elif dof.type is DofType.enum:
             options = list(dof.options or ())
             if isinstance(value, str):
                 if value not in options:
                     raise LibraryError(f"{where}: '{value}' is not one of {options}")
-            elif isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value) \
-                    or not 0 <= value < len(options):
-                raise LibraryError(f"{where}: an expression DoF takes one of {options} (or its index), got {value!r}")
+            elif (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or value != int(value)
+                or not 0 <= value < len(options)
+            ):
+                raise LibraryError(
+                    f"{where}: an expression DoF takes one of {options} (or its index), got {value!r}"
+                )
         else:
             raise LibraryError(f"{where}: '{name}' is an event DoF and has no pose value")
 
@@ -92,7 +111,7 @@ def check_posture_values(values: dict[str, Any], embodiment: Any) -> None:
 def validate_posture_doc(doc: Any, embodiment: Any = None, name: str = "") -> dict[str, Any]:
     """A normalised posture document, or LibraryError naming the field."""
     if not isinstance(doc, dict):
-        raise LibraryError("invalid posture: a posture is a JSON object {\"name\", \"values\": {dof: value}}")
+        raise LibraryError('invalid posture: a posture is a JSON object {"name", "values": {dof: value}}')
     try:
         posture = Posture.model_validate(doc)
     except ValidationError as exc:
@@ -159,7 +178,9 @@ class RobotLibrary:
     @staticmethod
     def check_name(name: str) -> str:
         if not isinstance(name, str) or not _NAME.match(name):
-            raise LibraryError(f"invalid name {name!r}: use letters, digits, '_', '-' or '.', at most 80 characters")
+            raise LibraryError(
+                f"invalid name {name!r}: use letters, digits, '_', '-' or '.', at most 80 characters"
+            )
         return name[:-5] if name.endswith(".json") else name
 
     # --- queries ------------------------------------------------------------------------------------
@@ -185,7 +206,9 @@ class RobotLibrary:
                 try:
                     doc = json.loads(path.read_text())
                 except json.JSONDecodeError as exc:
-                    raise LibraryError(f"{kind}/{name}.json is not valid JSON: line {exc.lineno}: {exc.msg}") from exc
+                    raise LibraryError(
+                        f"{kind}/{name}.json is not valid JSON: line {exc.lineno}: {exc.msg}"
+                    ) from exc
                 validate = self.validators.get(kind)
                 if validate is not None:
                     doc = validate(doc)

@@ -9,7 +9,7 @@ DURATION = 10.0
 
 
 def times(rate: float = RATE, duration: float = DURATION) -> np.ndarray:
-    return np.arange(int(round(rate * duration))) / rate
+    return np.arange(round(rate * duration)) / rate
 
 
 def phi_l(rate: float = RATE) -> np.ndarray:

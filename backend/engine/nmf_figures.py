@@ -19,13 +19,25 @@ def _plt():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    plt.rcParams.update({"figure.dpi": 110, "axes.grid": True, "grid.alpha": 0.3, "font.size": 9,
-                         "axes.spines.top": False, "axes.spines.right": False})
+    plt.rcParams.update(
+        {
+            "figure.dpi": 110,
+            "axes.grid": True,
+            "grid.alpha": 0.3,
+            "font.size": 9,
+            "axes.spines.top": False,
+            "axes.spines.right": False,
+        }
+    )
     return plt
 
 
 def _filter(name: str, x: np.ndarray, order: int = 3, limiter: str = "tanh") -> np.ndarray:
-    return MotionFilter.from_preset(name, 1, ex.RATE, order=order, limiter=limiter).run(x[:, None]).position[:, 0]
+    return (
+        MotionFilter.from_preset(name, 1, ex.RATE, order=order, limiter=limiter)
+        .run(x[:, None])
+        .position[:, 0]
+    )
 
 
 def _label(name: str) -> str:
@@ -60,7 +72,12 @@ def fig_h(plt, out: Path) -> Path:
         for name in names:
             p = PRESETS[name]
             h = v if p.bypass else stabilise(v, p.sigma, p.rho)
-            ax.plot(v, h, color=COLOURS[name], label=_label(name) + ("" if p.bypass else f" (σ={p.sigma}, ρ={p.rho})"))
+            ax.plot(
+                v,
+                h,
+                color=COLOURS[name],
+                label=_label(name) + ("" if p.bypass else f" (σ={p.sigma}, ρ={p.rho})"),
+            )
         ax.set_xlabel("induced velocity v [units/s]")
         ax.set_ylabel("target velocity H(v) [units/s]")
         ax.set_title(f"stabilisation function H over [0, {vmax:g}]")
@@ -91,8 +108,9 @@ def _presets_on(plt, out: Path, name: str, x: np.ndarray, fname: str, limiter: s
         axes[0].plot(t, y, color=COLOURS[p], label=_label(p), **_style(p))
         for ax, d in zip(axes[1:], (vel, acc, jerk)):
             ax.plot(t, d[1:, 0], color=COLOURS[p], lw=0.8)
-    axes[0].set_title(f"all presets on {name} — order 3, {limiter} limiter "
-                      "(derivatives: finite differences of the output)")
+    axes[0].set_title(
+        f"all presets on {name} — order 3, {limiter} limiter (derivatives: finite differences of the output)"
+    )
     axes[0].set_ylabel("position [units]")
     lo, hi = axes[0].get_ylim()
     axes[0].set_ylim(lo - 0.35 * (hi - lo), hi)  # room for the legend below the curves
@@ -119,7 +137,9 @@ def fig_tanh_vs_hard(plt, out: Path) -> Path:
         ax.set_xlabel("t [s]")
     for ax in axes[:, 0]:
         ax.set_ylabel("position [units]")
-    fig.suptitle("Each preset on Φ_L with the tanh and the hard limiter (hard: larger overshoot and oscillation)")
+    fig.suptitle(
+        "Each preset on Φ_L with the tanh and the hard limiter (hard: larger overshoot and oscillation)"
+    )
     return _save(fig, out / "nmf_presets_phi_l.png")
 
 
@@ -138,7 +158,7 @@ def fig_orders(plt, out: Path) -> Path:
         axes[0, col].set_title(f"order {order} ({('velocity', 'acceleration', 'jerk')[order - 1]} limited)")
         axes[0, col].legend(fontsize=7, loc="center right")
         axes[-1, col].set_xlabel("t [s]")
-    for r, lab in enumerate(("position [units]",) + DERIV_LABELS):
+    for r, lab in enumerate(("position [units]", *DERIV_LABELS)):
         axes[r, 0].set_ylabel(lab)
     fig.suptitle("Orders 1-3 side by side on Φ_L: lower order, higher sustained velocity for the same limits")
     return _save(fig, out / "nmf_orders.png")
@@ -164,7 +184,9 @@ def fig_overview(plt, out: Path) -> Path:
         ax.plot(t, _filter(p, x, limiter=limiter), style, color=COLOURS[p], label=f"{p} position ({limiter})")
     a = MotionFilter.from_preset("A", 1, ex.RATE).run(x[:, None])
     ax.plot(t, a.velocity[:, 0], color="#9467bd", label="A velocity (tanh)")
-    ax.set_title(f"Φ_L: tanh vs hard limiter; A peaks at {np.abs(a.velocity).max():.1f} of its velocity limit 20")
+    ax.set_title(
+        f"Φ_L: tanh vs hard limiter; A peaks at {np.abs(a.velocity).max():.1f} of its velocity limit 20"
+    )
     ax.set_xlabel("t [s]")
     ax.set_ylabel("position [units], velocity [units/s]")
     ax.legend(fontsize=7)
@@ -184,7 +206,12 @@ def _save(fig, path: Path) -> Path:
 def draw_all(out: Path) -> list[Path]:
     plt = _plt()
     return [
-        fig_inputs(plt, out), fig_h(plt, out), fig_omega(plt, out), fig_tanh_vs_hard(plt, out),
-        fig_orders(plt, out), _presets_on(plt, out, "Φ_R", ex.phi_r(), "nmf_presets_phi_r.png"),
-        _presets_on(plt, out, "Φ_C", ex.phi_c(), "nmf_presets_phi_c.png"), fig_overview(plt, out),
+        fig_inputs(plt, out),
+        fig_h(plt, out),
+        fig_omega(plt, out),
+        fig_tanh_vs_hard(plt, out),
+        fig_orders(plt, out),
+        _presets_on(plt, out, "Φ_R", ex.phi_r(), "nmf_presets_phi_r.png"),
+        _presets_on(plt, out, "Φ_C", ex.phi_c(), "nmf_presets_phi_c.png"),
+        fig_overview(plt, out),
     ]

@@ -29,7 +29,9 @@ class CookTimes:
     so a row being written at that moment at worst mixes two ticks' samples).
     """
 
-    def __init__(self, node_ids: list[str], types: list[str], every: int = SAMPLE_EVERY, window: int = WINDOW):
+    def __init__(
+        self, node_ids: list[str], types: list[str], every: int = SAMPLE_EVERY, window: int = WINDOW
+    ):
         if every < 1 or window < 1:
             raise ValueError("every and window must be >= 1")
         self.node_ids, self.types = list(node_ids), list(types)
@@ -55,18 +57,41 @@ class CookTimes:
         out: dict[str, Any] = {"every": self.every, "window": self.window, "samples": n}
         if n == 0:
             out["apu"] = {"mean_us": 0.0, "p50_us": 0.0, "p99_us": 0.0, "max_us": 0.0}
-            out["nodes"] = [{"node": i, "type": t, "mean_us": 0.0, "p50_us": 0.0, "p99_us": 0.0, "max_us": 0.0,
-                             "share": 0.0} for i, t in zip(self.node_ids, self.types)]
+            out["nodes"] = [
+                {
+                    "node": i,
+                    "type": t,
+                    "mean_us": 0.0,
+                    "p50_us": 0.0,
+                    "p99_us": 0.0,
+                    "max_us": 0.0,
+                    "share": 0.0,
+                }
+                for i, t in zip(self.node_ids, self.types)
+            ]
             return out
         us = self._ring[:n].astype(float) * 1e-3
         mean, top = us.mean(axis=0), us.max(axis=0)
         p50, p99 = np.percentile(us, [50, 99], axis=0)
         total = float(mean[-1]) or 1.0
-        out["apu"] = {"mean_us": float(mean[-1]), "p50_us": float(p50[-1]), "p99_us": float(p99[-1]),
-                      "max_us": float(top[-1])}
-        out["nodes"] = [{"node": node, "type": kind, "mean_us": float(mean[k]), "p50_us": float(p50[k]),
-                         "p99_us": float(p99[k]), "max_us": float(top[k]), "share": float(mean[k]) / total}
-                        for k, (node, kind) in enumerate(zip(self.node_ids, self.types))]
+        out["apu"] = {
+            "mean_us": float(mean[-1]),
+            "p50_us": float(p50[-1]),
+            "p99_us": float(p99[-1]),
+            "max_us": float(top[-1]),
+        }
+        out["nodes"] = [
+            {
+                "node": node,
+                "type": kind,
+                "mean_us": float(mean[k]),
+                "p50_us": float(p50[k]),
+                "p99_us": float(p99[k]),
+                "max_us": float(top[k]),
+                "share": float(mean[k]) / total,
+            }
+            for k, (node, kind) in enumerate(zip(self.node_ids, self.types))
+        ]
         return out
 
 
@@ -77,12 +102,21 @@ def format_table(summary: dict[str, Any]) -> str:
     width = max([len(r["node"]) for r in nodes] + [8])
     kind = max([len(r["type"]) for r in nodes] + [4])
     cols = ("mean_us", "p50_us", "p99_us", "max_us")
-    lines = [f"{'node':<{width}}  {'type':<{kind}}  " + "  ".join(f"{c[:-3] + ' µs':>9}" for c in cols)
-             + f"  {'share':>6}"]
+    lines = [
+        f"{'node':<{width}}  {'type':<{kind}}  "
+        + "  ".join(f"{c[:-3] + ' µs':>9}" for c in cols)
+        + f"  {'share':>6}"
+    ]
     for r in nodes:
-        lines.append(f"{r['node']:<{width}}  {r['type']:<{kind}}  " + "  ".join(f"{r[c]:>9.1f}" for c in cols)
-                     + f"  {100 * r['share']:>5.1f}%")
+        lines.append(
+            f"{r['node']:<{width}}  {r['type']:<{kind}}  "
+            + "  ".join(f"{r[c]:>9.1f}" for c in cols)
+            + f"  {100 * r['share']:>5.1f}%"
+        )
     apu = summary["apu"]
-    lines.append(f"{'APU tick':<{width}}  {'':<{kind}}  " + "  ".join(f"{apu[c]:>9.1f}" for c in cols)
-                 + f"  ({summary['samples']} timed ticks, 1 in {summary['every']})")
+    lines.append(
+        f"{'APU tick':<{width}}  {'':<{kind}}  "
+        + "  ".join(f"{apu[c]:>9.1f}" for c in cols)
+        + f"  ({summary['samples']} timed ticks, 1 in {summary['every']})"
+    )
     return "\n".join(lines)

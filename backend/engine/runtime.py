@@ -17,14 +17,16 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
-from typing import Any, Callable, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -77,8 +79,14 @@ class Sink:
     the clock wait for it, not even for the interpreter lock a blocked lock acquisition gives away.
     """
 
-    def __init__(self, name: str, consume: Callable[[AnimationFrame], None] | None = None,
-                 max_queue: int = 8, decimate: int = 1, batch: float = 0.0):
+    def __init__(
+        self,
+        name: str,
+        consume: Callable[[AnimationFrame], None] | None = None,
+        max_queue: int = 8,
+        decimate: int = 1,
+        batch: float = 0.0,
+    ):
         self.name = name
         self._consume = consume
         self.decimate = max(1, int(decimate))
@@ -143,9 +151,15 @@ class Sink:
         self._thread.join(timeout)
 
     def stats(self) -> dict[str, Any]:
-        return {"name": self.name, "offered": self.offered, "delivered": self.delivered,
-                "dropped": self.dropped, "errors": self.errors, "last_error": self.last_error,
-                "decimate": self.decimate}
+        return {
+            "name": self.name,
+            "offered": self.offered,
+            "delivered": self.delivered,
+            "dropped": self.dropped,
+            "errors": self.errors,
+            "last_error": self.last_error,
+            "decimate": self.decimate,
+        }
 
 
 class Clock(Protocol):
@@ -194,9 +208,18 @@ class Engine:
     thread runs at a higher priority where the OS permits (backend.engine.gil.ClockPriority).
     """
 
-    def __init__(self, embodiment: Embodiment, rate: float = 100.0, max_level: int = MAX_LEVEL,
-                 resources: Any = None, seed: int = 0, safety: bool = True, clock: Clock | None = None,
-                 compiled: bool | None = None, priority: bool = True):
+    def __init__(
+        self,
+        embodiment: Embodiment,
+        rate: float = 100.0,
+        max_level: int = MAX_LEVEL,
+        resources: Any = None,
+        seed: int = 0,
+        safety: bool = True,
+        clock: Clock | None = None,
+        compiled: bool | None = None,
+        priority: bool = True,
+    ):
         if not (isinstance(rate, (int, float)) and MIN_RATE <= rate <= MAX_RATE):
             raise ValueError(f"rate must be within [{MIN_RATE:g}, {MAX_RATE:g}] Hz, got {rate}")
         if max_level not in (0, 1, 2, 3):
@@ -206,8 +229,13 @@ class Engine:
         self.dt = 1.0 / self.rate
         self.max_level = max_level
         self.clock: Clock = clock if clock is not None else WallClock(spin=min(0.0003, self.dt / 10))
-        self.ctx = BlockContext(embodiment=embodiment, rate=self.rate, resources=resources, seed=seed,
-                                compiled=default_compiled() if compiled is None else bool(compiled))
+        self.ctx = BlockContext(
+            embodiment=embodiment,
+            rate=self.rate,
+            resources=resources,
+            seed=seed,
+            compiled=default_compiled() if compiled is None else bool(compiled),
+        )
         self.apu: APU | None = None
         self.seq = 0
         self.t = 0.0
@@ -262,8 +290,15 @@ class Engine:
                 return fn()
         return self.call_soon(fn).result(timeout)
 
-    def load(self, apu: APU | None, *, wait: bool = True, adopt: bool = True, transition: float | None = None,
-             also: Callable[[], Any] | None = None) -> Future | list[str]:
+    def load(
+        self,
+        apu: APU | None,
+        *,
+        wait: bool = True,
+        adopt: bool = True,
+        transition: float | None = None,
+        also: Callable[[], Any] | None = None,
+    ) -> Future | list[str]:
         """Swap in a compiled program at a tick boundary (the only way a program is swapped).
 
         adopt: blocks keeping id and type keep their state. transition: seconds over which the jump
@@ -276,20 +311,31 @@ class Engine:
         """
         if apu is not None:
             if apu.level > self.max_level:
-                raise LevelError(f"program needs APU level {apu.level} but this engine allows at most {self.max_level}")
+                raise LevelError(
+                    f"program needs APU level {apu.level} but this engine allows at most {self.max_level}"
+                )
             if apu.steps and apu.steps[apu.output].block.emb is not self.embodiment:
                 raise ValueError("program was compiled for another embodiment")
 
         def swap() -> list[str]:
-            kept = apu.adopt_state_from(self.apu) if (adopt and apu is not None and self.apu is not None) else []
-            if apu is not None and (apu.cook.every, apu.cook.window) != (self.profile_every, self.profile_window):
-                apu.cook = CookTimes(apu.cook.node_ids, apu.cook.types, self.profile_every, self.profile_window)
+            kept = (
+                apu.adopt_state_from(self.apu) if (adopt and apu is not None and self.apu is not None) else []
+            )
+            if apu is not None and (apu.cook.every, apu.cook.window) != (
+                self.profile_every,
+                self.profile_window,
+            ):
+                apu.cook = CookTimes(
+                    apu.cook.node_ids, apu.cook.types, self.profile_every, self.profile_window
+                )
             self.apu = apu
             self.swaps += 1
             if also is not None:
                 also()
             if self.seq:  # nothing has been sent yet: the safety net alone starts from rest
-                self._transition = Transition.start(self.embodiment, self._pos, self._vel, self.rate, transition)
+                self._transition = Transition.start(
+                    self.embodiment, self._pos, self._vel, self.rate, transition
+                )
             return kept
 
         return self.call(swap) if wait else self.call_soon(swap)
@@ -304,7 +350,7 @@ class Engine:
         t0 = time.perf_counter()
         self.load(None, wait=self.running, adopt=False, also=self.clear_overrides)
         deadline = t0 + max(0.0, timeout)
-        ticks_allowed = int(math.ceil(max(0.0, timeout) * self.rate))
+        ticks_allowed = math.ceil(max(0.0, timeout) * self.rate)
         n = 0
         while not self.at_rest():
             if self.running:
@@ -318,14 +364,23 @@ class Engine:
                 n += 1
         seconds = (time.perf_counter() - t0) if self.running else n * self.dt
         error = np.abs(self._pos - self.embodiment.rest)
-        return {"reached_rest": self.at_rest(), "seconds": seconds,
-                "max_error": float(error[self.embodiment.continuous_mask].max(initial=0.0))}
+        return {
+            "reached_rest": self.at_rest(),
+            "seconds": seconds,
+            "max_error": float(error[self.embodiment.continuous_mask].max(initial=0.0)),
+        }
 
     def at_rest(self) -> bool:
         """Whether the last frame is the rest pose exactly, standing still, with no program running."""
         emb = self.embodiment
-        return (self.apu is None and self._transition is None and self.seq > 2
-                and bool(np.array_equal(self._pos, emb.rest)) and not np.any(self._vel) and not np.any(self._acc))
+        return (
+            self.apu is None
+            and self._transition is None
+            and self.seq > 2
+            and bool(np.array_equal(self._pos, emb.rest))
+            and not np.any(self._vel)
+            and not np.any(self._acc)
+        )
 
     def set_input(self, name: str, value: Any) -> Future:
         """Set an exposed input at the next tick boundary."""
@@ -414,11 +469,19 @@ class Engine:
                 jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
             self._pos, self._vel, self._acc = pos, vel, acc
             frame = AnimationFrame(
-                embodiment=self.embodiment.name, t=self.t, dt=dt, seq=self.seq, position=pos,
-                velocity=vel, acceleration=acc, jerk=jerk, events=list(events),
+                embodiment=self.embodiment.name,
+                t=self.t,
+                dt=dt,
+                seq=self.seq,
+                position=pos,
+                velocity=vel,
+                acceleration=acc,
+                jerk=jerk,
+                events=list(events),
                 stage1=np.array(stage1, dtype=float),
                 corrected=self.safety.corrected.copy() if self.safety.corrected_any else None,
-                program=program, joints=self.safety.joint_out,
+                program=program,
+                joints=self.safety.joint_out,
             )
             self.last_frame = frame
             self.seq += 1
@@ -436,10 +499,8 @@ class Engine:
 
     def _notify(self, note: dict[str, Any]) -> None:
         for fn in self._listeners:
-            try:
+            with contextlib.suppress(Exception):
                 fn(note)
-            except Exception:
-                pass
 
     def run_ticks(self, n: int) -> list[AnimationFrame]:
         """Headless: run `n` ticks as fast as possible (no sleeping) and return the frames."""
@@ -509,8 +570,10 @@ class Engine:
 
         def apply() -> None:
             if self.apu is not None:
-                self.apu.cook = CookTimes(self.apu.cook.node_ids, self.apu.cook.types, self.profile_every,
-                                          self.profile_window)
+                self.apu.cook = CookTimes(
+                    self.apu.cook.node_ids, self.apu.cook.types, self.profile_every, self.profile_window
+                )
+
         self.call(apply)
 
     def reset_stats(self) -> None:
@@ -546,8 +609,12 @@ class Engine:
             "period": self.period.summary(),
             "jitter": self.lateness.summary(),
             "started_at": self.started_at,
-            "clock_priority": None if self.clock_priority is None else {
-                "switch_interval_ms": self.clock_priority.interval * 1e3, "nice": self.clock_priority.nice,
-                "realtime": self.clock_priority.realtime},
+            "clock_priority": None
+            if self.clock_priority is None
+            else {
+                "switch_interval_ms": self.clock_priority.interval * 1e3,
+                "nice": self.clock_priority.nice,
+                "realtime": self.clock_priority.realtime,
+            },
             "sinks": [s.stats() for s in self.sinks],
         }

@@ -124,7 +124,9 @@ def _viable_up(p: float, v: float, a: float, hi: float, V: float, A: float, J: f
 
 
 @njit(cache=True)
-def _viable(p: float, v: float, a: float, lo: float, hi: float, V: float, A: float, J: float, h: float) -> bool:
+def _viable(
+    p: float, v: float, a: float, lo: float, hi: float, V: float, A: float, J: float, h: float
+) -> bool:
     return _viable_up(p, v, a, hi, V, A, J, h) and _viable_up(-p, -v, -a, -lo, V, A, J, h)
 
 
@@ -252,8 +254,13 @@ def _net_step(out, idx, state, limits, locked, corrected, counts, h, gains, star
         v1 = (xi - p) / h
         a1 = (v1 - v) / h
         j1 = (a1 - a) / h
-        ok = (abs(j1) <= J * (1.0 + EPS) and abs(a1) <= A * (1.0 + EPS) and abs(v1) <= V * (1.0 + EPS)
-              and lo <= xi <= hi and _viable(xi, v1, a1, lo, hi, V, A, J, h))
+        ok = (
+            abs(j1) <= J * (1.0 + EPS)
+            and abs(a1) <= A * (1.0 + EPS)
+            and abs(v1) <= V * (1.0 + EPS)
+            and lo <= xi <= hi
+            and _viable(xi, v1, a1, lo, hi, V, A, J, h)
+        )
         if ok and not locked[k]:
             # Re-locking: only once the next predicted sample (the program going on at its present
             # acceleration) is reachable too, so the net does not flicker between the two modes.
@@ -289,11 +296,11 @@ def _net_step(out, idx, state, limits, locked, corrected, counts, h, gains, star
 def plan_horizons(rate: float, seconds: float = PLAN_SECONDS) -> list[int]:
     """Horizons (ticks) the receding-horizon plan tries, shortest first: 3, 4, 5, ... growing by about
     a quarter each, up to `seconds` of ticks (at least 48)."""
-    top = max(48, int(math.ceil(seconds * rate)))
+    top = max(48, math.ceil(seconds * rate))
     out, n = [], 3
     while n <= top:
         out.append(n)
-        n = max(n + 1, int(round(n * 1.25)))
+        n = max(n + 1, round(n * 1.25))
     return out
 
 
@@ -337,8 +344,11 @@ class SafetyNet:
         self.idx = np.flatnonzero(self.mask).astype(np.int64)
         i = self.idx
         #: rows lo, hi, V, A, J of the governed channels
-        self.limits = np.ascontiguousarray(np.stack([emb.min[i], emb.max[i], emb.vel_limit[i], emb.acc_limit[i],
-                                                     emb.jerk_limit[i]]).astype(float))
+        self.limits = np.ascontiguousarray(
+            np.stack([emb.min[i], emb.max[i], emb.vel_limit[i], emb.acc_limit[i], emb.jerk_limit[i]]).astype(
+                float
+            )
+        )
         self._gains, self._starts = plan_gains(plan_horizons(rate))
         self.corrections = np.zeros(emb.n_channels, dtype=np.int64)
         self.corrected = np.zeros(emb.n_channels, dtype=bool)
@@ -417,15 +427,35 @@ class SafetyNet:
             return out
         fixed = 0
         if len(self.idx):
-            fixed = _net_step(out, self.idx, self.state, self.limits, self._locked, self.corrected,
-                              self.corrections, self.h, self._gains, self._starts)
+            fixed = _net_step(
+                out,
+                self.idx,
+                self.state,
+                self.limits,
+                self._locked,
+                self.corrected,
+                self.corrections,
+                self.h,
+                self._gains,
+                self._starts,
+            )
         j = self.joints
         q = np.empty(len(j.names))
         compose_joints(out, j.starts, j.cols, j.coefs, j.offset, q)
         if len(self._jidx):
             composed = q[self._jidx]
-            if _net_step(q, self._jidx, self._jstate, self._jlimits, self._jlocked, self.joint_corrected,
-                         self.joint_corrections, self.h, self._gains, self._starts):
+            if _net_step(
+                q,
+                self._jidx,
+                self._jstate,
+                self._jlimits,
+                self._jlocked,
+                self.joint_corrected,
+                self.joint_corrections,
+                self.h,
+                self._gains,
+                self._starts,
+            ):
                 fixed += 1
                 self._carry_back(out, q, composed)
         self.joint_out = q
@@ -453,8 +483,9 @@ class SafetyNet:
             "corrected_ticks": int(self.corrected_ticks),
             "corrections": {names[i]: int(self.corrections[i]) for i in np.flatnonzero(self.corrections)},
             "correcting": [names[i] for i in np.flatnonzero(self.corrected)],
-            "joint_corrections": {joints[i]: int(self.joint_corrections[i])
-                                  for i in np.flatnonzero(self.joint_corrections)},
+            "joint_corrections": {
+                joints[i]: int(self.joint_corrections[i]) for i in np.flatnonzero(self.joint_corrections)
+            },
             "joints_correcting": [joints[i] for i in np.flatnonzero(self.joint_corrected)],
             "joints_governed": [joints[i] for i in self._jidx],
         }

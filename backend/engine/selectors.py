@@ -46,7 +46,8 @@ def _matches(emb: Embodiment, selector: str) -> list[Dof]:
             return [d for d in emb.dofs if d.type.value == pattern]
         if head not in _DIMENSIONS:
             raise SelectorError(
-                selector, f"unknown dimension '{head}' in selector '{selector}' (one of {sorted(_DIMENSIONS)})"
+                selector,
+                f"unknown dimension '{head}' in selector '{selector}' (one of {sorted(_DIMENSIONS)})",
             )
         return [d for d in emb.dofs if d.dimension.value == head and fnmatch.fnmatchcase(d.name, pattern)]
     if any(ch in selector for ch in "*?["):
@@ -89,7 +90,9 @@ def select_dofs(emb: Embodiment, selectors: list[str] | str, *, allow_empty: boo
 
 def channel_mask(emb: Embodiment, selectors: list[str] | str, *, continuous_only: bool = False) -> np.ndarray:
     """Boolean mask over the embodiment's channels for the selected DoFs (channel names allowed too)."""
-    return _channel_mask_cached(emb, tuple([selectors] if isinstance(selectors, str) else selectors), continuous_only)
+    return _channel_mask_cached(
+        emb, tuple([selectors] if isinstance(selectors, str) else selectors), continuous_only
+    )
 
 
 @lru_cache(maxsize=1024)
@@ -124,12 +127,14 @@ def _partner_name(name: str) -> str | None:
     """The right-side name of a left-side DoF name, or None if the name has no left marker."""
     for (lp, ls), (rp, rs) in _SIDE_PATTERNS:
         if name.startswith(lp) and name.endswith(ls) and len(name) > len(lp) + len(ls):
-            core = name[len(lp):len(name) - len(ls)] if ls else name[len(lp):]
+            core = name[len(lp) : len(name) - len(ls)] if ls else name[len(lp) :]
             return f"{rp}{core}{rs}"
     return None
 
 
-def find_pairs(emb: Embodiment, explicit: list[list[str]] | None = None, auto: bool = True) -> list[tuple[Dof, Dof]]:
+def find_pairs(
+    emb: Embodiment, explicit: list[list[str]] | None = None, auto: bool = True
+) -> list[tuple[Dof, Dof]]:
     """Left/right DoF pairs: explicit `[left, right]` pairs first, then pairs found by name.
 
     Raises ValueError naming the DoF when an explicit pair is unknown or mismatched.
@@ -145,8 +150,10 @@ def find_pairs(emb: Embodiment, explicit: list[list[str]] | None = None, auto: b
                 raise ValueError(f"pair {pair}: DoF '{name}' is already in another pair")
         da, db = emb.dof(a), emb.dof(b)
         if da.type is not db.type or _width(da) != _width(db):
-            raise ValueError(f"pair {pair}: '{a}' is {da.type.value} and '{b}' is {db.type.value}; "
-                             f"paired DoFs must have the same type")
+            raise ValueError(
+                f"pair {pair}: '{a}' is {da.type.value} and '{b}' is {db.type.value}; "
+                f"paired DoFs must have the same type"
+            )
         if _width(da) == 0:
             raise ValueError(f"pair {pair}: event DoFs cannot be paired")
         pairs.append((da, db))

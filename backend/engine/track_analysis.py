@@ -44,15 +44,21 @@ def _matrix(emb: Embodiment, tracks: dict[str, list[float]]) -> tuple[list[str],
             raise TrackError(f"robot '{emb.name}' has no DoF '{name}'", field)
         dof = emb.dof(name)
         if dof.type is not DofType.continuous:
-            raise TrackError(f"DoF '{name}' is not continuous ({dof.type.value}): only continuous DoFs have "
-                             f"limits to check", field)
+            raise TrackError(
+                f"DoF '{name}' is not continuous ({dof.type.value}): only continuous DoFs have "
+                f"limits to check",
+                field,
+            )
         if not values:
             raise TrackError(f"track '{name}' has no samples", field)
         if len(values) > MAX_SAMPLES:
             raise TrackError(f"track '{name}' has {len(values)} samples (at most {MAX_SAMPLES})", field)
         if len(values) != length:
-            raise TrackError(f"track '{name}' has {len(values)} samples, track '{names[0]}' {length}: "
-                             f"every track needs one value per sample", field)
+            raise TrackError(
+                f"track '{name}' has {len(values)} samples, track '{names[0]}' {length}: "
+                f"every track needs one value per sample",
+                field,
+            )
     x = np.array([tracks[n] for n in names], dtype=float).T
     channels = np.array([emb.dof(n).channels.start for n in names])
     return names, x, channels
@@ -73,35 +79,63 @@ def analyze_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]])
     lo, hi = emb.min[ch], emb.max[ch]
     result = trajectory.analyze(x, rate, vel, acc, jerk, lo, hi)
     centre, half = (hi + lo) / 2.0, np.maximum((hi - lo) / 2.0, 1e-12)
-    ratios = {trajectory.VELOCITY: np.abs(result.velocity) / vel,
-              trajectory.ACCELERATION: np.abs(result.acceleration) / acc,
-              trajectory.JERK: np.abs(result.jerk) / jerk, trajectory.POSITION: np.abs(x - centre) / half}
+    ratios = {
+        trajectory.VELOCITY: np.abs(result.velocity) / vel,
+        trajectory.ACCELERATION: np.abs(result.acceleration) / acc,
+        trajectory.JERK: np.abs(result.jerk) / jerk,
+        trajectory.POSITION: np.abs(x - centre) / half,
+    }
     ranges: list[dict[str, Any]] = []
     dofs: dict[str, Any] = {}
     for i, name in enumerate(names):
         for first, last, code in _runs(result.classes[:, i]):
-            ratio = ratios[code][first:last + 1, i]
+            ratio = ratios[code][first : last + 1, i]
             worst = int(np.argmax(ratio))
-            ranges.append({"dof": name, "kind": trajectory.CLASS_NAMES[code], "start": first, "end": last,
-                           "worst_ratio": float(ratio[worst]), "worst_sample": first + worst})
+            ranges.append(
+                {
+                    "dof": name,
+                    "kind": trajectory.CLASS_NAMES[code],
+                    "start": first,
+                    "end": last,
+                    "worst_ratio": float(ratio[worst]),
+                    "worst_sample": first + worst,
+                }
+            )
         summary = result.summary[i]
-        dofs[name] = {**{k: summary[k] for k in ("max_velocity", "max_acceleration", "max_jerk")},
-                      "counts": {k: summary[k] for k in trajectory.CLASS_NAMES.values()},
-                      "limits": {"min": float(lo[i]), "max": float(hi[i]), "velocity": float(vel[i]),
-                                 "acceleration": float(acc[i]), "jerk": float(jerk[i])}}
+        dofs[name] = {
+            **{k: summary[k] for k in ("max_velocity", "max_acceleration", "max_jerk")},
+            "counts": {k: summary[k] for k in trajectory.CLASS_NAMES.values()},
+            "limits": {
+                "min": float(lo[i]),
+                "max": float(hi[i]),
+                "velocity": float(vel[i]),
+                "acceleration": float(acc[i]),
+                "jerk": float(jerk[i]),
+            },
+        }
     ranges.sort(key=lambda r: (r["start"], r["dof"]))
-    return {"rate": rate, "samples": int(x.shape[0]), "ok": result.ok, "ranges": ranges, "dofs": dofs,
-            "colours": dict(trajectory.CLASS_COLOURS)}
+    return {
+        "rate": rate,
+        "samples": int(x.shape[0]),
+        "ok": result.ok,
+        "ranges": ranges,
+        "dofs": dofs,
+        "colours": dict(trajectory.CLASS_COLOURS),
+    }
 
 
-def filter_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]], params: Any) -> dict[str, list[float]]:
+def filter_tracks(
+    emb: Embodiment, rate: float, tracks: dict[str, list[float]], params: Any
+) -> dict[str, list[float]]:
     """The tracks after the stage-2 motion filter with `params` (an `nmf_stage2` block's FilterParams),
     started at rest on the first sample; DoFs not posted hold their rest values."""
     from backend.engine.blocks.base import BlockContext
     from backend.engine.blocks.motion_filter import MotionFilterStage2
 
     names, x, ch = _matrix(emb, tracks)
-    stage2 = MotionFilterStage2(params, BlockContext(emb, rate))  # the robot's limits, as the engine sets them
+    stage2 = MotionFilterStage2(
+        params, BlockContext(emb, rate)
+    )  # the robot's limits, as the engine sets them
     mf = stage2.filter
     where = np.searchsorted(stage2.idx, ch)  # the posted channels among the filtered ones
     start = emb.rest[stage2.idx].copy()

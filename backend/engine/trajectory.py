@@ -18,9 +18,20 @@ import numpy as np
 from backend.engine.nmf import MotionFilter
 
 OK, VELOCITY, ACCELERATION, JERK, POSITION = 0, 1, 2, 3, 4
-CLASS_NAMES = {OK: "ok", VELOCITY: "velocity", ACCELERATION: "acceleration", JERK: "jerk", POSITION: "position"}
-CLASS_COLOURS = {"ok": "#3fbf5f", "velocity": "#ff9a2e", "acceleration": "#ff6fb5", "jerk": "#e5383b",
-                 "position": "#9b5de5"}
+CLASS_NAMES = {
+    OK: "ok",
+    VELOCITY: "velocity",
+    ACCELERATION: "acceleration",
+    JERK: "jerk",
+    POSITION: "position",
+}
+CLASS_COLOURS = {
+    "ok": "#3fbf5f",
+    "velocity": "#ff9a2e",
+    "acceleration": "#ff6fb5",
+    "jerk": "#e5383b",
+    "position": "#9b5de5",
+}
 
 
 def derivatives(positions: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -67,8 +78,16 @@ def _limit(name: str, value: Any, n: int, allow_none: bool = False) -> np.ndarra
     return arr
 
 
-def analyze(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: Any, jerk_limit: Any,
-            pmin: Any = None, pmax: Any = None, tolerance: float = 1e-9) -> Analysis:
+def analyze(
+    positions: np.ndarray,
+    rate: float,
+    vel_limit: Any,
+    acc_limit: Any,
+    jerk_limit: Any,
+    pmin: Any = None,
+    pmax: Any = None,
+    tolerance: float = 1e-9,
+) -> Analysis:
     """Classify every sample of `positions` (T,) or (T, n) sampled at `rate` Hz against the limits.
 
     Limits (units per s, s², s³) are scalars or per-DoF arrays, > 0 (inf: unlimited); `tolerance` is
@@ -105,17 +124,20 @@ def analyze(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: Any, 
     summary = []
     for i in range(x.shape[1]):
         c = classes[:, i]
-        summary.append({
-            "max_velocity": float(np.abs(vel[:, i]).max(initial=0.0)),
-            "max_acceleration": float(np.abs(acc[:, i]).max(initial=0.0)),
-            "max_jerk": float(np.abs(jerk[:, i]).max(initial=0.0)),
-            **{name: int((c == code).sum()) for code, name in CLASS_NAMES.items()},
-        })
+        summary.append(
+            {
+                "max_velocity": float(np.abs(vel[:, i]).max(initial=0.0)),
+                "max_acceleration": float(np.abs(acc[:, i]).max(initial=0.0)),
+                "max_jerk": float(np.abs(jerk[:, i]).max(initial=0.0)),
+                **{name: int((c == code).sum()) for code, name in CLASS_NAMES.items()},
+            }
+        )
     return Analysis(classes, vel, acc, jerk, summary)
 
 
-def ghost(positions: np.ndarray, rate: float, preset: str | None = "D", order: int = 3, **filter_params: Any
-          ) -> np.ndarray:
+def ghost(
+    positions: np.ndarray, rate: float, preset: str | None = "D", order: int = 3, **filter_params: Any
+) -> np.ndarray:
     """The NMF-filtered *ghost* of a trajectory (T,) or (T, n): what the robot would really do."""
     x = np.asarray(positions, dtype=float)
     one = x.ndim == 1
@@ -173,13 +195,17 @@ class StepMetrics:
         return float(np.mean(done)) if done else float("nan")
 
 
-def step_metrics(setpoints: np.ndarray, response: np.ndarray, rate: float, tolerance: float = 0.05) -> StepMetrics:
+def step_metrics(
+    setpoints: np.ndarray, response: np.ndarray, rate: float, tolerance: float = 0.05
+) -> StepMetrics:
     """Overshoot and settle time of every step of a stepped signal (T,), each judged until the next
     step; the settle band is `tolerance` times the step's size."""
     sp = np.asarray(setpoints, dtype=float)
     y = np.asarray(response, dtype=float)
     if sp.shape != y.shape or sp.ndim != 1:
-        raise ValueError(f"setpoints and response must have the same shape (T,), got {sp.shape} and {y.shape}")
+        raise ValueError(
+            f"setpoints and response must have the same shape (T,), got {sp.shape} and {y.shape}"
+        )
     starts = np.flatnonzero(np.diff(sp)) + 1
     bounds = np.r_[starts, sp.size]
     over, settle = [], []
@@ -194,8 +220,14 @@ def step_metrics(setpoints: np.ndarray, response: np.ndarray, rate: float, toler
 # --- what a trajectory needs to fit the limits (the importer's report) --------------------------------
 
 
-def limit_counts(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: Any, jerk_limit: Any,
-                 tolerance: float = 1e-9) -> list[dict[str, Any]]:
+def limit_counts(
+    positions: np.ndarray,
+    rate: float,
+    vel_limit: Any,
+    acc_limit: Any,
+    jerk_limit: Any,
+    tolerance: float = 1e-9,
+) -> list[dict[str, Any]]:
     """Per DoF of `positions` (T,) or (T, n): how many samples are over the velocity, the acceleration
     and the jerk limit, each counted on its own (a sample may be over several), and the peaks.
     Same finite differences and slack as `analyze`."""
@@ -203,8 +235,10 @@ def limit_counts(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: 
     if x.ndim == 1:
         x = x[:, None]
     n = x.shape[1]
-    lims = [_limit(name, value, n) for name, value in (("vel_limit", vel_limit), ("acc_limit", acc_limit),
-                                                        ("jerk_limit", jerk_limit))]
+    lims = [
+        _limit(name, value, n)
+        for name, value in (("vel_limit", vel_limit), ("acc_limit", acc_limit), ("jerk_limit", jerk_limit))
+    ]
     derivs = derivatives(x, rate)
     slack = 1.0 + tolerance
     out = []
@@ -219,13 +253,22 @@ def limit_counts(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: 
     return out
 
 
-def time_scale_to_fit(sample: Any, duration: float, rate: float, vel_limit: Any, acc_limit: Any, jerk_limit: Any,
-                      max_scale: float = 20.0, precision: float = 0.01) -> float | None:
+def time_scale_to_fit(
+    sample: Any,
+    duration: float,
+    rate: float,
+    vel_limit: Any,
+    acc_limit: Any,
+    jerk_limit: Any,
+    max_scale: float = 20.0,
+    precision: float = 0.01,
+) -> float | None:
     """The smallest uniform slow-down factor s >= 1 (within `precision`, relative) such that the
     trajectory played s times slower and sampled at `rate` is within every velocity, acceleration
     and jerk limit; None if even `max_scale` is not enough.
 
     `sample(t)` returns the positions (len(t), n) at trajectory times `t` (s, in [0, duration])."""
+
     def fits(s: float) -> bool:
         t = np.arange(int(np.floor(duration * s * rate + 1e-9)) + 1) / rate / s
         if t.size < 2:
@@ -252,8 +295,17 @@ def time_scale_to_fit(sample: Any, duration: float, rate: float, vel_limit: Any,
     return hi
 
 
-def preset_fit(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: Any, jerk_limit: Any,
-               pmin: Any = None, pmax: Any = None, presets: Any = None, limiter: str = "tanh") -> list[dict[str, Any]]:
+def preset_fit(
+    positions: np.ndarray,
+    rate: float,
+    vel_limit: Any,
+    acc_limit: Any,
+    jerk_limit: Any,
+    pmin: Any = None,
+    pmax: Any = None,
+    presets: Any = None,
+    limiter: str = "tanh",
+) -> list[dict[str, Any]]:
     """How well each NMF preset keeps the shape of a trajectory (T,) or (T, n) under the robot's
     limits (as the stage-2 filter applies them: the tanh limiter gets 2 x the velocity bound), best
     first: {"preset", "rms", "max" (deviation of the filtered ghost from the trajectory, over all
@@ -271,14 +323,33 @@ def preset_fit(positions: np.ndarray, rate: float, vel_limit: Any, acc_limit: An
     out = []
     for name in presets or list(PRESETS):
         p = PRESETS[name]
-        f = MotionFilter(n, rate, order=3, sigma=p.sigma, rho=p.rho, bypass=p.bypass, limiter=limiter,
-                         vel_limit=vel * (2.0 if limiter == "tanh" else 1.0), acc_limit=acc, jerk_limit=jerk,
-                         x0=x[0], **pos)
+        f = MotionFilter(
+            n,
+            rate,
+            order=3,
+            sigma=p.sigma,
+            rho=p.rho,
+            bypass=p.bypass,
+            limiter=limiter,
+            vel_limit=vel * (2.0 if limiter == "tanh" else 1.0),
+            acc_limit=acc,
+            jerk_limit=jerk,
+            x0=x[0],
+            **pos,
+        )
         g = f.run(x).position
         err = np.abs(g - x)
         counts = limit_counts(g, rate, vel, acc, jerk, tolerance=1e-3)
-        out.append({"preset": name, "meaning": p.meaning, "rms": float(np.sqrt(np.mean(err ** 2))),
-                    "max": float(err.max(initial=0.0)),
-                    "ghost_ok": all(c["velocity"] == 0 and c["acceleration"] == 0 and c["jerk"] == 0 for c in counts)})
+        out.append(
+            {
+                "preset": name,
+                "meaning": p.meaning,
+                "rms": float(np.sqrt(np.mean(err**2))),
+                "max": float(err.max(initial=0.0)),
+                "ghost_ok": all(
+                    c["velocity"] == 0 and c["acceleration"] == 0 and c["jerk"] == 0 for c in counts
+                ),
+            }
+        )
     out.sort(key=lambda r: r["rms"])
     return out

@@ -36,9 +36,15 @@ def seconds_needed(emb: Embodiment, x0: np.ndarray, v0: np.ndarray | None = None
     d = 2.0 * np.abs(np.where(cont, x0, 0.0))
     w = 2.0 * np.abs(np.where(cont, v0, 0.0)) if v0 is not None else np.zeros_like(d)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.maximum.reduce([_P_PEAKS[0] * d / emb.vel_limit, np.sqrt(_P_PEAKS[1] * d / emb.acc_limit),
-                               np.cbrt(_P_PEAKS[2] * d / emb.jerk_limit),
-                               _Q_PEAKS[0] * w / emb.acc_limit, np.sqrt(_Q_PEAKS[1] * w / emb.jerk_limit)])
+        t = np.maximum.reduce(
+            [
+                _P_PEAKS[0] * d / emb.vel_limit,
+                np.sqrt(_P_PEAKS[1] * d / emb.acc_limit),
+                np.cbrt(_P_PEAKS[2] * d / emb.jerk_limit),
+                _Q_PEAKS[0] * w / emb.acc_limit,
+                np.sqrt(_Q_PEAKS[1] * w / emb.jerk_limit),
+            ]
+        )
     t = np.where(np.isfinite(t), t, 0.0)
     return float(t.max(initial=0.0))
 
@@ -46,8 +52,9 @@ def seconds_needed(emb: Embodiment, x0: np.ndarray, v0: np.ndarray | None = None
 class Transition:
     """One swap's blend. `apply(target)` adds the decaying offset in place; True when it is over."""
 
-    def __init__(self, emb: Embodiment, last: np.ndarray, velocity: np.ndarray, rate: float,
-                 seconds: float | None):
+    def __init__(
+        self, emb: Embodiment, last: np.ndarray, velocity: np.ndarray, rate: float, seconds: float | None
+    ):
         self.emb = emb
         self.dt = 1.0 / rate
         cont = emb.continuous_mask
@@ -62,8 +69,9 @@ class Transition:
         self.t = 0.0
 
     @classmethod
-    def start(cls, emb: Embodiment, last: np.ndarray, velocity: np.ndarray, rate: float,
-              seconds: float | None) -> "Transition | None":
+    def start(
+        cls, emb: Embodiment, last: np.ndarray, velocity: np.ndarray, rate: float, seconds: float | None
+    ) -> Transition | None:
         """A transition from the pose `last` moving at `velocity`; None when `seconds` is 0 (the
         safety net alone then bounds the jump)."""
         if seconds is not None and seconds <= 0.0:

@@ -19,7 +19,9 @@ from typing import Any
 import numpy as np
 
 # robot frame (+Z up) -> glTF frame (+Y up)
-Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+Z_UP_TO_Y_UP = np.array(
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+)
 
 _cache: dict[tuple[str, float], bytes] = {}
 _lock = threading.Lock()
@@ -37,8 +39,11 @@ def _material(mesh: Any) -> None:
     visual = mesh.visual
     if getattr(visual, "kind", None) in ("face", "vertex"):
         rgba = np.asarray(visual.main_color, dtype=float) / 255.0
-        mesh.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
-            baseColorFactor=[float(x) for x in rgba], metallicFactor=0.0, roughnessFactor=0.6))
+        mesh.visual = trimesh.visual.TextureVisuals(
+            material=trimesh.visual.material.PBRMaterial(
+                baseColorFactor=[float(x) for x in rgba], metallicFactor=0.0, roughnessFactor=0.6
+            )
+        )
 
 
 def _build(urdf_path: Path) -> bytes:
@@ -46,8 +51,9 @@ def _build(urdf_path: Path) -> bytes:
     import yourdfpy
 
     try:
-        urdf = yourdfpy.URDF.load(str(urdf_path), build_scene_graph=True, load_meshes=True,
-                                  build_collision_scene_graph=False)
+        urdf = yourdfpy.URDF.load(
+            str(urdf_path), build_scene_graph=True, load_meshes=True, build_collision_scene_graph=False
+        )
     except Exception as exc:  # yourdfpy raises many types for malformed files
         raise NoVisuals(f"cannot read URDF '{urdf_path.name}': {exc}") from exc
     source = urdf.scene
@@ -67,7 +73,9 @@ def _build(urdf_path: Path) -> bytes:
         _material(mesh)
         mesh.metadata = {"nutty_link": link}
         name = f"{link}|{n}"
-        out.add_geometry(mesh, node_name=name, geom_name=name, transform=Z_UP_TO_Y_UP @ transform @ Z_UP_TO_Y_UP.T)
+        out.add_geometry(
+            mesh, node_name=name, geom_name=name, transform=Z_UP_TO_Y_UP @ transform @ Z_UP_TO_Y_UP.T
+        )
     if not counts:
         raise NoVisuals(f"the URDF '{urdf_path.name}' has no visual geometry")
     return out.export(file_type="glb")

@@ -1,9 +1,9 @@
 """A small fluent builder for Animation Programs in Python (tests, `nutty new`, examples).
 
-    b = ProgramBuilder("wave")
-    sine = b.node("sine", dofs=["head_yaw"], amplitude=0.3)
-    b.connect(sine, b.output())
-    program = b.build()
+b = ProgramBuilder("wave")
+sine = b.node("sine", dofs=["head_yaw"], amplitude=0.3)
+b.connect(sine, b.output())
+program = b.build()
 """
 
 from __future__ import annotations
@@ -14,10 +14,23 @@ from backend.graph.schema import FORMAT, Program
 
 
 class ProgramBuilder:
-    def __init__(self, name: str = "untitled", description: str = "", robot: str | None = None,
-                 rate: float | None = None, max_level: int = 3):
-        self.doc: dict[str, Any] = {"format": FORMAT, "name": name, "description": description,
-                                    "max_level": max_level, "inputs": [], "nodes": [], "edges": []}
+    def __init__(
+        self,
+        name: str = "untitled",
+        description: str = "",
+        robot: str | None = None,
+        rate: float | None = None,
+        max_level: int = 3,
+    ):
+        self.doc: dict[str, Any] = {
+            "format": FORMAT,
+            "name": name,
+            "description": description,
+            "max_level": max_level,
+            "inputs": [],
+            "nodes": [],
+            "edges": [],
+        }
         if robot:
             self.doc["robot"] = robot
         if rate:
@@ -25,16 +38,18 @@ class ProgramBuilder:
         self._count: dict[str, int] = {}
         self._output: str | None = None
 
-    def node(self, type_name: str, node_id: str | None = None, ui: dict[str, Any] | None = None,
-             **params: Any) -> str:
+    def node(
+        self, type_name: str, node_id: str | None = None, ui: dict[str, Any] | None = None, **params: Any
+    ) -> str:
         """Add a node and return its id (default: the type name with a counter)."""
         if node_id is None:
             k = self._count.get(type_name, 0) + 1
             self._count[type_name] = k
             node_id = type_name if k == 1 else f"{type_name}_{k}"
         n = len(self.doc["nodes"])
-        self.doc["nodes"].append({"id": node_id, "type": type_name, "params": params,
-                                  "ui": ui or {"x": 260.0 * n, "y": 0.0}})
+        self.doc["nodes"].append(
+            {"id": node_id, "type": type_name, "params": params, "ui": ui or {"x": 260.0 * n, "y": 0.0}}
+        )
         return node_id
 
     def output(self) -> str:
@@ -42,11 +57,13 @@ class ProgramBuilder:
             self._output = self.node("output", "output")
         return self._output
 
-    def connect(self, src: str, dst: str, src_port: str = "out", dst_port: str = "in") -> "ProgramBuilder":
-        self.doc["edges"].append({"from": {"node": src, "port": src_port}, "to": {"node": dst, "port": dst_port}})
+    def connect(self, src: str, dst: str, src_port: str = "out", dst_port: str = "in") -> ProgramBuilder:
+        self.doc["edges"].append(
+            {"from": {"node": src, "port": src_port}, "to": {"node": dst, "port": dst_port}}
+        )
         return self
 
-    def chain(self, *nodes: str) -> "ProgramBuilder":
+    def chain(self, *nodes: str) -> ProgramBuilder:
         """Connect frame ports out -> in along `nodes`; the output node takes its `in` port."""
         for a, b in zip(nodes, nodes[1:]):
             self.connect(a, b)

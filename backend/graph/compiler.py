@@ -30,8 +30,18 @@ from backend.graph.issues import ERROR_CODES, WARNING_CODES, Issue, ValidationRe
 from backend.graph.plan import Plan
 from backend.graph.schema import Program
 
-__all__ = ["ERROR_CODES", "WARNING_CODES", "CompileResult", "Issue", "Plan", "ProgramError", "ValidationReport",
-           "check_program", "compile_or_raise", "compile_program"]
+__all__ = [
+    "ERROR_CODES",
+    "WARNING_CODES",
+    "CompileResult",
+    "Issue",
+    "Plan",
+    "ProgramError",
+    "ValidationReport",
+    "check_program",
+    "compile_or_raise",
+    "compile_program",
+]
 
 
 @dataclass
@@ -40,7 +50,9 @@ class CompileResult:
     apu: APU | None = None
     program: Program | None = None  # the document (with its subgraphs, if any)
     params: dict[str, BlockParams] = field(default_factory=dict)  # by flat node id
-    flat: Program | None = None  # the document with its subgraphs flattened: the APU's nodes (ids `idle/breathe`)
+    flat: Program | None = (
+        None  # the document with its subgraphs flattened: the APU's nodes (ids `idle/breathe`)
+    )
 
     @property
     def ok(self) -> bool:
@@ -57,16 +69,24 @@ class ProgramError(ValueError):
         super().__init__(f"{first.code}: {first.message}{more}" if first else "invalid program")
 
 
-def _check(source: Any, embodiment: Embodiment, max_level: int, ctx: BlockContext | None, rate: float
-           ) -> tuple[CheckState, ValidationReport, Plan | None]:
-    state = run_checks(source, embodiment, max_level=max_level,
-                       ctx=ctx or BlockContext(embodiment=embodiment, rate=rate))
+def _check(
+    source: Any, embodiment: Embodiment, max_level: int, ctx: BlockContext | None, rate: float
+) -> tuple[CheckState, ValidationReport, Plan | None]:
+    state = run_checks(
+        source, embodiment, max_level=max_level, ctx=ctx or BlockContext(embodiment=embodiment, rate=rate)
+    )
     report = state.report()
     return state, report, Plan.from_checks(state) if report.valid else None
 
 
-def check_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX_LEVEL,
-                  ctx: BlockContext | None = None, rate: float = 100.0) -> tuple[ValidationReport, Plan | None]:
+def check_program(
+    source: Any,
+    embodiment: Embodiment,
+    *,
+    max_level: int = MAX_LEVEL,
+    ctx: BlockContext | None = None,
+    rate: float = 100.0,
+) -> tuple[ValidationReport, Plan | None]:
     """Check `source` (JSON text, bytes, a dict or a Program) for `embodiment`: the report, and the
     plan if the program is valid. Never raises for a bad program.
 
@@ -77,8 +97,14 @@ def check_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX_L
     return report, plan
 
 
-def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX_LEVEL,
-                    ctx: BlockContext | None = None, rate: float = 100.0) -> CompileResult:
+def compile_program(
+    source: Any,
+    embodiment: Embodiment,
+    *,
+    max_level: int = MAX_LEVEL,
+    ctx: BlockContext | None = None,
+    rate: float = 100.0,
+) -> CompileResult:
     """Validate `source` (JSON text, dict or Program) for `embodiment` and build its APU if valid.
 
     Never raises for a bad program: every problem is an Issue in the report.
@@ -88,8 +114,9 @@ def compile_program(source: Any, embodiment: Embodiment, *, max_level: int = MAX
     if plan is None:
         return CompileResult(report, program=state.document, flat=state.program)
     params = {node.id: plan.params[node.id] for node in (plan.flat or plan.program).nodes}
-    return CompileResult(report, apu=plan.instantiate(embodiment, ctx), program=plan.program, params=params,
-                         flat=plan.flat)
+    return CompileResult(
+        report, apu=plan.instantiate(embodiment, ctx), program=plan.program, params=params, flat=plan.flat
+    )
 
 
 def compile_or_raise(source: Any, embodiment: Embodiment, **kw: Any) -> CompileResult:

@@ -35,7 +35,7 @@ ERROR_CODES: dict[str, str] = {
     "unknown_subgraph": "a `subgraph` node names a subgraph the program does not define",
     "subgraph_cycle": "a subgraph contains itself (directly or through other subgraphs)",
     "unknown_exposed_port": "a subgraph exposes a port of a node it does not have, or an edge uses a port a "
-                            "subgraph node does not expose",
+    "subgraph node does not expose",
 }
 WARNING_CODES: dict[str, str] = {
     "unconnected_node": "a node does not feed the output",
@@ -78,4 +78,3 @@ class ValidationReport(BaseModel):
     level: int | None = None
     errors: list[Issue] = Field(default_factory=list)
     warnings: list[Issue] = Field(default_factory=list)
-

@@ -51,7 +51,9 @@ class Plan:
         """Every node's validated parameters, by node id (read-only)."""
         return MappingProxyType({s.node_id: s.params for s in self.steps})
 
-    def instantiate(self, embodiment: Embodiment, ctx: BlockContext | None = None, *, rate: float = 100.0) -> APU:
+    def instantiate(
+        self, embodiment: Embodiment, ctx: BlockContext | None = None, *, rate: float = 100.0
+    ) -> APU:
         """A new APU: fresh blocks (each with its own copy of its parameters) in their initial state.
 
         `ctx` is the context the blocks run in (a new one at `rate` if None); the program's exposed
@@ -64,9 +66,14 @@ class Plan:
         if ctx is self._probe_ctx and self._probes:
             probes = dict(self._probes)  # taken once: a second APU builds its own blocks
             self._probes.clear()
-        steps = [Step(s.node_id, self._take(probes, s) or s.block(s.params.model_copy(deep=True), ctx, s.node_id),
-                      list(s.wires))
-                 for s in self.steps]
+        steps = [
+            Step(
+                s.node_id,
+                self._take(probes, s) or s.block(s.params.model_copy(deep=True), ctx, s.node_id),
+                list(s.wires),
+            )
+            for s in self.steps
+        ]
         for inp in self.program.inputs:
             ctx.inputs.setdefault(inp.name, inp.coerce(inp.default))
         return APU(steps, self.output, self.level, self.stage1_tap, source=self.program)
@@ -78,21 +85,31 @@ class Plan:
         return block if type(block) is step.block else None
 
     @classmethod
-    def from_checks(cls, state: CheckState) -> "Plan":
+    def from_checks(cls, state: CheckState) -> Plan:
         """The plan of a program whose checks found no error."""
         assert state.program is not None and not state.errors and len(state.outputs) == 1
         order = topological(state.ids, state.graph)
         index = {n: i for i, n in enumerate(order)}
         steps = []
         for n in order:
-            wires = tuple(Wire(e.to.port, index[e.from_.node], e.from_.port) for e in state.good_edges if e.to.node == n)
+            wires = tuple(
+                Wire(e.to.port, index[e.from_.node], e.from_.port) for e in state.good_edges if e.to.node == n
+            )
             block = state.block_class(n)
             assert block is not None  # every node of a valid program has a known type
             steps.append(PlannedStep(n, block, state.params[n], wires))
         out = index[state.outputs[0]]
-        return cls(program=state.document or state.program, flat=state.program, robot=state.embodiment.name, steps=tuple(steps), output=out,
-                   level=state.level or 0, stage1_tap=stage1_tap(steps, out), _probes=dict(state.probes),
-                   _probe_ctx=state.ctx)
+        return cls(
+            program=state.document or state.program,
+            flat=state.program,
+            robot=state.embodiment.name,
+            steps=tuple(steps),
+            output=out,
+            level=state.level or 0,
+            stage1_tap=stage1_tap(steps, out),
+            _probes=dict(state.probes),
+            _probe_ctx=state.ctx,
+        )
 
 
 def topological(ids: list[str], graph: Mapping[str, set[str]]) -> list[str]:
@@ -123,6 +140,14 @@ def stage1_tap(steps: list[PlannedStep], out: int) -> tuple[int, str] | None:
             return (wire.src, wire.src_port) if crossed else None
         crossed = True
         frame_ins = src.block.ports(src.params)[0]
-        wire = next((w for w in src.wires if steps[w.src].block.role is not Role.signal and
-                     w.port in frame_ins and frame_ins[w.port].type is PortType.frame), None)
+        wire = next(
+            (
+                w
+                for w in src.wires
+                if steps[w.src].block.role is not Role.signal
+                and w.port in frame_ins
+                and frame_ins[w.port].type is PortType.frame
+            ),
+            None,
+        )
     return None

@@ -43,7 +43,9 @@ def _with_subgraphs(apu: APU, source: Program) -> Program:
     nodes = []
     for node in source.nodes:
         block = apu.block(node.id) if node.id in apu.index and node.type != SUBGRAPH_TYPE else None
-        nodes.append(node.model_copy(update={"params": _live_params(node, block), "ui": dict(node.ui)}, deep=True))
+        nodes.append(
+            node.model_copy(update={"params": _live_params(node, block), "ui": dict(node.ui)}, deep=True)
+        )
     blocks: dict[tuple[str, str], list[Any]] = {}
     for fid, (name, inner) in flat.inner_of.items():
         if fid in apu.index:
@@ -57,9 +59,15 @@ def _with_subgraphs(apu: APU, source: Program) -> Program:
             params = live[0] if live and all(p == live[0] for p in live) else dict(node.params)
             inner_nodes.append(node.model_copy(update={"params": params}, deep=True))
         subgraphs[name] = sub.model_copy(update={"nodes": inner_nodes}, deep=True)
-    return source.model_copy(update={"nodes": nodes, "subgraphs": subgraphs,
-                                     "edges": [e.model_copy(deep=True) for e in source.edges],
-                                     "inputs": [i.model_copy(deep=True) for i in source.inputs]}, deep=True)
+    return source.model_copy(
+        update={
+            "nodes": nodes,
+            "subgraphs": subgraphs,
+            "edges": [e.model_copy(deep=True) for e in source.edges],
+            "inputs": [i.model_copy(deep=True) for i in source.inputs],
+        },
+        deep=True,
+    )
 
 
 def apu_to_program(apu: APU) -> Program:
@@ -72,15 +80,23 @@ def apu_to_program(apu: APU) -> Program:
     nodes = []
     for node in source.nodes:
         block = apu.block(node.id) if node.id in apu.index else None
-        nodes.append(node.model_copy(update={"params": _live_params(node, block), "ui": dict(node.ui)}, deep=True))
+        nodes.append(
+            node.model_copy(update={"params": _live_params(node, block), "ui": dict(node.ui)}, deep=True)
+        )
     # Edges: as wired in the APU, in the order of the source document.
-    wired = {(apu.steps[w.src].node_id, w.src_port, step.node_id, w.port) for step in apu.steps for w in step.wires}
+    wired = {
+        (apu.steps[w.src].node_id, w.src_port, step.node_id, w.port) for step in apu.steps for w in step.wires
+    }
     edges = [e.model_copy(deep=True) for e in source.edges if e.key() in wired]
     known = {e.key() for e in edges}
     for key in sorted(wired - known):
-        edges.append(Edge(**{"from": Endpoint(node=key[0], port=key[1]), "to": Endpoint(node=key[2], port=key[3])}))
-    return source.model_copy(update={"nodes": nodes, "edges": edges,
-                                     "inputs": [i.model_copy(deep=True) for i in source.inputs]}, deep=True)
+        edges.append(
+            Edge(**{"from": Endpoint(node=key[0], port=key[1]), "to": Endpoint(node=key[2], port=key[3])})
+        )
+    return source.model_copy(
+        update={"nodes": nodes, "edges": edges, "inputs": [i.model_copy(deep=True) for i in source.inputs]},
+        deep=True,
+    )
 
 
 def apu_to_json(apu: APU) -> str:
@@ -97,7 +113,9 @@ def format_json(data: Any, width: int = 120) -> str:
             return flat
         pad, inner = " " * indent, " " * (indent + 2)
         if isinstance(value, dict):
-            items = [f"{inner}{json.dumps(k, ensure_ascii=False)}: {fmt(v, indent + 2)}" for k, v in value.items()]
+            items = [
+                f"{inner}{json.dumps(k, ensure_ascii=False)}: {fmt(v, indent + 2)}" for k, v in value.items()
+            ]
             return "{\n" + ",\n".join(items) + "\n" + pad + "}"
         return "[\n" + ",\n".join(inner + fmt(v, indent + 2) for v in value) + "\n" + pad + "]"
 

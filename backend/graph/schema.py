@@ -47,8 +47,11 @@ class Edge(_Strict):
 class Node(_Strict):
     """A block instance: its id, block type, parameters by name, and editor-only data."""
 
-    id: str = Field(..., pattern=NODE_ID_PATTERN, description="unique within the program ('/' is for the "
-                                                             "blocks of subgraphs: `idle/breathe`)")
+    id: str = Field(
+        ...,
+        pattern=NODE_ID_PATTERN,
+        description="unique within the program ('/' is for the blocks of subgraphs: `idle/breathe`)",
+    )
     type: str = Field(..., min_length=1, description="block type name (see GET /api/blocks)")
     params: dict[str, Any] = Field(default_factory=dict, description="parameters by name; omitted = default")
     ui: dict[str, Any] = Field(default_factory=dict, description="editor data (x, y, colour, collapsed, …)")
@@ -66,7 +69,7 @@ class ExposedInput(_Strict):
     description: str = ""
 
     @model_validator(mode="after")
-    def _check(self) -> "ExposedInput":
+    def _check(self) -> ExposedInput:
         if self.min is not None and self.max is not None and not self.min < self.max:
             raise ValueError(f"input '{self.name}': min {self.min} must be below max {self.max}")
         if self.default is None:
@@ -84,12 +87,23 @@ def default_for(kind: str, lo: float | None, hi: float | None, options: list[str
         if lo is not None and hi is not None and lo <= 0.0 <= hi:
             base = 0.0
         return int(base) if kind == "int" else float(base)
-    return {"bool": False, "string": (options or [""])[0], "vec3": [1.0, 0.0, 0.3],
-            "colour": [1.0, 1.0, 1.0], "event": None}[kind]
+    return {
+        "bool": False,
+        "string": (options or [""])[0],
+        "vec3": [1.0, 0.0, 0.3],
+        "colour": [1.0, 1.0, 1.0],
+        "event": None,
+    }[kind]
 
 
-def coerce_signal(name: str, kind: str, value: Any, lo: float | None = None, hi: float | None = None,
-                  options: list[str] | None = None) -> Any:
+def coerce_signal(
+    name: str,
+    kind: str,
+    value: Any,
+    lo: float | None = None,
+    hi: float | None = None,
+    options: list[str] | None = None,
+) -> Any:
     """Validate a signal value of `kind`; numbers must be finite and within [lo, hi]."""
 
     def finite(x: Any, what: str) -> float:
@@ -99,7 +113,7 @@ def coerce_signal(name: str, kind: str, value: Any, lo: float | None = None, hi:
 
     if kind in ("float", "int"):
         x = finite(value, "value")
-        if lo is not None and x < lo or hi is not None and x > hi:
+        if (lo is not None and x < lo) or (hi is not None and x > hi):
             raise ValueError(f"input '{name}': {x:g} is outside [{lo}, {hi}]")
         if kind == "int":
             if x != int(x):
@@ -153,7 +167,7 @@ class Subgraph(_Strict):
     ui: dict[str, Any] = Field(default_factory=dict, description="editor view data of the inside")
 
     @model_validator(mode="after")
-    def _unique_ports(self) -> "Subgraph":
+    def _unique_ports(self) -> Subgraph:
         for kind, ports in (("input", self.inputs), ("output", self.outputs)):
             names = [p.name for p in ports]
             dup = sorted({n for n in names if names.count(n) > 1})
@@ -175,8 +189,11 @@ class Program(_Strict):
     nodes: list[Node] = Field(default_factory=list)
     edges: list[Edge] = Field(default_factory=list)
     subgraphs: dict[str, Subgraph] | None = Field(
-        None, description="subgraph definitions by name, used by nodes of type 'subgraph'")
-    ui: dict[str, Any] = Field(default_factory=dict, description="editor view data (viewport, comments, reroutes, …)")
+        None, description="subgraph definitions by name, used by nodes of type 'subgraph'"
+    )
+    ui: dict[str, Any] = Field(
+        default_factory=dict, description="editor view data (viewport, comments, reroutes, …)"
+    )
 
     @field_validator("subgraphs")
     @classmethod

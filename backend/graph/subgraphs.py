@@ -51,7 +51,9 @@ class Flat:
     edge_index: list[int]
     places: dict[tuple[str, int], str] = field(default_factory=dict)  # ("nodes", virtual) -> document path
     broken: dict[str, int] = field(default_factory=dict)  # unresolvable subgraph nodes (flat id -> index)
-    instances: dict[str, tuple[str, Exposed]] = field(default_factory=dict)  # flat instance id -> (name, ports)
+    instances: dict[str, tuple[str, Exposed]] = field(
+        default_factory=dict
+    )  # flat instance id -> (name, ports)
     # exposed ports to check once the inner blocks' ports are known: (definition, kind, k, flat node, port)
     exposed: list[tuple[str, str, int, str, str]] = field(default_factory=list)
     inner_of: dict[str, tuple[str, str]] = field(default_factory=dict)  # flat id -> (definition, inner id)
@@ -97,8 +99,15 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
         flat.places[(kind, counter[0])] = place
         return counter[0]
 
-    def expand(where: str, parts_nodes: list[Node], parts_edges: list[Edge], n_index: list[int] | None,
-               e_index: list[int] | None, prefix: str, stack: tuple[str, ...]) -> dict[str, Exposed]:
+    def expand(
+        where: str,
+        parts_nodes: list[Node],
+        parts_edges: list[Edge],
+        n_index: list[int] | None,
+        e_index: list[int] | None,
+        prefix: str,
+        stack: tuple[str, ...],
+    ) -> dict[str, Exposed]:
         """Add the flat nodes and edges of one graph level; returns the instances' port maps."""
         ports: dict[str, Exposed] = {}
         local = {n.id for n in parts_nodes}
@@ -107,9 +116,15 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
             idx = n_index[k] if n_index is not None else virtual("nodes", here)
             fid = prefix + node.id
             if "/" in node.id and (stack or node.type == SUBGRAPH_TYPE):
-                report(Issue(code="schema", node=fid, path=f"{here}.id",
-                             message=f"'{node.id}': the id of a subgraph node or of a block inside a subgraph "
-                                     f"cannot contain '/' (it separates the parts of inner ids)"))
+                report(
+                    Issue(
+                        code="schema",
+                        node=fid,
+                        path=f"{here}.id",
+                        message=f"'{node.id}': the id of a subgraph node or of a block inside a subgraph "
+                        f"cannot contain '/' (it separates the parts of inner ids)",
+                    )
+                )
                 flat.broken[fid] = idx
                 continue
             if stack:
@@ -121,24 +136,45 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
             name = node.params.get(SUBGRAPH_PARAM)
             extra = sorted(set(node.params) - {SUBGRAPH_PARAM})
             if extra:
-                report(Issue(code="unknown_param", node=fid, port=extra[0], path=f"{here}.params.{extra[0]}",
-                             message=f"subgraph node '{fid}' has parameter '{extra[0]}'; a subgraph node has "
-                                     f"only '{SUBGRAPH_PARAM}' (its inner blocks carry their own parameters)"))
+                report(
+                    Issue(
+                        code="unknown_param",
+                        node=fid,
+                        port=extra[0],
+                        path=f"{here}.params.{extra[0]}",
+                        message=f"subgraph node '{fid}' has parameter '{extra[0]}'; a subgraph node has "
+                        f"only '{SUBGRAPH_PARAM}' (its inner blocks carry their own parameters)",
+                    )
+                )
             if not isinstance(name, str) or name not in defs:
                 known = sorted(defs)
                 hint = difflib.get_close_matches(name, known, n=1) if isinstance(name, str) else []
                 what = f"'{name}', which is not defined" if isinstance(name, str) else "no subgraph"
-                extra_hint = f"; did you mean '{hint[0]}'?" if hint else f" (defined: {', '.join(known) or 'none'})"
-                report(Issue(code="unknown_subgraph", node=fid, port=SUBGRAPH_PARAM,
-                             path=f"{here}.params.{SUBGRAPH_PARAM}",
-                             message=f"subgraph node '{fid}' names {what} in the program's subgraphs{extra_hint}"))
+                extra_hint = (
+                    f"; did you mean '{hint[0]}'?" if hint else f" (defined: {', '.join(known) or 'none'})"
+                )
+                report(
+                    Issue(
+                        code="unknown_subgraph",
+                        node=fid,
+                        port=SUBGRAPH_PARAM,
+                        path=f"{here}.params.{SUBGRAPH_PARAM}",
+                        message=f"subgraph node '{fid}' names {what} in the program's subgraphs{extra_hint}",
+                    )
+                )
                 flat.broken[fid] = idx
                 continue
             if name in stack:
-                cycle = " → ".join((*stack[stack.index(name):], name))
-                report(Issue(code="subgraph_cycle", node=fid, port=SUBGRAPH_PARAM,
-                             path=f"{here}.params.{SUBGRAPH_PARAM}",
-                             message=f"subgraph '{name}' contains itself: {cycle}"))
+                cycle = " → ".join((*stack[stack.index(name) :], name))
+                report(
+                    Issue(
+                        code="subgraph_cycle",
+                        node=fid,
+                        port=SUBGRAPH_PARAM,
+                        path=f"{here}.params.{SUBGRAPH_PARAM}",
+                        message=f"subgraph '{name}' contains itself: {cycle}",
+                    )
+                )
                 flat.broken[fid] = idx
                 continue
             ports[node.id] = _instance(name, defs[name], fid, stack)
@@ -161,25 +197,41 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
         inner = expand(where, sub.nodes, sub.edges, None, None, fid + "/", (*stack, name))
         ids = {n.id for n in sub.nodes}
         out = Exposed()
-        for kind, listed, target in (("inputs", sub.inputs, out.inputs), ("outputs", sub.outputs, out.outputs)):
+        for kind, listed, target in (
+            ("inputs", sub.inputs, out.inputs),
+            ("outputs", sub.outputs, out.outputs),
+        ):
             for k, p in enumerate(listed):
                 here = f"{where}{kind}[{k}]"
                 if p.node not in ids:
                     hint = difflib.get_close_matches(p.node, sorted(ids), n=1)
                     more = f"; did you mean '{hint[0]}'?" if hint else ""
-                    report(Issue(code="unknown_exposed_port", node=fid, port=p.name, path=f"{here}.node",
-                                 message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as '{p.node}.{p.port}', "
-                                         f"but it has no node '{p.node}'{more}"))
+                    report(
+                        Issue(
+                            code="unknown_exposed_port",
+                            node=fid,
+                            port=p.name,
+                            path=f"{here}.node",
+                            message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as '{p.node}.{p.port}', "
+                            f"but it has no node '{p.node}'{more}",
+                        )
+                    )
                     continue
                 if p.node in inner:  # a nested subgraph node: follow its own exposed port
                     deeper = getattr(inner[p.node], kind).get(p.port)
                     if deeper is None:
                         have = sorted(getattr(inner[p.node], kind))
-                        report(Issue(code="unknown_exposed_port", node=f"{fid}/{p.node}", port=p.port,
-                                     path=f"{here}.port",
-                                     message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as "
-                                             f"'{p.node}.{p.port}', but subgraph node '{p.node}' has no {kind[:-1]} "
-                                             f"'{p.port}' (it has: {', '.join(have) or 'none'})"))
+                        report(
+                            Issue(
+                                code="unknown_exposed_port",
+                                node=f"{fid}/{p.node}",
+                                port=p.port,
+                                path=f"{here}.port",
+                                message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as "
+                                f"'{p.node}.{p.port}', but subgraph node '{p.node}' has no {kind[:-1]} "
+                                f"'{p.port}' (it has: {', '.join(have) or 'none'})",
+                            )
+                        )
                         continue
                     target[p.name] = deeper
                 elif f"{fid}/{p.node}" in flat.broken:
@@ -194,17 +246,25 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
     return flat
 
 
-def _end(end: Endpoint, kind: str, ports: dict[str, Exposed], local: set[str], prefix: str, here: str,
-         report: Any) -> Endpoint | None:
+def _end(
+    end: Endpoint, kind: str, ports: dict[str, Exposed], local: set[str], prefix: str, here: str, report: Any
+) -> Endpoint | None:
     """The flat endpoint of one end of an edge (None: reported, the edge is left out)."""
     if end.node not in ports:
         return Endpoint(node=prefix + end.node, port=end.port) if prefix else end
     lead = getattr(ports[end.node], kind).get(end.port)
     if lead is None:
         have = sorted(getattr(ports[end.node], kind))
-        report(Issue(code="unknown_exposed_port", node=prefix + end.node, port=end.port, path=f"{here}.port",
-                     message=f"subgraph node '{prefix + end.node}' has no {kind[:-1]} '{end.port}' "
-                             f"(it exposes: {', '.join(have) or 'none'})"))
+        report(
+            Issue(
+                code="unknown_exposed_port",
+                node=prefix + end.node,
+                port=end.port,
+                path=f"{here}.port",
+                message=f"subgraph node '{prefix + end.node}' has no {kind[:-1]} '{end.port}' "
+                f"(it exposes: {', '.join(have) or 'none'})",
+            )
+        )
         return None
     return Endpoint(node=lead[0], port=lead[1])
 
@@ -232,18 +292,30 @@ def check_exposed(state: Any) -> None:
         node = state.node_by_id[fid]
         hint = difflib.get_close_matches(port, list(have), n=1)
         more = f"; did you mean '{hint[0]}'?" if hint else f" (it has: {', '.join(have) or 'none'})"
-        state.errors.append(Issue(code="unknown_port", node=fid, port=port, path=path,
-                                  message=f"subgraph '{name}' exposes '{fid.rsplit('/', 1)[1]}.{port}', but block "
-                                          f"'{node.type}' has no {kind[:-1]} '{port}'{more}"))
+        state.errors.append(
+            Issue(
+                code="unknown_port",
+                node=fid,
+                port=port,
+                path=path,
+                message=f"subgraph '{name}' exposes '{fid.rsplit('/', 1)[1]}.{port}', but block "
+                f"'{node.type}' has no {kind[:-1]} '{port}'{more}",
+            )
+        )
     if not bad:
         return
-    keep = [(e, i) for e, i in zip(state.program.edges, state.doc_index["edges"])
-            if ("outputs", e.from_.node, e.from_.port) not in bad and ("inputs", e.to.node, e.to.port) not in bad]
+    keep = [
+        (e, i)
+        for e, i in zip(state.program.edges, state.doc_index["edges"])
+        if ("outputs", e.from_.node, e.from_.port) not in bad and ("inputs", e.to.node, e.to.port) not in bad
+    ]
     state.program = state.program.model_copy(update={"edges": [e for e, _ in keep]})
     state.doc_index["edges"] = [i for _, i in keep]
 
 
-def standalone_issues(name: str, definition: Any, embodiment: Any, ctx: Any) -> tuple[Subgraph | None, list[Issue]]:
+def standalone_issues(
+    name: str, definition: Any, embodiment: Any, ctx: Any
+) -> tuple[Subgraph | None, list[Issue]]:
     """Check a subgraph definition on its own (a library entry): its shape, then its blocks and inner
     wiring as the program checks see them in a program of one instance. Missing inputs at exposed
     ports and the lack of an `output` node are not errors here."""
@@ -254,22 +326,40 @@ def standalone_issues(name: str, definition: Any, embodiment: Any, ctx: Any) -> 
     try:
         sub = Subgraph.model_validate(definition)
     except ValidationError as exc:
-        return None, [Issue(code="schema", path=".".join(str(x) for x in e["loc"]) or None,
-                            message=f"{'.'.join(str(x) for x in e['loc']) or 'the definition'}: {e['msg']}")
-                      for e in exc.errors()]
-    doc = {"format": "nutty-program/1", "name": name, "subgraphs": {name: sub.model_dump(mode="json", by_alias=True)},
-           "nodes": [{"id": name, "type": SUBGRAPH_TYPE, "params": {SUBGRAPH_PARAM: name}}]}
+        return None, [
+            Issue(
+                code="schema",
+                path=".".join(str(x) for x in e["loc"]) or None,
+                message=f"{'.'.join(str(x) for x in e['loc']) or 'the definition'}: {e['msg']}",
+            )
+            for e in exc.errors()
+        ]
+    doc = {
+        "format": "nutty-program/1",
+        "name": name,
+        "subgraphs": {name: sub.model_dump(mode="json", by_alias=True)},
+        "nodes": [{"id": name, "type": SUBGRAPH_TYPE, "params": {SUBGRAPH_PARAM: name}}],
+    }
     nested = [n.id for n in sub.nodes if n.type == SUBGRAPH_TYPE]
     if nested:
-        return sub, [Issue(code="unknown_subgraph", node=f"{name}/{nested[0]}", port=SUBGRAPH_PARAM,
-                           path=f"nodes[{[n.id for n in sub.nodes].index(nested[0])}].params.{SUBGRAPH_PARAM}",
-                           message=f"a subgraph in the library is self-contained: it cannot use other subgraphs "
-                                   f"(node '{nested[0]}' does); save the inner one separately")]
+        return sub, [
+            Issue(
+                code="unknown_subgraph",
+                node=f"{name}/{nested[0]}",
+                port=SUBGRAPH_PARAM,
+                path=f"nodes[{[n.id for n in sub.nodes].index(nested[0])}].params.{SUBGRAPH_PARAM}",
+                message=f"a subgraph in the library is self-contained: it cannot use other subgraphs "
+                f"(node '{nested[0]}' does); save the inner one separately",
+            )
+        ]
     state = run_checks(doc, embodiment, max_level=3, ctx=ctx)
     exposed_in = {(f"{name}/{p.node}", p.port) for p in sub.inputs}
-    issues = [i for i in state.errors
-              if i.code not in ("no_output", "level_too_high")
-              and not (i.code == "missing_input" and (i.node, i.port) in exposed_in)]
+    issues = [
+        i
+        for i in state.errors
+        if i.code not in ("no_output", "level_too_high")
+        and not (i.code == "missing_input" and (i.node, i.port) in exposed_in)
+    ]
     return sub, issues
 
 

@@ -45,21 +45,53 @@ import numpy as np
 
 # Everything below stays importable from `backend.importers`, as before the package was split.
 from backend.importers.keys import SAMPLED_DT, decimate, hermite_keys  # noqa: F401
-from backend.importers.mapping import (ChannelMap, ClipImportError, MappingSpec, SourceChannel,  # noqa: F401
-                                       check_mapping, dof_axis, load_mapping, parse_mapping, resolve_channel)
+from backend.importers.mapping import (  # noqa: F401
+    ChannelMap,
+    ClipImportError,
+    MappingSpec,
+    SourceChannel,
+    check_mapping,
+    dof_axis,
+    load_mapping,
+    parse_mapping,
+    resolve_channel,
+)
 from backend.importers.pipeline import FILL_MODES, MAX_DURATION, MAX_MESSAGE, run_import  # noqa: F401
-from backend.importers.report import format_report  # noqa: F401
-from backend.importers.rotations import (RotationError, axis_conversion, davenport, hemisphere,  # noqa: F401
-                                         principal_axis, quat_angle, quat_conj, quat_mul, quat_normalise, slerp,
-                                         swing_twist, twist_angle)
-from backend.importers.sources import FORMATS, detect_format, read_channels  # noqa: F401
+from backend.importers.report import format_report
+from backend.importers.rotations import (  # noqa: F401
+    RotationError,
+    axis_conversion,
+    davenport,
+    hemisphere,
+    principal_axis,
+    quat_angle,
+    quat_conj,
+    quat_mul,
+    quat_normalise,
+    slerp,
+    swing_twist,
+    twist_angle,
+)
+from backend.importers.sources import FORMATS, detect_format, read_channels
 
-__all__ = ["ClipImportError", "FORMATS", "SourceChannel", "decimate", "detect_format", "format_report", "hermite_keys",
-           "import_clip", "read_channels", "swing_twist", "twist_angle"]
+__all__ = [
+    "FORMATS",
+    "ClipImportError",
+    "SourceChannel",
+    "decimate",
+    "detect_format",
+    "format_report",
+    "hermite_keys",
+    "import_clip",
+    "read_channels",
+    "swing_twist",
+    "twist_angle",
+]
 
 
-def import_clip(path: str | Path, emb, mapping: str | Path | dict | MappingSpec | None = None, **options: Any
-                ) -> tuple[dict[str, Any], dict[str, Any]]:
+def import_clip(
+    path: str | Path, emb, mapping: str | Path | dict | MappingSpec | None = None, **options: Any
+) -> tuple[dict[str, Any], dict[str, Any]]:
     """Import an animation file for robot `emb`: (clip document, report). Raises ClipImportError.
     Options: see `pipeline.run_import`. Absurd numbers in a file end in a ClipImportError, not in numpy
     warnings."""

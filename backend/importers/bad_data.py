@@ -19,8 +19,10 @@ def check_times(ch: SourceChannel, where: str) -> None:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
-        raise ClipImportError(f"{where}: {ch.label}: {ch.unit} {k} (t = {t[k]:g} s): key times must increase "
-                              f"strictly ({t[k - 1]:g} then {t[k]:g})")
+        raise ClipImportError(
+            f"{where}: {ch.label}: {ch.unit} {k} (t = {t[k]:g} s): key times must increase "
+            f"strictly ({t[k - 1]:g} then {t[k]:g})"
+        )
 
 
 def check_values(ch: SourceChannel, where: str, fill: str | None, max_gap: int) -> int:
@@ -54,9 +56,13 @@ def check_values(ch: SourceChannel, where: str, fill: str | None, max_gap: int) 
         part = "its spline tangent" if (tan_bad[k] and not bad[k]) else f"value {shown}"
         n = int((bad | tan_bad).sum())
         more = f" ({n} {ch.unit}s have such values)" if n > 1 else ""
-        hint = "" if fill is not None else f"\n  --fill hold|linear repairs gaps of up to {max_gap} {ch.unit}s"
-        raise ClipImportError(f"{where}: {ch.unit} {k} (t = {t[k]:g} s): {ch.label}: {part} "
-                              f"{what if not tan_bad[k] or bad[k] else 'is not finite'}{more}{hint}")
+        hint = (
+            "" if fill is not None else f"\n  --fill hold|linear repairs gaps of up to {max_gap} {ch.unit}s"
+        )
+        raise ClipImportError(
+            f"{where}: {ch.unit} {k} (t = {t[k]:g} s): {ch.label}: {part} "
+            f"{what if not tan_bad[k] or bad[k] else 'is not finite'}{more}{hint}"
+        )
     good = np.flatnonzero(~bad)
     if good.size == 0:
         raise ClipImportError(f"{where}: {ch.label}: no {ch.unit} has a usable value; nothing to fill from")
@@ -64,8 +70,10 @@ def check_values(ch: SourceChannel, where: str, fill: str | None, max_gap: int) 
     runs = list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
     for a, b in runs:
         if b - a > max_gap:
-            raise ClipImportError(f"{where}: {ch.unit}s {a}-{b - 1} (t = {t[a]:g}-{t[b - 1]:g} s): {ch.label}: "
-                                  f"a gap of {b - a} unusable {ch.unit}s, longer than --max-gap {max_gap}")
+            raise ClipImportError(
+                f"{where}: {ch.unit}s {a}-{b - 1} (t = {t[a]:g}-{t[b - 1]:g} s): {ch.label}: "
+                f"a gap of {b - a} unusable {ch.unit}s, longer than --max-gap {max_gap}"
+            )
     out = v2.copy()
     for a, b in runs:
         if a == 0 or b == len(out) or fill == "hold":
@@ -80,11 +88,15 @@ def check_values(ch: SourceChannel, where: str, fill: str | None, max_gap: int) 
     return int(bad.sum())
 
 
-def drop_first_frames(channels: list[SourceChannel], n: int, notes: list[str], where: str) -> list[SourceChannel]:
+def drop_first_frames(
+    channels: list[SourceChannel], n: int, notes: list[str], where: str
+) -> list[SourceChannel]:
     """Drop the first `n` frames (distinct key times over all channels)."""
     times = np.unique(np.concatenate([np.asarray(ch.times, dtype=float) for ch in channels]))
     if n >= len(times):
-        raise ClipImportError(f"{where}: --skip-frames {n}: the file has only {len(times)} distinct key time(s)")
+        raise ClipImportError(
+            f"{where}: --skip-frames {n}: the file has only {len(times)} distinct key time(s)"
+        )
     cut = float(times[n])
     for ch in channels:
         t = np.asarray(ch.times, dtype=float)

@@ -70,8 +70,9 @@ class _Hierarchy:
         return [f"{self.names[j]}.{c}" for j in range(len(self.names)) for c in self.chans_of[j]]
 
 
-def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | None = None,
-             max_gap: int = 10) -> tuple[list[SourceChannel], dict, list[str]]:
+def read_bvh(
+    path: str | Path, *, rest_frame: int | None = None, fill: str | None = None, max_gap: int = 10
+) -> tuple[list[SourceChannel], dict, list[str]]:
     """(channels, info, notes) of a BVH file; see the module's docstring."""
     path = Path(path)
     where = f"BVH '{path.name}'"
@@ -88,7 +89,9 @@ def read_bvh(path: str | Path, *, rest_frame: int | None = None, fill: str | Non
         per = ", ".join(f"{k} {v}" for k, v in filled.items())
         notes.append(f"--fill {fill}: filled {sum(filled.values())} sample(s) ({per})")
     if rest_frame is not None and not 0 <= rest_frame < n_frames:
-        raise ClipImportError(f"{where}: --rest-frame {rest_frame} is not a frame of the file (0..{n_frames - 1})")
+        raise ClipImportError(
+            f"{where}: --rest-frame {rest_frame} is not a frame of the file (0..{n_frames - 1})"
+        )
     rest_note = "the OFFSET pose" if rest_frame is None else f"frame {rest_frame}"
     channels = _source_channels(hier, data, np.arange(n_frames) * dt, rest_frame, rest_note)
     info = {"frames": n_frames, "frame_time": dt, "joints": len(hier.names), "rest": rest_note}
@@ -169,11 +172,13 @@ def _read_motion(tok: _Tokens, hier: _Hierarchy) -> tuple[np.ndarray, float, lis
     n_ch = len(columns)
     if n_ch == 0:
         raise ClipImportError(f"{where}: no joint has CHANNELS")
-    values = tok.words[tok.pos:tok.pos + n_frames * n_ch]
+    values = tok.words[tok.pos : tok.pos + n_frames * n_ch]
     if len(values) < n_frames * n_ch:
         got = len(values) // n_ch
-        raise ClipImportError(f"{where}: 'Frames: {n_frames}' but only {got} complete frame(s) of {n_ch} values "
-                              f"follow ({len(values)} values)")
+        raise ClipImportError(
+            f"{where}: 'Frames: {n_frames}' but only {got} complete frame(s) of {n_ch} values "
+            f"follow ({len(values)} values)"
+        )
     data = _frames(values, n_frames, columns, dt, where)
     notes: list[str] = []
     extra = len(tok.words) - tok.pos - n_frames * n_ch
@@ -193,8 +198,9 @@ def _frames(values: list[str], n_frames: int, columns: list[str], dt: float, whe
                 float(tok)
             except ValueError:
                 f, c = divmod(i, n_ch)
-                raise ClipImportError(f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is "
-                                      f"'{tok[:40]}', not a number") from None
+                raise ClipImportError(
+                    f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is '{tok[:40]}', not a number"
+                ) from None
         raise
 
 
@@ -227,8 +233,9 @@ def _joint_motion(hier: _Hierarchy, data: np.ndarray) -> tuple[list, list, list[
     return local, positions, orders
 
 
-def _source_channels(hier: _Hierarchy, data: np.ndarray, times: np.ndarray, rest_frame: int | None,
-                     rest_note: str) -> list[SourceChannel]:
+def _source_channels(
+    hier: _Hierarchy, data: np.ndarray, times: np.ndarray, rest_frame: int | None, rest_note: str
+) -> list[SourceChannel]:
     """A rotation channel per joint with rotation channels, a translation channel per joint with
     position channels, each carrying its rest pose (the OFFSET pose or frame `rest_frame`)."""
     names, parents = hier.names, hier.parents
@@ -243,19 +250,45 @@ def _source_channels(hier: _Hierarchy, data: np.ndarray, times: np.ndarray, rest
     for j, name in enumerate(names):
         pre = rest_world[parents[j]] if parents[j] >= 0 else IDENTITY
         if local[j] is not None:
-            channels.append(SourceChannel(name, "rotation", times, local[j], "LINEAR", path="rotation",
-                                          decimate=True, detail=f"BVH channel order {orders[j]}", pre=pre,
-                                          post=quat_conj(rest_world[j]), unit="frame", rest_note=rest_note))
+            channels.append(
+                SourceChannel(
+                    name,
+                    "rotation",
+                    times,
+                    local[j],
+                    "LINEAR",
+                    path="rotation",
+                    decimate=True,
+                    detail=f"BVH channel order {orders[j]}",
+                    pre=pre,
+                    post=quat_conj(rest_world[j]),
+                    unit="frame",
+                    rest_note=rest_note,
+                )
+            )
         if positions[j] is not None:
             rest = None if rest_frame is None else positions[j][rest_frame]
-            channels.append(SourceChannel(name, "translation", times, positions[j], "LINEAR", path="translation",
-                                          decimate=True, pre=pre, rest=rest, unit="frame",
-                                          rest_note="first frame" if rest is None else rest_note))
+            channels.append(
+                SourceChannel(
+                    name,
+                    "translation",
+                    times,
+                    positions[j],
+                    "LINEAR",
+                    path="translation",
+                    decimate=True,
+                    pre=pre,
+                    rest=rest,
+                    unit="frame",
+                    rest_note="first frame" if rest is None else rest_note,
+                )
+            )
     return channels
 
 
-def _repair(data: np.ndarray, columns: list[str], dt: float, where: str, fill: str | None,
-            max_gap: int) -> dict[str, int]:
+def _repair(
+    data: np.ndarray, columns: list[str], dt: float, where: str, fill: str | None, max_gap: int
+) -> dict[str, int]:
     """Check for non-finite values; with `fill`, repair gaps of at most `max_gap` frames in place.
     Returns the number of samples filled per column."""
     bad = ~np.isfinite(data)
@@ -265,21 +298,27 @@ def _repair(data: np.ndarray, columns: list[str], dt: float, where: str, fill: s
         f, c = (int(x) for x in np.argwhere(bad)[0])
         n_bad_frames = int(bad.any(axis=1).sum())
         more = f" ({n_bad_frames} frames have such values)" if n_bad_frames > 1 else ""
-        raise ClipImportError(f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is {float(data[f, c])}, "
-                              f"not a finite number{more}\n"
-                              f"  --fill hold|linear repairs gaps of up to {max_gap} frames")
+        raise ClipImportError(
+            f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is {float(data[f, c])}, "
+            f"not a finite number{more}\n"
+            f"  --fill hold|linear repairs gaps of up to {max_gap} frames"
+        )
     filled: dict[str, int] = {}
     for c in np.flatnonzero(bad.any(axis=0)):
         col = data[:, c]
         good = np.flatnonzero(~bad[:, c])
         if good.size == 0:
-            raise ClipImportError(f"{where}: {columns[c]} has no finite value in any frame; nothing to fill from")
+            raise ClipImportError(
+                f"{where}: {columns[c]} has no finite value in any frame; nothing to fill from"
+            )
         runs = _runs(bad[:, c])
         for a, b in runs:  # frames a..b-1 are bad
             if b - a > max_gap:
-                raise ClipImportError(f"{where}: frames {a}-{b - 1} (t = {a * dt:.4f}-{(b - 1) * dt:.4f} s): "
-                                      f"{columns[c]} has a gap of {b - a} frames that are not finite numbers, "
-                                      f"longer than --max-gap {max_gap}")
+                raise ClipImportError(
+                    f"{where}: frames {a}-{b - 1} (t = {a * dt:.4f}-{(b - 1) * dt:.4f} s): "
+                    f"{columns[c]} has a gap of {b - a} frames that are not finite numbers, "
+                    f"longer than --max-gap {max_gap}"
+                )
         if fill == "hold":
             for a, b in runs:
                 col[a:b] = col[a - 1] if a > 0 else col[b]

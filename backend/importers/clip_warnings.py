@@ -36,15 +36,23 @@ def _other_conversions(axis: np.ndarray, target: np.ndarray, conversion: dict[st
             except RotationError:
                 continue
             if abs(float((c @ src) @ target)) > 0.9:
-                parts = ([f"--up {u}"] if u != up else []) + ([f"--forward {f}"] if f != "x" or u == up else [])
+                parts = ([f"--up {u}"] if u != up else []) + (
+                    [f"--forward {f}"] if f != "x" or u == up else []
+                )
                 out.append(" ".join(parts))
         if out:
             break
     return out[:2]
 
 
-def swing_warning(ch: SourceChannel, cmap: ChannelMap, sw: dict[str, Any], emb, limit: float,
-                  conversion: dict[str, str] | None = None) -> dict[str, Any]:
+def swing_warning(
+    ch: SourceChannel,
+    cmap: ChannelMap,
+    sw: dict[str, Any],
+    emb,
+    limit: float,
+    conversion: dict[str, str] | None = None,
+) -> dict[str, Any]:
     axis = np.array(sw["principal_axis"])
     dofs = [t.dof for t in cmap.targets]
     forwards = _other_conversions(axis, cmap.targets[0].axis, conversion) if len(dofs) == 1 else []
@@ -60,24 +68,37 @@ def swing_warning(ch: SourceChannel, cmap: ChannelMap, sw: dict[str, Any], emb, 
         if dot > best_dot + 1e-9:
             best, best_dot = d.name, dot
     target = " then ".join(dofs)
-    msg = (f"{ch.label} -> {target}: drops up to {sw['swing_max_deg']:.1f} deg (RMS {sw['swing_rms_deg']:.1f} deg) "
-           f"of rotation about other axes; the channel turns mostly about {_fmt_axis(axis)} in the robot's frame "
-           f"({100 * sw['principal_share']:.0f}% of its motion)")
+    msg = (
+        f"{ch.label} -> {target}: drops up to {sw['swing_max_deg']:.1f} deg (RMS {sw['swing_rms_deg']:.1f} deg) "
+        f"of rotation about other axes; the channel turns mostly about {_fmt_axis(axis)} in the robot's frame "
+        f"({100 * sw['principal_share']:.0f}% of its motion)"
+    )
     if forwards:
-        hint = (f"if the source faces or stands another way, {' or '.join(forwards)} turns that axis onto "
-                f"{dofs[0]}'s; ")
+        hint = (
+            f"if the source faces or stands another way, {' or '.join(forwards)} turns that axis onto "
+            f"{dofs[0]}'s; "
+        )
     else:
         hint = ""
     hint += f'to keep the motion as it is, "axis": {_fmt_axis(axis)} in the mapping file'
     if best is not None and best_dot > 0.9 and best not in dofs:
         hint += f", or map it to '{best}' (whose axis is closest)"
-    return {"code": "swing", "channel": ch.label, "dofs": dofs, "message": msg, "hint": hint,
-            "swing_max_deg": sw["swing_max_deg"], "swing_rms_deg": sw["swing_rms_deg"],
-            "suggested_axis": [round(float(x), 4) + 0.0 for x in axis], "threshold_deg": limit}
+    return {
+        "code": "swing",
+        "channel": ch.label,
+        "dofs": dofs,
+        "message": msg,
+        "hint": hint,
+        "swing_max_deg": sw["swing_max_deg"],
+        "swing_rms_deg": sw["swing_rms_deg"],
+        "suggested_axis": [round(float(x), 4) + 0.0 for x in axis],
+        "threshold_deg": limit,
+    }
 
 
-def first_frame_warning(rows: list[tuple[str, float, float, float, SourceChannel]], emb, skipped: int,
-                        conv: np.ndarray) -> dict[str, Any] | None:
+def first_frame_warning(
+    rows: list[tuple[str, float, float, float, SourceChannel]], emb, skipped: int, conv: np.ndarray
+) -> dict[str, Any] | None:
     """The first frame jumps to the second more than the DoF can move in one frame (and much more than
     any later frame-to-frame step): a T-pose or rest frame at the start."""
     worst = None
@@ -92,14 +113,28 @@ def first_frame_warning(rows: list[tuple[str, float, float, float, SourceChannel
     if worst is None:
         return None
     _, dof, jump, can, ch = worst
-    n_dofs = sum(1 for dof_, dt, j, later, _c in rows
-                 if dt > 0 and abs(j) > emb.dof(dof_).velocity * dt and abs(j) > 3 * later)
-    rest_like = all(float(quat_angle(quat_mul(quat_mul(c.pre, np.asarray(c.values[0], dtype=float)), c.post)))
-                    < math.radians(1.0) for _d, _t, _j, _l, c in rows if c.kind == "rotation")
+    n_dofs = sum(
+        1
+        for dof_, dt, j, later, _c in rows
+        if dt > 0 and abs(j) > emb.dof(dof_).velocity * dt and abs(j) > 3 * later
+    )
+    rest_like = all(
+        float(quat_angle(quat_mul(quat_mul(c.pre, np.asarray(c.values[0], dtype=float)), c.post)))
+        < math.radians(1.0)
+        for _d, _t, _j, _l, c in rows
+        if c.kind == "rotation"
+    )
     kind = "the rest pose (a T-pose)" if rest_like else "a T-pose or rest frame"
     frame = skipped
-    msg = (f"the first {ch.unit} ({ch.unit} {frame}) jumps {math.degrees(abs(jump)):.1f} deg to the next on '{dof}' "
-           f"(it can move {math.degrees(can):.2f} deg in one {ch.unit}; {n_dofs} DoF(s) jump like this): it looks "
-           f"like {kind}")
-    return {"code": "first_frame", "channel": ch.label, "dofs": [dof], "message": msg,
-            "hint": f"--skip-frames {skipped + 1} drops it"}
+    msg = (
+        f"the first {ch.unit} ({ch.unit} {frame}) jumps {math.degrees(abs(jump)):.1f} deg to the next on '{dof}' "
+        f"(it can move {math.degrees(can):.2f} deg in one {ch.unit}; {n_dofs} DoF(s) jump like this): it looks "
+        f"like {kind}"
+    )
+    return {
+        "code": "first_frame",
+        "channel": ch.label,
+        "dofs": [dof],
+        "message": msg,
+        "hint": f"--skip-frames {skipped + 1} drops it",
+    }

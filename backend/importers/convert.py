@@ -14,12 +14,23 @@ import numpy as np
 
 from backend.importers.keys import bezier_keys, densify_slerp, is_sampled, make_keys, sample_hermite
 from backend.importers.mapping import ChannelMap, ClipImportError, SourceChannel
-from backend.importers.rotations import (RotationError, davenport, hemisphere, principal_axis, quat_angle, quat_conj,
-                                         quat_mul, quat_normalise, swing_twist, twist_angle)
+from backend.importers.rotations import (
+    RotationError,
+    davenport,
+    hemisphere,
+    principal_axis,
+    quat_angle,
+    quat_conj,
+    quat_mul,
+    quat_normalise,
+    swing_twist,
+    twist_angle,
+)
 
 
-def convert_channel(ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, shift: float, tol: float,
-                    interp: str | None) -> dict[str, Any]:
+def convert_channel(
+    ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, shift: float, tol: float, interp: str | None
+) -> dict[str, Any]:
     """{"tracks": [(keys, how, sample times, sample values, clamped samples) per target], "swing": {...}}."""
     times = np.asarray(ch.times, dtype=float) + shift
     if ch.kind == "rotation":
@@ -30,10 +41,14 @@ def convert_channel(ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, 
     if ch.kind == "scalar" and not isinstance(ch.values, np.ndarray):
         # CSV column with option names (enum DoFs)
         if dof.type.value != "enum":
-            raise ClipImportError(f"DoF '{target.dof}' is {dof.type.value} but the column has non-numeric "
-                                  f"values ({next(v for v in ch.values if isinstance(v, str))!r})")
-        keys = [{"t": float(t), "v": v if isinstance(v, str) else float(v), "interp": "constant"}
-                for t, v in zip(times, ch.values)]
+            raise ClipImportError(
+                f"DoF '{target.dof}' is {dof.type.value} but the column has non-numeric "
+                f"values ({next(v for v in ch.values if isinstance(v, str))!r})"
+            )
+        keys = [
+            {"t": float(t), "v": v if isinstance(v, str) else float(v), "interp": "constant"}
+            for t, v in zip(times, ch.values)
+        ]
         return {"tracks": [(keys, "option names, constant keys", np.zeros(0), np.zeros(0), 0)]}
     if ch.kind == "translation":
         p = np.asarray(ch.values, dtype=float)
@@ -45,21 +60,33 @@ def convert_channel(ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, 
         if ch.interp == "CUBICSPLINE":
             a = np.asarray(ch.in_tangents, dtype=float) @ rot.T @ axis * sc
             b = np.asarray(ch.out_tangents, dtype=float) @ rot.T @ axis * sc
-            return {"tracks": [(bezier_keys(times, vals, a, b), how + ", bezier keys from the spline tangents",
-                                times, vals, 0)]}
+            return {
+                "tracks": [
+                    (
+                        bezier_keys(times, vals, a, b),
+                        how + ", bezier keys from the spline tangents",
+                        times,
+                        vals,
+                        0,
+                    )
+                ]
+            }
     else:
         vals = np.asarray(ch.values, dtype=float) * sc + off
         how = "value"
         if ch.interp == "CUBICSPLINE":
             a = np.asarray(ch.in_tangents, dtype=float) * sc
             b = np.asarray(ch.out_tangents, dtype=float) * sc
-            return {"tracks": [(bezier_keys(times, vals, a, b), "bezier keys from the spline tangents", times,
-                                vals, 0)]}
+            return {
+                "tracks": [
+                    (bezier_keys(times, vals, a, b), "bezier keys from the spline tangents", times, vals, 0)
+                ]
+            }
     if ch.interp == "STEP":
         mode = "constant"
     elif interp is not None:
         mode = interp
-    elif is_sampled(ch) and ch.kind != "scalar" or ch.decimate:
+    elif (is_sampled(ch) and ch.kind != "scalar") or ch.decimate:
         mode = "smooth"
     else:
         mode = "linear"
@@ -73,8 +100,9 @@ def _qrot(q: np.ndarray) -> np.ndarray:
     return quat_to_matrix(q)
 
 
-def _convert_rotation(ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, times: np.ndarray,
-                      tol: float) -> dict[str, Any]:
+def _convert_rotation(
+    ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, times: np.ndarray, tol: float
+) -> dict[str, Any]:
     pre = quat_mul(conv, ch.pre)
     post = quat_mul(ch.post, quat_conj(conv))
     targets = cmap.targets
@@ -119,7 +147,9 @@ def _convert_rotation(ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray
     if len(axes) == 1:
         how = "twist about the axis (robot frame, relative to rest)"
     else:
-        how = "angle " + " then ".join(f"{t.dof}" for t in targets) + " (decomposed in that order, robot frame)"
+        how = (
+            "angle " + " then ".join(f"{t.dof}" for t in targets) + " (decomposed in that order, robot frame)"
+        )
     if what:
         how += f", {what}"
     out_tracks = []
@@ -129,7 +159,10 @@ def _convert_rotation(ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray
         out_tracks.append((keys, h, ts if first_ok else ts[:0], vals if first_ok else vals[:0], n_cl))
     axis, share = principal_axis(d)
     swing_deg = np.degrees(swing)
-    sw = {"swing_max_deg": round(float(swing_deg.max(initial=0.0)), 4),
-          "swing_rms_deg": round(float(np.sqrt(np.mean(swing_deg ** 2))) if len(swing_deg) else 0.0, 4),
-          "principal_axis": [round(float(x), 4) + 0.0 for x in axis], "principal_share": round(share, 4)}
+    sw = {
+        "swing_max_deg": round(float(swing_deg.max(initial=0.0)), 4),
+        "swing_rms_deg": round(float(np.sqrt(np.mean(swing_deg**2))) if len(swing_deg) else 0.0, 4),
+        "principal_axis": [round(float(x), 4) + 0.0 for x in axis],
+        "principal_share": round(share, 4),
+    }
     return {"tracks": out_tracks, "swing": sw}

@@ -40,7 +40,9 @@ def read_csv(path: str | Path, fill: str | None = None) -> tuple[list[SourceChan
     cols: list[list[tuple[float, float | str]]] = [[] for _ in header[1:]]
     for line, row in enumerate(rows[1:], start=2):
         if len(row) > len(header):
-            raise ClipImportError(f"CSV '{path.name}' line {line}: {len(row)} cells, header has {len(header)}")
+            raise ClipImportError(
+                f"CSV '{path.name}' line {line}: {len(row)} cells, header has {len(header)}"
+            )
         try:
             t = float(row[0])
         except ValueError:
@@ -48,7 +50,9 @@ def read_csv(path: str | Path, fill: str | None = None) -> tuple[list[SourceChan
         if not math.isfinite(t) or t < 0:
             raise ClipImportError(f"CSV '{path.name}' line {line}: time must be a finite number >= 0")
         if times and t <= times[-1]:
-            raise ClipImportError(f"CSV '{path.name}' line {line}: times must increase ({times[-1]} then {t})")
+            raise ClipImportError(
+                f"CSV '{path.name}' line {line}: times must increase ({times[-1]} then {t})"
+            )
         times.append(t)
         for c, cell in enumerate(row[1:]):
             cell = cell.strip()
@@ -60,9 +64,11 @@ def read_csv(path: str | Path, fill: str | None = None) -> tuple[list[SourceChan
                 v = cell
             if isinstance(v, float) and not math.isfinite(v):
                 if fill is None:
-                    raise ClipImportError(f"CSV '{path.name}' line {line} (t = {t:g} s): {header[c + 1]} is "
-                                          f"'{cell}', not a finite number\n  --fill hold|linear skips such "
-                                          "cells (the keys around them interpolate)")
+                    raise ClipImportError(
+                        f"CSV '{path.name}' line {line} (t = {t:g} s): {header[c + 1]} is "
+                        f"'{cell}', not a finite number\n  --fill hold|linear skips such "
+                        "cells (the keys around them interpolate)"
+                    )
                 filled[header[c + 1]] = filled.get(header[c + 1], 0) + 1
                 continue
             cols[c].append((t, v))

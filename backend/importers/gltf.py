@@ -26,7 +26,14 @@ import numpy as np
 from backend.importers.mapping import ClipImportError, SourceChannel
 from backend.importers.rotations import IDENTITY, quat_conj, quat_from_matrix, quat_mul, quat_normalise
 
-_COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+_COMPONENT = {
+    5120: np.int8,
+    5121: np.uint8,
+    5122: np.int16,
+    5123: np.uint16,
+    5125: np.uint32,
+    5126: np.float32,
+}
 _NORMALISE = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0, 5125: 4294967295.0}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 
@@ -56,7 +63,9 @@ class _Reader:
             try:
                 data = path.read_bytes()
             except OSError as exc:
-                raise ClipImportError(f"glTF: buffer {index}: cannot read '{path}': {exc.strerror or exc}") from exc
+                raise ClipImportError(
+                    f"glTF: buffer {index}: cannot read '{path}': {exc.strerror or exc}"
+                ) from exc
         self._buffers[index] = bytes(data)
         return self._buffers[index]
 
@@ -66,8 +75,9 @@ class _Reader:
         dtype = _COMPONENT.get(acc.componentType)
         width = _WIDTH.get(acc.type)
         if dtype is None or width is None:
-            raise ClipImportError(f"glTF: accessor {index}: unsupported componentType {acc.componentType} "
-                                  f"or type {acc.type}")
+            raise ClipImportError(
+                f"glTF: accessor {index}: unsupported componentType {acc.componentType} or type {acc.type}"
+            )
         dtype = np.dtype(dtype).newbyteorder("<")
         count = int(acc.count)
         if acc.bufferView is None:
@@ -82,8 +92,9 @@ class _Reader:
             end = int(view.byteOffset or 0) + int(view.byteLength)
             if need > min(end, len(data)):
                 raise ClipImportError(f"glTF: accessor {index} reads past the end of its buffer view")
-            arr = np.ndarray((count, width), dtype=dtype, buffer=data, offset=start,
-                             strides=(stride, dtype.itemsize))
+            arr = np.ndarray(
+                (count, width), dtype=dtype, buffer=data, offset=start, strides=(stride, dtype.itemsize)
+            )
             out = arr.astype(float)
             if acc.normalized and acc.componentType in _NORMALISE:
                 out = out / _NORMALISE[acc.componentType]
@@ -100,12 +111,20 @@ class _Reader:
         idx_view = self.gltf.bufferViews[sp.indices.bufferView]
         idx_dtype = np.dtype(_COMPONENT[sp.indices.componentType]).newbyteorder("<")
         idx_data = self.buffer(idx_view.buffer)
-        idx = np.frombuffer(idx_data, dtype=idx_dtype, count=n,
-                            offset=int(idx_view.byteOffset or 0) + int(sp.indices.byteOffset or 0))
+        idx = np.frombuffer(
+            idx_data,
+            dtype=idx_dtype,
+            count=n,
+            offset=int(idx_view.byteOffset or 0) + int(sp.indices.byteOffset or 0),
+        )
         val_view = self.gltf.bufferViews[sp.values.bufferView]
         val_dtype = np.dtype(_COMPONENT[acc.componentType]).newbyteorder("<")
-        vals = np.frombuffer(self.buffer(val_view.buffer), dtype=val_dtype, count=n * width,
-                             offset=int(val_view.byteOffset or 0) + int(sp.values.byteOffset or 0))
+        vals = np.frombuffer(
+            self.buffer(val_view.buffer),
+            dtype=val_dtype,
+            count=n * width,
+            offset=int(val_view.byteOffset or 0) + int(sp.values.byteOffset or 0),
+        )
         vals = vals.reshape(n, width).astype(float)
         if acc.normalized and acc.componentType in _NORMALISE:
             vals = vals / _NORMALISE[acc.componentType]
@@ -136,8 +155,9 @@ class _Scene:
     rest_from: dict[int, str]
 
 
-def read_gltf(path: str | Path, animation: str | int | None = None
-              ) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
+def read_gltf(
+    path: str | Path, animation: str | int | None = None
+) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
     """Channels of one animation of a glTF/GLB file; plus (source info, notes)."""
     path = Path(path)
     gltf = _load(path)
@@ -148,8 +168,10 @@ def read_gltf(path: str | Path, animation: str | int | None = None
     index = _animation_index(path, names, animation)
     notes: list[str] = []
     if len(anims) > 1:
-        notes.append(f"file has {len(anims)} animations {names}; imported #{index} '{names[index]}' "
-                     "(choose with --animation)")
+        notes.append(
+            f"file has {len(anims)} animations {names}; imported #{index} '{names[index]}' "
+            "(choose with --animation)"
+        )
     anim = anims[index]
     reader = _Reader(gltf, path.parent)
     nodes = gltf.nodes or []
@@ -158,7 +180,9 @@ def read_gltf(path: str | Path, animation: str | int | None = None
     parents = {c: i for i, n in enumerate(nodes) for c in (n.children or []) if isinstance(c, int)}
     scene = _Scene(node_names, parents, rest_world, rest_local, rest_from)
     if any(v.startswith("skin") for v in rest_from.values()):
-        notes.append("rest pose: the skin's inverse bind matrices (joints), the nodes' rest transforms (others)")
+        notes.append(
+            "rest pose: the skin's inverse bind matrices (joints), the nodes' rest transforms (others)"
+        )
     channels: list[SourceChannel] = []
     for ci, ch in enumerate(anim.channels or []):
         channels.extend(_read_channel(gltf, reader, anim, ci, ch, scene, notes))
@@ -170,20 +194,23 @@ def _animation_index(path: Path, names: list[str], animation: str | int | None) 
     """The animation chosen by name or index (default the first)."""
     if animation is None or animation == "":
         return 0
-    if isinstance(animation, int) or (isinstance(animation, str) and animation.lstrip("-").isdigit()
-                                      and animation not in names):
+    if isinstance(animation, int) or (
+        isinstance(animation, str) and animation.lstrip("-").isdigit() and animation not in names
+    ):
         index = int(animation)
         if not 0 <= index < len(names):
-            raise ClipImportError(f"'{path}' has {len(names)} animation(s); index {index} is out of range "
-                                  f"(animations: {names})")
+            raise ClipImportError(
+                f"'{path}' has {len(names)} animation(s); index {index} is out of range (animations: {names})"
+            )
         return index
     if animation not in names:
         raise ClipImportError(f"'{path}' has no animation '{animation}' (animations: {names})")
     return names.index(animation)
 
 
-def _read_channel(gltf: Any, reader: _Reader, anim: Any, ci: int, ch: Any, scene: _Scene,
-                  notes: list[str]) -> list[SourceChannel]:
+def _read_channel(
+    gltf: Any, reader: _Reader, anim: Any, ci: int, ch: Any, scene: _Scene, notes: list[str]
+) -> list[SourceChannel]:
     """The source channels of animation channel `ci`: one, or one per morph target for `weights`;
     none (with a note) for a channel without target or with an unknown path."""
     target = ch.target
@@ -203,17 +230,19 @@ def _read_channel(gltf: Any, reader: _Reader, anim: Any, ci: int, ch: Any, scene
     triplet = 3 if interp == "CUBICSPLINE" else 1
     if target.path in ("rotation", "translation", "scale"):
         if out.shape[0] != n * triplet:
-            raise ClipImportError(f"glTF: channel {ci} ({node}.{target.path}): {n} times but "
-                                  f"{out.shape[0]} output values")
+            raise ClipImportError(
+                f"glTF: channel {ci} ({node}.{target.path}): {n} times but {out.shape[0]} output values"
+            )
         series = [(target.path, out)]
     elif target.path == "weights":
         if n == 0 or out.shape[0] % (n * triplet):
-            raise ClipImportError(f"glTF: channel {ci} ({node}.weights): output count does not "
-                                  "divide by the key count")
+            raise ClipImportError(
+                f"glTF: channel {ci} ({node}.weights): output count does not divide by the key count"
+            )
         m = out.shape[0] // (n * triplet)
         flat = out[:, 0].reshape(n * triplet, m)
         tnames = _target_names(gltf, gltf.nodes[target.node], m)
-        series = [(f"weights[{tnames[k]}]", flat[:, k:k + 1]) for k in range(m)]
+        series = [(f"weights[{tnames[k]}]", flat[:, k : k + 1]) for k in range(m)]
     else:
         notes.append(f"channel {ci} ({node}) animates unknown path '{target.path}'; skipped")
         return []
@@ -226,14 +255,17 @@ def _key_times(reader: _Reader, sampler: Any, label: str) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(raw_t))
     if bad.size:
         k = int(bad[0])
-        raise ClipImportError(f"glTF: {label}: key {k} has time {float(raw_t[k])}, not a finite "
-                              f"number (input accessor {sampler.input})")
+        raise ClipImportError(
+            f"glTF: {label}: key {k} has time {float(raw_t[k])}, not a finite "
+            f"number (input accessor {sampler.input})"
+        )
     # float32 times read back as the decimal they were written from (1.2, not 1.2000000476837158)
     return np.array([float(str(x)) for x in raw_t.astype(np.float32)])
 
 
-def _source_channel(label: str, vals: np.ndarray, times: np.ndarray, interp: str, node_index: int,
-                    scene: _Scene) -> SourceChannel:
+def _source_channel(
+    label: str, vals: np.ndarray, times: np.ndarray, interp: str, node_index: int, scene: _Scene
+) -> SourceChannel:
     """One series of keys (CUBICSPLINE: in-tangent, value, out-tangent per key) with its rest pose."""
     n = len(times)
     kind = {"rotation": "rotation", "translation": "translation"}.get(label, "scalar")
@@ -249,8 +281,17 @@ def _source_channel(label: str, vals: np.ndarray, times: np.ndarray, interp: str
         value = value[:, 0]
         in_t = None if in_t is None else in_t[:, 0]
         out_t = None if out_t is None else out_t[:, 0]
-    sc = SourceChannel(scene.names[node_index], kind, np.asarray(times, dtype=float), value, interp,
-                       in_t, out_t, path=label, unit="key")
+    sc = SourceChannel(
+        scene.names[node_index],
+        kind,
+        np.asarray(times, dtype=float),
+        value,
+        interp,
+        in_t,
+        out_t,
+        path=label,
+        unit="key",
+    )
     p_idx = scene.parents.get(node_index)
     parent_world = scene.rest_world[p_idx] if p_idx is not None else IDENTITY
     if kind == "rotation":
@@ -266,8 +307,13 @@ def _source_channel(label: str, vals: np.ndarray, times: np.ndarray, interp: str
 
 def _item(items: Any, index: Any, what: str) -> Any:
     """items[index] for a glTF index that must exist (no negative indices, no None)."""
-    if isinstance(index, bool) or not isinstance(index, int) or not items or not 0 <= index < len(items) \
-            or items[index] is None:
+    if (
+        isinstance(index, bool)
+        or not isinstance(index, int)
+        or not items
+        or not 0 <= index < len(items)
+        or items[index] is None
+    ):
         raise ClipImportError(f"glTF: {what} {index!r} does not exist")
     return items[index]
 
@@ -277,7 +323,9 @@ def _node_rest(node: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
     if node.matrix is not None and len(node.matrix) == 16:
         m = np.asarray(node.matrix, dtype=float).reshape(4, 4).T  # column-major
         if not np.all(np.isfinite(m)):
-            raise ClipImportError(f"glTF: node '{name}': its rest matrix has values that are not finite numbers")
+            raise ClipImportError(
+                f"glTF: node '{name}': its rest matrix has values that are not finite numbers"
+            )
         if abs(np.linalg.det(m[:3, :3])) < 1e-12:
             return IDENTITY.copy(), m[:3, 3].copy()
         return quat_from_matrix(m[:3, :3]), m[:3, 3].copy()
@@ -285,14 +333,17 @@ def _node_rest(node: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
     tr = np.asarray(node.translation if node.translation is not None else [0.0, 0.0, 0.0], dtype=float)
     for what, arr, n in (("rotation", rot, 4), ("translation", tr, 3)):
         if arr.shape != (n,) or not np.all(np.isfinite(arr)):
-            raise ClipImportError(f"glTF: node '{name}': its rest {what} {arr.tolist()} is not {n} finite numbers")
+            raise ClipImportError(
+                f"glTF: node '{name}': its rest {what} {arr.tolist()} is not {n} finite numbers"
+            )
     if np.linalg.norm(rot) < 1e-9:
         raise ClipImportError(f"glTF: node '{name}': its rest rotation has length 0")
     return quat_normalise(rot), tr
 
 
-def _rest_pose(gltf: Any, reader: _Reader, names: list[str]
-               ) -> tuple[list[np.ndarray], list[np.ndarray], dict[int, str]]:
+def _rest_pose(
+    gltf: Any, reader: _Reader, names: list[str]
+) -> tuple[list[np.ndarray], list[np.ndarray], dict[int, str]]:
     """Per node: rest rotation in world axes, rest local translation, and where the rest came from."""
     nodes = gltf.nodes or []
     local_q, local_t = zip(*[_node_rest(n, names[i]) for i, n in enumerate(nodes)]) if nodes else ((), ())
@@ -314,20 +365,24 @@ def _rest_pose(gltf: Any, reader: _Reader, names: list[str]
             continue
         ibm = reader.accessor(skin.inverseBindMatrices)
         if ibm.shape[1] != 16 or len(ibm) < len(skin.joints):
-            raise ClipImportError(f"glTF: skin {s_i}: inverseBindMatrices has {len(ibm)} matrices for "
-                                  f"{len(skin.joints)} joints")
+            raise ClipImportError(
+                f"glTF: skin {s_i}: inverseBindMatrices has {len(ibm)} matrices for {len(skin.joints)} joints"
+            )
         for k, j in enumerate(skin.joints):
             if not (isinstance(j, int) and 0 <= j < len(nodes)) or source.get(j) == "skin":
                 continue
             m = ibm[k].reshape(4, 4).T
             if not np.all(np.isfinite(m)):
-                raise ClipImportError(f"glTF: skin {s_i}: the inverse bind matrix of joint '{names[j]}' has "
-                                      "values that are not finite numbers")
+                raise ClipImportError(
+                    f"glTF: skin {s_i}: the inverse bind matrix of joint '{names[j]}' has "
+                    "values that are not finite numbers"
+                )
             try:
                 bind = np.linalg.inv(m)
             except np.linalg.LinAlgError:
-                raise ClipImportError(f"glTF: skin {s_i}: the inverse bind matrix of joint '{names[j]}' "
-                                      "cannot be inverted") from None
+                raise ClipImportError(
+                    f"glTF: skin {s_i}: the inverse bind matrix of joint '{names[j]}' cannot be inverted"
+                ) from None
             out[j] = quat_from_matrix(bind[:3, :3])
             source[j] = "skin"
     source = {i: ("skin inverse bind matrices" if v == "skin" else v) for i, v in source.items()}

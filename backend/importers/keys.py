@@ -25,8 +25,9 @@ def is_sampled(ch: SourceChannel) -> bool:
     return ch.interp == "LINEAR" and len(t) >= 4 and float(np.median(np.diff(t))) <= SAMPLED_DT
 
 
-def make_keys(ts: np.ndarray, vals: np.ndarray, mode: str, tol: float, dof, how: str,
-              force: np.ndarray | None = None) -> tuple[list[dict[str, Any]], str, int]:
+def make_keys(
+    ts: np.ndarray, vals: np.ndarray, mode: str, tol: float, dof, how: str, force: np.ndarray | None = None
+) -> tuple[list[dict[str, Any]], str, int]:
     """Keys of one track: mode constant | linear | linear-decimated | smooth (Hermite keys through the
     samples) | a CSV --interp. Smooth keys are fitted to the samples clamped to the DoF's limits."""
     if mode == "smooth":
@@ -43,14 +44,19 @@ def make_keys(ts: np.ndarray, vals: np.ndarray, mode: str, tol: float, dof, how:
     if mode == "linear-decimated" and tol > 0:
         t_keep, v_keep = decimate(ts, vals, tol)
         dropped = len(ts) - len(t_keep)
-        return plain_keys(t_keep, v_keep, "linear"), how + f", linear keys ({dropped} dropped within {tol:g})", 0
+        return (
+            plain_keys(t_keep, v_keep, "linear"),
+            how + f", linear keys ({dropped} dropped within {tol:g})",
+            0,
+        )
     if mode in ("linear", "linear-decimated"):
         return plain_keys(ts, vals, "linear"), how + ", linear keys", 0
     return plain_keys(ts, vals, mode), how + f", {mode} keys", 0
 
 
-def hermite_keys(times: np.ndarray, vals: np.ndarray, tol: float, force: np.ndarray | None = None
-                 ) -> list[dict[str, Any]]:
+def hermite_keys(
+    times: np.ndarray, vals: np.ndarray, tol: float, force: np.ndarray | None = None
+) -> list[dict[str, Any]]:
     """Samples -> bezier keys (free handles, a third of each segment) of the cubic Hermite curve through
     them with the samples' own slopes (central differences): smooth (continuous velocity) and exact at
     the kept samples. With tol > 0, samples that the curve between the kept ones reproduces within
@@ -80,15 +86,26 @@ def hermite_keys(times: np.ndarray, vals: np.ndarray, tol: float, force: np.ndar
 
 def _hermite_ok(t: np.ndarray, v: np.ndarray, m: np.ndarray, i: int, j: int, tol: float) -> bool:
     dt = t[j] - t[i]
-    s = (t[i + 1:j] - t[i]) / dt
+    s = (t[i + 1 : j] - t[i]) / dt
     s2, s3 = s * s, s * s * s
-    h = ((2 * s3 - 3 * s2 + 1) * v[i] + (s3 - 2 * s2 + s) * dt * m[i] + (-2 * s3 + 3 * s2) * v[j]
-         + (s3 - s2) * dt * m[j])
-    return bool(np.all(np.abs(h - v[i + 1:j]) <= tol))
+    h = (
+        (2 * s3 - 3 * s2 + 1) * v[i]
+        + (s3 - 2 * s2 + s) * dt * m[i]
+        + (-2 * s3 + 3 * s2) * v[j]
+        + (s3 - s2) * dt * m[j]
+    )
+    return bool(np.all(np.abs(h - v[i + 1 : j]) <= tol))
 
 
-def densify_slerp(times: np.ndarray, q: np.ndarray, values, tol: float, rate: float = 60.0,
-                  min_per_segment: int = 8, min_dt: float = 0.02) -> tuple[np.ndarray, np.ndarray, int]:
+def densify_slerp(
+    times: np.ndarray,
+    q: np.ndarray,
+    values,
+    tol: float,
+    rate: float = 60.0,
+    min_per_segment: int = 8,
+    min_dt: float = 0.02,
+) -> tuple[np.ndarray, np.ndarray, int]:
     """LINEAR rotation keys -> samples: the keys, plus dense slerp samples in the segments (longer
     than `min_dt`) where the angle of the slerp is not linear in time within tol/4."""
     q = hemisphere(quat_normalise(q))
@@ -110,13 +127,13 @@ def densify_slerp(times: np.ndarray, q: np.ndarray, values, tol: float, rate: fl
     segset = set(seg.tolist())
     for k in range(len(times) - 1):
         if k in segset:
-            m = max(min_per_segment, int(math.ceil(dt[k] * rate)))
+            m = max(min_per_segment, math.ceil(dt[k] * rate))
             u = np.arange(m) / m
             ts.append(times[k] + u * dt[k])
             qs.append(slerp(np.broadcast_to(q[k], (m, 4)), np.broadcast_to(q[k + 1], (m, 4)), u))
         else:
-            ts.append(times[k:k + 1])
-            qs.append(q[k:k + 1])
+            ts.append(times[k : k + 1])
+            qs.append(q[k : k + 1])
     ts.append(times[-1:])
     qs.append(q[-1:])
     return np.concatenate(ts), np.concatenate(qs), int(seg.size)
@@ -131,34 +148,51 @@ def round_key(x: float) -> float:
     return round(float(x), 10) + 0.0
 
 
-def bezier_keys(times: np.ndarray, vals: np.ndarray, in_t: np.ndarray, out_t: np.ndarray) -> list[dict[str, Any]]:
+def bezier_keys(
+    times: np.ndarray, vals: np.ndarray, in_t: np.ndarray, out_t: np.ndarray
+) -> list[dict[str, Any]]:
     """Cubic Hermite (glTF CUBICSPLINE) -> bezier keys with free handles, exactly the same curve."""
     keys = []
     n = len(times)
     for k in range(n):
         dt_prev = times[k] - times[k - 1] if k > 0 else 0.0
         dt_next = times[k + 1] - times[k] if k < n - 1 else 0.0
-        keys.append({
-            "t": round_key(times[k]), "v": round_key(vals[k]), "interp": "bezier",
-            "left_type": "free", "right_type": "free",
-            "left": [round_key(-dt_prev / 3.0), round_key(-in_t[k] * dt_prev / 3.0)],
-            "right": [round_key(dt_next / 3.0), round_key(out_t[k] * dt_next / 3.0)],
-        })
+        keys.append(
+            {
+                "t": round_key(times[k]),
+                "v": round_key(vals[k]),
+                "interp": "bezier",
+                "left_type": "free",
+                "right_type": "free",
+                "left": [round_key(-dt_prev / 3.0), round_key(-in_t[k] * dt_prev / 3.0)],
+                "right": [round_key(dt_next / 3.0), round_key(out_t[k] * dt_next / 3.0)],
+            }
+        )
     return keys
 
 
-def sample_hermite(times: np.ndarray, q: np.ndarray, in_t: np.ndarray, out_t: np.ndarray,
-                   rate: float = 60.0, min_per_segment: int = 8) -> tuple[np.ndarray, np.ndarray]:
+def sample_hermite(
+    times: np.ndarray,
+    q: np.ndarray,
+    in_t: np.ndarray,
+    out_t: np.ndarray,
+    rate: float = 60.0,
+    min_per_segment: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
     """Dense samples of a glTF cubic spline of vectors (the unnormalised quaternion components)."""
     ts, qs = [], []
     for k in range(len(times) - 1):
         dt = times[k + 1] - times[k]
-        m = max(min_per_segment, int(math.ceil(dt * rate)))
+        m = max(min_per_segment, math.ceil(dt * rate))
         s = np.arange(m) / m
         s2, s3 = s * s, s * s * s
         h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
-        p = (h00[:, None] * q[k] + (h10 * dt)[:, None] * out_t[k] + h01[:, None] * q[k + 1]
-             + (h11 * dt)[:, None] * in_t[k + 1])
+        p = (
+            h00[:, None] * q[k]
+            + (h10 * dt)[:, None] * out_t[k]
+            + h01[:, None] * q[k + 1]
+            + (h11 * dt)[:, None] * in_t[k + 1]
+        )
         ts.append(times[k] + s * dt)
         qs.append(p)
     ts.append(times[-1:])

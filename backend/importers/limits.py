@@ -29,8 +29,9 @@ class _Track:
     def __init__(self, keys: list[dict[str, Any]]):
         self.t = np.array([k["t"] for k in keys], dtype=float)
         self.v = np.array([k["v"] for k in keys], dtype=float)
-        self.code = np.array([{"constant": 0, "linear": 1, "bezier": 2}.get(k.get("interp", "linear"), 1)
-                              for k in keys])
+        self.code = np.array(
+            [{"constant": 0, "linear": 1, "bezier": 2}.get(k.get("interp", "linear"), 1) for k in keys]
+        )
         self.ry = np.array([(k.get("right") or [0.0, 0.0])[1] for k in keys], dtype=float)
         self.ly = np.array([(k.get("left") or [0.0, 0.0])[1] for k in keys], dtype=float)
 
@@ -49,15 +50,20 @@ class _Track:
             p1 = v0 + self.ry[i]
             p2 = v1 + self.ly[i + 1]
             w = 1.0 - u
-            cub = w ** 3 * v0 + 3 * w * w * u * p1 + 3 * w * u * u * p2 + u ** 3 * v1
+            cub = w**3 * v0 + 3 * w * w * u * p1 + 3 * w * u * u * p2 + u**3 * v1
             out = np.where(bz, cub, out)
         out = np.where(t < self.t[0], self.v[0], out)
         return np.where(t >= self.t[-1], self.v[-1], out)
 
 
 def continuous_tracks(doc: dict[str, Any], emb) -> list[str]:
-    return [d for d, keys in doc["tracks"].items()
-            if emb.dof(d).type.value == "continuous" and keys and all(isinstance(k["v"], (int, float)) for k in keys)]
+    return [
+        d
+        for d, keys in doc["tracks"].items()
+        if emb.dof(d).type.value == "continuous"
+        and keys
+        and all(isinstance(k["v"], (int, float)) for k in keys)
+    ]
 
 
 def sampler(doc: dict[str, Any], dofs: list[str]):
@@ -78,7 +84,7 @@ def analyse_clip(doc: dict[str, Any], emb, rate: float = 100.0, suggest: bool = 
     if not dofs:
         return out
     sample = sampler(doc, dofs)
-    n = int(math.floor(duration * rate + 1e-9)) + 1
+    n = math.floor(duration * rate + 1e-9) + 1
     t = np.arange(max(n, 2)) / rate
     x = sample(np.minimum(t, duration))
     d = [emb.dof(name) for name in dofs]
@@ -91,15 +97,30 @@ def analyse_clip(doc: dict[str, Any], emb, rate: float = 100.0, suggest: bool = 
     out["ok"] = not over
     if over and suggest:
         max_scale = min(MAX_SCALE, SEARCH_BUDGET / max(1.0, x.size))
-        out["fit_scale"] = (trajectory.time_scale_to_fit(sample, duration, rate, vel, acc, jerk, max_scale=max_scale)
-                            if max_scale > 1.0 else None)
+        out["fit_scale"] = (
+            trajectory.time_scale_to_fit(sample, duration, rate, vel, acc, jerk, max_scale=max_scale)
+            if max_scale > 1.0
+            else None
+        )
         out["max_scale"] = round(max_scale, 3)
-        fits = trajectory.preset_fit(x, rate, vel, acc, jerk, pmin=[q.min for q in d], pmax=[q.max for q in d])
+        fits = trajectory.preset_fit(
+            x, rate, vel, acc, jerk, pmin=[q.min for q in d], pmax=[q.max for q in d]
+        )
         best = fits[0]
-        out["nmf"] = {"best": best["preset"], "meaning": best["meaning"], "rms_deg": math.degrees(best["rms"]),
-                      "max_deg": math.degrees(best["max"]), "ghost_ok": best["ghost_ok"],
-                      "presets": {f["preset"]: {"rms_deg": round(math.degrees(f["rms"]), 4),
-                                                "max_deg": round(math.degrees(f["max"]), 4)} for f in fits}}
+        out["nmf"] = {
+            "best": best["preset"],
+            "meaning": best["meaning"],
+            "rms_deg": math.degrees(best["rms"]),
+            "max_deg": math.degrees(best["max"]),
+            "ghost_ok": best["ghost_ok"],
+            "presets": {
+                f["preset"]: {
+                    "rms_deg": round(math.degrees(f["rms"]), 4),
+                    "max_deg": round(math.degrees(f["max"]), 4),
+                }
+                for f in fits
+            },
+        }
     elif over:
         out["fit_scale"] = None
     return out

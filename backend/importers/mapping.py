@@ -40,12 +40,36 @@ from typing import Any
 import numpy as np
 
 from backend.engine.embodiment import Dimension, DofType, Embodiment
-from backend.importers.rotations import (IDENTITY, RotationError, check_axes, quat_axis_angle, quat_mul,
-                                         swing_twist, twist_angle, unit)
+from backend.importers.rotations import (
+    IDENTITY,
+    RotationError,
+    check_axes,
+    quat_axis_angle,
+    quat_mul,
+    swing_twist,
+    twist_angle,
+    unit,
+)
 
-__all__ = ["ChannelMap", "ClipImportError", "DofTarget", "MappingSpec", "SourceChannel", "check_mapping",
-           "dof_axis", "load_mapping", "normalise_name", "parse_mapping", "quat_axis_angle", "quat_mul",
-           "resolve_channel", "robot_joint_frames", "swing_twist", "twist_angle", "urdf_joint_axes"]
+__all__ = [
+    "ChannelMap",
+    "ClipImportError",
+    "DofTarget",
+    "MappingSpec",
+    "SourceChannel",
+    "check_mapping",
+    "dof_axis",
+    "load_mapping",
+    "normalise_name",
+    "parse_mapping",
+    "quat_axis_angle",
+    "quat_mul",
+    "resolve_channel",
+    "robot_joint_frames",
+    "swing_twist",
+    "twist_angle",
+    "urdf_joint_axes",
+]
 
 
 class ClipImportError(ValueError):
@@ -137,8 +161,14 @@ class MappingSpec:
 # --------------------------------------------------------------------------------------------------
 
 _FRAMES_CACHE: dict[str, dict[str, dict[str, Any]]] = {}
-_SPATIAL_AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1), "roll": (1, 0, 0), "pitch": (0, 1, 0),
-                 "yaw": (0, 0, 1)}
+_SPATIAL_AXES = {
+    "x": (1, 0, 0),
+    "y": (0, 1, 0),
+    "z": (0, 0, 1),
+    "roll": (1, 0, 0),
+    "pitch": (0, 1, 0),
+    "yaw": (0, 0, 1),
+}
 
 
 def _floats(text: str | None, default: str, n: int = 3) -> list[float]:
@@ -146,7 +176,11 @@ def _floats(text: str | None, default: str, n: int = 3) -> list[float]:
         vals = [float(x) for x in (text if text is not None else default).split()]
     except ValueError:
         vals = [float(x) for x in default.split()]
-    return vals if len(vals) == n and all(math.isfinite(v) for v in vals) else [float(x) for x in default.split()]
+    return (
+        vals
+        if len(vals) == n and all(math.isfinite(v) for v in vals)
+        else [float(x) for x in default.split()]
+    )
 
 
 def _rpy_quat(r: float, p: float, y: float) -> np.ndarray:
@@ -176,9 +210,12 @@ def robot_joint_frames(urdf_path: str | Path) -> dict[str, dict[str, Any]]:
             rpy = _floats(o.get("rpy") if o is not None else None, "0 0 0")
             parent = j.find("parent")
             child = j.find("child")
-            raw[j.get("name", "")] = {"axis": axis, "origin": _rpy_quat(*rpy),
-                                      "parent": parent.get("link", "") if parent is not None else "",
-                                      "child": child.get("link", "") if child is not None else ""}
+            raw[j.get("name", "")] = {
+                "axis": axis,
+                "origin": _rpy_quat(*rpy),
+                "parent": parent.get("link", "") if parent is not None else "",
+                "child": child.get("link", "") if child is not None else "",
+            }
         by_child = {v["child"]: k for k, v in raw.items()}
         frames: dict[str, dict[str, Any]] = {}
 
@@ -190,8 +227,13 @@ def robot_joint_frames(urdf_path: str | Path) -> dict[str, dict[str, Any]]:
             base = world(up, depth + 1) if up is not None and depth < 256 else IDENTITY
             q = quat_mul(base, j["origin"])
             m = _qmat(q)
-            frames[name] = {"axis": j["axis"], "world": q, "world_axis": unit(m @ j["axis"]),
-                            "child": j["child"], "parent": up}
+            frames[name] = {
+                "axis": j["axis"],
+                "world": q,
+                "world_axis": unit(m @ j["axis"]),
+                "child": j["child"],
+                "parent": up,
+            }
             return q
 
         for name in raw:
@@ -289,8 +331,11 @@ def _parse_entry(entry: Any, here: str) -> dict[str, Any]:
     out: dict[str, Any] = {"dof": entry["dof"]}
     if entry.get("axis") is not None:
         ax = entry["axis"]
-        if not (isinstance(ax, (list, tuple)) and len(ax) == 3
-                and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in ax)):
+        if not (
+            isinstance(ax, (list, tuple))
+            and len(ax) == 3
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in ax)
+        ):
             raise ClipImportError(f"{here}: axis must be [x, y, z]")
         try:
             out["axis"] = unit(ax)
@@ -309,8 +354,10 @@ def parse_mapping(raw: Any, where: str = "mapping") -> MappingSpec:
     if isinstance(raw, MappingSpec):
         return raw
     if not isinstance(raw, dict) or not isinstance(raw.get("joints"), dict):
-        raise ClipImportError(f"{where}: expected an object with a 'joints' object "
-                              "(source name -> DoF name, {dof, axis, scale, offset}, a list of them, or null)")
+        raise ClipImportError(
+            f"{where}: expected an object with a 'joints' object "
+            "(source name -> DoF name, {dof, axis, scale, offset}, a list of them, or null)"
+        )
     extra = set(raw) - {"joints"}
     if extra:
         raise ClipImportError(f"{where}: unknown keys {sorted(extra)} (only 'joints')")
@@ -346,8 +393,10 @@ def parse_mapping(raw: Any, where: str = "mapping") -> MappingSpec:
     for k, items in joints.items():
         for e in items or []:
             if e["dof"] in owner:
-                raise ClipImportError(f"{where}: DoF '{e['dof']}' is driven by both '{owner[e['dof']]}' "
-                                      f"and '{k}'; a DoF takes one source")
+                raise ClipImportError(
+                    f"{where}: DoF '{e['dof']}' is driven by both '{owner[e['dof']]}' "
+                    f"and '{k}'; a DoF takes one source"
+                )
             owner[e["dof"]] = k
     return MappingSpec(joints, where)
 
@@ -358,17 +407,23 @@ def check_mapping(spec: MappingSpec, channels: list[SourceChannel], emb: Embodim
     labels = sorted({ch.label for ch in channels})
     for key, items in spec.joints.items():
         if key not in labels and key not in names:
-            raise ClipImportError(f"{spec.path}: joints.{key}: '{file_name}' has no animated source '{key}' "
-                                  f"({closest(key, labels + names)})")
+            raise ClipImportError(
+                f"{spec.path}: joints.{key}: '{file_name}' has no animated source '{key}' "
+                f"({closest(key, labels + names)})"
+            )
         if key in names and key not in labels:
             kinds = {ch.kind for ch in channels if ch.name == key}
             if items is not None and kinds <= {"translation", "scale"}:
-                raise ClipImportError(f"{spec.path}: joints.{key}: '{key}' has only "
-                                      f"{'/'.join(sorted(kinds))} channels; name it '{key}.translation'")
+                raise ClipImportError(
+                    f"{spec.path}: joints.{key}: '{key}' has only "
+                    f"{'/'.join(sorted(kinds))} channels; name it '{key}.translation'"
+                )
         for e in items or []:
             if not emb.has_dof(e["dof"]):
-                raise ClipImportError(f"{spec.path}: joints.{key}: robot '{emb.name}' has no DoF '{e['dof']}' "
-                                      f"({closest(e['dof'], emb.dof_names)})")
+                raise ClipImportError(
+                    f"{spec.path}: joints.{key}: robot '{emb.name}' has no DoF '{e['dof']}' "
+                    f"({closest(e['dof'], emb.dof_names)})"
+                )
         if items and len(items) > 1:
             chs = [ch for ch in channels if ch.name == key or ch.label == key]
             if any(ch.kind != "rotation" for ch in chs):
@@ -385,7 +440,9 @@ def _joint_dofs(emb: Embodiment) -> dict[str, str]:
     return {d.joint: d.name for d in emb.dofs if d.joint and not d.drives}
 
 
-def resolve_channel(ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None) -> tuple[ChannelMap | None, str]:
+def resolve_channel(
+    ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None
+) -> tuple[ChannelMap | None, str]:
     """The DoF(s) a channel drives and how, or (None, reason)."""
     spec = spec or MappingSpec()
     items: list[dict[str, Any]] | None = None
@@ -409,10 +466,12 @@ def resolve_channel(ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None
             how += ", split in order " + " then ".join(e["dof"] for e in items)
         return _finish(ch, emb, [(e["dof"], e.get("axis"), e["scale"], e["offset"]) for e in items], how, key)
     if ch.kind == "translation":
-        return None, (f"translation channel (map '{ch.name}.translation' to a linear DoF with --map to use it)")
+        return None, (
+            f"translation channel (map '{ch.name}.translation' to a linear DoF with --map to use it)"
+        )
     name = ch.name
     if ch.path.startswith("weights"):  # a morph target matches by its own name (mesh extras.targetNames)
-        name = ch.path[len("weights["):-1]
+        name = ch.path[len("weights[") : -1]
         if name.isdigit():
             return None, "morph-target weight with no target name (map it with --map)"
     if emb.has_dof(name):
@@ -423,11 +482,14 @@ def resolve_channel(ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None
         if name in joint_dofs:
             return _finish(ch, emb, [(joint_dofs[name], None, 1.0, 0.0)], f"joint '{name}'")
         if name in links and links[name] in joint_dofs:
-            return _finish(ch, emb, [(joint_dofs[links[name]], None, 1.0, 0.0)],
-                           f"child link of joint '{links[name]}'")
+            return _finish(
+                ch, emb, [(joint_dofs[links[name]], None, 1.0, 0.0)], f"child link of joint '{links[name]}'"
+            )
     norm = normalise_name(name)
     matches = sorted({d.name for d in emb.dofs if normalise_name(d.name) == norm and norm})
-    if not matches and ch.kind == "rotation" and norm:  # link names only match exactly (Head is no link 'head')
+    if (
+        not matches and ch.kind == "rotation" and norm
+    ):  # link names only match exactly (Head is no link 'head')
         matches = sorted({dof for j, dof in joint_dofs.items() if normalise_name(j) == norm})
     if len(matches) == 1:
         return _finish(ch, emb, [(matches[0], None, 1.0, 0.0)], "name ignoring case and separators")
@@ -436,8 +498,13 @@ def resolve_channel(ch: SourceChannel, emb: Embodiment, spec: MappingSpec | None
     return None, f"no DoF of that name on robot '{emb.name}' (use --map)"
 
 
-def _finish(ch: SourceChannel, emb: Embodiment, items: list[tuple[str, Any, float, float]], how: str,
-            key: str | None = None) -> tuple[ChannelMap | None, str]:
+def _finish(
+    ch: SourceChannel,
+    emb: Embodiment,
+    items: list[tuple[str, Any, float, float]],
+    how: str,
+    key: str | None = None,
+) -> tuple[ChannelMap | None, str]:
     targets: list[DofTarget] = []
     for dof_name, axis, scale, offset in items:
         d = emb.dof(dof_name)
@@ -455,8 +522,9 @@ def _finish(ch: SourceChannel, emb: Embodiment, items: list[tuple[str, Any, floa
                 return None, f"DoF '{dof_name}' is a linear base axis; a rotation cannot drive it"
         elif d.type is DofType.colour:
             return None, f"DoF '{dof_name}' is a colour DoF (a single column cannot set it)"
-        targets.append(DofTarget(dof_name, None if axis is None else np.asarray(axis, dtype=float),
-                                 scale, offset, given))
+        targets.append(
+            DofTarget(dof_name, None if axis is None else np.asarray(axis, dtype=float), scale, offset, given)
+        )
     if len(targets) > 1:
         try:
             check_axes([t.axis for t in targets])

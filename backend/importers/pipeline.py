@@ -15,8 +15,14 @@ import numpy as np
 from backend.importers.bad_data import check_times, check_values, drop_first_frames
 from backend.importers.clip_warnings import first_frame_warning
 from backend.importers.keys import round_key
-from backend.importers.mapping import (ClipImportError, MappingSpec, SourceChannel, check_mapping, load_mapping,
-                                       parse_mapping)
+from backend.importers.mapping import (
+    ClipImportError,
+    MappingSpec,
+    SourceChannel,
+    check_mapping,
+    load_mapping,
+    parse_mapping,
+)
 from backend.importers.report import build_report
 from backend.importers.rotations import RotationError, axis_conversion
 from backend.importers.sources import read_channels
@@ -27,12 +33,27 @@ MAX_DURATION = 3600.0  # s: longer sources are almost certainly broken times (an
 MAX_MESSAGE = 600  # characters of a downstream error kept in a message
 
 
-def run_import(path: str | Path, emb, mapping: str | Path | dict | MappingSpec | None = None, *,
-               name: str | None = None, animation: str | int | None = None, tolerance: float = 1e-3,
-               interp: str | None = None, fmt: str | None = None, up: str | None = None, forward: str = "x",
-               rest_frame: int | None = None, fill: str | None = None, max_gap: int = 10,
-               skip_frames: int = 0, swing_warn: float = 5.0, rate: float = 100.0,
-               fit_limits: bool = False, analyse: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
+def run_import(
+    path: str | Path,
+    emb,
+    mapping: str | Path | dict | MappingSpec | None = None,
+    *,
+    name: str | None = None,
+    animation: str | int | None = None,
+    tolerance: float = 1e-3,
+    interp: str | None = None,
+    fmt: str | None = None,
+    up: str | None = None,
+    forward: str = "x",
+    rest_frame: int | None = None,
+    fill: str | None = None,
+    max_gap: int = 10,
+    skip_frames: int = 0,
+    swing_warn: float = 5.0,
+    rate: float = 100.0,
+    fit_limits: bool = False,
+    analyse: bool = True,
+) -> tuple[dict[str, Any], dict[str, Any]]:
     """Import an animation file for robot `emb`: (clip document, report). Raises ClipImportError.
 
     mapping: a mapping file path, a mapping dict (`{"joints": {...}}`) or None.
@@ -49,12 +70,21 @@ def run_import(path: str | Path, emb, mapping: str | Path | dict | MappingSpec |
     rate: Hz at which the trajectory-helper samples the clip; fit_limits: slow the clip down
       uniformly until it is within the velocity, acceleration and jerk limits.
     """
-    check_options(tolerance=tolerance, interp=interp, fill=fill, max_gap=max_gap, skip_frames=skip_frames,
-                  rest_frame=rest_frame, swing_warn=swing_warn, rate=rate)
+    check_options(
+        tolerance=tolerance,
+        interp=interp,
+        fill=fill,
+        max_gap=max_gap,
+        skip_frames=skip_frames,
+        rest_frame=rest_frame,
+        swing_warn=swing_warn,
+        rate=rate,
+    )
     spec = mapping_spec(mapping)
     path = Path(path)
-    kind, channels, info, notes = read_channels(path, fmt, animation, rest_frame=rest_frame, fill=fill,
-                                                max_gap=max_gap)
+    kind, channels, info, notes = read_channels(
+        path, fmt, animation, rest_frame=rest_frame, fill=fill, max_gap=max_gap
+    )
     if not channels:
         raise ClipImportError(f"'{path}' has no animated channels")
     where = f"{kind.upper() if kind != 'gltf' else 'glTF'} '{path.name}'"
@@ -62,12 +92,20 @@ def run_import(path: str | Path, emb, mapping: str | Path | dict | MappingSpec |
     conv, conversion = source_axes(kind, up, forward, notes)
     if spec is not None:
         check_mapping(spec, channels, emb, path.name)
-    opts = TrackOptions(conv=conv, conversion=conversion, shift=shift, tolerance=tolerance,
-                        interp=interp if kind == "csv" else None, swing_warn=swing_warn)
+    opts = TrackOptions(
+        conv=conv,
+        conversion=conversion,
+        shift=shift,
+        tolerance=tolerance,
+        interp=interp if kind == "csv" else None,
+        swing_warn=swing_warn,
+    )
     result = map_channels(channels, emb, spec, opts)
     if not result.tracks:
         why = "; ".join(f"{u['source']}: {u['reason']}" for u in result.unmapped[:8])
-        raise ClipImportError(short(f"no channel of '{path.name}' maps to a DoF of robot '{emb.name}' ({why})"))
+        raise ClipImportError(
+            short(f"no channel of '{path.name}' maps to a DoF of robot '{emb.name}' ({why})")
+        )
     jump = first_frame_warning(result.first_frames, emb, skip_frames, conv)
     if jump:
         result.warnings.append(jump)
@@ -78,8 +116,17 @@ def run_import(path: str | Path, emb, mapping: str | Path | dict | MappingSpec |
     return doc, report
 
 
-def check_options(*, tolerance: float, interp: str | None, fill: str | None, max_gap: int, skip_frames: int,
-                  rest_frame: int | None, swing_warn: float, rate: float) -> None:
+def check_options(
+    *,
+    tolerance: float,
+    interp: str | None,
+    fill: str | None,
+    max_gap: int,
+    skip_frames: int,
+    rest_frame: int | None,
+    swing_warn: float,
+    rate: float,
+) -> None:
     """The options' ranges (see `run_import`); the first one out of range is a ClipImportError."""
     if tolerance < 0 or not math.isfinite(tolerance):
         raise ClipImportError(f"tolerance must be a finite number >= 0, got {tolerance}")
@@ -108,8 +155,14 @@ def mapping_spec(mapping: str | Path | dict | MappingSpec | None) -> MappingSpec
     return load_mapping(mapping)
 
 
-def prepare_channels(channels: list[SourceChannel], where: str, fill: str | None, max_gap: int, skip_frames: int,
-                     notes: list[str]) -> tuple[list[SourceChannel], float, float, dict[str, int]]:
+def prepare_channels(
+    channels: list[SourceChannel],
+    where: str,
+    fill: str | None,
+    max_gap: int,
+    skip_frames: int,
+    notes: list[str],
+) -> tuple[list[SourceChannel], float, float, dict[str, int]]:
     """Check (or repair) every channel, drop the first `skip_frames` frames and find the time shift
     that starts the clip at 0: (channels, shift s, end s, samples filled per channel)."""
     filled: dict[str, int] = {}
@@ -123,8 +176,10 @@ def prepare_channels(channels: list[SourceChannel], where: str, fill: str | None
         notes.append(f"--fill {fill}: filled {sum(filled.values())} sample(s) ({per})")
     span = max(float(ch.times[-1]) for ch in channels) - min(float(ch.times[0]) for ch in channels)
     if span > MAX_DURATION:
-        raise ClipImportError(f"{where}: the keys span {span:.6g} s, more than {MAX_DURATION:g} s; the key times "
-                              "are probably broken")
+        raise ClipImportError(
+            f"{where}: the keys span {span:.6g} s, more than {MAX_DURATION:g} s; the key times "
+            "are probably broken"
+        )
     if skip_frames:
         channels = drop_first_frames(channels, skip_frames, notes, where)
     t0 = min(float(ch.times[0]) for ch in channels)
@@ -135,7 +190,9 @@ def prepare_channels(channels: list[SourceChannel], where: str, fill: str | None
     return channels, shift, end, filled
 
 
-def source_axes(kind: str, up: str | None, forward: str, notes: list[str]) -> tuple[np.ndarray, dict[str, str] | None]:
+def source_axes(
+    kind: str, up: str | None, forward: str, notes: list[str]
+) -> tuple[np.ndarray, dict[str, str] | None]:
     """(quaternion (w, x, y, z) turning source axes into the robot's, {"up", "forward"} or None for CSV)."""
     if kind == "csv":
         if up not in (None, "z") or forward != "x":
@@ -149,8 +206,15 @@ def source_axes(kind: str, up: str | None, forward: str, notes: list[str]) -> tu
     return conv, {"up": up, "forward": forward}
 
 
-def clip_document(path: Path, kind: str, info: dict[str, Any], emb, tracks: dict[str, list[dict[str, Any]]],
-                  end: float, name: str | None) -> dict[str, Any]:
+def clip_document(
+    path: Path,
+    kind: str,
+    info: dict[str, Any],
+    emb,
+    tracks: dict[str, list[dict[str, Any]]],
+    end: float,
+    name: str | None,
+) -> dict[str, Any]:
     """The `nutty-clip/1` document, validated and compiled against the robot."""
     from backend.engine.clips import CLIP_FORMAT
 
@@ -170,7 +234,9 @@ def clip_document(path: Path, kind: str, info: dict[str, Any], emb, tracks: dict
     return doc
 
 
-def analyse_limits(doc: dict[str, Any], emb, rate: float, fit_limits: bool, report: dict[str, Any]) -> dict[str, Any]:
+def analyse_limits(
+    doc: dict[str, Any], emb, rate: float, fit_limits: bool, report: dict[str, Any]
+) -> dict[str, Any]:
     """The trajectory-helper's report on the clip sampled at `rate` Hz; with `fit_limits` the clip is
     slowed down in place when a uniform slow-down fits (the report's duration and notes follow)."""
     from backend.importers.limits import analyse_clip, scale_clip_time
@@ -182,10 +248,13 @@ def analyse_limits(doc: dict[str, Any], emb, rate: float, fit_limits: bool, repo
     s = lim.get("fit_scale")
     if s is None:
         lim["fit_applied"] = None
-        notes.append(f"--fit-limits: even {lim.get('max_scale', 20):g}x slower the clip breaks the limits; "
-                     "not slowed down "
-                     f"(use the NMF preset {lim['nmf']['best']})" if lim.get("nmf") else
-                     "--fit-limits: no slow-down fits the limits; not slowed down")
+        notes.append(
+            f"--fit-limits: even {lim.get('max_scale', 20):g}x slower the clip breaks the limits; "
+            "not slowed down "
+            f"(use the NMF preset {lim['nmf']['best']})"
+            if lim.get("nmf")
+            else "--fit-limits: no slow-down fits the limits; not slowed down"
+        )
         return lim
     if s <= 1.0:
         lim["fit_applied"] = 1.0
@@ -197,8 +266,10 @@ def analyse_limits(doc: dict[str, Any], emb, rate: float, fit_limits: bool, repo
     after["fit_applied"] = s
     after["before"] = {"dofs": lim["dofs"], "fit_scale": s, "nmf": lim["nmf"]}
     report["duration"] = float(doc.get("duration", 0.0))
-    notes.append(f"--fit-limits: slowed down {s:.3g}x ({before:g} s -> {doc.get('duration', 0.0):g} s) "
-                 "so every DoF is within its velocity, acceleration and jerk limits")
+    notes.append(
+        f"--fit-limits: slowed down {s:.3g}x ({before:g} s -> {doc.get('duration', 0.0):g} s) "
+        "so every DoF is within its velocity, acceleration and jerk limits"
+    )
     return after
 
 

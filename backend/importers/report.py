@@ -8,9 +8,17 @@ from typing import Any
 from backend.importers.tracks import MappedChannels
 
 
-def build_report(path: Path, kind: str, emb, doc: dict[str, Any], info: dict[str, Any],
-                 conversion: dict[str, str] | None, result: MappedChannels, filled: dict[str, int],
-                 notes: list[str]) -> dict[str, Any]:
+def build_report(
+    path: Path,
+    kind: str,
+    emb,
+    doc: dict[str, Any],
+    info: dict[str, Any],
+    conversion: dict[str, str] | None,
+    result: MappedChannels,
+    filled: dict[str, int],
+    notes: list[str],
+) -> dict[str, Any]:
     """The report of an import (`notes` is kept, not copied: later steps add to it)."""
     tracks = result.tracks
     return {
@@ -35,14 +43,18 @@ def build_report(path: Path, kind: str, emb, doc: dict[str, Any], info: dict[str
 
 def format_report(report: dict[str, Any]) -> str:
     """The import report for a person."""
-    lines = [f"imported {report['file']} ({report['format']}"
-             + (f", animation '{report['animation']}'" if report.get("animation") else "")
-             + f") for robot '{report['robot']}': {report['tracks']} track(s), {report['keys']} key(s), "
-             f"{report['duration']:g} s"]
+    lines = [
+        f"imported {report['file']} ({report['format']}"
+        + (f", animation '{report['animation']}'" if report.get("animation") else "")
+        + f") for robot '{report['robot']}': {report['tracks']} track(s), {report['keys']} key(s), "
+        f"{report['duration']:g} s"
+    ]
     conv = report.get("conversion")
     if conv:
-        lines.append(f"axes: source +{conv['up'].lstrip('+')} up and {conv['forward']} forward "
-                     "-> robot +Z up, +X forward")
+        lines.append(
+            f"axes: source +{conv['up'].lstrip('+')} up and {conv['forward']} forward "
+            "-> robot +Z up, +X forward"
+        )
     if report["mapped"]:
         lines.append("mapped:")
         for m in report["mapped"]:
@@ -56,9 +68,13 @@ def format_report(report: dict[str, Any]) -> str:
             if "rest" in m:
                 extra.append(f"rest: {m['rest']}")
             if "swing_max_deg" in m:
-                extra.append(f"swing dropped max {m['swing_max_deg']:.2f} deg, RMS {m['swing_rms_deg']:.2f} deg")
-            lines.append(f"  {m['source']} -> {m['dof']}  [{m['how']}; {m['interp']}; {m['conversion']}; "
-                         f"{m['source_keys']} -> {m['keys']} keys{'; ' + '; '.join(extra) if extra else ''}]")
+                extra.append(
+                    f"swing dropped max {m['swing_max_deg']:.2f} deg, RMS {m['swing_rms_deg']:.2f} deg"
+                )
+            lines.append(
+                f"  {m['source']} -> {m['dof']}  [{m['how']}; {m['interp']}; {m['conversion']}; "
+                f"{m['source_keys']} -> {m['keys']} keys{'; ' + '; '.join(extra) if extra else ''}]"
+            )
     if report["unmapped"]:
         lines.append("unmapped:")
         grouped: dict[str, list[tuple[str, str]]] = {}
@@ -94,16 +110,20 @@ def _format_limits(lim: dict[str, Any]) -> list[str]:
     if not rows:
         return lines
     if not over:
-        lines.append("limits: every DoF is within its velocity, acceleration and jerk limits "
-                     f"(sampled at {lim['rate']:g} Hz)")
+        lines.append(
+            "limits: every DoF is within its velocity, acceleration and jerk limits "
+            f"(sampled at {lim['rate']:g} Hz)"
+        )
         return lines
     n = next(iter(rows.values()))["samples"]
     lines.append(f"limits (trajectory-helper, {n} samples at {lim['rate']:g} Hz; samples over each limit):")
     for d, c in over.items():
-        lines.append(f"  {d}: velocity {c['velocity']} (peak {c['max_velocity']:.3g} / {c['velocity_limit']:g}), "
-                     f"acceleration {c['acceleration']} "
-                     f"(peak {c['max_acceleration']:.3g} / {c['acceleration_limit']:g}), "
-                     f"jerk {c['jerk']} (peak {c['max_jerk']:.3g} / {c['jerk_limit']:g})")
+        lines.append(
+            f"  {d}: velocity {c['velocity']} (peak {c['max_velocity']:.3g} / {c['velocity_limit']:g}), "
+            f"acceleration {c['acceleration']} "
+            f"(peak {c['max_acceleration']:.3g} / {c['acceleration_limit']:g}), "
+            f"jerk {c['jerk']} (peak {c['max_jerk']:.3g} / {c['jerk_limit']:g})"
+        )
     s = lim.get("fit_scale")
     if s is not None and s > 1:
         lines.append(f"  to fit: play it {s:.3g}x slower (--fit-limits applies that)")
@@ -111,6 +131,8 @@ def _format_limits(lim: dict[str, Any]) -> list[str]:
         lines.append(f"  to fit: no slow-down up to {lim.get('max_scale', 20):g}x fits")
     nmf = lim.get("nmf")
     if nmf:
-        lines.append(f"  or filter it: NMF preset {nmf['best']} ({nmf['meaning']}) keeps its shape best "
-                     f"(RMS {nmf['rms_deg']:.2f} deg, max {nmf['max_deg']:.2f} deg from the clip)")
+        lines.append(
+            f"  or filter it: NMF preset {nmf['best']} ({nmf['meaning']}) keeps its shape best "
+            f"(RMS {nmf['rms_deg']:.2f} deg, max {nmf['max_deg']:.2f} deg from the clip)"
+        )
     return lines

@@ -36,12 +36,15 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a * b of quaternions (..., 4) in x, y, z, w order."""
     ax, ay, az, aw = np.moveaxis(np.asarray(a, dtype=float), -1, 0)
     bx, by, bz, bw = np.moveaxis(np.asarray(b, dtype=float), -1, 0)
-    return np.stack([
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ], axis=-1)
+    return np.stack(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ],
+        axis=-1,
+    )
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:
@@ -65,11 +68,14 @@ def quat_axis_angle(axis: np.ndarray, angle: np.ndarray | float) -> np.ndarray:
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) of quaternions (..., 4) (normalised first)."""
     x, y, z, w = np.moveaxis(quat_normalise(q), -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
 
 
 def quat_from_matrix(m: np.ndarray) -> np.ndarray:
@@ -99,7 +105,7 @@ def quat_from_matrix(m: np.ndarray) -> np.ndarray:
         else:
             s = math.sqrt(1.0 + a[2, 2] - a[0, 0] - a[1, 1]) * 2
             out[i] = [(a[0, 2] + a[2, 0]) / s, (a[1, 2] + a[2, 1]) / s, 0.25 * s, (a[1, 0] - a[0, 1]) / s]
-    return quat_normalise(out).reshape(m.shape[:-2] + (4,))
+    return quat_normalise(out).reshape((*m.shape[:-2], 4))
 
 
 def quat_angle(q: np.ndarray) -> np.ndarray:
@@ -201,8 +207,10 @@ def check_axes(axes: list[np.ndarray]) -> None:
     """Consecutive decomposition axes must not be parallel."""
     for a, b in zip(axes, axes[1:]):
         if np.linalg.norm(np.cross(a, b)) < 1e-6:
-            raise RotationError(f"axes {np.round(a, 4).tolist()} and {np.round(b, 4).tolist()} are parallel; "
-                                "one rotation cannot be split between them")
+            raise RotationError(
+                f"axes {np.round(a, 4).tolist()} and {np.round(b, 4).tolist()} are parallel; "
+                "one rotation cannot be split between them"
+            )
 
 
 def davenport(q: np.ndarray, axes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -20,14 +20,22 @@ def detect_format(path: str | Path, fmt: str | None = None) -> str:
         return fmt
     suffix = Path(path).suffix.lower()
     if suffix not in FORMATS:
-        raise ClipImportError(f"unknown format for '{path}': '{suffix or '(no extension)'}' "
-                              f"(supported: {', '.join(sorted(FORMATS))})")
+        raise ClipImportError(
+            f"unknown format for '{path}': '{suffix or '(no extension)'}' "
+            f"(supported: {', '.join(sorted(FORMATS))})"
+        )
     return FORMATS[suffix]
 
 
-def read_channels(path: str | Path, fmt: str | None = None, animation: str | int | None = None, *,
-                  rest_frame: int | None = None, fill: str | None = None, max_gap: int = 10
-                  ) -> tuple[str, list[SourceChannel], dict[str, Any], list[str]]:
+def read_channels(
+    path: str | Path,
+    fmt: str | None = None,
+    animation: str | int | None = None,
+    *,
+    rest_frame: int | None = None,
+    fill: str | None = None,
+    max_gap: int = 10,
+) -> tuple[str, list[SourceChannel], dict[str, Any], list[str]]:
     """(format, channels, source info, notes) of a file."""
     path = Path(path)
     kind = detect_format(path, fmt)
@@ -51,8 +59,10 @@ def read_channels(path: str | Path, fmt: str | None = None, animation: str | int
         raise
     except (AttributeError, TypeError, IndexError, KeyError, ValueError, OverflowError) as exc:
         # a structure no check above expected (e.g. a glTF object where the schema wants a number)
-        raise ClipImportError(f"{kind} '{path.name}': malformed file ({type(exc).__name__}: "
-                              f"{str(exc).splitlines()[0][:160] if str(exc) else ''})") from None
+        raise ClipImportError(
+            f"{kind} '{path.name}': malformed file ({type(exc).__name__}: "
+            f"{str(exc).splitlines()[0][:160] if str(exc) else ''})"
+        ) from None
     if animation not in (None, "") and kind != "gltf":
         notes.append("--animation only applies to glTF files; ignored")
     if rest_frame is not None and kind != "bvh":

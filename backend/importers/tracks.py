@@ -43,11 +43,15 @@ class MappedChannels:
     warnings: list[dict[str, Any]] = field(default_factory=list)
 
 
-def map_channels(channels: list[SourceChannel], emb, spec: MappingSpec | None, opts: TrackOptions) -> MappedChannels:
+def map_channels(
+    channels: list[SourceChannel], emb, spec: MappingSpec | None, opts: TrackOptions
+) -> MappedChannels:
     """Resolve, convert and clamp every channel; report rows keep the channels' order."""
     resolved = [(ch, *resolve_channel(ch, emb, spec)) for ch in channels]
     # channels named by the mapping file claim their DoFs before channels matched by name
-    order = sorted(range(len(resolved)), key=lambda i: (resolved[i][1] is None or resolved[i][1].key is None, i))
+    order = sorted(
+        range(len(resolved)), key=lambda i: (resolved[i][1] is None or resolved[i][1].key is None, i)
+    )
     out = MappedChannels()
     driven_by: dict[str, str] = {}
     rows: dict[int, list[dict[str, Any]]] = {}
@@ -75,8 +79,14 @@ def map_channels(channels: list[SourceChannel], emb, spec: MappingSpec | None, o
     return out
 
 
-def _add_tracks(ch: SourceChannel, cmap: ChannelMap, converted: dict[str, Any], emb, out: MappedChannels,
-                driven_by: dict[str, str]) -> list[dict[str, Any]]:
+def _add_tracks(
+    ch: SourceChannel,
+    cmap: ChannelMap,
+    converted: dict[str, Any],
+    emb,
+    out: MappedChannels,
+    driven_by: dict[str, str],
+) -> list[dict[str, Any]]:
     """Store the converted keys of each target DoF (clamped) in `out`; the report rows."""
     rows = []
     for target, (keys, how_keys, raw_t, raw_v, n_pre) in zip(cmap.targets, converted["tracks"]):
@@ -87,16 +97,36 @@ def _add_tracks(ch: SourceChannel, cmap: ChannelMap, converted: dict[str, Any], 
         driven_by[target.dof] = ch.label
         rows.append(_mapped_row(ch, cmap, target, keys, how_keys, converted.get("swing")))
         if len(raw_t) >= 3 and is_sampled(ch):  # frames of a motion, not an animator's keys
-            out.first_frames.append((target.dof, float(raw_t[1] - raw_t[0]), float(raw_v[1] - raw_v[0]),
-                                     float(np.max(np.abs(np.diff(raw_v[1:]))) if len(raw_v) > 2 else 0.0), ch))
+            out.first_frames.append(
+                (
+                    target.dof,
+                    float(raw_t[1] - raw_t[0]),
+                    float(raw_v[1] - raw_v[0]),
+                    float(np.max(np.abs(np.diff(raw_v[1:]))) if len(raw_v) > 2 else 0.0),
+                    ch,
+                )
+            )
     return rows
 
 
-def _mapped_row(ch: SourceChannel, cmap: ChannelMap, target, keys: list[dict[str, Any]], how_keys: str,
-                swing: dict[str, Any] | None) -> dict[str, Any]:
-    row: dict[str, Any] = {"source": ch.label, "kind": ch.kind, "dof": target.dof, "how": cmap.how,
-                           "interp": ch.interp, "keys": len(keys), "source_keys": len(ch.times),
-                           "conversion": how_keys}
+def _mapped_row(
+    ch: SourceChannel,
+    cmap: ChannelMap,
+    target,
+    keys: list[dict[str, Any]],
+    how_keys: str,
+    swing: dict[str, Any] | None,
+) -> dict[str, Any]:
+    row: dict[str, Any] = {
+        "source": ch.label,
+        "kind": ch.kind,
+        "dof": target.dof,
+        "how": cmap.how,
+        "interp": ch.interp,
+        "keys": len(keys),
+        "source_keys": len(ch.times),
+        "conversion": how_keys,
+    }
     if target.axis is not None:
         row["axis"] = [round(float(x), 6) for x in target.axis]
     if target.scale != 1.0 or target.offset != 0.0:

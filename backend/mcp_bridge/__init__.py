@@ -45,4 +45,4 @@ async def run(remote: Remote, http: int | None = None, host: str = "127.0.0.1") 
         await remote.close()
 
 
-__all__ = ["Remote", "create_server", "run", "MCP_PATH"]
+__all__ = ["MCP_PATH", "Remote", "create_server", "run"]

@@ -7,8 +7,9 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import Any, Awaitable, Callable
+from typing import Any
 
 import httpx
 
@@ -52,7 +53,11 @@ class Remote:
             body = {"code": "bad_answer", "message": r.text[:500]}
         if r.status_code >= 400:
             detail = body.get("detail") if isinstance(body, dict) else None
-            return Answer(False, r.status_code, detail if isinstance(detail, dict) else {"code": "error", "message": str(body)})
+            return Answer(
+                False,
+                r.status_code,
+                detail if isinstance(detail, dict) else {"code": "error", "message": str(body)},
+            )
         return Answer(True, r.status_code, body)
 
     async def tools(self) -> Answer:
@@ -63,15 +68,19 @@ class Remote:
         """Carry out one tool call (POST /api/tools/{name}); a waiting call may take its `timeout`."""
         wait = arguments.get("timeout", 30.0) if arguments.get("wait") is True else 0.0
         wait = float(wait) if isinstance(wait, (int, float)) and not isinstance(wait, bool) else 30.0
-        return await self.request("POST", f"/api/tools/{name}", json=arguments,
-                                  timeout=HTTP_TIMEOUT + WAIT_MARGIN + max(0.0, min(wait, 600.0)))
+        return await self.request(
+            "POST",
+            f"/api/tools/{name}",
+            json=arguments,
+            timeout=HTTP_TIMEOUT + WAIT_MARGIN + max(0.0, min(wait, 600.0)),
+        )
 
     async def watch(self, on_event: Callable[[dict[str, Any]], Awaitable[None]]) -> None:
         """Hand every /ws/control event to `on_event`, for ever: a lost connection is dialled again
         (with a growing pause), and each reconnection counts as a possible change (`reconnected`)."""
         from websockets.asyncio.client import connect
 
-        ws_url = "ws" + self.url[len("http"):] + "/ws/control" if self.url.startswith("http") else self.url
+        ws_url = "ws" + self.url[len("http") :] + "/ws/control" if self.url.startswith("http") else self.url
         headers = {"Authorization": f"Bearer {self.token}"} if self.token else {}
         pause = RECONNECT[0]
         first = True

@@ -35,14 +35,31 @@ with an `id`: pass `wait: true` to answer when they end, poll with get_status(id
 Several clips on one layer: choose if_busy (replace, queue or reject). The robot's safety limits always hold."""
 
 RESOURCES = (  # uri, name, description, server path (None: from the tools' library section)
-    ("nutty://robot", "robot", "The robot's embodiment: DoFs with units, limits and descriptions, postures.",
-     "/api/robot"),
-    ("nutty://program", "program", "The running Animation Program: blocks, wires, exposed inputs, level.",
-     "/api/program"),
-    ("nutty://library", "library", "The robot's clips (description, duration in s) and postures (description).",
-     None),
-    ("nutty://status", "status", "What the robot is doing now: per-layer playback, posture move, gaze, mood, "
-                                 "layer weights and the engine's health.", "/api/tools/get_status"),
+    (
+        "nutty://robot",
+        "robot",
+        "The robot's embodiment: DoFs with units, limits and descriptions, postures.",
+        "/api/robot",
+    ),
+    (
+        "nutty://program",
+        "program",
+        "The running Animation Program: blocks, wires, exposed inputs, level.",
+        "/api/program",
+    ),
+    (
+        "nutty://library",
+        "library",
+        "The robot's clips (description, duration in s) and postures (description).",
+        None,
+    ),
+    (
+        "nutty://status",
+        "status",
+        "What the robot is doing now: per-layer playback, posture move, gaze, mood, "
+        "layer weights and the engine's health.",
+        "/api/tools/get_status",
+    ),
 )
 
 
@@ -51,7 +68,9 @@ class Announcer:
 
     def __init__(self) -> None:
         self.bus = InMemorySubscriptionBus()  # 2026-era clients: subscriptions/listen streams
-        self._sessions: dict[int, tuple[Any, Any]] = {}  # handshake-era: id(client params) -> (params, session)
+        self._sessions: dict[
+            int, tuple[Any, Any]
+        ] = {}  # handshake-era: id(client params) -> (params, session)
 
     def remember(self, session: Any) -> None:
         """Keep a handshake-era connection's session for later notifications (2026-era ones listen)."""
@@ -80,41 +99,71 @@ def create_server(remote: Remote) -> tuple[Server, Announcer]:
         answer = await remote.tools()
         if not answer.ok:
             raise RuntimeError(_error_text(answer))
-        return types.ListToolsResult(tools=[
-            types.Tool(name=t["name"], description=t["description"], input_schema=t["parameters"],
-                       annotations=types.ToolAnnotations(read_only_hint=t["command"] is None))
-            for t in answer.body["tools"]])
+        return types.ListToolsResult(
+            tools=[
+                types.Tool(
+                    name=t["name"],
+                    description=t["description"],
+                    input_schema=t["parameters"],
+                    annotations=types.ToolAnnotations(read_only_hint=t["command"] is None),
+                )
+                for t in answer.body["tools"]
+            ]
+        )
 
     async def call_tool(ctx: Any, params: types.CallToolRequestParams) -> types.CallToolResult:
         announcer.remember(ctx.session)
         answer = await remote.call(params.name, params.arguments or {})
         if not answer.ok:
-            return types.CallToolResult(content=[types.TextContent(text=_error_text(answer))],
-                                        structured_content={"error": answer.body}, is_error=True)
-        return types.CallToolResult(content=[types.TextContent(text=summary(answer.body))],
-                                    structured_content=answer.body)
+            return types.CallToolResult(
+                content=[types.TextContent(text=_error_text(answer))],
+                structured_content={"error": answer.body},
+                is_error=True,
+            )
+        return types.CallToolResult(
+            content=[types.TextContent(text=summary(answer.body))], structured_content=answer.body
+        )
 
     async def list_resources(ctx: Any, params: Any) -> types.ListResourcesResult:
-        return types.ListResourcesResult(resources=[
-            types.Resource(uri=uri, name=name, description=text, mime_type="application/json")
-            for uri, name, text, _ in RESOURCES])
+        return types.ListResourcesResult(
+            resources=[
+                types.Resource(uri=uri, name=name, description=text, mime_type="application/json")
+                for uri, name, text, _ in RESOURCES
+            ]
+        )
 
     async def read_resource(ctx: Any, params: types.ReadResourceRequestParams) -> types.ReadResourceResult:
         entry = next((r for r in RESOURCES if r[0] == str(params.uri)), None)
         if entry is None:
             raise ValueError(f"unknown resource {params.uri} (resources: {[r[0] for r in RESOURCES]})")
         path = entry[3]
-        answer = await (remote.request("POST", path, json={}) if path and path.startswith("/api/tools/")
-                        else remote.request("GET", path or "/api/tools"))
+        answer = await (
+            remote.request("POST", path, json={})
+            if path and path.startswith("/api/tools/")
+            else remote.request("GET", path or "/api/tools")
+        )
         if not answer.ok:
             raise RuntimeError(_error_text(answer))
         body = answer.body["library"] if path is None else answer.body
-        return types.ReadResourceResult(contents=[types.TextResourceContents(
-            uri=entry[0], mime_type="application/json", text=json.dumps(body, indent=1))])
+        return types.ReadResourceResult(
+            contents=[
+                types.TextResourceContents(
+                    uri=entry[0], mime_type="application/json", text=json.dumps(body, indent=1)
+                )
+            ]
+        )
 
-    server = Server("nutty", version=__version__, title="Nutty robot", instructions=INSTRUCTIONS,
-                    on_list_tools=list_tools, on_call_tool=call_tool, on_list_resources=list_resources,
-                    on_read_resource=read_resource, on_subscriptions_listen=ListenHandler(announcer.bus))
+    server = Server(
+        "nutty",
+        version=__version__,
+        title="Nutty robot",
+        instructions=INSTRUCTIONS,
+        on_list_tools=list_tools,
+        on_call_tool=call_tool,
+        on_list_resources=list_resources,
+        on_read_resource=read_resource,
+        on_subscriptions_listen=ListenHandler(announcer.bus),
+    )
     return server, announcer
 
 

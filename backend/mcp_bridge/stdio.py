@@ -20,9 +20,10 @@ import json
 import logging
 import re
 import sys
+from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from io import TextIOWrapper
-from typing import Any, AsyncIterator
+from typing import Any
 
 import anyio
 import mcp_types as types
@@ -75,33 +76,44 @@ def check_line(line: str) -> tuple[dict[str, Any] | None, types.JSONRPCError | N
             except JsonSafetyError as located:
                 exc = located
         rid = _lenient_id(line, lenient)
-        field = f"params.{exc.field}" if exc.field and not exc.field.startswith(("params", "id", "method")) \
+        field = (
+            f"params.{exc.field}"
+            if exc.field and not exc.field.startswith(("params", "id", "method"))
             else exc.field
+        )
         log.warning("refused a message (id %r): %s", rid, safe_text(str(exc)))
         if rid is None:
             return None, None
-        return None, _error(rid, types.INVALID_PARAMS, f"Invalid params: {exc}", {"field": field, "code": exc.code})
+        return None, _error(
+            rid, types.INVALID_PARAMS, f"Invalid params: {exc}", {"field": field, "code": exc.code}
+        )
     try:
         types.jsonrpc_message_adapter.validate_python(doc, by_name=False)
     except Exception as exc:  # pydantic's ValidationError: name what is wrong in one line
         rid = _lenient_id(line, doc)
         first = str(exc).splitlines()
         why = first[1].strip() if len(first) > 1 else str(exc)
-        return None, _error(rid, types.INVALID_REQUEST, f"Invalid Request: not a JSON-RPC 2.0 message ({why})")
+        return None, _error(
+            rid, types.INVALID_REQUEST, f"Invalid Request: not a JSON-RPC 2.0 message ({why})"
+        )
     return doc, None
 
 
 def _error(rid: Any, code: int, message: str, data: dict[str, Any] | None = None) -> types.JSONRPCError:
-    return types.JSONRPCError(jsonrpc="2.0", id=rid, error=types.ErrorData(code=code, message=message[:500],
-                                                                          data=data))
+    return types.JSONRPCError(
+        jsonrpc="2.0", id=rid, error=types.ErrorData(code=code, message=message[:500], data=data)
+    )
 
 
 @asynccontextmanager
 async def safe_stdio_server(stdin: Any = None) -> AsyncIterator[tuple[Any, Any]]:
     """`mcp.server.stdio.stdio_server`, fed only lines `check_line` accepts; the others are answered here.
     `stdin`: an async iterable of lines (default: the process's standard input, read as UTF-8)."""
-    source = stdin if stdin is not None else anyio.wrap_file(
-        TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace"))
+    source = (
+        stdin
+        if stdin is not None
+        else anyio.wrap_file(TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace"))
+    )
     writer: list[Any] = []  # the session's write stream, once the transport exists
 
     async def good_lines() -> AsyncIterator[str]:

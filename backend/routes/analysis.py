@@ -30,7 +30,8 @@ class TracksBody(BaseModel):
 
 class FilterBody(TracksBody):
     preset: Literal["W", "A", "B", "C", "D", "E"] | None = Field(
-        None, description="one of the paper's NMF presets; omitted: the running program's stage-2 filter")
+        None, description="one of the paper's NMF presets; omitted: the running program's stage-2 filter"
+    )
 
 
 def _track_error(exc: TrackError) -> Exception:
@@ -48,7 +49,9 @@ async def analyze(body: TracksBody, session: SessionDep) -> dict[str, Any]:
         raise _track_error(exc) from exc
 
 
-@router.post("/filter", summary="Ghost: posted tracks through the motion filter (a preset or the program's stage 2)")
+@router.post(
+    "/filter", summary="Ghost: posted tracks through the motion filter (a preset or the program's stage 2)"
+)
 async def filter_route(body: FilterBody, session: SessionDep) -> dict[str, Any]:
     from backend.engine.blocks.motion_filter import FilterParams
 
@@ -57,8 +60,13 @@ async def filter_route(body: FilterBody, session: SessionDep) -> dict[str, Any]:
     else:
         stage2 = blocks_of(session, ("nmf_stage2",))
         if not stage2:
-            raise api_error(422, "no_stage2", "the running program has no stage-2 motion filter (nmf_stage2): "
-                                              "name a preset (W, A, B, C, D or E)", field="preset")
+            raise api_error(
+                422,
+                "no_stage2",
+                "the running program has no stage-2 motion filter (nmf_stage2): "
+                "name a preset (W, A, B, C, D or E)",
+                field="preset",
+            )
         params, used = stage2[0].params, "program"
     try:
         tracks = await asyncio.to_thread(filter_tracks, session.embodiment, body.rate, body.tracks, params)

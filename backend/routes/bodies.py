@@ -24,7 +24,9 @@ from backend.graph.schema import Program, Subgraph
 class InputValue(BaseModel):
     """Body of PUT /api/inputs/{name}."""
 
-    value: Any = Field(..., description="the new value, checked against the input's declaration (type, range, options)")
+    value: Any = Field(
+        ..., description="the new value, checked against the input's declaration (type, range, options)"
+    )
 
 
 class GhostToggle(BaseModel):
@@ -37,7 +39,9 @@ class PortsRequest(BaseModel):
     """Body of POST /api/blocks/{type}/ports."""
 
     params: SkipValidation[dict[str, Any]] = Field(
-        default_factory=dict, description="the block's parameters, checked against its params schema (invalid_param)")
+        default_factory=dict,
+        description="the block's parameters, checked against its params schema (invalid_param)",
+    )
 
 
 class CommandBody(RootModel[control.Command]):

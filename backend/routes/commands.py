@@ -24,8 +24,10 @@ router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["commands"])
 @router.get("/inputs", summary="Exposed inputs of the running program: values and declarations")
 def get_inputs(session: SessionDep) -> dict[str, Any]:
     decls = [i.model_dump() for i in session.program.inputs] if session.program else []
-    return {"values": {k: signal_json(session.embodiment, v) for k, v in session.inputs().items()},
-            "declarations": decls}
+    return {
+        "values": {k: signal_json(session.embodiment, v) for k, v in session.inputs().items()},
+        "declarations": decls,
+    }
 
 
 @router.put("/inputs/{name}", summary="Set one exposed input")

@@ -14,7 +14,9 @@ from backend import security
 
 def api_error(status: int, code: str, message: str, **extra: Any) -> HTTPException:
     """An HTTPException whose detail is the contract's error object (`extra`: field, report, id, ...)."""
-    return HTTPException(status_code=status, detail={"code": code, "message": security.safe_text(message), **extra})
+    return HTTPException(
+        status_code=status, detail={"code": code, "message": security.safe_text(message), **extra}
+    )
 
 
 class SafeJSONResponse(JSONResponse):
@@ -27,14 +29,24 @@ class SafeJSONResponse(JSONResponse):
 def validation_detail(exc: RequestValidationError) -> dict[str, Any]:
     """A 422's detail: a body that does not fit its model is `invalid_body` naming the field (the body
     was JSON-safe already, see json_body); a bad path or query parameter is `invalid_request`."""
-    errors = [{"loc": [security.safe_text(x) for x in e.get("loc", ())], "msg": security.safe_text(e.get("msg", "")),
-               "type": e.get("type")} for e in exc.errors()]
+    errors = [
+        {
+            "loc": [security.safe_text(x) for x in e.get("loc", ())],
+            "msg": security.safe_text(e.get("msg", "")),
+            "type": e.get("type"),
+        }
+        for e in exc.errors()
+    ]
     first = errors[0] if errors else {"loc": [], "msg": "invalid request"}
     field = ".".join(str(x) for x in first["loc"][1:]) or None
     if first["loc"][:1] == ["body"]:
         return {"code": "invalid_body", "message": f"{field or 'body'}: {first['msg']}", "field": field}
-    return {"code": "invalid_request", "message": f"{field or 'request'}: {first['msg']}", "field": field,
-            "errors": errors}
+    return {
+        "code": "invalid_request",
+        "message": f"{field or 'request'}: {first['msg']}",
+        "field": field,
+        "errors": errors,
+    }
 
 
 def install_error_handlers(app: FastAPI) -> None:
@@ -42,8 +54,11 @@ def install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(_: Request, exc: StarletteHTTPException) -> Response:
-        detail = exc.detail if isinstance(exc.detail, dict) else {
-            "code": str(exc.detail or "error").lower().replace(" ", "_"), "message": str(exc.detail)}
+        detail = (
+            exc.detail
+            if isinstance(exc.detail, dict)
+            else {"code": str(exc.detail or "error").lower().replace(" ", "_"), "message": str(exc.detail)}
+        )
         return SafeJSONResponse({"detail": detail}, status_code=exc.status_code, headers=exc.headers)
 
     @app.exception_handler(RequestValidationError)
@@ -52,5 +67,6 @@ def install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(Exception)
     async def unexpected_error(_: Request, exc: Exception) -> Response:
-        return SafeJSONResponse(security.error_body("internal_error", "the server could not handle this request"),
-                                status_code=500)
+        return SafeJSONResponse(
+            security.error_body("internal_error", "the server could not handle this request"), status_code=500
+        )

@@ -6,7 +6,8 @@ chosen per kind, which FastAPI must see as the type itself, not as a name to loo
 
 import asyncio
 import contextlib
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 from fastapi import APIRouter
 
@@ -31,7 +32,9 @@ def _lookup_errors() -> Iterator[None]:
         raise api_error(422, "invalid_name", str(exc)) from exc
 
 
-def add_kind(kind: str, doc_type: Any, validate_program: bool = False, validate_subgraph: bool = False) -> None:
+def add_kind(
+    kind: str, doc_type: Any, validate_program: bool = False, validate_subgraph: bool = False
+) -> None:
     """GET/PUT/DELETE routes for one kind of asset; a PUT body is documented as `doc_type`."""
 
     @router.get(f"/{kind}", summary=f"Names of the robot's {kind}")

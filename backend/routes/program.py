@@ -40,7 +40,10 @@ def block_ports(type_name: str, body: PortsRequest) -> dict[str, Any]:
         ins, outs = cls.ports(cls.Params.model_validate(body.params))
     except (ValidationError, ValueError, TypeError) as exc:
         raise api_error(422, "invalid_param", str(exc)) from exc
-    return {"inputs": {k: v.to_dict() for k, v in ins.items()}, "outputs": {k: v.to_dict() for k, v in outs.items()}}
+    return {
+        "inputs": {k: v.to_dict() for k, v in ins.items()},
+        "outputs": {k: v.to_dict() for k, v in outs.items()},
+    }
 
 
 @router.get("/schema/program", summary="JSON Schema of the program document")
@@ -59,8 +62,11 @@ def get_program(session: SessionDep) -> dict[str, Any]:
 
     apu = session.engine.apu
     prog = apu_to_program(apu).to_json_dict() if apu is not None and session.program is not None else None
-    return {"program": prog, "report": session.report.model_dump() if session.report else None,
-            "level": apu.level if apu else None}
+    return {
+        "program": prog,
+        "report": session.report.model_dump() if session.report else None,
+        "level": apu.level if apu else None,
+    }
 
 
 @router.post("/program/validate", summary="Validate a program (200 with the report, valid or not)")
@@ -78,8 +84,10 @@ async def put_program(doc: ProgramDoc, session: SessionDep, hub: HubDep) -> dict
     return {"report": report.model_dump(), "kept": kept}
 
 
-@router.patch("/program/nodes/{node_id:path}/params",
-              summary="Change one node's parameters live, without rebuilding the program")
+@router.patch(
+    "/program/nodes/{node_id:path}/params",
+    summary="Change one node's parameters live, without rebuilding the program",
+)
 async def patch_params(node_id: str, params: ParamValues, session: SessionDep, hub: HubDep) -> dict[str, Any]:
     if not isinstance(params, dict):
         raise api_error(422, "invalid_param", "the body is an object of parameter name -> value")

@@ -27,8 +27,12 @@ def robot_urdf(session: SessionDep) -> str:
     return session.embodiment.urdf_path.read_text()
 
 
-@router.get("/robot/scene.glb", response_class=Response, summary="The robot's visual meshes (GLB, every joint at zero)",
-            responses={200: {"content": {"model/gltf-binary": {}}}})
+@router.get(
+    "/robot/scene.glb",
+    response_class=Response,
+    summary="The robot's visual meshes (GLB, every joint at zero)",
+    responses={200: {"content": {"model/gltf-binary": {}}}},
+)
 def robot_scene(session: SessionDep) -> Response:
     from backend.engine.visual_scene import NoVisuals, scene_glb
 

@@ -46,7 +46,9 @@ async def ws_control(ws: WebSocket, hub: HubDep) -> None:
         try:
             ack = await asyncio.to_thread(hub.run_command, data)
         except HTTPException as exc:
-            detail = exc.detail if isinstance(exc.detail, dict) else {"code": "error", "message": str(exc.detail)}
+            detail = (
+                exc.detail if isinstance(exc.detail, dict) else {"code": "error", "message": str(exc.detail)}
+            )
             await sock.send({"type": "error", "id": cid, **detail})
             return
         except Exception:  # a fault of the server, not of the message: say so, keep the socket

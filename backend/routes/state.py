@@ -1,6 +1,6 @@
 """How a route reaches the server's state: the Hub `create_app` puts on `app.state`, as dependencies.
 
-    def robot(session: SessionDep) -> dict: ...
+def robot(session: SessionDep) -> dict: ...
 """
 
 from __future__ import annotations

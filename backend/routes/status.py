@@ -36,8 +36,15 @@ def status(request: Request, hub: HubDep) -> dict[str, Any]:
     stats = session.engine.stats()
     stats["clients"] = dict(hub.clients)
     stats["program"] = session.program.name if session.program else None
-    stats["previz"] = {**_previz_urls(hub, request), "frames_shown": hub.previz.frames_shown,
-                       "ghost": hub.previz.ghost_visible} if hub.previz else None
+    stats["previz"] = (
+        {
+            **_previz_urls(hub, request),
+            "frames_shown": hub.previz.frames_shown,
+            "ghost": hub.previz.ghost_visible,
+        }
+        if hub.previz
+        else None
+    )
     return stats
 
 
@@ -83,16 +90,24 @@ async def previz_page(path: str, request: Request, hub: HubDep) -> Response:
     # `?embed=1` (the editor's pane): the page without viser's control panel and notifications
     embed = path in ("", "index.html") and request.query_params.get("embed") not in (None, "", "0")
     try:
-        status_code, headers, body = await fetch_page(hub.previz.port, path,
-                                                      "" if embed else request.headers.get("accept-encoding", ""))
+        status_code, headers, body = await fetch_page(
+            hub.previz.port, path, "" if embed else request.headers.get("accept-encoding", "")
+        )
     except Exception as exc:  # refused, reset, truncated, timed out, malformed: the same to the client
-        raise api_error(502, "previz_unavailable", f"the Pre-Viz did not answer: {type(exc).__name__}") from exc
+        raise api_error(
+            502, "previz_unavailable", f"the Pre-Viz did not answer: {type(exc).__name__}"
+        ) from exc
     if embed and status_code == 200 and headers.get("content-encoding", "identity") == "identity":
         body = embed_page(body)
     response = Response(body, status_code=status_code, headers=headers)
     if hub.token is not None:  # the page's WebSocket (same path, no query) then carries the cookie
-        response.set_cookie(security.PREVIZ_COOKIE, security.previz_cookie_value(hub.token), path="/previz",
-                            httponly=True, samesite="strict")
+        response.set_cookie(
+            security.PREVIZ_COOKIE,
+            security.previz_cookie_value(hub.token),
+            path="/previz",
+            httponly=True,
+            samesite="strict",
+        )
     return response
 
 

@@ -34,8 +34,10 @@ def signal_json(emb: Any, value: Any) -> Any:
     if isinstance(value, PartialFrame):
         idx = np.asarray(value.mask).ravel().nonzero()[0]
         names = emb.channel_names
-        return {"mask": int(idx.size),
-                "values": dict(zip([names[i] for i in idx.tolist()], _rounded(np.asarray(value.values)[idx])))}
+        return {
+            "mask": int(idx.size),
+            "values": dict(zip([names[i] for i in idx.tolist()], _rounded(np.asarray(value.values)[idx]))),
+        }
     if isinstance(value, np.ndarray):
         return [float(x) for x in value.ravel()[:16]]
     if isinstance(value, (np.floating, np.integer)):
@@ -82,7 +84,7 @@ def signals_json(emb: Any, values: list[Any]) -> list[Any]:
     return out
 
 
-_NAME_ARRAYS: "weakref.WeakKeyDictionary[Any, np.ndarray]" = weakref.WeakKeyDictionary()
+_NAME_ARRAYS: weakref.WeakKeyDictionary[Any, np.ndarray] = weakref.WeakKeyDictionary()
 
 
 def _channel_name_array(emb: Any) -> np.ndarray:
@@ -117,13 +119,16 @@ def frame_channels(emb: Any, values: np.ndarray) -> dict[str, float]:
 
 def frame_json(emb: Any, frame: AnimationFrame) -> dict[str, Any]:
     """A frame as telemetry shows it: positions, the stage-1 pose, limit classes, corrected channels."""
-    return {"position": frame_channels(emb, frame.position),
-            "stage1": frame_channels(emb, frame.stage1 if frame.stage1 is not None else frame.position),
-            "classes": limit_classes(emb, frame),
-            # channels the engine's safety net corrected on this frame: the program relies on the
-            # net there (its own output breaks the robot's limits)
-            "corrected": [emb.channel_names[i] for i in np.flatnonzero(frame.corrected)]
-            if frame.corrected is not None else []}
+    return {
+        "position": frame_channels(emb, frame.position),
+        "stage1": frame_channels(emb, frame.stage1 if frame.stage1 is not None else frame.position),
+        "classes": limit_classes(emb, frame),
+        # channels the engine's safety net corrected on this frame: the program relies on the
+        # net there (its own output breaks the robot's limits)
+        "corrected": [emb.channel_names[i] for i in np.flatnonzero(frame.corrected)]
+        if frame.corrected is not None
+        else [],
+    }
 
 
 class SubscriptionError(ValueError):
@@ -153,11 +158,14 @@ class Subscription:
     def update(self, data: Any) -> None:
         """Follow a subscribe message, or raise SubscriptionError (changing nothing)."""
         if not isinstance(data, dict) or data.get("type") != "subscribe":
-            raise SubscriptionError("send {'type': 'subscribe', 'signals': [...], 'frames': bool, 'rate': Hz}")
+            raise SubscriptionError(
+                "send {'type': 'subscribe', 'signals': [...], 'frames': bool, 'rate': Hz}"
+            )
         signals = data.get("signals", [])
         if not isinstance(signals, list) or not all(
-                isinstance(s, dict) and isinstance(s.get("node"), str) and isinstance(s.get("port"), str)
-                for s in signals):
+            isinstance(s, dict) and isinstance(s.get("node"), str) and isinstance(s.get("port"), str)
+            for s in signals
+        ):
             raise SubscriptionError("signals is a list of {node: str, port: str}", "signals")
         rate = data.get("rate", 30.0)
         if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate <= TELEMETRY_MAX_HZ:
@@ -180,7 +188,9 @@ class Subscription:
         if self.frames:
             msg["frame"] = frame_json(emb, frame)
         if apu is not None:
-            msg["layers"] = {s.node_id: s.block.layer_states() for s in apu.steps if hasattr(s.block, "layer_states")}
+            msg["layers"] = {
+                s.node_id: s.block.layer_states() for s in apu.steps if hasattr(s.block, "layer_states")
+            }
         return msg
 
     def text(self, session: Any, frame: AnimationFrame, slot: Any = None) -> tuple[int, str]:
@@ -201,14 +211,14 @@ class Subscription:
 class SharedTexts:
     """The latest frame's telemetry texts of one session, by subscription (event loop only)."""
 
-    _of: "weakref.WeakKeyDictionary[Any, SharedTexts]" = weakref.WeakKeyDictionary()
+    _of: weakref.WeakKeyDictionary[Any, SharedTexts] = weakref.WeakKeyDictionary()
 
     def __init__(self) -> None:
         self.texts: dict[tuple, tuple[Any, int, str]] = {}  # subscription key -> (slot, seq, text)
         self._profile: tuple[float, Any, str] | None = None  # (when, apu, JSON text)
 
     @classmethod
-    def of(cls, session: Any) -> "SharedTexts":
+    def of(cls, session: Any) -> SharedTexts:
         shared = cls._of.get(session)
         if shared is None:
             shared = cls._of[session] = cls()

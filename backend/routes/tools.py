@@ -24,9 +24,13 @@ router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["tools"])
 
 
 @router.get("/tools", summary="Tool definitions for AIs, generated from the commands and the running robot")
-async def get_tools(hub: HubDep, format: Literal["plain", "openai", "anthropic"] = Query(  # noqa: A002
-        "plain", description="plain (nutty-tools/1), openai (Chat Completions `tools`) or anthropic (Messages `tools`)")
-        ) -> Any:
+async def get_tools(
+    hub: HubDep,
+    format: Literal["plain", "openai", "anthropic"] = Query(
+        "plain",
+        description="plain (nutty-tools/1), openai (Chat Completions `tools`) or anthropic (Messages `tools`)",
+    ),
+) -> Any:
     toolset = await asyncio.to_thread(build_tools, hub.session)
     hub.tools_revision = hub.tools_revision or toolset.revision  # what clients now know
     return render(toolset, format)
@@ -37,7 +41,9 @@ async def post_tool(name: str, arguments: ToolArguments, hub: HubDep) -> dict[st
     try:
         return await call_tool(hub, name, arguments)
     except ToolError as exc:
-        raise api_error(exc.status, exc.code, str(exc), **({"field": exc.field} if exc.field else {})) from exc
+        raise api_error(
+            exc.status, exc.code, str(exc), **({"field": exc.field} if exc.field else {})
+        ) from exc
 
 
 async def tools_changed(hub: Any) -> None:
@@ -46,5 +52,12 @@ async def tools_changed(hub: Any) -> None:
     if toolset.revision == hub.tools_revision:
         return
     hub.tools_revision = toolset.revision
-    hub.broadcast({"type": "event", "event": "tools_changed", "id": None, "revision": toolset.revision,
-                   "tools": [t.name for t in toolset.tools]})
+    hub.broadcast(
+        {
+            "type": "event",
+            "event": "tools_changed",
+            "id": None,
+            "revision": toolset.revision,
+            "tools": [t.name for t in toolset.tools],
+        }
+    )

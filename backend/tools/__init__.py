@@ -13,4 +13,4 @@ from backend.tools.dialects import FORMATS, render
 from backend.tools.errors import ToolError
 from backend.tools.status import robot_status
 
-__all__ = ["Tool", "ToolSet", "build_tools", "render", "FORMATS", "ToolError", "robot_status"]
+__all__ = ["FORMATS", "Tool", "ToolError", "ToolSet", "build_tools", "render", "robot_status"]

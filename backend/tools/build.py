@@ -15,9 +15,11 @@ from backend.tools.live import Live, read_live
 from backend.tools.schema import model_arguments, with_choices
 from backend.tools.table import TOOLS, ToolSpec, WaitOptions
 
-WAITING = ("The answer comes at once with the action's `id` and status (`started`, or `queued`); pass "
-           "`wait: true` to answer when it has ended (`completed` or `cancelled`), or poll it with get_status "
-           "and stop it early with cancel.")
+WAITING = (
+    "The answer comes at once with the action's `id` and status (`started`, or `queued`); pass "
+    "`wait: true` to answer when it has ended (`completed` or `cancelled`), or poll it with get_status "
+    "and stop it early with cancel."
+)
 
 
 @dataclass(frozen=True)
@@ -33,8 +35,13 @@ class Tool:
     spec: ToolSpec
 
     def plain(self) -> dict[str, Any]:
-        return {"name": self.name, "description": self.description, "parameters": self.parameters,
-                "command": self.command, "long_action": self.long_action}
+        return {
+            "name": self.name,
+            "description": self.description,
+            "parameters": self.parameters,
+            "command": self.command,
+            "long_action": self.long_action,
+        }
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
@@ -30,8 +31,13 @@ async def call_tool(hub: Any, name: str, arguments: Any) -> dict[str, Any]:
     toolset = await asyncio.to_thread(build_tools, hub.session)
     tool = toolset.get(name)
     if tool is None:
-        raise ToolError(f"no tool '{name}' for robot '{toolset.live.robot}' and program '{toolset.live.program}' "
-                        f"(tools: {[t.name for t in toolset.tools]})", field="name", code="unknown_tool", status=404)
+        raise ToolError(
+            f"no tool '{name}' for robot '{toolset.live.robot}' and program '{toolset.live.program}' "
+            f"(tools: {[t.name for t in toolset.tools]})",
+            field="name",
+            code="unknown_tool",
+            status=404,
+        )
     if not isinstance(arguments, dict):
         raise ToolError("a tool's arguments are a JSON object", code="invalid_arguments")
     check_choices(tool, arguments)
@@ -47,9 +53,15 @@ async def call_tool(hub: Any, name: str, arguments: Any) -> dict[str, Any]:
         entry, timed_out = hub.commands.get(ack["id"]), False
         if waiting.wait and ack["status"] in OPEN:
             entry, timed_out = await wait_until_ended(hub, events, ack["id"], waiting.timeout)
-    return {"tool": name, "command": command["type"], "id": ack["id"],
-            "status": entry["status"] if entry else ack["status"], "result": ack["result"],
-            "waited": waiting.wait and ack["status"] in OPEN, "timed_out": timed_out}
+    return {
+        "tool": name,
+        "command": command["type"],
+        "id": ack["id"],
+        "status": entry["status"] if entry else ack["status"],
+        "result": ack["result"],
+        "waited": waiting.wait and ack["status"] in OPEN,
+        "timed_out": timed_out,
+    }
 
 
 def check_choices(tool: Tool, arguments: dict[str, Any]) -> None:
@@ -57,7 +69,12 @@ def check_choices(tool: Tool, arguments: dict[str, Any]) -> None:
     ToolError names the argument and lists what exists."""
     for name, prop in tool.parameters["properties"].items():
         allowed = prop.get("enum")
-        if allowed is not None and name in arguments and arguments[name] is not None and arguments[name] not in allowed:
+        if (
+            allowed is not None
+            and name in arguments
+            and arguments[name] is not None
+            and arguments[name] not in allowed
+        ):
             raise ToolError(f"{name}: {arguments[name]!r} is not one of {allowed}", field=name)
 
 
@@ -102,7 +119,9 @@ async def _status(hub: Any, args: StatusArguments) -> dict[str, Any]:
     if args.id is not None:
         entry = hub.commands.get(args.id)
         if entry is None:
-            raise ToolError(f"id: no command with id '{args.id}'", field="id", code="unknown_command", status=404)
+            raise ToolError(
+                f"id: no command with id '{args.id}'", field="id", code="unknown_command", status=404
+            )
         if args.wait and entry["status"] in OPEN:
             with listening(hub) as events:
                 entry, timed_out = await wait_until_ended(hub, events, args.id, args.timeout)

@@ -23,15 +23,31 @@ PLAIN_FORMAT = "nutty-tools/1"
 def render(toolset: ToolSet, fmt: str = "plain") -> Any:
     """The tools in dialect `fmt` (one of FORMATS); ValueError for another."""
     if fmt == "openai":
-        return [{"type": "function", "function": {"name": t.name, "description": t.description,
-                                                  "parameters": t.parameters}} for t in toolset.tools]
+        return [
+            {
+                "type": "function",
+                "function": {"name": t.name, "description": t.description, "parameters": t.parameters},
+            }
+            for t in toolset.tools
+        ]
     if fmt == "anthropic":
-        return [{"name": t.name, "description": t.description, "input_schema": t.parameters} for t in toolset.tools]
+        return [
+            {"name": t.name, "description": t.description, "input_schema": t.parameters}
+            for t in toolset.tools
+        ]
     if fmt == "plain":
         live = toolset.live
-        return {"format": PLAIN_FORMAT, "robot": live.robot, "program": live.program, "revision": toolset.revision,
-                "tools": [t.plain() for t in toolset.tools],
-                "library": {"clips": [{"name": c.name, "description": c.description, "duration": c.duration}
-                                      for c in live.clips],
-                            "postures": [{"name": c.name, "description": c.description} for c in live.postures]}}
+        return {
+            "format": PLAIN_FORMAT,
+            "robot": live.robot,
+            "program": live.program,
+            "revision": toolset.revision,
+            "tools": [t.plain() for t in toolset.tools],
+            "library": {
+                "clips": [
+                    {"name": c.name, "description": c.description, "duration": c.duration} for c in live.clips
+                ],
+                "postures": [{"name": c.name, "description": c.description} for c in live.postures],
+            },
+        }
     raise ValueError(f"format must be one of {list(FORMATS)}, got {fmt!r}")

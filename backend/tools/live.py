@@ -60,9 +60,13 @@ def read_live(session: Any) -> Live:
     """The snapshot of `session` (an EngineSession) that tools are generated from."""
     emb = session.embodiment
     program = session.program
-    live = Live(robot=emb.name, program=program.name if program is not None else None,
-                clips=_clips(session), postures=_postures(session),
-                inputs=list(program.inputs) if program is not None else [])
+    live = Live(
+        robot=emb.name,
+        program=program.name if program is not None else None,
+        clips=_clips(session),
+        postures=_postures(session),
+        inputs=list(program.inputs) if program is not None else [],
+    )
     apu = session.engine.apu
     members = layer_members(session)
     for step in apu.steps if apu is not None else []:
@@ -73,15 +77,19 @@ def read_live(session: Any) -> Live:
                 live.block_layers[block.type_name].append(name)
     for mixer in mixers(session):
         live.mixers.append(mixer.node_id)
-        live.layers += [Choice(s["name"], f"{s['mode']} layer of mixer '{mixer.node_id}'")
-                        for s in mixer.layer_states()]
+        live.layers += [
+            Choice(s["name"], f"{s['mode']} layer of mixer '{mixer.node_id}'") for s in mixer.layer_states()
+        ]
     for dof in emb.dofs:
         if dof.type is DofType.colour:
             live.colour_dofs.append(Choice(dof.name, dof.description))
         elif dof.type is DofType.enum:
             live.enum_dofs.append(Choice(dof.name, dof.description))
-            live.expressions += [Choice(o, f"on '{dof.name}'") for o in dof.options or ()
-                                 if o not in {c.name for c in live.expressions}]
+            live.expressions += [
+                Choice(o, f"on '{dof.name}'")
+                for o in dof.options or ()
+                if o not in {c.name for c in live.expressions}
+            ]
     for dof in emb.event_dofs:
         live.channels.add(dof.kind)
         if dof.kind == "sound":

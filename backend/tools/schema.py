@@ -29,7 +29,11 @@ def _model_arguments(model: type, hide: tuple[str, ...]) -> dict[str, Any]:
     schema = model.model_json_schema()
     defs = schema.get("$defs", {})
     hidden = set(hide) | (set(COMMAND_HIDDEN) if "type" in model.model_fields else set())
-    props = {name: simplify(prop, defs) for name, prop in schema.get("properties", {}).items() if name not in hidden}
+    props = {
+        name: simplify(prop, defs)
+        for name, prop in schema.get("properties", {}).items()
+        if name not in hidden
+    }
     required = [name for name in schema.get("required", []) if name in props]
     return {"type": "object", "properties": props, "required": required, "additionalProperties": False}
 
@@ -46,8 +50,11 @@ def simplify(node: Any, defs: dict[str, Any]) -> Any:
         options = [o for o in node["anyOf"] if o != {"type": "null"}]
         if len(options) == 1:
             node = {**simplify(options[0], defs), **{k: v for k, v in node.items() if k != "anyOf"}}
-    out = {k: simplify(v, defs) for k, v in node.items()
-           if not (k == "title" and isinstance(v, str)) and not (k == "default" and v is None)}
+    out = {
+        k: simplify(v, defs)
+        for k, v in node.items()
+        if not (k == "title" and isinstance(v, str)) and not (k == "default" and v is None)
+    }
     items = out.get("prefixItems")
     if isinstance(items, list) and items and all(i == items[0] for i in items):
         out.pop("prefixItems")
@@ -60,8 +67,12 @@ def with_choices(prop: dict[str, Any], choices: list[Choice], what: str) -> dict
     lines = "\n".join(c.line() for c in choices)
     base = prop.get("description")
     text = f"{base}. " if base else ""
-    return {**prop, "type": "string", "enum": [c.name for c in choices],
-            "description": f"{text}One of {what}:\n{lines}"}
+    return {
+        **prop,
+        "type": "string",
+        "enum": [c.name for c in choices],
+        "description": f"{text}One of {what}:\n{lines}",
+    }
 
 
 def input_value_schema(decl: Any) -> dict[str, Any]:

@@ -20,12 +20,30 @@ def robot_status(session: Any) -> dict[str, Any]:
 
     def read() -> tuple[list, list, dict, dict]:
         members = layer_members(session)
-        players = [{"node": b.node_id, "layers": layers_of(session, b.node_id, members),
-                    **(b.playing() or {"clip": None})} for b in blocks_of(session, ("clip_player",))]
-        moves = [{"node": b.node_id, "layers": layers_of(session, b.node_id, members), "move": b.move_status()}
-                 for b in blocks_of(session, ("posture",))]
-        layers = {m.node_id: [{"name": s["name"], "mode": s["mode"], "active": s["active"],
-                               "weight": round(s["effective"], 3)} for s in m.layer_states()] for m in mixers(session)}
+        players = [
+            {
+                "node": b.node_id,
+                "layers": layers_of(session, b.node_id, members),
+                **(b.playing() or {"clip": None}),
+            }
+            for b in blocks_of(session, ("clip_player",))
+        ]
+        moves = [
+            {"node": b.node_id, "layers": layers_of(session, b.node_id, members), "move": b.move_status()}
+            for b in blocks_of(session, ("posture",))
+        ]
+        layers = {
+            m.node_id: [
+                {
+                    "name": s["name"],
+                    "mode": s["mode"],
+                    "active": s["active"],
+                    "weight": round(s["effective"], 3),
+                }
+                for s in m.layer_states()
+            ]
+            for m in mixers(session)
+        }
         return players, moves, layers, dict(session.engine.ctx.inputs)
 
     players, moves, layers, inputs = session.engine.call(read)
@@ -37,7 +55,9 @@ def robot_status(session: Any) -> dict[str, Any]:
         "program": program.name if program is not None else None,
         "playing": players,
         "posture": moves,
-        "gaze": {"target": inputs.get("gaze_target"), "units": GAZE_FRAME} if "gaze_target" in declared else None,
+        "gaze": {"target": inputs.get("gaze_target"), "units": GAZE_FRAME}
+        if "gaze_target" in declared
+        else None,
         "mood": {n: inputs[n] for n in ("valence", "arousal") if n in declared and n in inputs} or None,
         "inputs": inputs,
         "layers": layers,
@@ -48,10 +68,15 @@ def robot_status(session: Any) -> dict[str, Any]:
 def health(stats: dict[str, Any]) -> dict[str, Any]:
     """The engine's health in a few numbers (the whole of it is GET /api/status)."""
     safety = stats.get("safety", {})
-    return {"running": stats.get("running"), "rate": stats.get("rate"), "level": stats.get("level"),
-            "tick_p99_ms": round(stats.get("tick_cost", {}).get("p99_ms", 0.0), 3),
-            "overruns": stats.get("overruns"), "lost_ticks": stats.get("lost_ticks"),
-            "safety": {"enabled": safety.get("enabled"), "correcting": safety.get("correcting", [])}}
+    return {
+        "running": stats.get("running"),
+        "rate": stats.get("rate"),
+        "level": stats.get("level"),
+        "tick_p99_ms": round(stats.get("tick_cost", {}).get("p99_ms", 0.0), 3),
+        "overruns": stats.get("overruns"),
+        "lost_ticks": stats.get("lost_ticks"),
+        "safety": {"enabled": safety.get("enabled"), "correcting": safety.get("correcting", [])},
+    }
 
 
 def _json(value: Any) -> Any:

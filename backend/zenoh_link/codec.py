@@ -95,14 +95,14 @@ def read_stamp(attachment: Any) -> float | None:
     raw = _attachment_bytes(attachment)
     if len(raw) not in (STAMP.size, STAMP.size + SESSION_BYTES):
         return None
-    (t,) = STAMP.unpack(raw[:STAMP.size])
+    (t,) = STAMP.unpack(raw[: STAMP.size])
     return t if math.isfinite(t) else None
 
 
 def read_session(attachment: Any) -> str | None:
     """The engine session id (hex) a frame's attachment carries, or None."""
     raw = _attachment_bytes(attachment)
-    return raw[STAMP.size:].hex() if len(raw) == STAMP.size + SESSION_BYTES else None
+    return raw[STAMP.size :].hex() if len(raw) == STAMP.size + SESSION_BYTES else None
 
 
 # --------------------------------------------------------------------------------------------------
@@ -121,7 +121,7 @@ class FrameDoc:
     events: list[FrameEvent]
 
     @classmethod
-    def parse(cls, doc: dict[str, Any], emb: Embodiment, base: np.ndarray) -> "FrameDoc":
+    def parse(cls, doc: dict[str, Any], emb: Embodiment, base: np.ndarray) -> FrameDoc:
         """Read a frame document for `emb`; channels it lacks keep `base`'s values. ValueError when the
         frame is another robot's or malformed (non-finite numbers included)."""
         if doc.get("embodiment") != emb.name:
@@ -148,5 +148,7 @@ class FrameDoc:
         for e in doc.get("events") or []:
             if isinstance(e, dict) and isinstance(e.get("dof"), str) and isinstance(e.get("kind"), str):
                 payload = e.get("payload")
-                events.append(FrameEvent(e["dof"], e["kind"], dict(payload) if isinstance(payload, dict) else {}))
+                events.append(
+                    FrameEvent(e["dof"], e["kind"], dict(payload) if isinstance(payload, dict) else {})
+                )
         return cls(seq, float(t), float(dt), pos, events)

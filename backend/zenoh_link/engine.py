@@ -21,6 +21,7 @@ Who may publish commands is Zenoh's business: access control and TLS in the Zeno
 
 from __future__ import annotations
 
+import contextlib
 import queue
 import secrets
 import threading
@@ -31,7 +32,14 @@ from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 from backend.safe_json import JsonSafetyError
 from backend.zenoh_link import keys
-from backend.zenoh_link.codec import SESSION_BYTES, decode_json, encode_frame, encode_json, payload_bytes, stamp
+from backend.zenoh_link.codec import (
+    SESSION_BYTES,
+    decode_json,
+    encode_frame,
+    encode_json,
+    payload_bytes,
+    stamp,
+)
 from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, settle
 
 STATUS_PERIOD = 1.0  # s between status publications
@@ -66,16 +74,31 @@ def error_reply(status: int, code: str, message: str, **extra: Any) -> dict[str,
 class EngineLink:
     """One engine's presence on Zenoh under `nutty/<robot_id>/` (see the module doc)."""
 
-    def __init__(self, session: Any, robot_id: str, options: ZenohOptions | None = None,
-                 status_period: float = STATUS_PERIOD):
+    def __init__(
+        self,
+        session: Any,
+        robot_id: str,
+        options: ZenohOptions | None = None,
+        status_period: float = STATUS_PERIOD,
+    ):
         self.session = session
         self.robot_id = keys.check_robot_id(robot_id)
         self.options = options or ZenohOptions()
         self.status_period = status_period
         self.hub: Any = None
         self.closing: threading.Event | None = None
-        self.key = {leaf: keys.key(robot_id, leaf) for leaf in
-                    (keys.ALIVE, keys.FRAMES, keys.STATUS, keys.EVENTS, keys.COMMANDS, keys.ROBOT, keys.PROGRAM)}
+        self.key = {
+            leaf: keys.key(robot_id, leaf)
+            for leaf in (
+                keys.ALIVE,
+                keys.FRAMES,
+                keys.STATUS,
+                keys.EVENTS,
+                keys.COMMANDS,
+                keys.ROBOT,
+                keys.PROGRAM,
+            )
+        }
         self.counts = {"commands": 0, "errors": 0, "queries": 0, "busy": 0}
         #: This run's session id: frames carry it, a liveliness token names it (bridges follow only it).
         self.session_id = secrets.token_bytes(SESSION_BYTES)
@@ -91,47 +114,60 @@ class EngineLink:
 
     # --- joining ----------------------------------------------------------------------------------
     @classmethod
-    def open(cls, options: ZenohOptions, robot_id: str, *, check_timeout: float = 1.0) -> "EngineLink":
+    def open(cls, options: ZenohOptions, robot_id: str, *, check_timeout: float = 1.0) -> EngineLink:
         """Join Zenoh as `robot_id`; ZenohSetupError when Zenoh refuses or a live engine has that id."""
         session = options.open()
         try:
             settle(session, options)
-            taken = any(r.ok is not None for r in
-                        session.liveliness().get(keys.key(robot_id, keys.ALIVE), timeout=check_timeout))
+            taken = any(
+                r.ok is not None
+                for r in session.liveliness().get(keys.key(robot_id, keys.ALIVE), timeout=check_timeout)
+            )
         except Exception:
             session.close()
             raise
         if taken:
             session.close()
-            raise ZenohSetupError(f"robot id '{robot_id}' is taken: a live engine already publishes "
-                                  f"{keys.key(robot_id, '**')} (choose another --robot-id)")
+            raise ZenohSetupError(
+                f"robot id '{robot_id}' is taken: a live engine already publishes "
+                f"{keys.key(robot_id, '**')} (choose another --robot-id)"
+            )
         return cls(session, robot_id, options)
 
-    def start(self, hub: Any, closing: threading.Event | None = None) -> "EngineLink":
+    def start(self, hub: Any, closing: threading.Event | None = None) -> EngineLink:
         """Declare everything around the server's Hub; the liveliness token last."""
         import zenoh
 
         self.hub, self.closing = hub, closing
         s, k = self.session, self.key
-        frames = s.declare_publisher(k[keys.FRAMES], encoding=zenoh.Encoding("application/msgpack"),
-                                     congestion_control=zenoh.CongestionControl.DROP,
-                                     priority=zenoh.Priority.REAL_TIME, express=True)
+        frames = s.declare_publisher(
+            k[keys.FRAMES],
+            encoding=zenoh.Encoding("application/msgpack"),
+            congestion_control=zenoh.CongestionControl.DROP,
+            priority=zenoh.Priority.REAL_TIME,
+            express=True,
+        )
         self._status_pub = s.declare_publisher(k[keys.STATUS], encoding=zenoh.Encoding.APPLICATION_JSON)
         self._events_pub = s.declare_publisher(k[keys.EVENTS], encoding=zenoh.Encoding.APPLICATION_JSON)
         self._declared += [frames, self._status_pub, self._events_pub]
         self._declared.append(s.declare_subscriber(k[keys.COMMANDS], self._on_put))
         self._declared.append(s.declare_queryable(k[keys.COMMANDS], self._on_command_query))
         for leaf in keys.QUERIES:  # each answers for its own leaf, also to a wider query such as nutty/**
-            self._declared.append(s.declare_queryable(k[leaf], lambda q, leaf=leaf: self._on_read_query(q, leaf)))
+            self._declared.append(
+                s.declare_queryable(k[leaf], lambda q, leaf=leaf: self._on_read_query(q, leaf))
+            )
         self._events = Sink("zenoh-events", lambda m: self._events_pub.put(encode_json(m)), max_queue=256)
         hub.listeners.append(self._events.offer)
-        self._frames = hub.session.engine.add_sink(FramePublisher(frames, hub.session.embodiment,
-                                                                  session=self.session_id))
+        self._frames = hub.session.engine.add_sink(
+            FramePublisher(frames, hub.session.embodiment, session=self.session_id)
+        )
         for name, target in (("zenoh-commands", self._work_loop), ("zenoh-status", self._status_loop)):
             t = threading.Thread(target=target, name=name, daemon=True)
             t.start()
             self._threads.append(t)
-        self._session_token = s.liveliness().declare_token(keys.session_key(self.robot_id, self.session_id.hex()))
+        self._session_token = s.liveliness().declare_token(
+            keys.session_key(self.robot_id, self.session_id.hex())
+        )
         self._token = s.liveliness().declare_token(k[keys.ALIVE])
         return self
 
@@ -142,8 +178,14 @@ class EngineLink:
 
     def _on_command_query(self, query: Any) -> None:
         if not keys.is_command_key(query.key_expr):
-            self._answer(query, error_reply(400, "not_a_command_key",
-                                            f"commands are taken on {keys.ROOT}/<robot id or pattern>/commands only"))
+            self._answer(
+                query,
+                error_reply(
+                    400,
+                    "not_a_command_key",
+                    f"commands are taken on {keys.ROOT}/<robot id or pattern>/commands only",
+                ),
+            )
             return
         self._enqueue(payload_bytes(query.payload), query)
 
@@ -152,8 +194,9 @@ class EngineLink:
             self._work.put_nowait((payload, query))
         except queue.Full:
             self.counts["busy"] += 1
-            self._answer(query, error_reply(503, "busy", f"more than {COMMAND_QUEUE} commands are waiting; "
-                                                         "try again"))
+            self._answer(
+                query, error_reply(503, "busy", f"more than {COMMAND_QUEUE} commands are waiting; try again")
+            )
 
     def _work_loop(self) -> None:
         while not self._stop.is_set():
@@ -183,11 +226,14 @@ class EngineLink:
         try:
             ack = self.hub.run_command(data)
         except HTTPException as exc:
-            detail = exc.detail if isinstance(exc.detail, dict) else {"code": "error", "message": str(exc.detail)}
+            detail = (
+                exc.detail if isinstance(exc.detail, dict) else {"code": "error", "message": str(exc.detail)}
+            )
             return self._failed(error_reply(exc.status_code, **{"id": cid, **detail}))
         except Exception:
-            return self._failed(error_reply(500, "internal_error", "the server could not carry out this command",
-                                            id=cid))
+            return self._failed(
+                error_reply(500, "internal_error", "the server could not carry out this command", id=cid)
+            )
         return {"type": "ack", **ack}
 
     def _failed(self, reply: dict[str, Any]) -> dict[str, Any]:
@@ -240,8 +286,11 @@ class EngineLink:
         stats = hub.session.engine.stats()
         stats["clients"] = dict(hub.clients)
         stats["program"] = hub.session.program.name if hub.session.program else None
-        stats["previz"] = ({"frames_shown": hub.previz.frames_shown, "ghost": hub.previz.ghost_visible}
-                           if hub.previz else None)
+        stats["previz"] = (
+            {"frames_shown": hub.previz.frames_shown, "ghost": hub.previz.ghost_visible}
+            if hub.previz
+            else None
+        )
         stats["robot_id"] = self.robot_id
         stats["zenoh"] = dict(self.counts)
         return stats
@@ -260,10 +309,8 @@ class EngineLink:
             return
         self._closed = True
         for step in (self._withdraw, self._stop_threads, self._detach):
-            try:
+            with contextlib.suppress(Exception):
                 step()
-            except Exception:
-                pass
         self.session.close()
 
     def _withdraw(self) -> None:

@@ -27,7 +27,15 @@ import socket
 
 ROOT = "nutty"
 ALIVE, FRAMES, STATUS, EVENTS, COMMANDS, ROBOT, PROGRAM, SESSION = (
-    "alive", "frames", "status", "events", "commands", "robot", "program", "session")
+    "alive",
+    "frames",
+    "status",
+    "events",
+    "commands",
+    "robot",
+    "program",
+    "session",
+)
 QUERIES = (STATUS, ROBOT, PROGRAM)  # the leaves an engine answers queries on, besides COMMANDS
 
 MAX_ID = 64  # characters in a robot id
@@ -52,8 +60,10 @@ def check_robot_id(text: str) -> str:
         raise RobotIdError(f"robot id '{text[:MAX_ID]}...' is longer than {MAX_ID} characters")
     if not _ID.fullmatch(text):
         bad = next((c for c in text if not (c.isascii() and (c.isalnum() or c in "_.-"))), text[0])
-        raise RobotIdError(f"robot id '{text}' may only hold letters, digits, '_', '.' and '-' and start with a "
-                        f"letter or digit (found {bad!r})")
+        raise RobotIdError(
+            f"robot id '{text}' may only hold letters, digits, '_', '.' and '-' and start with a "
+            f"letter or digit (found {bad!r})"
+        )
     return text
 
 
@@ -75,8 +85,10 @@ def default_robot_id(robot_name: str, host: str | None = None) -> str:
 def check_pattern(pattern: str) -> str:
     """A robot id, or one with `*` wildcards (`museum-*`, `*`); RobotIdError otherwise."""
     if not isinstance(pattern, str) or not _PATTERN.fullmatch(pattern) or len(pattern) > MAX_ID:
-        raise RobotIdError(f"'{pattern}' is neither a robot id nor a pattern: use letters, digits, '_', '.', '-' "
-                        f"and '*' (any run of characters), at most {MAX_ID} characters")
+        raise RobotIdError(
+            f"'{pattern}' is neither a robot id nor a pattern: use letters, digits, '_', '.', '-' "
+            f"and '*' (any run of characters), at most {MAX_ID} characters"
+        )
     if "*" not in pattern:
         check_robot_id(pattern)
     return pattern

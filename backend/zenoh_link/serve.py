@@ -13,12 +13,20 @@ from backend.zenoh_link.session import SECURITY_DOCS, ZenohOptions, ZenohSetupEr
 
 def add_serve_options(parser: argparse.ArgumentParser) -> None:
     """--zenoh, --robot-id and the session options on `nutty serve`."""
-    parser.add_argument("--zenoh", action="store_true",
-                        help="also put this engine on Zenoh under nutty/<robot-id>/: frames, status, events, "
-                             "commands, queries and a liveliness token (docs/fleet.md)")
-    parser.add_argument("--robot-id", type=keys.robot_id_arg, default=None, metavar="ID",
-                        help="this robot's id on Zenoh (letters, digits, _ . -; default: the robot's name and "
-                             "this host, e.g. nutty_desk-lab-pc)")
+    parser.add_argument(
+        "--zenoh",
+        action="store_true",
+        help="also put this engine on Zenoh under nutty/<robot-id>/: frames, status, events, "
+        "commands, queries and a liveliness token (docs/fleet.md)",
+    )
+    parser.add_argument(
+        "--robot-id",
+        type=keys.robot_id_arg,
+        default=None,
+        metavar="ID",
+        help="this robot's id on Zenoh (letters, digits, _ . -; default: the robot's name and "
+        "this host, e.g. nutty_desk-lab-pc)",
+    )
     add_zenoh_options(parser)
 
 
@@ -34,8 +42,10 @@ def open_for_serve(args: argparse.Namespace, embodiment) -> EngineLink | None:
     options = ZenohOptions.from_args(args)
     if getattr(args, "token", None) is not None and not options.access_controlled():
         # The token guards HTTP; Zenoh has its own gate. One authority on every port: no token-less door.
-        raise ZenohSetupError("--token guards HTTP only: with --zenoh, give a --zenoh-config with access control "
-                              f"(access_control.enabled, e.g. docs/fleet/engine.json5; see {SECURITY_DOCS})")
+        raise ZenohSetupError(
+            "--token guards HTTP only: with --zenoh, give a --zenoh-config with access control "
+            f"(access_control.enabled, e.g. docs/fleet/engine.json5; see {SECURITY_DOCS})"
+        )
     warning = options.exposure_warning()
     if warning:
         print(f"nutty serve: warning: {warning}", file=sys.stderr, flush=True)

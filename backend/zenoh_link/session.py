@@ -50,30 +50,57 @@ def endpoint_arg(text: str) -> str:
     """argparse type of --zenoh-connect/--zenoh-listen: `<protocol>/<address>`, a port within 0..65535."""
     m = _ENDPOINT.fullmatch(text)
     if not m:
-        raise argparse.ArgumentTypeError(f"expected a Zenoh endpoint such as tcp/127.0.0.1:7447, got '{text}'")
+        raise argparse.ArgumentTypeError(
+            f"expected a Zenoh endpoint such as tcp/127.0.0.1:7447, got '{text}'"
+        )
     if m["proto"] in _IP_PROTOCOLS:
         host, _, port = m["address"].rpartition(":")
         if not host or not port.isdigit() or int(port) > 65535:
             raise argparse.ArgumentTypeError(
-                f"expected {m['proto']}/HOST:PORT with a port within 0..65535, got '{text}'")
+                f"expected {m['proto']}/HOST:PORT with a port within 0..65535, got '{text}'"
+            )
     return text
 
 
 def add_zenoh_options(parser: argparse.ArgumentParser) -> None:
     """The session options (see the module doc) on a sub-command's parser."""
     g = parser.add_argument_group("Zenoh")
-    g.add_argument("--zenoh-mode", choices=MODES, default=None,
-                   help="peer (default: talk to peers directly, find them on the LAN), client (through a router) "
-                        "or router")
-    g.add_argument("--zenoh-connect", action="append", default=[], type=endpoint_arg, metavar="ENDPOINT",
-                   help="connect to this Zenoh endpoint, e.g. tcp/192.168.1.20:7447 (repeatable)")
-    g.add_argument("--zenoh-listen", action="append", default=[], type=endpoint_arg, metavar="ENDPOINT",
-                   help="listen on this Zenoh endpoint, e.g. tcp/0.0.0.0:7447 (repeatable)")
-    g.add_argument("--zenoh-scout", action="store_true", default=False,
-                   help="find peers by multicast scouting on the LAN (off by default: explicit endpoints only)")
-    g.add_argument("--zenoh-config", default=None, metavar="FILE",
-                   help="Zenoh JSON5 configuration (access control, TLS, credentials, scouting); the flags above "
-                        "apply on top (docs/fleet.md)")
+    g.add_argument(
+        "--zenoh-mode",
+        choices=MODES,
+        default=None,
+        help="peer (default: talk to peers directly, find them on the LAN), client (through a router) "
+        "or router",
+    )
+    g.add_argument(
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        type=endpoint_arg,
+        metavar="ENDPOINT",
+        help="connect to this Zenoh endpoint, e.g. tcp/192.168.1.20:7447 (repeatable)",
+    )
+    g.add_argument(
+        "--zenoh-listen",
+        action="append",
+        default=[],
+        type=endpoint_arg,
+        metavar="ENDPOINT",
+        help="listen on this Zenoh endpoint, e.g. tcp/0.0.0.0:7447 (repeatable)",
+    )
+    g.add_argument(
+        "--zenoh-scout",
+        action="store_true",
+        default=False,
+        help="find peers by multicast scouting on the LAN (off by default: explicit endpoints only)",
+    )
+    g.add_argument(
+        "--zenoh-config",
+        default=None,
+        metavar="FILE",
+        help="Zenoh JSON5 configuration (access control, TLS, credentials, scouting); the flags above "
+        "apply on top (docs/fleet.md)",
+    )
 
 
 def given(args: argparse.Namespace) -> list[str]:
@@ -101,10 +128,14 @@ class ZenohOptions:
     default_listen: list[str] = field(default_factory=lambda: list(LOOPBACK_LISTEN))  # when nothing says
 
     @classmethod
-    def from_args(cls, args: argparse.Namespace) -> "ZenohOptions":
-        return cls(getattr(args, "zenoh_mode", None), list(getattr(args, "zenoh_connect", None) or []),
-                   list(getattr(args, "zenoh_listen", None) or []), getattr(args, "zenoh_config", None),
-                   scout=bool(getattr(args, "zenoh_scout", False)))
+    def from_args(cls, args: argparse.Namespace) -> ZenohOptions:
+        return cls(
+            getattr(args, "zenoh_mode", None),
+            list(getattr(args, "zenoh_connect", None) or []),
+            list(getattr(args, "zenoh_listen", None) or []),
+            getattr(args, "zenoh_config", None),
+            scout=bool(getattr(args, "zenoh_scout", False)),
+        )
 
     def file_settings(self) -> dict[str, Any]:
         """The config file's own settings (JSON5), to tell what it asks for from Zenoh's defaults."""
@@ -190,8 +221,10 @@ class ZenohOptions:
         exposed = [e for e in self.listen_endpoints(cfg) if not is_loopback_endpoint(e)]
         if not exposed:
             return None
-        return (f"Zenoh listens on {', '.join(exposed)} with no access control: anyone who can reach it may "
-                f"command this robot and publish its frames (see {SECURITY_DOCS})")
+        return (
+            f"Zenoh listens on {', '.join(exposed)} with no access control: anyone who can reach it may "
+            f"command this robot and publish its frames (see {SECURITY_DOCS})"
+        )
 
     def access_controlled(self, cfg: Any = None) -> bool:
         """Whether the configuration (`cfg`, or `config()`) turns Zenoh's access control on."""

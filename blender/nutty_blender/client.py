@@ -8,6 +8,7 @@ animator can act on (the add-on's operators show it as Blender's report, never a
 from __future__ import annotations
 
 import base64
+import contextlib
 import hashlib
 import json
 import os
@@ -51,7 +52,9 @@ class Client:
         self.url = url
         self.token = (token or os.environ.get("NUTTY_TOKEN", "")).strip()
         self.timeout = timeout
-        self.loopback = parts.hostname in ("localhost", "127.0.0.1", "::1") or parts.hostname.startswith("127.")
+        self.loopback = parts.hostname in ("localhost", "127.0.0.1", "::1") or parts.hostname.startswith(
+            "127."
+        )
 
     # --- HTTP ---------------------------------------------------------------------------------------
     def request(self, method: str, path: str, body: Any = None) -> bytes:
@@ -68,17 +71,21 @@ class Client:
         except urllib.error.HTTPError as exc:
             message, field = _detail(exc.read())
             if exc.code == 401:
-                raise NuttyError(f"the server at {self.url} needs its token: set it in the Nutty panel "
-                                 f"({message})") from None
+                raise NuttyError(
+                    f"the server at {self.url} needs its token: set it in the Nutty panel ({message})"
+                ) from None
             where = f" ({field})" if field else ""
             raise NuttyError(f"the server refused {method} {path}: {message}{where}") from None
         except urllib.error.URLError as exc:
             reason = getattr(exc, "reason", exc)
-            raise NuttyError(f"cannot reach nutty serve at {self.url}: {reason}. Is `nutty serve` running "
-                             f"there? (Nutty panel: server address)") from None
-        except (TimeoutError, socket.timeout):
-            raise NuttyError(f"nutty serve at {self.url} did not answer {method} {path} within "
-                             f"{self.timeout:g} s") from None
+            raise NuttyError(
+                f"cannot reach nutty serve at {self.url}: {reason}. Is `nutty serve` running "
+                f"there? (Nutty panel: server address)"
+            ) from None
+        except TimeoutError:
+            raise NuttyError(
+                f"nutty serve at {self.url} did not answer {method} {path} within {self.timeout:g} s"
+            ) from None
         except (ConnectionError, OSError) as exc:
             raise NuttyError(f"the connection to nutty serve at {self.url} failed: {exc}") from None
 
@@ -99,7 +106,7 @@ class Client:
         return self.json("PUT", path, body)
 
     # --- WebSocket ----------------------------------------------------------------------------------
-    def websocket(self, path: str) -> "WebSocket":
+    def websocket(self, path: str) -> WebSocket:
         return WebSocket(self, path)
 
 
@@ -119,10 +126,18 @@ class WebSocket:
         try:
             self.sock = socket.create_connection((host, port), timeout=client.timeout)
         except OSError as exc:
-            raise NuttyError(f"cannot reach nutty serve at {client.url}: {exc}. Is `nutty serve` running?") from None
+            raise NuttyError(
+                f"cannot reach nutty serve at {client.url}: {exc}. Is `nutty serve` running?"
+            ) from None
         key = base64.b64encode(os.urandom(16)).decode()
-        lines = [f"GET {path} HTTP/1.1", f"Host: {parts.netloc}", "Upgrade: websocket", "Connection: Upgrade",
-                 f"Sec-WebSocket-Key: {key}", "Sec-WebSocket-Version: 13"]
+        lines = [
+            f"GET {path} HTTP/1.1",
+            f"Host: {parts.netloc}",
+            "Upgrade: websocket",
+            "Connection: Upgrade",
+            f"Sec-WebSocket-Key: {key}",
+            "Sec-WebSocket-Version: 13",
+        ]
         if client.token:
             lines.append(f"Authorization: Bearer {client.token}")
         self._buffer = b""
@@ -164,7 +179,9 @@ class WebSocket:
 
     def send(self, message: Any) -> None:
         if self.closed:
-            raise NuttyError(f"the connection to {self.where} is closed ({self.close_reason or 'by the server'})")
+            raise NuttyError(
+                f"the connection to {self.where} is closed ({self.close_reason or 'by the server'})"
+            )
         try:
             self._send_frame(0x1, json.dumps(message, allow_nan=False).encode("utf-8"))
         except OSError as exc:
@@ -187,8 +204,8 @@ class WebSocket:
             n, at = struct.unpack("!Q", buf[2:10])[0], 10
         if len(buf) < at + n:
             return None
-        self._buffer = buf[at + n:]
-        return buf[0] & 0x0F, buf[at:at + n]
+        self._buffer = buf[at + n :]
+        return buf[0] & 0x0F, buf[at : at + n]
 
     def receive(self, timeout: float | None = None) -> Any:
         """The next JSON message (pings are answered, other frames skipped); None when nothing arrives
@@ -208,13 +225,15 @@ class WebSocket:
                     code = struct.unpack("!H", payload[:2])[0] if len(payload) >= 2 else 1005
                     self.closed, self.close_reason = True, payload[2:].decode("utf-8", "replace") or "closed"
                     if code == 4401:
-                        raise NuttyError(f"the server at {self.where} needs its token: set it in the Nutty panel")
+                        raise NuttyError(
+                            f"the server at {self.where} needs its token: set it in the Nutty panel"
+                        )
                     raise NuttyError(f"{self.where} closed the connection: {self.close_reason}")
                 if opcode == 0x9:
                     self._send_frame(0xA, payload)
                 elif opcode == 0x1:
                     return json.loads(payload.decode("utf-8"))
-        except (TimeoutError, socket.timeout):
+        except TimeoutError:
             return None
         except (OSError, ValueError) as exc:
             self.closed, self.close_reason = True, str(exc)
@@ -222,12 +241,8 @@ class WebSocket:
 
     def close(self) -> None:
         if not self.closed:
-            try:
+            with contextlib.suppress(OSError):
                 self._send_frame(0x8, struct.pack("!H", 1000))
-            except OSError:
-                pass
         self.closed = True
-        try:
+        with contextlib.suppress(OSError):
             self.sock.close()
-        except OSError:
-            pass

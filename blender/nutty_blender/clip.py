@@ -42,7 +42,7 @@ class Timing:
     end: float
 
     @classmethod
-    def of(cls, scene: Any) -> "Timing":
+    def of(cls, scene: Any) -> Timing:
         return cls(scene.render.fps / scene.render.fps_base, float(scene.frame_start), float(scene.frame_end))
 
     def t(self, frame: float) -> float:
@@ -61,7 +61,9 @@ def _r(x: float) -> float:
     return round(float(x), ROUND)
 
 
-def _bezier_handles(p0: Any, h0: Any, h1: Any, p1: Any) -> tuple[tuple[float, float], tuple[float, float]] | None:
+def _bezier_handles(
+    p0: Any, h0: Any, h1: Any, p1: Any
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
     """The right handle of key 0 and the left handle of key 1 as offsets (frames, value), as Blender
     draws the segment: a handle reaching past the other key is shortened to the segment's length (both
     coordinates, keeping its slope). None when the segment then doubles back in time (x(u) not
@@ -111,14 +113,18 @@ def _baked(fc: Any, f0: float, f1: float, timing: Timing) -> list[dict[str, Any]
     keys = []
     for k in range(pieces + 1):
         f = f0 + k * step
-        key: dict[str, Any] = {"t": timing.t(f), "v": _r(fc.evaluate(min(f, f1 - 1e-6)) if k == pieces
-                                                         else fc.evaluate(f))}
+        key: dict[str, Any] = {
+            "t": timing.t(f),
+            "v": _r(fc.evaluate(min(f, f1 - 1e-6)) if k == pieces else fc.evaluate(f)),
+        }
         if k > 0:
             d = _slope(fc, f, -1.0) if k == pieces else (fc.evaluate(f + 1e-3) - fc.evaluate(f - 1e-3)) / 2e-3
             key["left_type"], key["left"] = "free", [_r(-step / 3 / timing.fps), _r(-d * step / 3)]
         if k < pieces:
             d = _slope(fc, f, 1.0) if k == 0 else (fc.evaluate(f + 1e-3) - fc.evaluate(f - 1e-3)) / 2e-3
-            key.update(interp="bezier", right_type="free", right=[_r(step / 3 / timing.fps), _r(d * step / 3)])
+            key.update(
+                interp="bezier", right_type="free", right=[_r(step / 3 / timing.fps), _r(d * step / 3)]
+            )
         keys.append(key)
     return keys
 
@@ -127,8 +133,10 @@ def curve_keys(fc: Any, timing: Timing, where: str, notes: list[str]) -> list[di
     """A numeric F-curve's keys as clip keys (see the module doc); ExportError for keys before t = 0."""
     points = sorted(fc.keyframe_points, key=lambda kp: kp.co[0])
     if points and points[0].co[0] < timing.start - 1e-6:
-        raise ExportError(f"{where}: a key at frame {points[0].co[0]:g} is before the scene's start frame "
-                          f"{timing.start:g} (clip time 0): move the key or the start frame")
+        raise ExportError(
+            f"{where}: a key at frame {points[0].co[0]:g} is before the scene's start frame "
+            f"{timing.start:g} (clip time 0): move the key or the start frame"
+        )
     lefts: dict[int, list[float]] = {}  # key index -> its left handle, set by the segment before it
     keys: list[dict[str, Any]] = []
     baked: set[str] = set()
@@ -142,7 +150,9 @@ def curve_keys(fc: Any, timing: Timing, where: str, notes: list[str]) -> list[di
             key["interp"] = "constant"
         elif nxt is None or ipo == "LINEAR":
             key["interp"] = "linear"  # (the last key's interpolation leads nowhere)
-        elif ipo == "BEZIER" and (handles := _bezier_handles(kp.co, kp.handle_right, nxt.handle_left, nxt.co)):
+        elif ipo == "BEZIER" and (
+            handles := _bezier_handles(kp.co, kp.handle_right, nxt.handle_left, nxt.co)
+        ):
             right, left = handles
             key.update(interp="bezier", right_type="free", right=[_r(right[0] / timing.fps), _r(right[1])])
             lefts[i + 1] = [_r(left[0] / timing.fps), _r(left[1])]
@@ -158,8 +168,10 @@ def curve_keys(fc: Any, timing: Timing, where: str, notes: list[str]) -> list[di
             continue
         keys.append(key)
     if baked:
-        notes.append(f"{where}: {', '.join(sorted(baked))} segments were baked into per-frame Bezier keys "
-                     f"(the engine draws them differently from Blender)")
+        notes.append(
+            f"{where}: {', '.join(sorted(baked))} segments were baked into per-frame Bezier keys "
+            f"(the engine draws them differently from Blender)"
+        )
     return keys
 
 
@@ -174,17 +186,28 @@ def _colour_keys(name: str, curves: dict[int, Any], timing: Timing, notes: list[
     """One colour track from a colour property's r, g, b F-curves: a key wherever any of them has one,
     linear between keys (the engine blends colours linearly), constant where all three hold."""
     frames = sorted({kp.co[0] for fc in curves.values() for kp in fc.keyframe_points})
-    smooth = {kp.interpolation for fc in curves.values() for kp in fc.keyframe_points} - {"CONSTANT", "LINEAR"}
+    smooth = {kp.interpolation for fc in curves.values() for kp in fc.keyframe_points} - {
+        "CONSTANT",
+        "LINEAR",
+    }
     if smooth:
         kinds = ", ".join(sorted(smooth)).lower()
-        notes.append(f"'{name}': colours blend linearly between keys in the engine ({kinds} keys become linear)")
+        notes.append(
+            f"'{name}': colours blend linearly between keys in the engine ({kinds} keys become linear)"
+        )
     keys = []
     for f in frames:
         if f < timing.start - 1e-6:
-            raise ExportError(f"'{name}': a key at frame {f:g} is before the scene's start frame {timing.start:g}")
+            raise ExportError(
+                f"'{name}': a key at frame {f:g} is before the scene's start frame {timing.start:g}"
+            )
         rgb = [min(max(_r(curves[c].evaluate(f)) if c in curves else 0.0, 0.0), 1.0) for c in range(3)]
-        held = all(kp.interpolation == "CONSTANT" for fc in curves.values() for kp in fc.keyframe_points
-                   if abs(kp.co[0] - f) < 1e-6)
+        held = all(
+            kp.interpolation == "CONSTANT"
+            for fc in curves.values()
+            for kp in fc.keyframe_points
+            if abs(kp.co[0] - f) < 1e-6
+        )
         keys.append({"t": timing.t(f), "v": rgb, "interp": "constant" if held else "linear"})
     return keys
 
@@ -247,8 +270,10 @@ def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict
         if len(fc.modifiers):
             notes.append(f"{where}: F-curve modifiers are not exported (bake them into keys first)")
         if fc.extrapolation != "CONSTANT":
-            notes.append(f"{where}: the engine holds the first and last values (no {fc.extrapolation.lower()} "
-                         f"extrapolation)")
+            notes.append(
+                f"{where}: the engine holds the first and last values (no {fc.extrapolation.lower()} "
+                f"extrapolation)"
+            )
         dof = paths.get((fc.data_path, fc.array_index))
         prop = props.get(_prop_name(fc.data_path) or "")
         if dof is not None:
@@ -259,13 +284,20 @@ def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict
             for kp in sorted(fc.keyframe_points, key=lambda k: k.co[0]):
                 if kp.co[0] < timing.start - 1e-6:
                     raise ExportError(f"'{prop.name}': a key at frame {kp.co[0]:g} is before the start frame")
-                index = min(max(int(round(kp.co[1])), 0), len(prop.options) - 1)
+                index = min(max(round(kp.co[1]), 0), len(prop.options) - 1)
                 if prop.kind == "enum":
-                    tracks.setdefault(prop.name, []).append({"t": timing.t(kp.co[0]), "v": prop.options[index],
-                                                             "interp": "constant"})
+                    tracks.setdefault(prop.name, []).append(
+                        {"t": timing.t(kp.co[0]), "v": prop.options[index], "interp": "constant"}
+                    )
                 elif index > 0:  # a key on a sound plays it
-                    events.append({"t": timing.t(kp.co[0]), "dof": prop.name, "kind": "sound",
-                                   "payload": {"clip": prop.options[index]}})
+                    events.append(
+                        {
+                            "t": timing.t(kp.co[0]),
+                            "dof": prop.name,
+                            "kind": "sound",
+                            "payload": {"clip": prop.options[index]},
+                        }
+                    )
         else:
             ignored.append(where)
     for cname, rgb in colours.items():
@@ -273,20 +305,35 @@ def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict
     if ignored:
         notes.append(f"not DoFs of the robot, not exported: {', '.join(ignored)}")
     if not tracks:
-        raise ExportError(f"'{rig_ob.name}' has no keys on the robot's DoFs (bones' Y rotation, or its DoF "
-                          f"properties): nothing to export")
+        raise ExportError(
+            f"'{rig_ob.name}' has no keys on the robot's DoFs (bones' Y rotation, or its DoF "
+            f"properties): nothing to export"
+        )
     anchors, marker_events = _marker_items(scene, plan, timing)
     last = max(k["t"] for keys in tracks.values() for k in keys)
     if last > timing.duration + 1e-9:
         notes.append(f"keys after the end frame {timing.end:g}: the clip ends there ({timing.duration:g} s)")
     import bpy
 
-    doc = {"format": "nutty-clip/1", "name": name, "robot": plan.robot, "duration": _r(timing.duration),
-           "tracks": tracks, "anchors": anchors, "events": sorted(events + marker_events, key=lambda e: e["t"]),
-           "source": {"tool": "blender", "blender": bpy.app.version_string,
-                      "file": bpy.path.basename(bpy.data.filepath), "object": rig_ob.name,
-                      "action": rig_ob.animation_data.action.name, "fps": timing.fps,
-                      "frame_start": timing.start, "frame_end": timing.end}}
+    doc = {
+        "format": "nutty-clip/1",
+        "name": name,
+        "robot": plan.robot,
+        "duration": _r(timing.duration),
+        "tracks": tracks,
+        "anchors": anchors,
+        "events": sorted(events + marker_events, key=lambda e: e["t"]),
+        "source": {
+            "tool": "blender",
+            "blender": bpy.app.version_string,
+            "file": bpy.path.basename(bpy.data.filepath),
+            "object": rig_ob.name,
+            "action": rig_ob.animation_data.action.name,
+            "fps": timing.fps,
+            "frame_start": timing.start,
+            "frame_end": timing.end,
+        },
+    }
     return doc, notes
 
 

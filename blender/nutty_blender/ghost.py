@@ -46,7 +46,9 @@ def _copy_meshes(rig_ob: Any, ghost: Any, collection: Any) -> None:
             continue
         c = child.copy()
         collection.objects.link(c)
-        c.parent = ghost  # (setting the parent resets how it hangs: restore it, so it sits where the child does)
+        c.parent = (
+            ghost  # (setting the parent resets how it hangs: restore it, so it sits where the child does)
+        )
         c.parent_type, c.parent_bone = child.parent_type, child.parent_bone
         c.matrix_parent_inverse = child.matrix_parent_inverse.copy()
         c.matrix_basis = child.matrix_basis.copy()
@@ -64,7 +66,9 @@ def bake(ghost: Any, plan: Any, timing: clip.Timing, tracks: dict[str, list[floa
     for dof, values in tracks.items():
         data_path, index = paths[dof]
         scalar = data_path.startswith('["')  # a DoF property (index -1: the whole, one-value property)
-        ghost.keyframe_insert(data_path, index=-1 if scalar else index, frame=frames[0])  # action, slot, curve
+        ghost.keyframe_insert(
+            data_path, index=-1 if scalar else index, frame=frames[0]
+        )  # action, slot, curve
         fc = next(f for f in rig.fcurves(ghost) if f.data_path == data_path and f.array_index == index)
         fc.keyframe_points.clear()
         fc.keyframe_points.add(len(frames))
@@ -78,14 +82,19 @@ def beside(rig_ob: Any, offset: float) -> Matrix:
     """Where the ghost stands: `offset` m along the rig's +Y (the robot's left); a negative offset means
     one robot width (its meshes' extent along Y, plus a fifth), so the two never overlap."""
     if offset < 0:
-        ys = [(c.matrix_world @ Vector(corner)).y for c in rig_ob.children if c.type == "MESH"
-              for corner in c.bound_box]
+        ys = [
+            (c.matrix_world @ Vector(corner)).y
+            for c in rig_ob.children
+            if c.type == "MESH"
+            for corner in c.bound_box
+        ]
         offset = 1.2 * (max(ys) - min(ys)) if ys else 0.5
     return rig_ob.matrix_world @ Matrix.Translation((0.0, offset, 0.0))
 
 
-def make_ghost(context: Any, client: Client, rig_ob: Any, preset: str | None,
-               offset: float = -1.0) -> tuple[Any, dict[str, Any]]:
+def make_ghost(
+    context: Any, client: Client, rig_ob: Any, preset: str | None, offset: float = -1.0
+) -> tuple[Any, dict[str, Any]]:
     """Build (or rebuild) the ghost of `rig_ob` `offset` m beside it (see `beside`); `preset` None: the
     running program's stage-2 filter. Returns the ghost and the server's answer."""
     plan = rig.plan_of(rig_ob)
@@ -111,7 +120,6 @@ def make_ghost(context: Any, client: Client, rig_ob: Any, preset: str | None,
         ghost.pose.bones[bone].rotation_euler = rig_ob.pose.bones[bone].rotation_euler
     for p in plan.props:
         ghost[p.name] = rig_ob[p.name]
-    ghost.animation_data_create().action = bpy.data.actions.new(
-        f"{rig_ob.animation_data.action.name}.ghost")
+    ghost.animation_data_create().action = bpy.data.actions.new(f"{rig_ob.animation_data.action.name}.ghost")
     bake(ghost, plan, timing, result["tracks"])
     return ghost, result

@@ -17,7 +17,7 @@ SEVERITY = ("velocity", "acceleration", "jerk", "position")  # the most severe l
 
 def hex_colour(value: str) -> tuple[float, float, float]:
     value = value.lstrip("#")
-    return tuple(int(value[i:i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
+    return tuple(int(value[i : i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
 
 
 def clear(scene: Any, rig_ob: Any | None) -> None:
@@ -73,6 +73,9 @@ def show(scene: Any, rig_ob: Any, plan: Any, timing: clip.Timing, result: dict[s
             if paths.get(dof) == (fc.data_path, fc.array_index):
                 fc.color_mode, fc.color = "CUSTOM", colours.get(kind, (1.0, 0.0, 0.0))
     n = len(result["ranges"])
-    scene.nutty.check_summary = ("within every limit" if n == 0 else
-                                 f"{n} range{'s' if n != 1 else ''} over the limits on "
-                                 f"{len(worst)} DoF{'s' if len(worst) != 1 else ''}")
+    scene.nutty.check_summary = (
+        "within every limit"
+        if n == 0
+        else f"{n} range{'s' if n != 1 else ''} over the limits on "
+        f"{len(worst)} DoF{'s' if len(worst) != 1 else ''}"
+    )

@@ -10,6 +10,7 @@ or the connection goes away, the server's watchdog fades it out by itself.
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from typing import Any
@@ -60,7 +61,9 @@ class LiveLink:
             value = ob.get(p.name, p.default)
             if p.kind == "float":
                 v = float(value)
-                out[p.name] = min(max(v, p.min if p.min is not None else v), p.max if p.max is not None else v)
+                out[p.name] = min(
+                    max(v, p.min if p.min is not None else v), p.max if p.max is not None else v
+                )
             elif p.kind == "colour":
                 out[p.name] = [min(max(float(c), 0.0), 1.0) for c in value]
             elif p.kind == "enum" and p.options:
@@ -110,7 +113,11 @@ class LiveLink:
         deadline = time.monotonic() + FIRST_REPLY
         while time.monotonic() < deadline:
             msg = self.ws.receive(timeout=max(0.0, deadline - time.monotonic()))
-            if isinstance(msg, dict) and msg.get("id") == "blender-live-link" and msg.get("type") in ("ack", "error"):
+            if (
+                isinstance(msg, dict)
+                and msg.get("id") == "blender-live-link"
+                and msg.get("type") in ("ack", "error")
+            ):
                 if msg["type"] == "error":
                     raise NuttyError(f"the server refused the live link: {msg.get('message', 'error')}")
                 break
@@ -145,10 +152,8 @@ class LiveLink:
         self._stop.set()
         if ws is not None:
             if release and not ws.closed:
-                try:
+                with contextlib.suppress(NuttyError):
                     ws.send({"type": "puppet", "release": True})
-                except NuttyError:
-                    pass
             ws.close()
         if self._reader is not None:
             self._reader.join(2.0)

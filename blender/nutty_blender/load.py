@@ -73,7 +73,9 @@ def load_robot(context: Any, client: Client) -> tuple[Any, list[str]]:
     for mesh in _fetch_meshes(client, collection, warnings):
         link = rig.link_of(mesh)
         if link not in plan.link_bones:
-            warnings.append(f"mesh '{mesh.name}' belongs to link '{link}', which no joint moves: it follows the base")
+            warnings.append(
+                f"mesh '{mesh.name}' belongs to link '{link}', which no joint moves: it follows the base"
+            )
         rig.parent_to_bone(mesh, ob, plan.link_bones.get(link))
     if action is not None:
         ob.animation_data_create().action = action

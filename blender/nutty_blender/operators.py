@@ -27,8 +27,10 @@ def client_of(context: Any) -> Client:
     (the extension rule); one on this machine (loopback) does not."""
     client = Client(context.scene.nutty.server_url, context.window_manager.nutty_token)
     if not client.loopback and not getattr(bpy.app, "online_access", True):
-        raise NuttyError(f"{client.url} is on another machine and Blender's online access is off: allow it in "
-                         f"Preferences > System > Network, or run nutty serve on this machine")
+        raise NuttyError(
+            f"{client.url} is on another machine and Blender's online access is off: allow it in "
+            f"Preferences > System > Network, or run nutty serve on this machine"
+        )
     return client
 
 
@@ -55,7 +57,9 @@ class _NuttyOperator(bpy.types.Operator):
             return {"CANCELLED"}
         except Exception as exc:  # a bug: say so in one line, keep the traceback for the console
             traceback.print_exc()
-            self.report({"ERROR"}, f"Nutty: unexpected {type(exc).__name__}: {exc} (details in the system console)")
+            self.report(
+                {"ERROR"}, f"Nutty: unexpected {type(exc).__name__}: {exc} (details in the system console)"
+            )
             return {"CANCELLED"}
         if message:
             self.report({"INFO"}, message)
@@ -87,9 +91,14 @@ class NUTTY_OT_export_clip(_NuttyOperator):
     bl_idname = "nutty.export_clip"
     bl_label = "Export clip"
 
-    name: StringProperty(name="Clip name", description="default: the Nutty panel's clip name, else the action's")
-    target: EnumProperty(name="Export to", items=[("PANEL", "As in the panel", ""), ("SERVER", "Server", ""),
-                                                  ("FILE", "File", "")], default="PANEL")
+    name: StringProperty(
+        name="Clip name", description="default: the Nutty panel's clip name, else the action's"
+    )
+    target: EnumProperty(
+        name="Export to",
+        items=[("PANEL", "As in the panel", ""), ("SERVER", "Server", ""), ("FILE", "File", "")],
+        default="PANEL",
+    )
     filepath: StringProperty(name="File", subtype="FILE_PATH", description="default: the Nutty panel's file")
 
     def run(self, context: Any) -> str:
@@ -99,8 +108,10 @@ class NUTTY_OT_export_clip(_NuttyOperator):
         name = (self.name or settings.clip_name or (action.name if action else "")).strip()
         doc, notes = clip.export_clip(ob, rig.plan_of(ob), context.scene, name)  # (no keys: said first)
         if not CLIP_NAME.match(name):  # the server's library rule, checked here so the name is never a path
-            raise clip.ExportError(f"invalid clip name {name!r}: use letters, digits, '_', '-' or '.' "
-                                   f"(at most 80 characters, not starting with '-' or '.')")
+            raise clip.ExportError(
+                f"invalid clip name {name!r}: use letters, digits, '_', '-' or '.' "
+                f"(at most 80 characters, not starting with '-' or '.')"
+            )
         self.warn(notes)
         target = settings.export_target if self.target == "PANEL" else self.target
         if target == "FILE":
@@ -151,8 +162,13 @@ class NUTTY_OT_ghost(_NuttyOperator):
     def run(self, context: Any) -> str:
         ob = rig_of(context)
         preset = context.scene.nutty.ghost_preset if self.preset == "PANEL" else self.preset
-        g, result = ghost.make_ghost(context, client_of(context), ob, None if preset == "PROGRAM" else preset,
-                                     context.scene.nutty.ghost_offset)
+        g, result = ghost.make_ghost(
+            context,
+            client_of(context),
+            ob,
+            None if preset == "PROGRAM" else preset,
+            context.scene.nutty.ghost_offset,
+        )
         return f"ghost '{g.name}': {len(result['tracks'])} DoFs through filter {result['preset']}"
 
 
@@ -175,8 +191,11 @@ class NUTTY_OT_live_link(_NuttyOperator):
     bl_idname = "nutty.live_link"
     bl_label = "Live link"
 
-    action: EnumProperty(name="Action", items=[("TOGGLE", "Toggle", ""), ("START", "Start", ""),
-                                               ("STOP", "Stop", "")], default="TOGGLE")
+    action: EnumProperty(
+        name="Action",
+        items=[("TOGGLE", "Toggle", ""), ("START", "Start", ""), ("STOP", "Stop", "")],
+        default="TOGGLE",
+    )
 
     def run(self, context: Any) -> str:
         link = live.LINK
@@ -187,5 +206,12 @@ class NUTTY_OT_live_link(_NuttyOperator):
         return f"live link on: {link.status}"
 
 
-CLASSES = (NUTTY_OT_load_robot, NUTTY_OT_export_clip, NUTTY_OT_check_limits, NUTTY_OT_clear_limits,
-           NUTTY_OT_ghost, NUTTY_OT_remove_ghost, NUTTY_OT_live_link)
+CLASSES = (
+    NUTTY_OT_load_robot,
+    NUTTY_OT_export_clip,
+    NUTTY_OT_check_limits,
+    NUTTY_OT_clear_limits,
+    NUTTY_OT_ghost,
+    NUTTY_OT_remove_ghost,
+    NUTTY_OT_live_link,
+)

@@ -46,7 +46,9 @@ def fcurves(ob: Any) -> list[Any]:
     if ad is None or ad.action is None:
         return []
     action = ad.action
-    if hasattr(action, "fcurves") and not getattr(action, "is_action_layered", False):  # Blender < 4.4 / legacy
+    if hasattr(action, "fcurves") and not getattr(
+        action, "is_action_layered", False
+    ):  # Blender < 4.4 / legacy
         return list(action.fcurves)
     from bpy_extras import anim_utils
 
@@ -195,7 +197,9 @@ def build(context: Any, robot: dict[str, Any], plan: RigPlan, name: str, collect
     try:
         _edit_bones(ob, plan)
     finally:
-        view_layer.objects.active = previous if previous is not None and previous.name in view_layer.objects else ob
+        view_layer.objects.active = (
+            previous if previous is not None and previous.name in view_layer.objects else ob
+        )
     _pose_bones(ob, plan)
     return ob
 

@@ -42,7 +42,9 @@ class BonePlan:
     limits: tuple[float, float] | None = None  # Limit Rotation on Y (rad), control bones
     rest: float = 0.0  # the DoF's rest value (rad): the bone's initial pose
     expression: str | None = None  # driver expression of the Y rotation (drive bones)
-    variables: dict[str, tuple[str, str]] = field(default_factory=dict)  # var -> ("prop", name) | ("bone", name)
+    variables: dict[str, tuple[str, str]] = field(
+        default_factory=dict
+    )  # var -> ("prop", name) | ("bone", name)
     hidden: bool = False
 
 
@@ -96,6 +98,7 @@ def _clamp(expr: str, lower: float | None, upper: float | None) -> str:
 
 def _refuse_unsupported(robot: dict[str, Any], frames: dict[str, Any], needed: set[str]) -> None:
     """RigError naming every joint a DoF needs that is missing or not a plain rotation."""
+
     def kind(j: str) -> str | None:
         if j not in frames:
             return "missing"
@@ -104,12 +107,19 @@ def _refuse_unsupported(robot: dict[str, Any], frames: dict[str, Any], needed: s
 
     bad = [f"'{j}' ({kind(j)})" for j in sorted(needed) if kind(j) is not None]
     if bad:
-        raise RigError(f"robot '{robot.get('name')}' has joints the add-on cannot rig: {', '.join(bad)}. It rigs "
-                       f"revolute and continuous joints (one rotation channel per bone)")
+        raise RigError(
+            f"robot '{robot.get('name')}' has joints the add-on cannot rig: {', '.join(bad)}. It rigs "
+            f"revolute and continuous joints (one rotation channel per bone)"
+        )
 
 
-def _joint_bones(name: str, f: dict[str, Any], parent: str | None, dof: dict[str, Any] | None,
-                 drives: list[tuple[str, float, float]] | None) -> list[BonePlan]:
+def _joint_bones(
+    name: str,
+    f: dict[str, Any],
+    parent: str | None,
+    dof: dict[str, Any] | None,
+    drives: list[tuple[str, float, float]] | None,
+) -> list[BonePlan]:
     """The bones of one joint, its link bone last: the DoF's control bone, a drive bone for the symbolic
     DoFs that drive it (under the control bone, or alone), or a locked bone for a joint nothing drives."""
     rot = f["rotation"]
@@ -123,22 +133,42 @@ def _joint_bones(name: str, f: dict[str, Any], parent: str | None, dof: dict[str
     if dof is not None:
         limits = None
         if f["type"] == "revolute":  # the DoF's limits, within the joint's (the engine clamps to both)
-            limits = (max(float(dof["min"]), lower if lower is not None else float(dof["min"])),
-                      min(float(dof["max"]), upper if upper is not None else float(dof["max"])))
-        bones.append(BonePlan(name=name, parent=parent, dof=dof["name"], rest=float(dof.get("rest") or 0.0),
-                              limits=limits, **common))
+            limits = (
+                max(float(dof["min"]), lower if lower is not None else float(dof["min"])),
+                min(float(dof["max"]), upper if upper is not None else float(dof["max"])),
+            )
+        bones.append(
+            BonePlan(
+                name=name,
+                parent=parent,
+                dof=dof["name"],
+                rest=float(dof.get("rest") or 0.0),
+                limits=limits,
+                **common,
+            )
+        )
     if drives:
         sums, variables = _sum_terms(drives)
         if dof is not None:  # the joint = its DoF (the control bone's angle) + the symbolic terms
             variables["d"] = ("bone", name)
             expression = f"{_clamp(f'd + {sums}', lower, upper)} - d"
-            bones.append(BonePlan(name=name + DRIVE_SUFFIX, parent=name, expression=expression, variables=variables,
-                                  hidden=True, **common))
+            bones.append(
+                BonePlan(
+                    name=name + DRIVE_SUFFIX,
+                    parent=name,
+                    expression=expression,
+                    variables=variables,
+                    hidden=True,
+                    **common,
+                )
+            )
         else:  # no DoF of its own: the joint rests where the engine rests it, plus the symbolic terms
             rest = 0.0 if lower is None else max(0.0, lower)  # the engine's rest of an undriven joint
             rest = rest if upper is None else min(rest, upper)
             expression = _clamp(f"{_fmt(rest)} + {sums}", lower, upper)
-            bones.append(BonePlan(name=name, parent=parent, expression=expression, variables=variables, **common))
+            bones.append(
+                BonePlan(name=name, parent=parent, expression=expression, variables=variables, **common)
+            )
     if not bones:  # a joint nothing drives: a locked bone (the engine holds it at zero)
         bones.append(BonePlan(name=name, parent=parent, **common))
     return bones
@@ -150,8 +180,10 @@ def plan_rig(robot: dict[str, Any]) -> RigPlan:
     frames: dict[str, dict[str, Any]] = robot.get("joint_frames") or {}
     dofs: list[dict[str, Any]] = robot.get("dofs") or []
     if not frames:
-        raise RigError(f"robot '{robot.get('name')}' has no joint frames: the server is older than the add-on, "
-                       f"or the robot has no URDF")
+        raise RigError(
+            f"robot '{robot.get('name')}' has no joint frames: the server is older than the add-on, "
+            f"or the robot has no URDF"
+        )
     stationary = [d for d in dofs if d.get("dimension") == "stationary" and d.get("type") == "continuous"]
     real = {d["joint"]: d for d in stationary if d.get("joint") and not d.get("drives")}
     symbolic = [d for d in stationary if d.get("drives")]
@@ -166,8 +198,10 @@ def plan_rig(robot: dict[str, Any]) -> RigPlan:
     for name, f in frames.items():  # parents first
         parent = link_bone.get(f["parent_joint"]) if f["parent_joint"] else None
         if f["type"] not in SUPPORTED_JOINTS or f.get("mimic"):  # no DoF needs it (else refused above)
-            warnings.append(f"joint '{name}' ({f['type']}{', mimic' if f.get('mimic') else ''}) is not rigged: "
-                            f"its links move with '{f['parent_joint'] or 'the base'}'")
+            warnings.append(
+                f"joint '{name}' ({f['type']}{', mimic' if f.get('mimic') else ''}) is not rigged: "
+                f"its links move with '{f['parent_joint'] or 'the base'}'"
+            )
             link_bone[name] = parent
             continue
         planned = _joint_bones(name, f, parent, real.get(name), drives_of.get(name))
@@ -181,31 +215,81 @@ def plan_rig(robot: dict[str, Any]) -> RigPlan:
     if spatial:
         warnings.append(f"spatial DoFs ({', '.join(spatial)}) are not rigged: animate the base in the editor")
     audible = {d.get("kind"): d["name"] for d in dofs if d.get("dimension") == "audible"}
-    return RigPlan(robot=str(robot.get("name")), bones=bones, props=_props(robot, symbolic), link_bones=links,
-                   joint_bones={j: b for j, b in link_bone.items() if b is not None},
-                   dof_bones={b.dof: b.name for b in bones if b.dof}, speech=audible.get("speech"),
-                   sound=audible.get("sound"), warnings=warnings)
+    return RigPlan(
+        robot=str(robot.get("name")),
+        bones=bones,
+        props=_props(robot, symbolic),
+        link_bones=links,
+        joint_bones={j: b for j, b in link_bone.items() if b is not None},
+        dof_bones={b.dof: b.name for b in bones if b.dof},
+        speech=audible.get("speech"),
+        sound=audible.get("sound"),
+        warnings=warnings,
+    )
 
 
 def _props(robot: dict[str, Any], symbolic: list[dict[str, Any]]) -> list[PropPlan]:
-    props = [PropPlan(d["name"], "float", float(d.get("rest") or 0.0), d.get("min"), d.get("max"),
-                      description=f"symbolic DoF: drives {d['drives']} (rad)") for d in symbolic]
+    props = [
+        PropPlan(
+            d["name"],
+            "float",
+            float(d.get("rest") or 0.0),
+            d.get("min"),
+            d.get("max"),
+            description=f"symbolic DoF: drives {d['drives']} (rad)",
+        )
+        for d in symbolic
+    ]
     for d in robot.get("dofs") or []:
         desc = d.get("description") or ""
         if d.get("dimension") == "display":
             if d["type"] == "colour":
-                props.append(PropPlan(d["name"], "colour", list(d.get("rest") or [0, 0, 0]), 0.0, 1.0,
-                                      description=desc or "LED colour"))
+                props.append(
+                    PropPlan(
+                        d["name"],
+                        "colour",
+                        list(d.get("rest") or [0, 0, 0]),
+                        0.0,
+                        1.0,
+                        description=desc or "LED colour",
+                    )
+                )
             elif d["type"] == "enum":
                 options = list(d.get("options") or [])
                 rest = d.get("rest") or 0
-                props.append(PropPlan(d["name"], "enum", int(round(float(rest))), 0, max(0, len(options) - 1),
-                                      options, description=f"{desc} (0..{len(options) - 1}: {', '.join(options)})"))
+                props.append(
+                    PropPlan(
+                        d["name"],
+                        "enum",
+                        round(float(rest)),
+                        0,
+                        max(0, len(options) - 1),
+                        options,
+                        description=f"{desc} (0..{len(options) - 1}: {', '.join(options)})",
+                    )
+                )
             elif d["type"] == "continuous":
-                props.append(PropPlan(d["name"], "float", float(d.get("rest") or 0.0), d.get("min"), d.get("max"),
-                                      description=desc))
+                props.append(
+                    PropPlan(
+                        d["name"],
+                        "float",
+                        float(d.get("rest") or 0.0),
+                        d.get("min"),
+                        d.get("max"),
+                        description=desc,
+                    )
+                )
         elif d.get("dimension") == "audible" and d.get("kind") == "sound":
             sounds = list(d.get("sounds") or [])
-            props.append(PropPlan(d["name"], "sound", 0, 0, len(sounds), ["-", *sounds],
-                                  description=f"key a sound: 1..{len(sounds)} = {', '.join(sounds)} (0: none)"))
+            props.append(
+                PropPlan(
+                    d["name"],
+                    "sound",
+                    0,
+                    0,
+                    len(sounds),
+                    ["-", *sounds],
+                    description=f"key a sound: 1..{len(sounds)} = {', '.join(sounds)} (0: none)",
+                )
+            )
     return props

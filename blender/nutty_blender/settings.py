@@ -2,14 +2,26 @@
 
 # (no `from __future__ import annotations`: Blender reads the property annotations as objects)
 import bpy
-from bpy.props import (CollectionProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
-                       StringProperty)
+from bpy.props import (
+    CollectionProperty,
+    EnumProperty,
+    FloatProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
 
 from .client import DEFAULT_URL
 
-PRESETS = [("PROGRAM", "Running program", "the running program's stage-2 motion filter"),
-           ("W", "W regular", "limits only"), ("A", "A slow & smooth", ""), ("B", "B slow & vivid", ""),
-           ("C", "C fast & vivid", ""), ("D", "D fast & smooth", ""), ("E", "E fast & very smooth", "")]
+PRESETS = [
+    ("PROGRAM", "Running program", "the running program's stage-2 motion filter"),
+    ("W", "W regular", "limits only"),
+    ("A", "A slow & smooth", ""),
+    ("B", "B slow & vivid", ""),
+    ("C", "C fast & vivid", ""),
+    ("D", "D fast & smooth", ""),
+    ("E", "E fast & very smooth", ""),
+]
 
 
 class NuttyRange(bpy.types.PropertyGroup):
@@ -20,23 +32,39 @@ class NuttyRange(bpy.types.PropertyGroup):
     kind: StringProperty(name="Kind", description="velocity, acceleration, jerk or position")
     frame_start: IntProperty(name="From")
     frame_end: IntProperty(name="To")
-    worst_ratio: FloatProperty(name="Worst", description="the worst value over the limit, as a multiple of it")
+    worst_ratio: FloatProperty(
+        name="Worst", description="the worst value over the limit, as a multiple of it"
+    )
 
 
 class NuttySettings(bpy.types.PropertyGroup):
-    server_url: StringProperty(name="Server", default=DEFAULT_URL,
-                               description="the address of a running `nutty serve`")
-    clip_name: StringProperty(name="Clip", default="",
-                              description="name of the exported clip (default: the action's name)")
-    export_target: EnumProperty(name="Export to", default="SERVER",
-                                items=[("SERVER", "Server", "save in the robot's library (PUT /api/clips/{name})"),
-                                       ("FILE", "File", "write a .json file")])
+    server_url: StringProperty(
+        name="Server", default=DEFAULT_URL, description="the address of a running `nutty serve`"
+    )
+    clip_name: StringProperty(
+        name="Clip", default="", description="name of the exported clip (default: the action's name)"
+    )
+    export_target: EnumProperty(
+        name="Export to",
+        default="SERVER",
+        items=[
+            ("SERVER", "Server", "save in the robot's library (PUT /api/clips/{name})"),
+            ("FILE", "File", "write a .json file"),
+        ],
+    )
     export_path: StringProperty(name="File", subtype="FILE_PATH", default="//clip.json")
-    ghost_preset: EnumProperty(name="Filter", items=PRESETS, default="PROGRAM",
-                               description="the motion filter the ghost shows")
-    ghost_offset: FloatProperty(name="Beside", default=-1.0, min=-1.0, soft_max=2.0, unit="LENGTH",
-                                description="how far to the robot's left the ghost stands (m): 0 overlays it on "
-                                            "the rig, -1 puts it one robot width away")
+    ghost_preset: EnumProperty(
+        name="Filter", items=PRESETS, default="PROGRAM", description="the motion filter the ghost shows"
+    )
+    ghost_offset: FloatProperty(
+        name="Beside",
+        default=-1.0,
+        min=-1.0,
+        soft_max=2.0,
+        unit="LENGTH",
+        description="how far to the robot's left the ghost stands (m): 0 overlays it on "
+        "the rig, -1 puts it one robot width away",
+    )
     ranges: CollectionProperty(type=NuttyRange)
     ranges_index: IntProperty()
     check_summary: StringProperty(name="Limits")
@@ -50,8 +78,11 @@ def register() -> None:
         bpy.utils.register_class(cls)
     bpy.types.Scene.nutty = PointerProperty(type=NuttySettings)
     bpy.types.WindowManager.nutty_token = StringProperty(
-        name="Token", subtype="PASSWORD", options={"SKIP_SAVE"},
-        description="the server's --token, if it has one (kept for this session only; or set NUTTY_TOKEN)")
+        name="Token",
+        subtype="PASSWORD",
+        options={"SKIP_SAVE"},
+        description="the server's --token, if it has one (kept for this session only; or set NUTTY_TOKEN)",
+    )
 
 
 def unregister() -> None:

@@ -7,8 +7,12 @@ import bpy
 
 from . import live, rig
 
-KIND_ICONS = {"velocity": "SEQUENCE_COLOR_02", "acceleration": "SEQUENCE_COLOR_06", "jerk": "SEQUENCE_COLOR_01",
-              "position": "SEQUENCE_COLOR_05"}  # orange, pink, red, purple: the editor's colours
+KIND_ICONS = {
+    "velocity": "SEQUENCE_COLOR_02",
+    "acceleration": "SEQUENCE_COLOR_06",
+    "jerk": "SEQUENCE_COLOR_01",
+    "position": "SEQUENCE_COLOR_05",
+}  # orange, pink, red, purple: the editor's colours
 
 
 class NUTTY_MT_menu(bpy.types.Menu):
@@ -21,13 +25,26 @@ class NUTTY_MT_menu(bpy.types.Menu):
         layout.operator("nutty.export_clip", icon="EXPORT")
         layout.operator("nutty.check_limits", icon="ERROR")
         layout.operator("nutty.ghost", icon="GHOST_ENABLED")
-        layout.operator("nutty.live_link", text="Live link (stop)" if live.LINK.running else "Live link",
-                        icon="LINKED" if live.LINK.running else "UNLINKED")
+        layout.operator(
+            "nutty.live_link",
+            text="Live link (stop)" if live.LINK.running else "Live link",
+            icon="LINKED" if live.LINK.running else "UNLINKED",
+        )
 
 
 class NUTTY_UL_ranges(bpy.types.UIList):
-    def draw_item(self, context: Any, layout: Any, data: Any, item: Any, icon: Any, active_data: Any,
-                  active_prop: str, index: int = 0, flt_flag: int = 0) -> None:
+    def draw_item(
+        self,
+        context: Any,
+        layout: Any,
+        data: Any,
+        item: Any,
+        icon: Any,
+        active_data: Any,
+        active_prop: str,
+        index: int = 0,
+        flt_flag: int = 0,
+    ) -> None:
         row = layout.row(align=True)
         row.label(text=item.bone or item.dof, icon=KIND_ICONS.get(item.kind, "ERROR"))
         row.label(text=item.kind)
@@ -77,8 +94,12 @@ class NUTTY_PT_panel(bpy.types.Panel):
         row.operator("nutty.remove_ghost", text="", icon="X")
         box = layout.box()
         link = live.LINK
-        box.operator("nutty.live_link", text="Stop live link" if link.running else "Start live link",
-                     icon="LINKED" if link.running else "UNLINKED", depress=link.running)
+        box.operator(
+            "nutty.live_link",
+            text="Stop live link" if link.running else "Start live link",
+            icon="LINKED" if link.running else "UNLINKED",
+            depress=link.running,
+        )
         box.label(text=link.status)
         if link.server_error:
             box.label(text=f"server: {link.server_error}", icon="ERROR")

@@ -60,7 +60,7 @@ POSED_FRAME = 12  # current frame when rig `links` is exported with its pose as 
 
 
 def rpy_matrix(r: float, p: float, y: float) -> Matrix:
-    return (Matrix.Rotation(y, 3, "Z") @ Matrix.Rotation(p, 3, "Y") @ Matrix.Rotation(r, 3, "X"))
+    return Matrix.Rotation(y, 3, "Z") @ Matrix.Rotation(p, 3, "Y") @ Matrix.Rotation(r, 3, "X")
 
 
 def urdf_frames(urdf: Path) -> dict[str, dict]:
@@ -73,8 +73,13 @@ def urdf_frames(urdf: Path) -> dict[str, dict]:
         rpy = [float(v) for v in (o.get("rpy", "0 0 0") if o is not None else "0 0 0").split()]
         a = j.find("axis")
         axis = [float(v) for v in (a.get("xyz", "1 0 0") if a is not None else "1 0 0").split()]
-        joints[j.get("name")] = {"parent": j.find("parent").get("link"), "child": j.find("child").get("link"),
-                                 "xyz": Vector(xyz), "rot": rpy_matrix(*rpy), "axis": Vector(axis).normalized()}
+        joints[j.get("name")] = {
+            "parent": j.find("parent").get("link"),
+            "child": j.find("child").get("link"),
+            "xyz": Vector(xyz),
+            "rot": rpy_matrix(*rpy),
+            "axis": Vector(axis).normalized(),
+        }
     by_child = {v["child"]: k for k, v in joints.items()}
     out: dict[str, dict] = {}
 
@@ -88,8 +93,13 @@ def urdf_frames(urdf: Path) -> dict[str, dict]:
 
     for name in CHAIN:
         p, r = world(name)
-        out[name] = {"pos": p, "rot": r, "axis": (r @ joints[name]["axis"]).normalized(),
-                     "child": joints[name]["child"], "parent": by_child.get(joints[name]["parent"])}
+        out[name] = {
+            "pos": p,
+            "rot": r,
+            "axis": (r @ joints[name]["axis"]).normalized(),
+            "child": joints[name]["child"],
+            "parent": by_child.get(joints[name]["parent"]),
+        }
     return out
 
 
@@ -113,7 +123,9 @@ def build_rig(name: str, frames: dict[str, dict], bone_names: dict[str, str]) ->
         b = arm.edit_bones.new(bone_names[joint])
         b.head = f["pos"]
         b.tail = f["pos"] + up * length
-        b.align_roll(f["rot"] @ Vector((0, -1, 0)))  # bone Z = the joint frame's -Y: local axes differ from world
+        b.align_roll(
+            f["rot"] @ Vector((0, -1, 0))
+        )  # bone Z = the joint frame's -Y: local axes differ from world
         if f["parent"] is not None:
             b.parent = arm.edit_bones[bone_names[f["parent"]]]
             b.use_connect = False
@@ -126,7 +138,7 @@ def build_rig(name: str, frames: dict[str, dict], bone_names: dict[str, str]) ->
         perp = axis.orthogonal().normalized()
         prev = None
         for frame, (angle, swing) in KEYS[joint].items():
-            d_world = (Matrix.Rotation(angle, 3, axis) @ Matrix.Rotation(swing, 3, perp))
+            d_world = Matrix.Rotation(angle, 3, axis) @ Matrix.Rotation(swing, 3, perp)
             basis = (rest.inverted() @ d_world @ rest).to_quaternion()
             if prev is not None and prev.dot(basis) < 0:
                 basis.negate()
@@ -163,13 +175,14 @@ def add_skinned_mesh(rig: bpy.types.Object, bone_names: list[str]) -> None:
     ob.parent = rig
 
 
-def evaluated_angles(rig: bpy.types.Object, frames: dict[str, dict], bone_names: dict[str, str],
-                     times: list[float]) -> dict[str, list[float]]:
+def evaluated_angles(
+    rig: bpy.types.Object, frames: dict[str, dict], bone_names: dict[str, str], times: list[float]
+) -> dict[str, list[float]]:
     """Blender's evaluated angle of every joint at each frame (fractional frames allowed)."""
     scene = bpy.context.scene
     out: dict[str, list[float]] = {j: [] for j in CHAIN}
     for fr in times:
-        scene.frame_set(int(math.floor(fr)), subframe=fr - math.floor(fr))
+        scene.frame_set(math.floor(fr), subframe=fr - math.floor(fr))
         dg = bpy.context.evaluated_depsgraph_get()
         ev = rig.evaluated_get(dg)
         for joint in CHAIN:
@@ -211,9 +224,14 @@ def main(argv: list[str] | None = None) -> int:
     scene.frame_set(0)
 
     samples = [k / 2 for k in range(2 * LAST_FRAME + 1)]
-    expected: dict = {"fps": FPS, "frames": samples, "times": [f / FPS for f in samples], "rigs": {},
-                      "axes": {j: list(frames[j]["axis"]) for j in CHAIN}, "keys": {
-                          j: {str(k): v for k, v in keys.items()} for j, keys in KEYS.items()}}
+    expected: dict = {
+        "fps": FPS,
+        "frames": samples,
+        "times": [f / FPS for f in samples],
+        "rigs": {},
+        "axes": {j: list(frames[j]["axis"]) for j in CHAIN},
+        "keys": {j: {str(k): v for k, v in keys.items()} for j, keys in KEYS.items()},
+    }
 
     # rig `joints`: bones named after the joints
     names = {j: j for j in CHAIN}
@@ -238,8 +256,12 @@ def main(argv: list[str] | None = None) -> int:
     add_skinned_mesh(rig, [names[j] for j in CHAIN])
     expected["rigs"]["links"] = {"bones": names, "angles": evaluated_angles(rig, frames, names, samples)}
     scene.frame_set(POSED_FRAME)
-    export(out / "links_skinned.glb", export_format="GLB", export_rest_position_armature=False,
-           export_current_frame=True)
+    export(
+        out / "links_skinned.glb",
+        export_format="GLB",
+        export_rest_position_armature=False,
+        export_current_frame=True,
+    )
     scene.frame_set(0)
 
     expected["blender"] = bpy.app.version_string

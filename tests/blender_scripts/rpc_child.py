@@ -21,9 +21,8 @@ sys.stdout = sys.stderr
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "blender"))
 
 import bpy  # noqa: E402
-from mathutils import Matrix  # noqa: E402
-
 import nutty_blender  # noqa: E402
+from mathutils import Matrix  # noqa: E402
 
 nutty_blender.register()
 
@@ -99,9 +98,17 @@ def operator_error(op, **kw) -> str | None:
     return None
 
 
-namespace = {"bpy": bpy, "nutty_blender": nutty_blender, "reset_scene": reset_scene, "key": key,
-             "joint_angles": joint_angles,
-             "operator_error": operator_error, "Matrix": Matrix, "math": math, "json": json}
+namespace = {
+    "bpy": bpy,
+    "nutty_blender": nutty_blender,
+    "reset_scene": reset_scene,
+    "key": key,
+    "joint_angles": joint_angles,
+    "operator_error": operator_error,
+    "Matrix": Matrix,
+    "math": math,
+    "json": json,
+}
 protocol.write(json.dumps({"ok": True, "result": {"blender": bpy.app.version_string}}) + "\n")
 for line in sys.stdin:
     request = json.loads(line)

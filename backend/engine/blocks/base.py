@@ -41,7 +41,7 @@ import dataclasses
 import inspect
 import math
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 from types import SimpleNamespace
 from typing import Annotated, Any, ClassVar, Literal
 
@@ -64,7 +64,7 @@ from backend.engine.frames import PartialFrame
 from backend.safe_json import validation_bytes
 
 
-class Role(str, Enum):
+class Role(StrEnum):
     """What a block is in the APU (the paper's Level 0-3 pipeline)."""
 
     source = "source"  # creates a PAF
@@ -85,7 +85,7 @@ class BlockParams(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True)
 
     @classmethod
-    def from_json_value(cls, raw: Any) -> "BlockParams":
+    def from_json_value(cls, raw: Any) -> BlockParams:
         """Parameters from a program document's JSON value, validated strictly as JSON: a number must be
         a JSON number (not true, not "0.3"), a list a JSON array; nothing is coerced."""
         return cls.model_validate_json(validation_bytes(raw), strict=True)
@@ -141,8 +141,12 @@ def _number(value: Any) -> Any:
 
 
 # What a wired value of each port type must be to override its parameter (None: not usable).
-_USABLE = {PortType.vec3: vec3_or_none, PortType.colour: colour_or_none,
-           PortType.float: _number, PortType.int: _number}
+_USABLE = {
+    PortType.vec3: vec3_or_none,
+    PortType.colour: colour_or_none,
+    PortType.float: _number,
+    PortType.int: _number,
+}
 
 Clamp = Literal["range", "floor"]
 
@@ -157,8 +161,9 @@ class Drive:
     clamp: Clamp | None = None
 
 
-def drivable(field_info: FieldInfo, doc: str = "", *, port: PortType = PortType.float,
-             clamp: Clamp | None = None) -> Any:
+def drivable(
+    field_info: FieldInfo, doc: str = "", *, port: PortType = PortType.float, clamp: Clamp | None = None
+) -> Any:
     """Declare a parameter drivable by a signal: `amplitude: float = drivable(Field(...), "overrides …")`.
 
     The block then has an input port of the parameter's name, type `port` and doc `doc`, and
@@ -180,7 +185,7 @@ class DrivenParam:
     hi: float | None = None
 
     @classmethod
-    def of(cls, name: str, info: FieldInfo, drive: Drive) -> "DrivenParam":
+    def of(cls, name: str, info: FieldInfo, drive: Drive) -> DrivenParam:
         lo = hi = None
         if drive.clamp is not None:
             lo = next((m.ge for m in info.metadata if getattr(m, "ge", None) is not None), None)  # Field(ge=)
@@ -194,10 +199,15 @@ class DrivenParam:
     def resolve(self, wired: Any, fallback: Any) -> Any:
         """The wired value when it is usable, else `fallback`; numbers as float/int, clamped as declared."""
         kind = self.port.type
-        if type(wired) is float and kind is PortType.float and math.isfinite(wired):  # the common case, shortly
+        if (
+            type(wired) is float and kind is PortType.float and math.isfinite(wired)
+        ):  # the common case, shortly
             lo, hi = self.lo, self.hi
-            return wired if lo is None and hi is None else min(max(wired, -math.inf if lo is None else lo),
-                                                               math.inf if hi is None else hi)
+            return (
+                wired
+                if lo is None and hi is None
+                else min(max(wired, -math.inf if lo is None else lo), math.inf if hi is None else hi)
+            )
         usable = _USABLE.get(kind)
         value = wired if usable is None else usable(wired)
         if value is None:
@@ -246,10 +256,22 @@ class _DrivenMemo:
     as the vector ports' own cache does); a number equal to zero must also have the same sign (-0.0 == 0 ==
     0.0, an int zero counting as +0.0). Any other key (an array, …) is resolved anew."""
 
-    __slots__ = ("params", "names", "name_set", "static", "static_ns", "ports_compared", "floats", "key", "lists",
-                 "zeros", "exact", "ns")
+    __slots__ = (
+        "exact",
+        "floats",
+        "key",
+        "lists",
+        "name_set",
+        "names",
+        "ns",
+        "params",
+        "ports_compared",
+        "static",
+        "static_ns",
+        "zeros",
+    )
 
-    def __init__(self, params: BaseModel, drivables: dict[str, "DrivenParam"]):
+    def __init__(self, params: BaseModel, drivables: dict[str, DrivenParam]):
         self.params = params
         self.names = tuple(drivables)
         self.name_set = frozenset(self.names)
@@ -261,9 +283,16 @@ class _DrivenMemo:
         self.floats = None
         if all(d.port.type is PortType.float for d in drivables.values()):
             self.floats = tuple(
-                (d, getattr(params, name), None, None) if d.lo is None and d.hi is None else
-                (d, getattr(params, name), -math.inf if d.lo is None else d.lo, math.inf if d.hi is None else d.hi)
-                for name, d in drivables.items())
+                (d, getattr(params, name), None, None)
+                if d.lo is None and d.hi is None
+                else (
+                    d,
+                    getattr(params, name),
+                    -math.inf if d.lo is None else d.lo,
+                    math.inf if d.hi is None else d.hi,
+                )
+                for name, d in drivables.items()
+            )
         self.key, self.lists, self.zeros, self.exact, self.ns = None, False, None, False, None
 
     def hit(self, key: tuple) -> bool:
@@ -382,8 +411,10 @@ class Block:
             raise TypeError(f"{cls.__name__}: ports {clash} are declared by hand and as drivable parameters")
         cls.inputs = {**declared, **{name: d.port for name, d in cls.drivables.items()}}
         if "ports" in cls.__dict__:
-            raise TypeError(f"{cls.__name__}: derive ports with `port_rules`, which the editor applies too, "
-                            f"instead of overriding ports()")
+            raise TypeError(
+                f"{cls.__name__}: derive ports with `port_rules`, which the editor applies too, "
+                f"instead of overriding ports()"
+            )
 
     def __init__(self, params: BlockParams, ctx: BlockContext, node_id: str = ""):
         self.params = params
@@ -452,7 +483,7 @@ class Block:
         self.params = params
         self.configure()
 
-    def adopt_state(self, old: "Block") -> None:
+    def adopt_state(self, old: Block) -> None:
         """Take over the state of the block this one replaces in a hot swap (same id and type).
 
         The state is taken as a whole (arrays copied), unless an array in it changed shape with the new
@@ -469,7 +500,9 @@ class Block:
 
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         """Carry out a run-time command addressed to this block; raise BlockCommandError if unknown."""
-        raise BlockCommandError(f"block '{self.node_id}' ({self.type_name}) does not take command '{command}'")
+        raise BlockCommandError(
+            f"block '{self.node_id}' ({self.type_name}) does not take command '{command}'"
+        )
 
     # --- helpers --------------------------------------------------------------------------------
     def driven(self, inputs: dict[str, Any], **fallbacks: Any) -> SimpleNamespace:
@@ -485,7 +518,9 @@ class Block:
         if fallbacks:
             if not memo.name_set.issuperset(fallbacks):
                 unknown = fallbacks.keys() - memo.name_set
-                raise TypeError(f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters")
+                raise TypeError(
+                    f"{type(self).__name__}.driven: {sorted(unknown)} are not drivable parameters"
+                )
             given = fallbacks.get
             if len(names) == 1:
                 key = (get(names[0]), given(names[0], _UNSET))
@@ -523,8 +558,9 @@ class Block:
         memo.remember(key, result)
         return result
 
-    def _resolve_driven(self, key: tuple, fallbacks: dict[str, Any], memo: "_DrivenMemo",
-                        params: BlockParams) -> SimpleNamespace:
+    def _resolve_driven(
+        self, key: tuple, fallbacks: dict[str, Any], memo: _DrivenMemo, params: BlockParams
+    ) -> SimpleNamespace:
         """`driven` worked out for `key` (its wired values first): the static values, then per parameter
         the wired value resolved against the fallback given (or the parameter) when it is usable."""
         values = memo.static.copy()
@@ -537,7 +573,11 @@ class Block:
             elif type(wired) in (list, tuple):  # a vector signal: converted again only when it changes
                 vec, seen = tuple(wired), self.__dict__.setdefault("_wired_cache", {}).get(name)
                 if seen is None or seen[1] is not params or seen[0] != vec:
-                    seen = self._wired_cache[name] = (vec, params, drivables[name].resolve(wired, getattr(params, name)))
+                    seen = self._wired_cache[name] = (
+                        vec,
+                        params,
+                        drivables[name].resolve(wired, getattr(params, name)),
+                    )
                 values[name] = seen[2]
             else:
                 values[name] = drivables[name].resolve(wired, getattr(params, name))
@@ -609,7 +649,9 @@ def register_block(cls: type[Block]) -> type[Block]:
     if not cls.type_name:
         raise TypeError(f"{cls.__name__} has no type_name")
     if cls.type_name in BLOCKS and BLOCKS[cls.type_name] is not cls:
-        raise TypeError(f"block type '{cls.type_name}' registered twice ({BLOCKS[cls.type_name].__name__}, {cls.__name__})")
+        raise TypeError(
+            f"block type '{cls.type_name}' registered twice ({BLOCKS[cls.type_name].__name__}, {cls.__name__})"
+        )
     if not cls.doc and cls.__doc__:  # the class docstring is the doc the editor shows
         cls.doc = inspect.cleandoc(cls.__doc__)
     BLOCKS[cls.type_name] = cls

@@ -19,29 +19,39 @@ from backend.engine.selectors import channel_mask
 class BlinkParams(BlockParams):
     dofs: DofSelection = Field(default=["blink"])
     closed: float | Literal["max", "min"] = Field(
-        "max", description="position of a closed eyelid (rad or m), or 'max'/'min' for each DoF's limit")
+        "max", description="position of a closed eyelid (rad or m), or 'max'/'min' for each DoF's limit"
+    )
     close_time: float = Field(0.08, ge=0.02, le=1.0, description="time to close (s)")
     hold_time: float = Field(0.03, ge=0.0, le=1.0, description="time held closed (s)")
     open_time: float = Field(0.18, ge=0.02, le=2.0, description="time to open again (s)")
     min_interval: float = Field(1.5, ge=0.2, le=120.0, description="shortest time between blinks (s)")
     mean_interval: float = Field(4.0, ge=0.2, le=120.0, description="average time between blinks (s)")
     max_interval: float = Field(10.0, ge=0.2, le=120.0, description="longest time between blinks (s)")
-    double_blink_probability: float = Field(0.1, ge=0.0, le=1.0, description="chance a blink is doubled (0..1)")
-    double_blink_gap: float = Field(0.12, ge=0.0, le=2.0,
-                                    description="pause between the two blinks of a double blink (s)")
+    double_blink_probability: float = Field(
+        0.1, ge=0.0, le=1.0, description="chance a blink is doubled (0..1)"
+    )
+    double_blink_gap: float = Field(
+        0.12, ge=0.0, le=2.0, description="pause between the two blinks of a double blink (s)"
+    )
     gaze_shift_threshold: float = Field(
-        0.2, ge=0.0, le=math.pi,
+        0.2,
+        ge=0.0,
+        le=math.pi,
         description="gaze change that counts as a gaze shift (rad: angle between target directions, or change "
-                    "of a gaze angle)")
-    seed: int = Field(0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)")
+        "of a gaze angle)",
+    )
+    seed: int = Field(
+        0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
+    )
 
     @model_validator(mode="after")
-    def _intervals(self) -> "BlinkParams":
+    def _intervals(self) -> BlinkParams:
         if not self.min_interval <= self.mean_interval <= self.max_interval:
             raise ValueError(
                 "blink intervals must satisfy min_interval <= mean_interval <= max_interval, got "
                 f"min_interval={self.min_interval}, mean_interval={self.mean_interval}, "
-                f"max_interval={self.max_interval}")
+                f"max_interval={self.max_interval}"
+            )
         return self
 
 
@@ -62,7 +72,9 @@ class Blink(Source):
     Params = BlinkParams
     inputs = {
         "hold": Port(PortType.bool, "while true, no blink starts (a held expression)"),
-        "gaze": Port(PortType.vec3, "gaze target (m, robot frame); turning it by more than the threshold blinks"),
+        "gaze": Port(
+            PortType.vec3, "gaze target (m, robot frame); turning it by more than the threshold blinks"
+        ),
     }
     outputs = {
         "out": Port(PortType.frame, "the eyelid DoFs"),
@@ -93,7 +105,9 @@ class Blink(Source):
             closed = np.clip(float(p.closed), emb.min, emb.max)
         self.delta = np.where(self.mask, closed - emb.rest, 0.0)
         # Outside a blink (k = 0) the frame is always the same: computed once.
-        self._open_values = np.where(self.mask, np.clip(emb.rest + 0.0 * self.delta, emb.min, emb.max), emb.rest)
+        self._open_values = np.where(
+            self.mask, np.clip(emb.rest + 0.0 * self.delta, emb.min, emb.max), emb.rest
+        )
 
     def reset(self) -> None:
         self.state = self.State(rng=block_rng(self.ctx, self.params.seed, self.node_id))
@@ -188,9 +202,7 @@ class Blink(Source):
                 if s.double_at is not None and s.t >= s.double_at:
                     s.double_at = None
                     self._start(scheduled=False)
-                elif shifted and s.t - s.last_onset > p.min_interval / 2:
-                    self._start()
-                elif s.t >= s.next_at:
+                elif (shifted and s.t - s.last_onset > p.min_interval / 2) or s.t >= s.next_at:
                     self._start()
             else:
                 s.double_at = None  # a held expression cancels a pending second blink
@@ -205,5 +217,7 @@ class Blink(Source):
         if k == 0.0:
             return {"out": PartialFrame(self._open_values.copy(), self.mask, []), "blinking": s.active}
         values = np.clip(emb.rest + k * self.delta, emb.min, emb.max)
-        return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, []),
-                "blinking": s.active}
+        return {
+            "out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, []),
+            "blinking": s.active,
+        }

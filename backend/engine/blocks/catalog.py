@@ -26,8 +26,10 @@ CATEGORIES: dict[str, str] = {
 def block_catalog() -> list[dict[str, Any]]:
     """Every registered block type with its schema, ports, category and doc (palette order)."""
     order = {name: k for k, name in enumerate(CATEGORIES)}
-    return [BLOCKS[k].describe()
-            for k in sorted(BLOCKS, key=lambda k: (order.get(BLOCKS[k].category, len(order)), k))]
+    return [
+        BLOCKS[k].describe()
+        for k in sorted(BLOCKS, key=lambda k: (order.get(BLOCKS[k].category, len(order)), k))
+    ]
 
 
 def editor_rules() -> dict[str, Any]:

@@ -36,18 +36,23 @@ class ClipPlayerBusy(BlockCommandError):
     code = "busy"
 
     def __init__(self, node_id: str, clip: str, command_id: Any):
-        super().__init__(f"clip player '{node_id}' is playing '{clip}' (command {command_id!r}); "
-                         f"use if_busy 'replace' or 'queue', or cancel that command")
+        super().__init__(
+            f"clip player '{node_id}' is playing '{clip}' (command {command_id!r}); "
+            f"use if_busy 'replace' or 'queue', or cancel that command"
+        )
         self.clip, self.command_id = clip, command_id
 
 
 class ClipPlayerParams(BlockParams):
-    clip: str | None = Field(None, description="clip to play (from robots/<robot>/clips/)",
-                             json_schema_extra={"x-widget": "clip"})
+    clip: str | None = Field(
+        None, description="clip to play (from robots/<robot>/clips/)", json_schema_extra={"x-widget": "clip"}
+    )
     autoplay: bool = Field(False, description="start playing `clip` when the program starts")
     mode: PlayMode = Field("once", description="once, loop, or ping_pong (forward then backward)")
-    speed: float = drivable(Field(1.0, ge=0.05, le=5.0, description="playback speed (1 = authored timing)"),
-                            "overrides the speed (e.g. from an emotion mapping)")
+    speed: float = drivable(
+        Field(1.0, ge=0.05, le=5.0, description="playback speed (1 = authored timing)"),
+        "overrides the speed (e.g. from an emotion mapping)",
+    )
     crossfade: float = Field(0.3, ge=0.0, le=5.0, description="blend-in time from the current pose (s)")
     release: float = Field(0.4, ge=0.0, le=5.0, description="blend-out time after the clip ends or stops (s)")
     hold: bool = Field(False, description="after a `once` clip ends, hold its last pose instead of releasing")
@@ -111,22 +116,32 @@ class ClipPlayer(Source):
         warp: tuple[np.ndarray, np.ndarray] | None = None  # anchor time map (play time -> clip time)
         speed: float | None = None  # the play command's speed (None: the parameter)
         done: bool = False  # the clip ended or was stopped (fading out)
-        queue: list[dict[str, Any]] = field(default_factory=list)  # plays waiting (their args, with command_id)
+        queue: list[dict[str, Any]] = field(
+            default_factory=list
+        )  # plays waiting (their args, with command_id)
 
     def configure(self) -> None:
         self.allowed = channel_mask(self.emb, self.params.dofs)
         self._cache: dict[str, tuple[int, CompiledClip]] = {}
         self._kernel = entry_point(clip_tick, CLIP_SIG) if self.ctx.compiled else None
-        self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)  # shared by every frame out of sight: read-only
+        self._no_mask = np.zeros(
+            self.emb.n_channels, dtype=bool
+        )  # shared by every frame out of sight: read-only
         if self.params.clip and self.ctx.resources is not None:
             self._load(self.params.clip)  # an unknown or broken clip is a configuration error, named
 
     def reset(self) -> None:
         n, p = self.emb.n_channels, self.params
-        self.state = self.State(values=self.emb.rest.copy(), from_values=self.emb.rest.copy(),
-                                mask=np.zeros(n, dtype=bool), old_mask=np.zeros(n, dtype=bool), mode=p.mode,
-                                fade_in=p.crossfade, fade_out=p.release,
-                                pending_autoplay=bool(p.autoplay and p.clip))
+        self.state = self.State(
+            values=self.emb.rest.copy(),
+            from_values=self.emb.rest.copy(),
+            mask=np.zeros(n, dtype=bool),
+            old_mask=np.zeros(n, dtype=bool),
+            mode=p.mode,
+            fade_in=p.crossfade,
+            fade_out=p.release,
+            pending_autoplay=bool(p.autoplay and p.clip),
+        )
 
     # --- clips --------------------------------------------------------------------------------------
     def _load(self, name: str) -> CompiledClip:
@@ -160,7 +175,9 @@ class ClipPlayer(Source):
         warp = None
         if args.get("anchors"):
             try:
-                warp = time_map(clip.duration, float(speed or self.params.speed), clip.anchors, dict(args["anchors"]))
+                warp = time_map(
+                    clip.duration, float(speed or self.params.speed), clip.anchors, dict(args["anchors"])
+                )
             except ClipError as exc:
                 raise BlockCommandError(f"clip '{name}': {exc}") from exc
         crossfade = args.get("crossfade")
@@ -198,9 +215,15 @@ class ClipPlayer(Source):
         if not self.busy():
             return {"clip": None, "command_id": None, "queued": queued} if queued else None
         clip = s.current
-        return {"clip": clip.name, "command_id": s.command_id, "t": round(s.pos, 3), "duration": clip.duration,
-                "progress": round(min(max(s.pos / clip.duration, 0.0), 1.0), 3) if clip.duration > 0 else 1.0,
-                "mode": s.mode, "queued": queued}
+        return {
+            "clip": clip.name,
+            "command_id": s.command_id,
+            "t": round(s.pos, 3),
+            "duration": clip.duration,
+            "progress": round(min(max(s.pos / clip.duration, 0.0), 1.0), 3) if clip.duration > 0 else 1.0,
+            "mode": s.mode,
+            "queued": queued,
+        }
 
     def _play(self, args: dict[str, Any]) -> dict[str, Any]:
         name = args.get("clip") or self.params.clip
@@ -240,8 +263,13 @@ class ClipPlayer(Source):
                 self._start(args["clip"], args)
                 return
             except BlockCommandError as exc:
-                self.ctx.notify(self.node_id, "cancelled", command_id=args.get("command_id"), clip=args["clip"],
-                                message=str(exc))
+                self.ctx.notify(
+                    self.node_id,
+                    "cancelled",
+                    command_id=args.get("command_id"),
+                    clip=args["clip"],
+                    message=str(exc),
+                )
 
     def _stop(self, args: dict[str, Any]) -> dict[str, Any]:
         s = self.state
@@ -294,7 +322,9 @@ class ClipPlayer(Source):
         events: list[FrameEvent] = []
         if clip is not None:
             if not s.done:
-                speed = self.driven(inputs, speed=s.speed or self.params.speed).speed  # else the play command's
+                speed = self.driven(
+                    inputs, speed=s.speed or self.params.speed
+                ).speed  # else the play command's
                 events = self._advance(clip, dt, speed)
                 clip = s.current  # a queued clip may have started as this one completed
             if self._kernel is not None and self.ctx.compiled and s.values.shape == self.emb.rest.shape:
@@ -303,7 +333,9 @@ class ClipPlayer(Source):
             if s.xfade_t < s.xfade:
                 s.xfade_t += dt
                 k = _smooth(s.xfade_t / s.xfade)
-                s.values = np.where(s.old_mask & ~s.mask, s.from_values, s.from_values + k * (s.values - s.from_values))
+                s.values = np.where(
+                    s.old_mask & ~s.mask, s.from_values, s.from_values + k * (s.values - s.from_values)
+                )
             self._advance_envelope(dt)
             if s.done and s.env <= 0.0:
                 s.current = None
@@ -317,8 +349,12 @@ class ClipPlayer(Source):
         if clip is not None and clip.relative.any():
             rest = self.emb.rest
             values = rest + weight * (values - rest)
-        return {"out": PartialFrame(values.copy(), mask, events), "weight": weight,
-                "playing": s.current is not None and not s.done, "time": s.pos}
+        return {
+            "out": PartialFrame(values.copy(), mask, events),
+            "weight": weight,
+            "playing": s.current is not None and not s.done,
+            "time": s.pos,
+        }
 
     def _tick_compiled(self, dt: float, clip: CompiledClip, events: list[FrameEvent]) -> dict[str, Any]:
         """The compiled twin of the end of `tick` with a clip: sample, crossfade, envelope, frame out.
@@ -335,9 +371,29 @@ class ClipPlayer(Source):
         weight = _smooth(s.env)
         out = np.empty(rest.shape[0])
         c = clip.curves
-        self._kernel(c.t, c.v, c.h_right, c.h_left, c.code, c.mode, c.n_keys, float(s.pos), clip.channels,
-                     clip.relative, clip.enum_curves, rest, s.values, xfade, k, s.from_values, s.old_mask, s.mask,
-                     clip.any_relative, weight, out)
+        self._kernel(
+            c.t,
+            c.v,
+            c.h_right,
+            c.h_left,
+            c.code,
+            c.mode,
+            c.n_keys,
+            float(s.pos),
+            clip.channels,
+            clip.relative,
+            clip.enum_curves,
+            rest,
+            s.values,
+            xfade,
+            k,
+            s.from_values,
+            s.old_mask,
+            s.mask,
+            clip.any_relative,
+            weight,
+            out,
+        )
         if s.current is None and s.env <= 0.0:
             mask = self._no_mask
         elif s.xfade_t < s.xfade:  # both clips' channels: worked out once per crossfade (masks never change)
@@ -347,8 +403,12 @@ class ClipPlayer(Source):
             mask = memo[2]
         else:
             mask = s.mask
-        return {"out": PartialFrame(out, mask, events), "weight": weight,
-                "playing": s.current is not None and not s.done, "time": s.pos}
+        return {
+            "out": PartialFrame(out, mask, events),
+            "weight": weight,
+            "playing": s.current is not None and not s.done,
+            "time": s.pos,
+        }
 
     def _advance_envelope(self, dt: float) -> None:
         s = self.state

@@ -28,17 +28,21 @@ from backend.engine.blocks.base import (
     register_block,
 )
 from backend.engine.compiled import entry_point, plain_frame
-from backend.engine.compiled.frames import (GAIN_OFFSET_SIG, HOLD_SIG, LIMITER_SIG, gain_offset_tick, hold_tick,
-                                            limiter_tick)
+from backend.engine.compiled.frames import (
+    GAIN_OFFSET_SIG,
+    HOLD_SIG,
+    LIMITER_SIG,
+    gain_offset_tick,
+    hold_tick,
+    limiter_tick,
+)
 from backend.engine.embodiment import DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask, select_dofs
 
-
 # --------------------------------------------------------------------------------------------------
 # Output and exposed inputs
 # --------------------------------------------------------------------------------------------------
-
 
 
 class OutputParams(BlockParams):
@@ -68,7 +72,9 @@ class Output(Block):
 
     def configure(self) -> None:
         self._kernel = entry_point(hold_tick, HOLD_SIG) if self.ctx.compiled else None
-        self._every = np.ones_like(self.emb.continuous_mask)  # the mask of every frame out (shared, read-only)
+        self._every = np.ones_like(
+            self.emb.continuous_mask
+        )  # the mask of every frame out (shared, read-only)
 
     def reset(self) -> None:
         self.state = self.State(held=self.emb.rest.copy())
@@ -107,7 +113,9 @@ class ExposedInput(SignalBlock):
     title = "Exposed input"
     Params = InputParams
     outputs: dict[str, Port] = {}
-    port_rules = (PortRule(side="outputs", name="value", type="{type}", doc="current value of the exposed input"),)
+    port_rules = (
+        PortRule(side="outputs", name="value", type="{type}", doc="current value of the exposed input"),
+    )
 
     @classmethod
     def check(cls, params: InputParams, node: Any) -> None:
@@ -117,14 +125,27 @@ class ExposedInput(SignalBlock):
         if declared is None and name not in node.broken_inputs:
             names = list(node.exposed_inputs)
             hint = difflib.get_close_matches(name, names, n=1)
-            extra = f"; did you mean '{hint[0]}'?" if hint else f" (declared: {', '.join(sorted(names)) or 'none'})"
-            node.error("unknown_exposed_input", port="name", at=("name",),
-                       message=f"node '{node.node_id}' reads exposed input '{name}', which the program "
-                               f"does not declare in 'inputs'{extra}")
+            extra = (
+                f"; did you mean '{hint[0]}'?"
+                if hint
+                else f" (declared: {', '.join(sorted(names)) or 'none'})"
+            )
+            node.error(
+                "unknown_exposed_input",
+                port="name",
+                at=("name",),
+                message=f"node '{node.node_id}' reads exposed input '{name}', which the program "
+                f"does not declare in 'inputs'{extra}",
+            )
         elif declared is not None and declared.type != kind:
-            node.error("port_type_mismatch", port="type", at=("type",), ports_in_doubt=True,
-                       message=f"node '{node.node_id}' reads exposed input '{name}' as {kind}, but the "
-                               f"program declares it as {declared.type}")
+            node.error(
+                "port_type_mismatch",
+                port="type",
+                at=("type",),
+                ports_in_doubt=True,
+                message=f"node '{node.node_id}' reads exposed input '{name}' as {kind}, but the "
+                f"program declares it as {declared.type}",
+            )
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         return {"value": self.ctx.inputs.get(self.params.name)}
@@ -203,8 +224,11 @@ class PoseParams(BlockParams):
         description="DoF name -> value (rad or m; [r,g,b] for colours; option name for expressions)",
         json_schema_extra={"x-widget": "pose"},
     )
-    posture: str | None = Field(None, description="named posture of the robot, applied under `values`",
-                                json_schema_extra={"x-widget": "posture"})
+    posture: str | None = Field(
+        None,
+        description="named posture of the robot, applied under `values`",
+        json_schema_extra={"x-widget": "posture"},
+    )
 
 
 @register_block
@@ -230,15 +254,22 @@ class Pose(Source):
 
 class SineParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
-    amplitude: float = drivable(Field(0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)"),
-                                "overrides the amplitude parameter")
-    frequency: float = drivable(Field(0.25, ge=0.0, le=20.0, description="cycles per second (Hz)"),
-                                "overrides the frequency parameter")
+    amplitude: float = drivable(
+        Field(0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)"),
+        "overrides the amplitude parameter",
+    )
+    frequency: float = drivable(
+        Field(0.25, ge=0.0, le=20.0, description="cycles per second (Hz)"),
+        "overrides the frequency parameter",
+    )
     phase: float = Field(0.0, ge=-2 * math.pi, le=2 * math.pi, description="phase at t=0 (rad)")
-    phase_spread: float = Field(0.0, ge=-math.pi, le=math.pi,
-                                description="extra phase per selected DoF (rad), for wave-like motion")
-    offset: float = drivable(Field(0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)"),
-                             "overrides the offset parameter")
+    phase_spread: float = Field(
+        0.0, ge=-math.pi, le=math.pi, description="extra phase per selected DoF (rad), for wave-like motion"
+    )
+    offset: float = drivable(
+        Field(0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)"),
+        "overrides the offset parameter",
+    )
 
 
 @register_block
@@ -277,7 +308,9 @@ class Sine(Source):
 
 class GainOffsetParams(BlockParams):
     dofs: DofSelection = Field(default=["*"])
-    gain: float = drivable(Field(1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose"))
+    gain: float = drivable(
+        Field(1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose")
+    )
     offset: float = drivable(Field(0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)"))
 
 
@@ -340,9 +373,12 @@ class Mask(Operator):
 
 
 class SafetyParams(BlockParams):
-    velocity_scale: float = Field(1.0, gt=0.0, le=1.0,
-                                  description="fraction of each DoF's velocity limit allowed (0..1]")
-    margin: float = Field(0.0, ge=0.0, le=0.5, description="fraction of each DoF's range kept free at both ends")
+    velocity_scale: float = Field(
+        1.0, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]"
+    )
+    margin: float = Field(
+        0.0, ge=0.0, le=0.5, description="fraction of each DoF's range kept free at both ends"
+    )
 
 
 @register_block
@@ -381,16 +417,22 @@ class SafetyLimiter(Block):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         frame: PartialFrame | None = inputs.get("in")
         s = self.state
-        if self._kernel is not None and self.ctx.compiled and (frame is None or plain_frame(frame, self.emb.n_channels)):
+        if (
+            self._kernel is not None
+            and self.ctx.compiled
+            and (frame is None or plain_frame(frame, self.emb.n_channels))
+        ):
             if frame is None:
-                self._kernel(s.last, self.emb.continuous_mask, False, s.last, self.lo, self.hi, self.vmax, float(dt))
+                self._kernel(
+                    s.last, self.emb.continuous_mask, False, s.last, self.lo, self.hi, self.vmax, float(dt)
+                )
             else:
                 self._kernel(frame.values, frame.mask, True, s.last, self.lo, self.hi, self.vmax, float(dt))
-            return {"out": PartialFrame(s.last.copy(), self._every,
-                                        frame.events if frame is not None else [])}
+            return {
+                "out": PartialFrame(s.last.copy(), self._every, frame.events if frame is not None else [])
+            }
         target = s.last if frame is None else np.where(frame.mask, frame.values, s.last)
         target = np.clip(target, self.lo, self.hi)
         step = self.vmax * dt
         s.last = s.last + np.clip(target - s.last, -step, step)
-        return {"out": PartialFrame(s.last.copy(), self._every,
-                                    frame.events if frame is not None else [])}
+        return {"out": PartialFrame(s.last.copy(), self._every, frame.events if frame is not None else [])}

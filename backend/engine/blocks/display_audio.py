@@ -31,6 +31,7 @@ from backend.engine.frames import FrameEvent, PartialFrame
 
 def _resolve_dof(emb: Embodiment, name: str | None, want: DofType, what: str, kind: str | None = None) -> Dof:
     """The named DoF (checked to be of type `want`, and audible `kind`), or the robot's first such DoF."""
+
     def fits(d: Dof) -> bool:
         return d.type is want and (kind is None or d.kind == kind)
 
@@ -42,8 +43,10 @@ def _resolve_dof(emb: Embodiment, name: str | None, want: DofType, what: str, ki
         if not fits(d):
             raise ValueError(f"{what}: DoF '{name}' is not a {label}DoF")
         return d
-    found = next((d for d in emb.dofs if fits(d) and (want is not DofType.enum or d.dimension is Dimension.display)),
-                 None)
+    found = next(
+        (d for d in emb.dofs if fits(d) and (want is not DofType.enum or d.dimension is Dimension.display)),
+        None,
+    )
     if found is None:
         raise ValueError(f"{what}: robot '{emb.name}' has no {label}DoF")
     return found
@@ -63,19 +66,36 @@ def _colour(value: Any, where: str) -> np.ndarray:
 
 
 class LedParams(BlockParams):
-    dof: str | None = Field(None, description="colour DoF (LED or LED group); default: the robot's first",
-                            json_schema_extra={"x-widget": "dof"})
-    colour: list[float] = drivable(Field(default=[1.0, 1.0, 1.0], min_length=3, max_length=3,
-                                         description="colour [r, g, b], components 0..1",
-                                         json_schema_extra={"x-widget": "colour"}),
-                                   "overrides the colour [r, g, b]", port=PortType.colour)
+    dof: str | None = Field(
+        None,
+        description="colour DoF (LED or LED group); default: the robot's first",
+        json_schema_extra={"x-widget": "dof"},
+    )
+    colour: list[float] = drivable(
+        Field(
+            default=[1.0, 1.0, 1.0],
+            min_length=3,
+            max_length=3,
+            description="colour [r, g, b], components 0..1",
+            json_schema_extra={"x-widget": "colour"},
+        ),
+        "overrides the colour [r, g, b]",
+        port=PortType.colour,
+    )
     mode: Literal["solid", "pulse", "breathe"] = Field(
-        "solid", description="solid; pulse (a quick flash then a fade, like a heartbeat); breathe (a slow sine)")
-    frequency: float = drivable(Field(0.5, ge=0.0, le=10.0, description="pulses or breaths per second (Hz)"),
-                                "overrides the frequency (Hz)", clamp="floor")
+        "solid",
+        description="solid; pulse (a quick flash then a fade, like a heartbeat); breathe (a slow sine)",
+    )
+    frequency: float = drivable(
+        Field(0.5, ge=0.0, le=10.0, description="pulses or breaths per second (Hz)"),
+        "overrides the frequency (Hz)",
+        clamp="floor",
+    )
     depth: float = drivable(
         Field(0.5, ge=0.0, le=1.0, description="how far the brightness dips (0 = none, 1 = to black)"),
-        "overrides the depth (0..1)", clamp="range")
+        "overrides the depth (0..1)",
+        clamp="range",
+    )
 
     @field_validator("colour")
     @classmethod
@@ -145,10 +165,15 @@ class Led(Source):
         s.cycles = (s.cycles + d.frequency * dt) % 1.0
         values = self.emb.rest.copy()
         # np.clip(colour * factor, 0, 1) on three numbers, without numpy's per-call cost
-        rgb = colour.tolist() if type(colour) is np.ndarray and colour.ndim == 1 else \
-            np.asarray(colour, dtype=float).ravel().tolist()
+        rgb = (
+            colour.tolist()
+            if type(colour) is np.ndarray and colour.ndim == 1
+            else np.asarray(colour, dtype=float).ravel().tolist()
+        )
         # (min(max(v, 0), 1) as comparisons: the same result, NaN and -0.0 included, without two calls each)
-        values[self.dof.channels] = [0.0 if v < 0.0 else 1.0 if v > 1.0 else v for v in [c * factor for c in rgb]]
+        values[self.dof.channels] = [
+            0.0 if v < 0.0 else 1.0 if v > 1.0 else v for v in [c * factor for c in rgb]
+        ]
         return {"out": PartialFrame(values, self.mask, [])}
 
 
@@ -158,10 +183,16 @@ class Led(Source):
 
 
 class FaceParams(BlockParams):
-    dof: str | None = Field(None, description="enum display DoF (face/screen); default: the robot's first",
-                            json_schema_extra={"x-widget": "dof"})
-    expression: str | None = drivable(Field(None, description="option to show; default: the DoF's rest option"),
-                                      "overrides the expression (an option name)", port=PortType.string)
+    dof: str | None = Field(
+        None,
+        description="enum display DoF (face/screen); default: the robot's first",
+        json_schema_extra={"x-widget": "dof"},
+    )
+    expression: str | None = drivable(
+        Field(None, description="option to show; default: the DoF's rest option"),
+        "overrides the expression (an option name)",
+        port=PortType.string,
+    )
 
 
 @register_block
@@ -188,7 +219,7 @@ class Face(Source):
         self.mask = np.zeros(self.emb.n_channels, dtype=bool)
         self.mask[self.channel] = True
         if self.params.expression is None:
-            self.default_index = int(round(float(self.emb.rest[self.channel])))
+            self.default_index = round(float(self.emb.rest[self.channel]))
         else:
             self.default_index = self._index(self.params.expression, ValueError)
 
@@ -224,16 +255,28 @@ class Face(Source):
 
 
 class SayParams(BlockParams):
-    dof: str | None = Field(None, description="speech DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"})
-    text: str = drivable(Field("", max_length=2000, description="text said on a rising edge of the trigger input"),
-                         "overrides the text parameter", port=PortType.string)
-    words_per_second: float = Field(2.5, ge=0.5, le=10.0, description="speaking rate used to estimate the duration")
+    dof: str | None = Field(
+        None, description="speech DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"}
+    )
+    text: str = drivable(
+        Field("", max_length=2000, description="text said on a rising edge of the trigger input"),
+        "overrides the text parameter",
+        port=PortType.string,
+    )
+    words_per_second: float = Field(
+        2.5, ge=0.5, le=10.0, description="speaking rate used to estimate the duration"
+    )
     min_duration: float = Field(0.4, ge=0.0, le=10.0, description="shortest estimated utterance (s)")
     lip_sync: bool = Field(True, description="flap the mouth while speaking")
-    lip_dof: str | None = Field(None, description="continuous DoF opening the mouth; default: mouth_open if any",
-                                json_schema_extra={"x-widget": "dof"})
+    lip_dof: str | None = Field(
+        None,
+        description="continuous DoF opening the mouth; default: mouth_open if any",
+        json_schema_extra={"x-widget": "dof"},
+    )
     syllable_rate: float = Field(4.0, ge=0.5, le=12.0, description="mouth flaps per second (Hz)")
-    lip_amount: float = Field(0.7, ge=0.0, le=1.0, description="how far the mouth opens (fraction of its range)")
+    lip_amount: float = Field(
+        0.7, ge=0.0, le=1.0, description="how far the mouth opens (fraction of its range)"
+    )
 
 
 @register_block
@@ -295,7 +338,9 @@ class Say(Source):
     def _cancel(self) -> None:
         s = self.state
         if s.current is not None:
-            self.ctx.notify(self.node_id, "cancelled", command_id=s.current["command_id"], text=s.current["text"])
+            self.ctx.notify(
+                self.node_id, "cancelled", command_id=s.current["command_id"], text=s.current["text"]
+            )
             s.current = None
             s.closing = True
 
@@ -310,7 +355,9 @@ class Say(Source):
         if s.current is not None:  # time goes on for the running utterance
             s.elapsed += dt
             if s.elapsed >= s.length - 1e-9:
-                self.ctx.notify(self.node_id, "completed", command_id=s.current["command_id"], text=s.current["text"])
+                self.ctx.notify(
+                    self.node_id, "completed", command_id=s.current["command_id"], text=s.current["text"]
+                )
                 s.current = None
                 s.closing = True
         events: list[FrameEvent] = []
@@ -319,7 +366,9 @@ class Say(Source):
             s.current, s.pending = s.pending, None
             s.elapsed, s.length = 0.0, self.duration(s.current["text"])
             events.append(FrameEvent(self.dof.name, "say", {"text": s.current["text"]}))
-            self.ctx.notify(self.node_id, "started", command_id=s.current["command_id"], text=s.current["text"])
+            self.ctx.notify(
+                self.node_id, "started", command_id=s.current["command_id"], text=s.current["text"]
+            )
         values = self.emb.rest.copy()
         mask = self._nothing  # the masks out are the block's own two, never changed: nothing, or the lip DoF
         if s.current is not None:
@@ -340,9 +389,15 @@ class Say(Source):
 
 
 class PlaySoundParams(BlockParams):
-    dof: str | None = Field(None, description="sound DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"})
-    sound: str | None = Field(None, description="clip played on a rising edge of the trigger input; default: the first")
-    duration: float = Field(1.0, ge=0.05, le=60.0, description="estimated length of a clip, for `completed` (s)")
+    dof: str | None = Field(
+        None, description="sound DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"}
+    )
+    sound: str | None = Field(
+        None, description="clip played on a rising edge of the trigger input; default: the first"
+    )
+    duration: float = Field(
+        1.0, ge=0.05, le=60.0, description="estimated length of a clip, for `completed` (s)"
+    )
 
 
 @register_block
@@ -372,7 +427,9 @@ class PlaySound(Source):
         if self.params.sound is not None:
             self._check(self.params.sound, ValueError)
         self.trigger_sound = self.params.sound or (self.sounds[0] if self.sounds else None)
-        self._nothing = np.zeros(self.emb.n_channels, dtype=bool)  # the mask of every frame out (shared, read-only)
+        self._nothing = np.zeros(
+            self.emb.n_channels, dtype=bool
+        )  # the mask of every frame out (shared, read-only)
 
     def _check(self, name: Any, error: type[Exception]) -> str:
         if not isinstance(name, str) or not name or (self.sounds and name not in self.sounds):
@@ -411,5 +468,4 @@ class PlaySound(Source):
             self.ctx.notify(self.node_id, "started", command_id=clip["command_id"], sound=clip["sound"])
             s.active.append({**clip, "remaining": self.params.duration})
         s.pending = []
-        return {"out": PartialFrame(self.emb.rest.copy(), self._nothing, events),
-                "playing": bool(s.active)}
+        return {"out": PartialFrame(self.emb.rest.copy(), self._nothing, events), "playing": bool(s.active)}

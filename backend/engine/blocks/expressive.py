@@ -32,6 +32,7 @@ from backend.engine.selectors import channel_mask, find_pairs, pair_channels
 # Helpers
 # --------------------------------------------------------------------------------------------------
 
+
 def _continuous_dof(emb: Embodiment, name: str, what: str) -> Dof:
     if not emb.has_dof(name):
         raise ValueError(f"{what}: robot '{emb.name}' has no DoF '{name}'")
@@ -62,16 +63,23 @@ def _check_pairs(v: PairList) -> PairList:
 
 
 class MirrorParams(BlockParams):
-    pairs: PairList = Field(default_factory=list,
-                            description="explicit [left, right] DoF pairs, in addition to those found by name")
+    pairs: PairList = Field(
+        default_factory=list,
+        description="explicit [left, right] DoF pairs, in addition to those found by name",
+    )
     auto_pair: bool = Field(True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r")
-    negate: DofSelection = Field(default=["*yaw*", "*roll*"],
-                                 description="DoFs whose deviation from rest flips sign (yaw/roll turn the other way)")
-    mix: float = drivable(Field(1.0, ge=0.0, le=1.0, description="0 = original, 1 = fully mirrored (blend in between)"),
-                          "overrides the mix parameter (0..1)", clamp="range")
+    negate: DofSelection = Field(
+        default=["*yaw*", "*roll*"],
+        description="DoFs whose deviation from rest flips sign (yaw/roll turn the other way)",
+    )
+    mix: float = drivable(
+        Field(1.0, ge=0.0, le=1.0, description="0 = original, 1 = fully mirrored (blend in between)"),
+        "overrides the mix parameter (0..1)",
+        clamp="range",
+    )
 
     @model_validator(mode="after")
-    def _check(self) -> "MirrorParams":
+    def _check(self) -> MirrorParams:
         _check_pairs(self.pairs)
         return self
 
@@ -105,8 +113,11 @@ class Mirror(Operator):
         rest = self.emb.rest
         eff = np.where(frame.mask, frame.values, rest)
         mirrored = rest + self.sign * (eff - rest)[self.perm]
-        blended = np.where(self.emb.enum_mask, np.where(mix >= 0.5, mirrored, frame.values),
-                           (1.0 - mix) * frame.values + mix * mirrored)
+        blended = np.where(
+            self.emb.enum_mask,
+            np.where(mix >= 0.5, mirrored, frame.values),
+            (1.0 - mix) * frame.values + mix * mirrored,
+        )
         swapped_mask = frame.mask[self.perm]
         mask = np.where(self.touched, swapped_mask if mix >= 1.0 else (frame.mask | swapped_mask), frame.mask)
         values = np.where(self.touched, blended, frame.values)
@@ -121,18 +132,24 @@ MAX_ASYM_DELAY = 1.0
 
 
 class AsymmetryParams(BlockParams):
-    offsets: dict[str, float] = Field(default_factory=dict,
-                                      description="DoF name -> offset added (rad or m), e.g. one ear a bit lower")
-    gains: dict[str, float] = Field(default_factory=dict,
-                                    description="DoF name -> gain on the deviation from rest (1 = unchanged)")
-    delay: float = drivable(Field(0.06, ge=0.0, le=MAX_ASYM_DELAY,
-                                  description="lag of the right side of each left/right pair (s)"),
-                            "overrides the delay parameter (s)", clamp="range")
+    offsets: dict[str, float] = Field(
+        default_factory=dict, description="DoF name -> offset added (rad or m), e.g. one ear a bit lower"
+    )
+    gains: dict[str, float] = Field(
+        default_factory=dict, description="DoF name -> gain on the deviation from rest (1 = unchanged)"
+    )
+    delay: float = drivable(
+        Field(
+            0.06, ge=0.0, le=MAX_ASYM_DELAY, description="lag of the right side of each left/right pair (s)"
+        ),
+        "overrides the delay parameter (s)",
+        clamp="range",
+    )
     pairs: PairList = Field(default_factory=list, description="explicit [left, right] DoF pairs")
     auto_pair: bool = Field(True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r")
 
     @model_validator(mode="after")
-    def _check(self) -> "AsymmetryParams":
+    def _check(self) -> AsymmetryParams:
         _check_pairs(self.pairs)
         for name, g in self.gains.items():
             if not (-3.0 <= g <= 3.0) or not math.isfinite(g):
@@ -175,7 +192,7 @@ class Asymmetry(Operator):
 
     def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
         delay = self.driven(inputs).delay
-        lag = np.where(self.right, int(round(delay * self.ctx.rate)), 0)
+        lag = np.where(self.right, round(delay * self.ctx.rate), 0)
         values, mask = self.state.push_read(frame.values, frame.mask, lag)
         rest, emb = self.emb.rest, self.emb
         shaped = np.clip(rest + self.gain * (values - rest) + self.offset, emb.min, emb.max)
@@ -192,9 +209,12 @@ class ExaggerateParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
     gain: float = drivable(
         Field(1.5, ge=0.0, le=3.0, description="scale of the deviation from the reference (1 = unchanged)"),
-        "overrides the gain parameter (0..3)", clamp="range")
+        "overrides the gain parameter (0..3)",
+        clamp="range",
+    )
     reference: Literal["rest", "moving_average"] = Field(
-        "rest", description="deviation from the rest pose, or from a moving average of the input")
+        "rest", description="deviation from the rest pose, or from a moving average of the input"
+    )
     time_constant: float = Field(1.0, ge=0.01, le=30.0, description="moving-average time constant (s)")
 
 
@@ -246,20 +266,29 @@ class Exaggerate(Operator):
 
 
 class ArcParams(BlockParams):
-    primary: str = Field("head_yaw", description="DoF whose velocity drives the coupling",
-                         json_schema_extra={"x-widget": "dof"})
-    secondary: str = Field("head_pitch", description="DoF that receives the offset",
-                           json_schema_extra={"x-widget": "dof"})
+    primary: str = Field(
+        "head_yaw",
+        description="DoF whose velocity drives the coupling",
+        json_schema_extra={"x-widget": "dof"},
+    )
+    secondary: str = Field(
+        "head_pitch", description="DoF that receives the offset", json_schema_extra={"x-widget": "dof"}
+    )
     gain: float = drivable(
         Field(0.08, ge=-2.0, le=2.0, description="offset on the secondary per primary speed (rad per rad/s)"),
-        "overrides the gain parameter (rad per rad/s)")
+        "overrides the gain parameter (rad per rad/s)",
+    )
     mode: Literal["abs", "signed"] = Field(
-        "abs", description="abs: same direction whatever way the primary moves (a dip); signed: follows its sign")
-    threshold: float = Field(0.0, ge=0.0, le=10.0, description="primary speed below which nothing is added (rad/s)")
+        "abs",
+        description="abs: same direction whatever way the primary moves (a dip); signed: follows its sign",
+    )
+    threshold: float = Field(
+        0.0, ge=0.0, le=10.0, description="primary speed below which nothing is added (rad/s)"
+    )
     smoothing: float = Field(0.08, ge=0.0, le=2.0, description="time constant of the velocity smoothing (s)")
 
     @model_validator(mode="after")
-    def _check(self) -> "ArcParams":
+    def _check(self) -> ArcParams:
         if self.primary == self.secondary:
             raise ValueError(f"primary and secondary must be different DoFs (both are '{self.primary}')")
         return self
@@ -295,8 +324,11 @@ class Arc(Operator):
     def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
         p, s = self.params, self.state
         emb = self.emb
-        x = float(frame.values[self.ip]) if frame.mask[self.ip] else (s.prev if s.prev is not None
-                                                                        else float(emb.rest[self.ip]))
+        x = (
+            float(frame.values[self.ip])
+            if frame.mask[self.ip]
+            else (s.prev if s.prev is not None else float(emb.rest[self.ip]))
+        )
         raw = 0.0 if s.prev is None or dt <= 0.0 else (x - s.prev) / dt
         s.prev = x
         s.vel += _alpha(dt, p.smoothing) * (raw - s.vel)
@@ -333,11 +365,14 @@ def spring_step_matrix(freq: float, zeta: float, dt: float) -> np.ndarray:
 
 class FollowThroughParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
-    enabled: bool = Field(False, description="off by default: overshoot moves the robot beyond the programmed pose")
+    enabled: bool = Field(
+        False, description="off by default: overshoot moves the robot beyond the programmed pose"
+    )
     frequency: float = Field(2.0, ge=0.1, le=20.0, description="natural frequency of the spring (Hz)")
     damping: float = Field(0.3, ge=0.05, le=1.0, description="damping ratio (1 = critical, no overshoot)")
-    max_overshoot: float = Field(0.15, ge=0.0, le=1.0,
-                                 description="largest distance from the input the output may reach (rad or m)")
+    max_overshoot: float = Field(
+        0.15, ge=0.0, le=1.0, description="largest distance from the input the output may reach (rad or m)"
+    )
 
 
 @register_block
@@ -412,11 +447,12 @@ MAX_DELAY = 2.0
 class DelayParams(BlockParams):
     dofs: DofSelection = Field(default=["*"])
     delay: float = Field(0.1, ge=0.0, le=MAX_DELAY, description="delay of the selected DoFs (s)")
-    delays: dict[str, float] = Field(default_factory=dict,
-                                     description="DoF name -> its own delay (s, 0..2), overriding `delay`")
+    delays: dict[str, float] = Field(
+        default_factory=dict, description="DoF name -> its own delay (s, 0..2), overriding `delay`"
+    )
 
     @model_validator(mode="after")
-    def _check(self) -> "DelayParams":
+    def _check(self) -> DelayParams:
         for name, d in self.delays.items():
             if not (0.0 <= d <= MAX_DELAY):
                 raise ValueError(f"delays['{name}'] = {d} s is outside 0..{MAX_DELAY}")

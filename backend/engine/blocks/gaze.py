@@ -9,7 +9,15 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import FRAME_OUT, BlockParams, Port, PortType, Source, drivable, register_block
+from backend.engine.blocks.base import (
+    FRAME_OUT,
+    BlockParams,
+    Port,
+    PortType,
+    Source,
+    drivable,
+    register_block,
+)
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_constants, gaze_tick
 from backend.engine.embodiment import Dimension, DofType
@@ -31,32 +39,66 @@ def _wrap(a: float) -> float:
 
 class GazeParams(BlockParams):
     target: list[float] = drivable(
-        Field([1.0, 0.0, 0.3], min_length=3, max_length=3,
-              description="point to look at (m, robot base frame); used when `target` is unconnected"),
-        "point to look at (m, robot base frame); overrides the target parameter", port=PortType.vec3)
+        Field(
+            [1.0, 0.0, 0.3],
+            min_length=3,
+            max_length=3,
+            description="point to look at (m, robot base frame); used when `target` is unconnected",
+        ),
+        "point to look at (m, robot base frame); overrides the target parameter",
+        port=PortType.vec3,
+    )
     yaw_dofs: list[str] | None = Field(
-        None, description="DoFs that turn the gaze left/right, leader first (default: the robot's gaze.yaw_joints, "
-                          "most distal first)", json_schema_extra={"x-widget": "dofs"})
+        None,
+        description="DoFs that turn the gaze left/right, leader first (default: the robot's gaze.yaw_joints, "
+        "most distal first)",
+        json_schema_extra={"x-widget": "dofs"},
+    )
     pitch_dofs: list[str] | None = Field(
-        None, description="DoFs that turn the gaze down/up, leader first (default: the robot's gaze.pitch_joints, "
-                          "most distal first)", json_schema_extra={"x-widget": "dofs"})
-    weights: dict[str, float] = Field(default_factory=dict,
-                                      description="DoF name -> share of its axis once settled (normalised per axis; "
-                                                  "unlisted DoFs take 1)")
-    eye_link: str | None = Field(None, description="URDF link of the eyes (default: the robot's gaze.eye_link)")
-    eye_offset: list[float] | None = Field(None, min_length=3, max_length=3,
-                                           description="eye point in the eye link's frame (m; default: gaze.eye_offset)")
-    follow_lag: float = Field(0.25, ge=0.0, le=5.0,
-                              description="first-order time constant added per follower stage (s): the 2nd DoF of "
-                                          "an axis lags by this, the 3rd by twice this, …")
+        None,
+        description="DoFs that turn the gaze down/up, leader first (default: the robot's gaze.pitch_joints, "
+        "most distal first)",
+        json_schema_extra={"x-widget": "dofs"},
+    )
+    weights: dict[str, float] = Field(
+        default_factory=dict,
+        description="DoF name -> share of its axis once settled (normalised per axis; unlisted DoFs take 1)",
+    )
+    eye_link: str | None = Field(
+        None, description="URDF link of the eyes (default: the robot's gaze.eye_link)"
+    )
+    eye_offset: list[float] | None = Field(
+        None,
+        min_length=3,
+        max_length=3,
+        description="eye point in the eye link's frame (m; default: gaze.eye_offset)",
+    )
+    follow_lag: float = Field(
+        0.25,
+        ge=0.0,
+        le=5.0,
+        description="first-order time constant added per follower stage (s): the 2nd DoF of "
+        "an axis lags by this, the 3rd by twice this, …",
+    )
     max_speed: float = Field(3.0, gt=0.0, le=20.0, description="speed cap for every gaze DoF (rad/s)")
-    speed_fraction: float = Field(0.8, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]")
-    arc_dip: float = Field(0.05, ge=0.0, le=1.0,
-                           description="pitch dip (rad, + = down) per rad/s of yaw speed: turns follow an arc")
+    speed_fraction: float = Field(
+        0.8, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]"
+    )
+    arc_dip: float = Field(
+        0.05,
+        ge=0.0,
+        le=1.0,
+        description="pitch dip (rad, + = down) per rad/s of yaw speed: turns follow an arc",
+    )
     arc_max: float = Field(0.08, ge=0.0, le=0.5, description="largest arc dip (rad)")
-    strength: float = drivable(Field(1.0, ge=0.0, le=1.0, description="0 = rest pose, 1 = full gaze (blend, 0..1)"),
-                               "overrides the strength parameter (0..1)", clamp="range")
-    tolerance: float = Field(0.05, gt=0.0, le=1.0, description="`on_target` when the gaze is within this angle (rad)")
+    strength: float = drivable(
+        Field(1.0, ge=0.0, le=1.0, description="0 = rest pose, 1 = full gaze (blend, 0..1)"),
+        "overrides the strength parameter (0..1)",
+        clamp="range",
+    )
+    tolerance: float = Field(
+        0.05, gt=0.0, le=1.0, description="`on_target` when the gaze is within this angle (rad)"
+    )
 
 
 @register_block
@@ -77,7 +119,10 @@ class Gaze(Source):
     type_name = "gaze"
     title = "Gaze / look-at"
     Params = GazeParams
-    outputs = {**FRAME_OUT, "on_target": Port(PortType.bool, "the gaze points at the target (within tolerance)")}
+    outputs = {
+        **FRAME_OUT,
+        "on_target": Port(PortType.bool, "the gaze points at the target (within tolerance)"),
+    }
 
     @dataclass
     class State:
@@ -91,8 +136,9 @@ class Gaze(Source):
         eye_link = p.eye_link or cfg.get("eye_link")
         if not eye_link:
             raise ValueError(f"robot '{emb.name}' has no gaze.eye_link: set the eye_link parameter")
-        self.eye_offset = np.asarray(p.eye_offset if p.eye_offset is not None else cfg.get("eye_offset", [0, 0, 0]),
-                                     dtype=float)
+        self.eye_offset = np.asarray(
+            p.eye_offset if p.eye_offset is not None else cfg.get("eye_offset", [0, 0, 0]), dtype=float
+        )
         self.chain = chain_for(emb, None, eye_link)
         yaw = self._dofs(p.yaw_dofs, cfg.get("yaw_joints"), "yaw")
         pitch = self._dofs(p.pitch_dofs, cfg.get("pitch_joints"), "pitch")
@@ -131,11 +177,33 @@ class Gaze(Source):
         self._kernel = entry_point(gaze_tick, GAZE_SIG) if self.ctx.compiled else None
         chain = self.chain
         j_rows, j_off, jlo, jhi = chain.channel_map()
-        consts = gaze_constants(emb.rest, self.gain, self.share, self.follow_share, self.follow_total, self.tau,
-                                self.lo, self.hi, self.vmax, self.eye_offset, j_off, jlo, jhi)
+        consts = gaze_constants(
+            emb.rest,
+            self.gain,
+            self.share,
+            self.follow_share,
+            self.follow_total,
+            self.tau,
+            self.lo,
+            self.hi,
+            self.vmax,
+            self.eye_offset,
+            j_off,
+            jlo,
+            jhi,
+        )
         self._kernel_args = (
-            self.idx.astype(np.int64), self.axis.astype(np.int64), self.leader, consts, p.arc_dip, p.arc_max,
-            ARC_SMOOTHING, p.tolerance, j_rows, *chain_args(chain))
+            self.idx.astype(np.int64),
+            self.axis.astype(np.int64),
+            self.leader,
+            consts,
+            p.arc_dip,
+            p.arc_max,
+            ARC_SMOOTHING,
+            p.tolerance,
+            j_rows,
+            *chain_args(chain),
+        )
         self._dip = np.zeros(1)
 
     def _dofs(self, given: list[str] | None, default: list[str] | None, label: str) -> list[str]:
@@ -206,8 +274,11 @@ class Gaze(Source):
             goal = np.clip(self.share * desired[self.axis] / self.gain, self.lo, self.hi)
             # What a DoF at its limit cannot take goes to the followers of its axis.
             missing = desired - np.bincount(self.axis, weights=self.gain * goal, minlength=2)
-            goal = np.clip(goal + (missing / self.follow_total)[self.axis] * self.follow_share / self.gain,
-                           self.lo, self.hi)
+            goal = np.clip(
+                goal + (missing / self.follow_total)[self.axis] * self.follow_share / self.gain,
+                self.lo,
+                self.hi,
+            )
             alpha = 1.0 - np.exp(-dt / np.maximum(self.tau, 1e-9))
             x = self._limit(x_old, x_old + alpha * (goal - x_old), dt)
             followers = np.bincount(self.axis, weights=np.where(self.leader, 0.0, self.gain * x), minlength=2)

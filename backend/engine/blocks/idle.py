@@ -15,9 +15,23 @@ from typing import Any
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import BlockContext, BlockParams, DofSelection, Source, drivable, register_block
+from backend.engine.blocks.base import (
+    BlockContext,
+    BlockParams,
+    DofSelection,
+    Source,
+    drivable,
+    register_block,
+)
 from backend.engine.compiled import entry_point
-from backend.engine.compiled.idle import BREATHE_SIG, NOISE_SIG, OFFSET_SIG, breathe_tick, noise_tick, offset_tick
+from backend.engine.compiled.idle import (
+    BREATHE_SIG,
+    NOISE_SIG,
+    OFFSET_SIG,
+    breathe_tick,
+    noise_tick,
+    offset_tick,
+)
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask
@@ -30,7 +44,9 @@ def block_rng(ctx: BlockContext, seed: int, node_id: str) -> np.random.Generator
     return np.random.default_rng(np.random.SeedSequence(words))
 
 
-def per_dof_vector(emb: Embodiment, values: dict[str, float], field_name: str) -> tuple[np.ndarray, np.ndarray]:
+def per_dof_vector(
+    emb: Embodiment, values: dict[str, float], field_name: str
+) -> tuple[np.ndarray, np.ndarray]:
     """Channel vector and mask from a DoF name -> number dict; unknown or non-continuous DoFs are errors."""
     vec = np.zeros(emb.n_channels)
     mask = np.zeros(emb.n_channels, dtype=bool)
@@ -52,20 +68,32 @@ def per_dof_vector(emb: Embodiment, values: dict[str, float], field_name: str) -
 
 class BreatheParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
-    amplitude: float = drivable(Field(0.03, ge=0.0, le=1.0, description="peak deviation from the rest pose (rad or m)"),
-                                "overrides the amplitude parameter (rad or m)", clamp="range")
+    amplitude: float = drivable(
+        Field(0.03, ge=0.0, le=1.0, description="peak deviation from the rest pose (rad or m)"),
+        "overrides the amplitude parameter (rad or m)",
+        clamp="range",
+    )
     amplitudes: dict[str, float] = Field(
         default_factory=dict,
         description="per-DoF peak deviation overriding `amplitude` (DoF name -> rad or m; negative inverts)",
     )
-    frequency: float = drivable(Field(0.25, ge=0.0, le=5.0, description="breaths per second (Hz)"),
-                                "overrides the frequency parameter (Hz)", clamp="range")
-    phase_spread: float = Field(0.4, ge=-math.pi, le=math.pi,
-                                description="extra phase lag per selected DoF (rad), so the breath travels")
-    phases: dict[str, float] = Field(default_factory=dict,
-                                     description="extra phase per DoF (DoF name -> rad), added to the spread")
-    inhale_ratio: float = Field(0.4, ge=0.3, le=0.7,
-                                description="fraction of a cycle spent inhaling (rising); < 0.5 inhales faster")
+    frequency: float = drivable(
+        Field(0.25, ge=0.0, le=5.0, description="breaths per second (Hz)"),
+        "overrides the frequency parameter (Hz)",
+        clamp="range",
+    )
+    phase_spread: float = Field(
+        0.4,
+        ge=-math.pi,
+        le=math.pi,
+        description="extra phase lag per selected DoF (rad), so the breath travels",
+    )
+    phases: dict[str, float] = Field(
+        default_factory=dict, description="extra phase per DoF (DoF name -> rad), added to the spread"
+    )
+    inhale_ratio: float = Field(
+        0.4, ge=0.3, le=0.7, description="fraction of a cycle spent inhaling (rising); < 0.5 inhales faster"
+    )
 
 
 @register_block
@@ -112,8 +140,20 @@ class Breathe(Source):
         emb = self.emb
         if self._kernel is not None and self.ctx.compiled:  # the compiled twin of the lines below
             out = np.empty(emb.n_channels)
-            self._kernel(s.phi, self.offset_cycles, self.amp_override, self.amp_values, float(scale),
-                         float(d.amplitude), float(p.inhale_ratio), emb.rest, emb.min, emb.max, self.mask, out)
+            self._kernel(
+                s.phi,
+                self.offset_cycles,
+                self.amp_override,
+                self.amp_values,
+                float(scale),
+                float(d.amplitude),
+                float(p.inhale_ratio),
+                emb.rest,
+                emb.min,
+                emb.max,
+                self.mask,
+                out,
+            )
             s.phi = (s.phi + d.frequency * dt) % 1.0
             return {"out": PartialFrame(out, self.mask, [])}
         amps = np.where(self.amp_override, self.amp_values * scale, d.amplitude)
@@ -133,11 +173,16 @@ class NoiseParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
     amplitude: float = drivable(
         Field(0.02, ge=0.0, le=1.0, description="standard deviation around the rest pose (rad or m)"),
-        "overrides the amplitude parameter (rad or m)", clamp="range")
+        "overrides the amplitude parameter (rad or m)",
+        clamp="range",
+    )
     tau: float = Field(1.5, ge=0.05, le=60.0, description="correlation time of the wander (s)")
-    smoothing: float = Field(0.3, ge=0.0, le=10.0,
-                             description="time constant of the second low-pass stage (s); 0 turns it off")
-    seed: int = Field(0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)")
+    smoothing: float = Field(
+        0.3, ge=0.0, le=10.0, description="time constant of the second low-pass stage (s); 0 turns it off"
+    )
+    seed: int = Field(
+        0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
+    )
 
 
 @register_block
@@ -165,11 +210,15 @@ class Noise(Source):
         self._dt: float | None = None
         self._tau_s: tuple[float, float] | None = None
         self._kernel = entry_point(noise_tick, NOISE_SIG) if self.ctx.compiled else None
-        self._draws = np.empty((2, self.emb.n_channels))  # this tick's normal draws (compiled path; read in the tick only)
+        self._draws = np.empty(
+            (2, self.emb.n_channels)
+        )  # this tick's normal draws (compiled path; read in the tick only)
 
     def reset(self) -> None:
         n = self.emb.n_channels
-        self.state = self.State(x=np.zeros(n), y=np.zeros(n), rng=block_rng(self.ctx, self.params.seed, self.node_id))
+        self.state = self.State(
+            x=np.zeros(n), y=np.zeros(n), rng=block_rng(self.ctx, self.params.seed, self.node_id)
+        )
 
     def _transition(self, dt: float) -> None:
         """Exact discretisation of the linear SDE (x, y) over dt: x_{n+1} = a x + L11 e1,
@@ -224,7 +273,9 @@ class Noise(Source):
             e = self._draws
             if e.shape != (2, emb.n_channels):
                 e = self._draws = np.empty((2, emb.n_channels))
-            st.rng.standard_normal(out=e)  # the same draws as standard_normal((2, C)), into the block's buffer
+            st.rng.standard_normal(
+                out=e
+            )  # the same draws as standard_normal((2, C)), into the block's buffer
         else:
             e = np.zeros((2, emb.n_channels))
         if st.y is st.x:  # without smoothing the reference leaves y and x one array; keep them apart
@@ -232,8 +283,20 @@ class Noise(Source):
         norm = math.sqrt((p.tau + p.smoothing) / p.tau)
         out = np.empty(emb.n_channels)
         coef = self._coef_array if step else np.zeros(6)  # without a step the coefficients are not read
-        self._kernel(st.x, st.y, e, coef, step, p.smoothing > 0.0, float(amp * norm), emb.rest, emb.min,
-                     emb.max, self.mask, out)
+        self._kernel(
+            st.x,
+            st.y,
+            e,
+            coef,
+            step,
+            p.smoothing > 0.0,
+            float(amp * norm),
+            emb.rest,
+            emb.min,
+            emb.max,
+            self.mask,
+            out,
+        )
         return {"out": PartialFrame(out, self.mask, [])}
 
 
@@ -248,13 +311,16 @@ class WeightShiftParams(BlockParams):
     min_interval: float = Field(4.0, ge=0.5, le=120.0, description="shortest time between shifts (s)")
     max_interval: float = Field(12.0, ge=0.5, le=120.0, description="longest time between shifts (s)")
     shift_duration: float = Field(2.5, ge=0.1, le=30.0, description="time to ease into a new offset (s)")
-    seed: int = Field(0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)")
+    seed: int = Field(
+        0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
+    )
 
     @model_validator(mode="after")
-    def _intervals(self) -> "WeightShiftParams":
+    def _intervals(self) -> WeightShiftParams:
         if self.min_interval > self.max_interval:
-            raise ValueError(f"min_interval ({self.min_interval} s) must not exceed max_interval "
-                             f"({self.max_interval} s)")
+            raise ValueError(
+                f"min_interval ({self.min_interval} s) must not exceed max_interval ({self.max_interval} s)"
+            )
         return self
 
 
@@ -289,8 +355,9 @@ class WeightShift(Source):
         n = self.emb.n_channels
         rng = block_rng(self.ctx, self.params.seed, self.node_id)
         until_next = float(rng.uniform(0.25, 1.0)) * self.params.min_interval
-        self.state = self.State(offset=np.zeros(n), start=np.zeros(n), target=np.zeros(n), rng=rng,
-                                until_next=until_next)
+        self.state = self.State(
+            offset=np.zeros(n), start=np.zeros(n), target=np.zeros(n), rng=rng, until_next=until_next
+        )
 
     def _new_target(self) -> np.ndarray:
         p, emb, rng = self.params, self.emb, self.state.rng

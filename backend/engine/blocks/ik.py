@@ -17,32 +17,62 @@ from backend.engine.selectors import select_dofs
 
 MAX_STEP = 0.5  # rad (or m): largest joint step of one iteration, keeps far-off targets stable
 CONVERGED = 1e-4  # error (rad for look_at, m for reach) below which a tick stops iterating
-NULL_RANGE = 0.05  # the null-space pull fades out as the error grows to this (rad or m), so it never blocks the task
+NULL_RANGE = (
+    0.05  # the null-space pull fades out as the error grows to this (rad or m), so it never blocks the task
+)
 NULL_GAIN = 0.2  # per iteration: pull toward the stage-1 pose within the task's null space
 
 
 class IkParams(BlockParams):
     mode: Literal["look_at", "reach"] = Field(
-        "look_at", description="look_at: point the tip's axis at the target; reach: move the tip point to the target")
-    base_link: str | None = Field(None, description="URDF link the chain starts from (default: the URDF root)")
-    tip_link: str | None = Field(None, description="URDF link at the end of the chain (default: the robot's gaze.eye_link)")
+        "look_at",
+        description="look_at: point the tip's axis at the target; reach: move the tip point to the target",
+    )
+    base_link: str | None = Field(
+        None, description="URDF link the chain starts from (default: the URDF root)"
+    )
+    tip_link: str | None = Field(
+        None, description="URDF link at the end of the chain (default: the robot's gaze.eye_link)"
+    )
     tip_offset: list[float] | None = Field(
-        None, min_length=3, max_length=3,
-        description="point in the tip link's frame (m) that looks or reaches (default: gaze.eye_offset for the eye link)")
-    axis: list[float] = Field([1.0, 0.0, 0.0], min_length=3, max_length=3,
-                              description="pointing direction in the tip link's frame (look_at)")
+        None,
+        min_length=3,
+        max_length=3,
+        description="point in the tip link's frame (m) that looks or reaches (default: gaze.eye_offset for the eye link)",
+    )
+    axis: list[float] = Field(
+        [1.0, 0.0, 0.0],
+        min_length=3,
+        max_length=3,
+        description="pointing direction in the tip link's frame (look_at)",
+    )
     dofs: list[str] | None = Field(
-        None, description="DoF selectors the IK may change (default: every joint DoF of the chain); "
-                          "symbolic DoFs are never changed", json_schema_extra={"x-widget": "dofs"})
+        None,
+        description="DoF selectors the IK may change (default: every joint DoF of the chain); "
+        "symbolic DoFs are never changed",
+        json_schema_extra={"x-widget": "dofs"},
+    )
     target: list[float] | None = drivable(
-        Field(None, min_length=3, max_length=3,
-              description="target point (m, robot base frame) when `target` is unconnected"),
-        "target point (m, robot base frame); overrides the target parameter", port=PortType.vec3)
+        Field(
+            None,
+            min_length=3,
+            max_length=3,
+            description="target point (m, robot base frame) when `target` is unconnected",
+        ),
+        "target point (m, robot base frame); overrides the target parameter",
+        port=PortType.vec3,
+    )
     weight: float = drivable(
         Field(1.0, ge=0.0, le=1.0, description="blend from the stage-1 pose (0) to the IK solution (1)"),
-        "overrides the weight parameter (0..1)", clamp="range")
-    damping: float = Field(0.05, ge=0.0, le=1.0, description="damping λ of the damped least squares (rad or m)")
-    iterations: int = Field(4, ge=1, le=20, description="solver iterations per tick (warm-started from the last tick)")
+        "overrides the weight parameter (0..1)",
+        clamp="range",
+    )
+    damping: float = Field(
+        0.05, ge=0.0, le=1.0, description="damping λ of the damped least squares (rad or m)"
+    )
+    iterations: int = Field(
+        4, ge=1, le=20, description="solver iterations per tick (warm-started from the last tick)"
+    )
 
 
 @register_block
@@ -86,7 +116,9 @@ class InverseKinematics(Operator):
         self.axis = axis / norm
         allowed = chain.dof_channels >= 0
         if p.dofs is not None:
-            chosen = {d.channels.start for d in select_dofs(emb, p.dofs) if d.channels.stop > d.channels.start}
+            chosen = {
+                d.channels.start for d in select_dofs(emb, p.dofs) if d.channels.stop > d.channels.start
+            }
             allowed &= np.isin(chain.dof_channels, list(chosen))
         self.var = np.flatnonzero(allowed)  # chain joint indices the IK moves
         self.var_ch = chain.dof_channels[self.var]  # their (1:1) DoF channels
@@ -102,10 +134,21 @@ class InverseKinematics(Operator):
             state.delta = np.zeros(len(self.var))
         self._kernel = entry_point(ik_tick, IK_SIG) if self.ctx.compiled else None
         self._kernel_args = (
-            np.ascontiguousarray(self.j_rows), self.var.astype(np.int64), self.var_ch.astype(np.int64),
-            ik_constants(self.j_off, chain.lower, chain.upper, self.dof_lo, self.dof_hi, self.offset, self.axis),
-            p.mode == "look_at", p.damping ** 2 + 1e-12, p.iterations, MAX_STEP, CONVERGED, NULL_GAIN, NULL_RANGE,
-            *chain_args(chain))
+            np.ascontiguousarray(self.j_rows),
+            self.var.astype(np.int64),
+            self.var_ch.astype(np.int64),
+            ik_constants(
+                self.j_off, chain.lower, chain.upper, self.dof_lo, self.dof_hi, self.offset, self.axis
+            ),
+            p.mode == "look_at",
+            p.damping**2 + 1e-12,
+            p.iterations,
+            MAX_STEP,
+            CONVERGED,
+            NULL_GAIN,
+            NULL_RANGE,
+            *chain_args(chain),
+        )
 
     def reset(self) -> None:
         self.state = self.State(held=self.emb.rest.copy(), delta=np.zeros(len(self.var)))
@@ -115,12 +158,29 @@ class InverseKinematics(Operator):
         d = self.driven(inputs)
         target, weight = d.target, d.weight
         n = self.emb.n_channels
-        if target is not None and weight > 0.0 and len(self.var) and self._kernel is not None \
-                and self.ctx.compiled and plain_frame(frame, n) and s.held.shape == (n,):
+        if (
+            target is not None
+            and weight > 0.0
+            and len(self.var)
+            and self._kernel is not None
+            and self.ctx.compiled
+            and plain_frame(frame, n)
+            and s.held.shape == (n,)
+        ):
             # the compiled twin of the reference below
             out, mask = np.empty(n), np.empty(n, dtype=bool)
-            self._kernel(frame.values, frame.mask, s.held, target, float(weight), s.delta, out, mask, self.mask_add,
-                         *self._kernel_args)
+            self._kernel(
+                frame.values,
+                frame.mask,
+                s.held,
+                target,
+                float(weight),
+                s.delta,
+                out,
+                mask,
+                self.mask_add,
+                *self._kernel_args,
+            )
             return {"out": PartialFrame(out, mask, list(frame.events))}
         s.held = np.where(frame.mask, frame.values, s.held)
         if target is None or weight <= 0.0 or len(self.var) == 0:
@@ -141,14 +201,16 @@ class InverseKinematics(Operator):
         out[self.var_ch] = ch + weight * s.delta
         return {"out": PartialFrame(out, frame.mask | self.mask_add, list(frame.events))}
 
-    def _solve(self, q: np.ndarray, target: np.ndarray, lo: np.ndarray, hi: np.ndarray, q0: np.ndarray) -> None:
+    def _solve(
+        self, q: np.ndarray, target: np.ndarray, lo: np.ndarray, hi: np.ndarray, q0: np.ndarray
+    ) -> None:
         """Damped least squares on the chain joints `self.var`, in place on `q`.
 
         The task step is the minimum-norm damped solution; in the task's null space the joints are pulled
         back toward the stage-1 pose `q0`, so redundant chains make the smallest correction.
         """
         look = self.params.mode == "look_at"
-        lam2 = self.params.damping ** 2 + 1e-12
+        lam2 = self.params.damping**2 + 1e-12
         var = self.var
         for _ in range(self.params.iterations):
             _, point, d, jp, jd = self.chain.kinematics(q, self.offset, self.axis)

@@ -3,16 +3,24 @@
 from __future__ import annotations
 
 import re
-from operator import is_
 from dataclasses import dataclass
+from operator import is_
 from typing import Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from backend.engine.blend import BlendMode, advance_fades, blend_layers
-from backend.engine.blocks.base import (Block, BlockCommandError, BlockParams, Port, PortRule, PortType, Role,
-                                        register_block)
+from backend.engine.blocks.base import (
+    Block,
+    BlockCommandError,
+    BlockParams,
+    Port,
+    PortRule,
+    PortType,
+    Role,
+    register_block,
+)
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.blend import MIXER_SIG, MODE_CODES, mixer_tick
 from backend.engine.frames import PartialFrame
@@ -29,8 +37,9 @@ class LayerSpec(BaseModel):
     mode: BlendMode = Field(BlendMode.override, description="override, additive or average")
     weight: float = Field(1.0, ge=0.0, le=1.0, description="blend weight (0..1)")
     fade: float = Field(0.5, ge=0.0, le=30.0, description="fade-in/out time on (de)activation (s)")
-    mask: list[str] = Field(default=["*"], description="DoF selectors this layer may set",
-                            json_schema_extra={"x-widget": "dofs"})
+    mask: list[str] = Field(
+        default=["*"], description="DoF selectors this layer may set", json_schema_extra={"x-widget": "dofs"}
+    )
     active: bool = Field(True, description="whether the layer starts active")
 
     @field_validator("name")
@@ -43,7 +52,8 @@ class LayerSpec(BaseModel):
 
 class MixerParams(BlockParams):
     layers: list[LayerSpec] = Field(
-        default=[LayerSpec(name="base")], min_length=1,
+        default=[LayerSpec(name="base")],
+        min_length=1,
         description="layers from bottom to top (later layers override earlier ones)",
         json_schema_extra={"x-widget": "layers"},
     )
@@ -86,8 +96,13 @@ class LayerMixer(Block):
     # emotion mapping).
     port_rules = (
         PortRule(side="inputs", each="layers", name="{name}", type="frame", doc="layer '{name}' ({mode})"),
-        PortRule(side="inputs", each="layers", name="{name}_weight", type="float",
-                 doc="multiplies layer '{name}''s weight (0..1)"),
+        PortRule(
+            side="inputs",
+            each="layers",
+            name="{name}_weight",
+            type="float",
+            doc="multiplies layer '{name}''s weight (0..1)",
+        ),
     )
 
     @classmethod
@@ -95,11 +110,19 @@ class LayerMixer(Block):
         """Warn about layers that can have no effect: weight 0, or nothing connected."""
         for k, layer in enumerate(params.layers):
             if layer.weight == 0:
-                node.warning("zero_weight_layer", port=layer.name, at=("layers", k, "weight"),
-                             message=f"layer '{layer.name}' of '{node.node_id}' has weight 0, so it has no effect")
+                node.warning(
+                    "zero_weight_layer",
+                    port=layer.name,
+                    at=("layers", k, "weight"),
+                    message=f"layer '{layer.name}' of '{node.node_id}' has weight 0, so it has no effect",
+                )
             if not node.connected(layer.name):
-                node.warning("empty_layer", port=layer.name, at=("layers", k),
-                             message=f"layer '{layer.name}' of '{node.node_id}' has nothing connected")
+                node.warning(
+                    "empty_layer",
+                    port=layer.name,
+                    at=("layers", k),
+                    message=f"layer '{layer.name}' of '{node.node_id}' has nothing connected",
+                )
 
     def configure(self) -> None:
         layers = self.params.layers
@@ -153,8 +176,12 @@ class LayerMixer(Block):
                     self._masks_memo = (layer_masks, masks)
             except ValueError:  # frames of other shapes: the reference broadcasts them (or says why not)
                 vals = masks = None
-            if vals is not None and vals.dtype == np.float64 and masks.dtype == np.bool_ \
-                    and vals.shape == masks.shape == (self._values.size,):
+            if (
+                vals is not None
+                and vals.dtype == np.float64
+                and masks.dtype == np.bool_
+                and vals.shape == masks.shape == (self._values.size,)
+            ):
                 return self._tick_compiled(dt, inputs, frames, vals, masks)
         return self._tick_reference(dt, inputs)
 
@@ -164,14 +191,30 @@ class LayerMixer(Block):
             if port in inputs:
                 self.signal_weights[i] = min(max(float(self.signal(inputs, port, 1.0)), 0.0), 1.0)
 
-    def _tick_compiled(self, dt: float, inputs: dict[str, Any], frames: list, vals: np.ndarray,
-                       masks: np.ndarray) -> dict[str, Any]:
+    def _tick_compiled(
+        self, dt: float, inputs: dict[str, Any], frames: list, vals: np.ndarray, masks: np.ndarray
+    ) -> dict[str, Any]:
         s, emb, w = self.state, self.emb, self._w
         self._read_weight_ports(inputs)
         values, mask = np.empty(emb.n_channels), np.empty(emb.n_channels, dtype=bool)
-        self._kernel(vals, masks, self.layer_masks, self.weights, s.fade_level, s.fade_target, self.fade_time,
-                     self.signal_weights, float(dt), self._mode_codes, emb.rest, emb.rest, emb.enum_mask, values,
-                     mask, w)
+        self._kernel(
+            vals,
+            masks,
+            self.layer_masks,
+            self.weights,
+            s.fade_level,
+            s.fade_target,
+            self.fade_time,
+            self.signal_weights,
+            float(dt),
+            self._mode_codes,
+            emb.rest,
+            emb.rest,
+            emb.enum_mask,
+            values,
+            mask,
+            w,
+        )
         events = []
         for i, frame in enumerate(frames):
             if frame is not None and frame.events and w[i] > 0.0:
@@ -195,7 +238,9 @@ class LayerMixer(Block):
             if w[i] > 0.0 and frame.events:
                 events.extend(frame.events)
         emb = self.emb
-        values, mask = blend_layers(self._values, self._masks, w, self.modes, emb.rest, emb.rest, emb.enum_mask)
+        values, mask = blend_layers(
+            self._values, self._masks, w, self.modes, emb.rest, emb.rest, emb.enum_mask
+        )
         return {"out": PartialFrame(values, mask, events)}
 
     # --- commands -------------------------------------------------------------------------------
@@ -228,7 +273,13 @@ class LayerMixer(Block):
     def layer_states(self) -> list[dict[str, Any]]:
         w, s = self.effective_weights(), self.state
         return [
-            {"name": n, "mode": m.value, "weight": float(self.weights[i]), "fade": float(s.fade_level[i]),
-             "effective": float(w[i]), "active": bool(s.fade_target[i] > 0.5)}
+            {
+                "name": n,
+                "mode": m.value,
+                "weight": float(self.weights[i]),
+                "fade": float(s.fade_level[i]),
+                "effective": float(w[i]),
+                "active": bool(s.fade_target[i] > 0.5),
+            }
             for i, (n, m) in enumerate(zip(self.names, self.modes))
         ]

@@ -18,7 +18,16 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import Block, BlockParams, DofSelection, Port, PortType, Role, drivable, register_block
+from backend.engine.blocks.base import (
+    Block,
+    BlockParams,
+    DofSelection,
+    Port,
+    PortType,
+    Role,
+    drivable,
+    register_block,
+)
 from backend.engine.compiled import entry_point, plain_frame
 from backend.engine.compiled.frames import FILTER_SIG, filter_tick
 from backend.engine.embodiment import ChannelKind
@@ -30,26 +39,52 @@ PresetName = Literal["W", "A", "B", "C", "D", "E", "custom"]
 
 
 class FilterParams(BlockParams):
-    preset: PresetName = Field("D", description="the paper's character presets (W regular, A slow & smooth, "
-                                                "B slow & vivid, C fast & vivid, D fast & smooth, E fast & very "
-                                                "smooth) or custom σ/ρ")
+    preset: PresetName = Field(
+        "D",
+        description="the paper's character presets (W regular, A slow & smooth, "
+        "B slow & vivid, C fast & vivid, D fast & smooth, E fast & very "
+        "smooth) or custom σ/ρ",
+    )
     sigma: float | None = drivable(
-        Field(None, ge=0.0, le=1.0, description="smoothness σ (0..1); overrides the preset"), "overrides σ",
-        clamp="range")
+        Field(None, ge=0.0, le=1.0, description="smoothness σ (0..1); overrides the preset"),
+        "overrides σ",
+        clamp="range",
+    )
     rho: float | None = drivable(
-        Field(None, ge=0.0, le=1.0, description="responsiveness ρ (0..1); overrides the preset"), "overrides ρ",
-        clamp="range")
+        Field(None, ge=0.0, le=1.0, description="responsiveness ρ (0..1); overrides the preset"),
+        "overrides ρ",
+        clamp="range",
+    )
     bypass: bool = Field(False, description="bypass H: the regular filter W (limits only, no character)")
-    order: Literal[1, 2, 3] = Field(3, description="continuity order: 1 velocity, 2 acceleration, 3 jerk limited")
+    order: Literal[1, 2, 3] = Field(
+        3, description="continuity order: 1 velocity, 2 acceleration, 3 jerk limited"
+    )
     limiter: Literal["tanh", "hard"] = Field("tanh", description="tanh (smooth, keeps headroom) or hard clip")
-    limit_scale: float = Field(1.0, gt=0.0, le=1.0, description="fraction of the robot's velocity, "
-                                                               "acceleration and jerk limits to use (0..1]")
-    vel_limit: float | None = Field(None, gt=0.0, le=1e6, description="velocity bound of the output for every "
-                                    "filtered DoF (units/s); default: the robot's per-DoF limits")
-    acc_limit: float | None = Field(None, gt=0.0, le=1e8, description="acceleration bound of the output "
-                                    "(units/s²); default: the robot's per-DoF limits")
-    jerk_limit: float | None = Field(None, gt=0.0, le=1e10, description="jerk bound of the output (units/s³); "
-                                     "default: the robot's per-DoF limits")
+    limit_scale: float = Field(
+        1.0,
+        gt=0.0,
+        le=1.0,
+        description="fraction of the robot's velocity, acceleration and jerk limits to use (0..1]",
+    )
+    vel_limit: float | None = Field(
+        None,
+        gt=0.0,
+        le=1e6,
+        description="velocity bound of the output for every "
+        "filtered DoF (units/s); default: the robot's per-DoF limits",
+    )
+    acc_limit: float | None = Field(
+        None,
+        gt=0.0,
+        le=1e8,
+        description="acceleration bound of the output (units/s²); default: the robot's per-DoF limits",
+    )
+    jerk_limit: float | None = Field(
+        None,
+        gt=0.0,
+        le=1e10,
+        description="jerk bound of the output (units/s³); default: the robot's per-DoF limits",
+    )
     beta: float = Field(5.0, ge=1.0, le=200.0, description="position-saturation exponent β (>= 1)")
 
 
@@ -85,6 +120,7 @@ class _FilterBlock(Block):
         idx = np.flatnonzero(self.sel)
         self.idx = idx
         scale = p.limit_scale
+
         def limit(override: float | None, robot: np.ndarray) -> np.ndarray:
             return (robot[idx] if override is None else np.full(idx.size, float(override))) * scale
 
@@ -105,15 +141,26 @@ class _FilterBlock(Block):
         sigma, rho, bypass = self._character()
         old = getattr(self, "filter", None)
         if old is not None and old.n == max(1, idx.size) and old.groups == groups:
-            old.set_params(order=p.order, limiter=p.limiter, sigma=sigma, rho=rho, bypass=bypass, beta=p.beta,
-                           **self._limits, **self._pos)
+            old.set_params(
+                order=p.order,
+                limiter=p.limiter,
+                sigma=sigma,
+                rho=rho,
+                bypass=bypass,
+                beta=p.beta,
+                **self._limits,
+                **self._pos,
+            )
         else:
             self._new_filter()
         self._sigma_rho = (sigma, rho)
         # The compiled tick calls the filter's own kernel on its buffers (when it runs compiled code).
         f = self.filter
-        self._kernel = entry_point(filter_tick, FILTER_SIG) if self.ctx.compiled and f is not None and f.compiled \
+        self._kernel = (
+            entry_point(filter_tick, FILTER_SIG)
+            if self.ctx.compiled and f is not None and f.compiled
             else None
+        )
         self._idx64 = self.idx.astype(np.int64)
         self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)
         # The mask out depends only on the mask in (and idx): for the same mask object in (masks never change in
@@ -127,17 +174,32 @@ class _FilterBlock(Block):
         if self.idx.size == 0:
             self.filter = None
             return
-        self.filter = MotionFilter(int(self.idx.size), self.ctx.rate, order=p.order, sigma=sigma, rho=rho,
-                                   limiter=p.limiter, bypass=bypass, beta=p.beta, groups=self._groups,
-                                   x0=self.emb.rest[self.idx], **self._limits, **self._pos)
+        self.filter = MotionFilter(
+            int(self.idx.size),
+            self.ctx.rate,
+            order=p.order,
+            sigma=sigma,
+            rho=rho,
+            limiter=p.limiter,
+            bypass=bypass,
+            beta=p.beta,
+            groups=self._groups,
+            x0=self.emb.rest[self.idx],
+            **self._limits,
+            **self._pos,
+        )
         self._sp = np.full(self.idx.size, np.nan)
 
     def reset(self) -> None:
         self._new_filter()
 
     def adopt_state(self, old: Block) -> None:
-        if isinstance(old, _FilterBlock) and old.filter is not None and self.filter is not None \
-                and np.array_equal(old.idx, self.idx):
+        if (
+            isinstance(old, _FilterBlock)
+            and old.filter is not None
+            and self.filter is not None
+            and np.array_equal(old.idx, self.idx)
+        ):
             self.filter.set_state(old.filter.position, old.filter.velocity, old.filter.acceleration)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
@@ -145,13 +207,19 @@ class _FilterBlock(Block):
         if self.filter is None:
             return {"out": frame if frame is not None else self.empty()}
         if "sigma" in inputs or "rho" in inputs:  # unwired, both resolve to None: nothing to change
-            wired = self.driven(inputs, sigma=None, rho=None)  # wired values only (clamped to 0..1), else None
+            wired = self.driven(
+                inputs, sigma=None, rho=None
+            )  # wired values only (clamped to 0..1), else None
             if wired.sigma is not None or wired.rho is not None:
                 s, r, _ = self._character(wired.sigma, wired.rho)
                 if (s, r) != self._sigma_rho:
                     self.filter.set_params(sigma=s, rho=r)
                     self._sigma_rho = (s, r)
-        if self._kernel is not None and self.ctx.compiled and (frame is None or plain_frame(frame, self.emb.n_channels)):
+        if (
+            self._kernel is not None
+            and self.ctx.compiled
+            and (frame is None or plain_frame(frame, self.emb.n_channels))
+        ):
             return self._tick_compiled(frame)
         sp = self._sp
         if frame is not None:
@@ -179,8 +247,17 @@ class _FilterBlock(Block):
             mask, written = memo[2], self._mask_scratch
         else:
             mask = written = np.empty(emb.n_channels, dtype=bool)
-        self._kernel(frame.values if has else emb.rest, mask_in, has, self._idx64, self._sp, *f.kernel_buffers(),
-                     emb.rest, values, written)
+        self._kernel(
+            frame.values if has else emb.rest,
+            mask_in,
+            has,
+            self._idx64,
+            self._sp,
+            *f.kernel_buffers(),
+            emb.rest,
+            values,
+            written,
+        )
         if written is mask:
             self._mask_memo = (mask_in, self._idx64, mask)
         return {"out": PartialFrame(values, mask, frame.events if has else [])}

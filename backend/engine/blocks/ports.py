@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
-class PortType(str, Enum):
+class PortType(StrEnum):
     """Types of ports. `frame` carries a PAF; the others are scalar signals."""
 
     frame = "frame"
@@ -67,6 +67,7 @@ _FIELD = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)\}")
 
 def fill(template: str, values: dict[str, Any]) -> str:
     """`template` with every `{field}` replaced by `values[field]` (no other formatting)."""
+
     def value(match: re.Match[str]) -> str:
         name = match.group(1)
         if name not in values:
@@ -86,14 +87,20 @@ class PortRule(BaseModel):
 
     side: Literal["inputs", "outputs"]
     name: str = Field(..., description="port name; a template such as '{name}_weight' when `each` is set")
-    type: str = Field(..., description="a port type, or a template naming the parameter holding one ('{type}')")
+    type: str = Field(
+        ..., description="a port type, or a template naming the parameter holding one ('{type}')"
+    )
     doc: str = Field("", description="port doc (a template)")
-    each: str | None = Field(None, description="list parameter: one port per item, templates filled from the item")
+    each: str | None = Field(
+        None, description="list parameter: one port per item, templates filled from the item"
+    )
 
     @model_validator(mode="after")
-    def _consistent(self) -> "PortRule":
+    def _consistent(self) -> PortRule:
         if self.each is None and _FIELD.search(self.name):
-            raise ValueError(f"port rule '{self.name}': a name template needs `each` (a fixed name otherwise)")
+            raise ValueError(
+                f"port rule '{self.name}': a name template needs `each` (a fixed name otherwise)"
+            )
         if not _FIELD.search(self.type):
             PortType(self.type)
         return self
@@ -116,8 +123,13 @@ class PortRule(BaseModel):
         return out
 
 
-def derive_ports(rules: tuple[PortRule, ...], values: dict[str, Any] | None, defaults: dict[str, Any],
-                 inputs: dict[str, Port], outputs: dict[str, Port]) -> tuple[dict[str, Port], dict[str, Port]]:
+def derive_ports(
+    rules: tuple[PortRule, ...],
+    values: dict[str, Any] | None,
+    defaults: dict[str, Any],
+    inputs: dict[str, Port],
+    outputs: dict[str, Port],
+) -> tuple[dict[str, Port], dict[str, Port]]:
     """The declared ports followed by the ports every rule derives from `values`, in rule order."""
     sides = {"inputs": dict(inputs), "outputs": dict(outputs)}
     for rule in rules:

@@ -13,7 +13,9 @@ from backend.engine.blocks.base import BlockCommandError, BlockParams, Port, Por
 from backend.engine.blocks.core import pose_vector
 from backend.engine.frames import PartialFrame
 
-Easing = Literal["linear", "sine_in_out", "quad_in_out", "cubic_in_out", "quint_in_out", "back_out", "elastic_out"]
+Easing = Literal[
+    "linear", "sine_in_out", "quad_in_out", "cubic_in_out", "quint_in_out", "back_out", "elastic_out"
+]
 
 
 def ease(name: str, u: float) -> float:
@@ -38,8 +40,11 @@ def ease(name: str, u: float) -> float:
 
 
 class PostureParams(BlockParams):
-    posture: str | None = Field(None, description="posture to hold at start (from the robot's pose library)",
-                                json_schema_extra={"x-widget": "posture"})
+    posture: str | None = Field(
+        None,
+        description="posture to hold at start (from the robot's pose library)",
+        json_schema_extra={"x-widget": "posture"},
+    )
     duration: float = Field(1.0, ge=0.05, le=10.0, description="time to reach a new posture (s)")
     easing: Easing = Field("sine_in_out", description="slow in/out by default; back/elastic overshoot")
 
@@ -88,8 +93,9 @@ class Posture(Source):
         if values is None:
             values = self.emb.postures.get(name)
         if values is None:
-            raise BlockCommandError(f"robot '{self.emb.name}' has no posture '{name}' "
-                                    f"(postures: {sorted(self.emb.postures)})")
+            raise BlockCommandError(
+                f"robot '{self.emb.name}' has no posture '{name}' (postures: {sorted(self.emb.postures)})"
+            )
         try:
             return pose_vector(self.emb, {k: v for k, v in values.items() if k not in ("name", "builtin")})
         except ValueError as exc:
@@ -106,8 +112,13 @@ class Posture(Source):
         if s.move is None:
             return None
         duration = s.move["duration"]
-        return {"posture": s.move["posture"], "command_id": s.command_id, "elapsed": round(s.elapsed, 3),
-                "duration": duration, "progress": round(min(s.elapsed / duration, 1.0), 3)}
+        return {
+            "posture": s.move["posture"],
+            "command_id": s.command_id,
+            "elapsed": round(s.elapsed, 3),
+            "duration": duration,
+            "progress": round(min(s.elapsed / duration, 1.0), 3),
+        }
 
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         if command == "go":

@@ -17,10 +17,17 @@ from backend.engine.selectors import channel_mask
 
 class PuppetParams(BlockParams):
     dofs: DofSelection = Field(default=["*"], description="DoFs a client may puppeteer (others are refused)")
-    timeout: float = Field(0.5, ge=0.05, le=10.0, description="watchdog: with no message for this long (s, engine "
-                                                              "time) the stream counts as dropped and fades out")
+    timeout: float = Field(
+        0.5,
+        ge=0.05,
+        le=10.0,
+        description="watchdog: with no message for this long (s, engine "
+        "time) the stream counts as dropped and fades out",
+    )
     fade_in: float = Field(0.3, ge=0.0, le=5.0, description="blend-in time when a stream starts (s)")
-    fade_out: float = Field(0.5, ge=0.0, le=5.0, description="blend-out time when the stream ends or drops (s)")
+    fade_out: float = Field(
+        0.5, ge=0.0, le=5.0, description="blend-out time when the stream ends or drops (s)"
+    )
 
 
 class PuppetValueError(ValueError):
@@ -81,7 +88,11 @@ class Puppet(Source):
             dof = self.emb.dof(name)
             sl = dof.channels
             if dof.type is DofType.event or not self.allowed[sl].all():
-                why = "is an event DoF" if dof.type is DofType.event else f"is not in its dofs {self.params.dofs}"
+                why = (
+                    "is an event DoF"
+                    if dof.type is DofType.event
+                    else f"is not in its dofs {self.params.dofs}"
+                )
                 raise PuppetValueError(f"puppet block '{self.node_id}' cannot set '{name}': it {why}", name)
             channels.extend(range(sl.start, sl.stop))
             values.extend(self._channel_values(dof, target))
@@ -95,13 +106,22 @@ class Puppet(Source):
                 raise PuppetValueError(f"'{name}' takes a number (rad or m), got {target!r}", name)
             slack = 1e-9 * max(1.0, dof.max - dof.min)  # float round-off of a value read back from a DCC tool
             if not dof.min - slack <= target <= dof.max + slack:
-                raise PuppetValueError(f"'{name}' = {target:g} is outside its limits [{dof.min:g}, {dof.max:g}]", name)
+                raise PuppetValueError(
+                    f"'{name}' = {target:g} is outside its limits [{dof.min:g}, {dof.max:g}]", name
+                )
             return [min(max(float(target), dof.min), dof.max)]
         if dof.type is DofType.colour:
-            if not (isinstance(target, list) and len(target) == 3 and all(
-                    isinstance(c, (int, float)) and not isinstance(c, bool) and 0.0 <= c <= 1.0 for c in target)):
-                raise PuppetValueError(f"'{name}' takes a colour [r, g, b] with components in 0..1, got {target!r}",
-                                       name)
+            if not (
+                isinstance(target, list)
+                and len(target) == 3
+                and all(
+                    isinstance(c, (int, float)) and not isinstance(c, bool) and 0.0 <= c <= 1.0
+                    for c in target
+                )
+            ):
+                raise PuppetValueError(
+                    f"'{name}' takes a colour [r, g, b] with components in 0..1, got {target!r}", name
+                )
             return [float(c) for c in target]
         options = list(dof.options or ())
         if not isinstance(target, str) or target not in options:

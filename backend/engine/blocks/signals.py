@@ -16,16 +16,25 @@ from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock,
 # Math
 # --------------------------------------------------------------------------------------------------
 
-MathOp = Literal["add", "subtract", "multiply", "divide", "min", "max", "map_range", "clamp", "abs", "smoothstep"]
+MathOp = Literal[
+    "add", "subtract", "multiply", "divide", "min", "max", "map_range", "clamp", "abs", "smoothstep"
+]
 
 
 class MathParams(BlockParams):
-    op: MathOp = Field("add", description="operation on a (and b): add, subtract, multiply, divide, min, max, "
-                                          "map_range, clamp, abs, smoothstep")
-    a: float = drivable(Field(0.0, description="value of a when its input is not connected"),
-                        "first operand (overrides parameter a)")
-    b: float = drivable(Field(0.0, description="value of b when its input is not connected"),
-                        "second operand (overrides parameter b)")
+    op: MathOp = Field(
+        "add",
+        description="operation on a (and b): add, subtract, multiply, divide, min, max, "
+        "map_range, clamp, abs, smoothstep",
+    )
+    a: float = drivable(
+        Field(0.0, description="value of a when its input is not connected"),
+        "first operand (overrides parameter a)",
+    )
+    b: float = drivable(
+        Field(0.0, description="value of b when its input is not connected"),
+        "second operand (overrides parameter b)",
+    )
     in_min: float = Field(0.0, description="map_range/smoothstep: input value mapped to out_min (lower edge)")
     in_max: float = Field(1.0, description="map_range/smoothstep: input value mapped to out_max (upper edge)")
     out_min: float = Field(0.0, description="map_range: output at in_min")
@@ -35,7 +44,7 @@ class MathParams(BlockParams):
     max: float = Field(1.0, description="clamp: upper bound")
 
     @model_validator(mode="after")
-    def _check(self) -> "MathParams":
+    def _check(self) -> MathParams:
         if self.op in ("map_range", "smoothstep") and self.in_min == self.in_max:
             raise ValueError(f"{self.op}: in_min and in_max must differ (both are {self.in_min})")
         if self.op == "clamp" and self.min > self.max:
@@ -131,12 +140,20 @@ def waveform(shape: str, u: float, knots: tuple[float, float] = (0.0, 0.0)) -> f
 
 
 class LfoParams(BlockParams):
-    waveform: Waveform = Field("sine", description="sine, triangle, square, saw or random_smooth (smooth noise)")
-    frequency: float = drivable(Field(0.5, ge=0.0, le=50.0, description="cycles per second (Hz)"),
-                                "overrides the frequency (Hz)", clamp="floor")
-    amplitude: float = drivable(Field(1.0, ge=0.0, le=100.0, description="peak deviation from the offset"),
-                                "overrides the amplitude")
-    offset: float = drivable(Field(0.0, ge=-100.0, le=100.0, description="centre value"), "overrides the offset")
+    waveform: Waveform = Field(
+        "sine", description="sine, triangle, square, saw or random_smooth (smooth noise)"
+    )
+    frequency: float = drivable(
+        Field(0.5, ge=0.0, le=50.0, description="cycles per second (Hz)"),
+        "overrides the frequency (Hz)",
+        clamp="floor",
+    )
+    amplitude: float = drivable(
+        Field(1.0, ge=0.0, le=100.0, description="peak deviation from the offset"), "overrides the amplitude"
+    )
+    offset: float = drivable(
+        Field(0.0, ge=-100.0, le=100.0, description="centre value"), "overrides the offset"
+    )
     phase: float = Field(0.0, ge=0.0, le=1.0, description="phase at start (cycles, 0..1)")
 
 
@@ -194,26 +211,40 @@ DEFAULT_POSTURES: dict[str, tuple[float, float]] = {
 class EmotionParams(BlockParams):
     valence: float = drivable(
         Field(0.0, ge=-1.0, le=1.0, description="unpleasant (-1) to pleasant (+1), when not connected"),
-        "valence -1..1 (overrides the parameter)", clamp="range")
-    arousal: float = drivable(Field(0.0, ge=-1.0, le=1.0, description="calm (-1) to excited (+1), when not connected"),
-                              "arousal -1..1 (overrides the parameter)", clamp="range")
-    speed_min: float = Field(0.6, gt=0.0, le=1.0, description="speed multiplier at arousal -1 (1 at arousal 0)")
+        "valence -1..1 (overrides the parameter)",
+        clamp="range",
+    )
+    arousal: float = drivable(
+        Field(0.0, ge=-1.0, le=1.0, description="calm (-1) to excited (+1), when not connected"),
+        "arousal -1..1 (overrides the parameter)",
+        clamp="range",
+    )
+    speed_min: float = Field(
+        0.6, gt=0.0, le=1.0, description="speed multiplier at arousal -1 (1 at arousal 0)"
+    )
     speed_max: float = Field(1.6, ge=1.0, le=4.0, description="speed multiplier at arousal +1")
-    amplitude_min: float = Field(0.5, ge=0.0, le=1.0, description="amplitude gain at arousal -1 (1 at arousal 0)")
+    amplitude_min: float = Field(
+        0.5, ge=0.0, le=1.0, description="amplitude gain at arousal -1 (1 at arousal 0)"
+    )
     amplitude_max: float = Field(1.5, ge=1.0, le=3.0, description="amplitude gain at arousal +1")
-    valence_amplitude: float = Field(0.2, ge=0.0, le=1.0,
-                                     description="extra amplitude gain at |valence| = 1 (strong feelings show)")
+    valence_amplitude: float = Field(
+        0.2, ge=0.0, le=1.0, description="extra amplitude gain at |valence| = 1 (strong feelings show)"
+    )
     droop: float = Field(0.2, ge=0.0, le=1.0, description="posture offset at valence -1 (rad, + = head down)")
     arousal_lift: float = Field(0.05, ge=0.0, le=0.5, description="posture lift at arousal +1 (rad, head up)")
     postures: dict[str, tuple[float, float]] = Field(
         default_factory=lambda: dict(DEFAULT_POSTURES),
-        description="posture name -> its (valence, arousal); the nearest one is output")
-    smoothing: float = Field(0.5, ge=0.0, le=10.0, description="time constant of the valence/arousal smoothing (s)")
-    hysteresis: float = Field(0.05, ge=0.0, le=0.5,
-                              description="how much nearer a new posture must be before switching to it")
+        description="posture name -> its (valence, arousal); the nearest one is output",
+    )
+    smoothing: float = Field(
+        0.5, ge=0.0, le=10.0, description="time constant of the valence/arousal smoothing (s)"
+    )
+    hysteresis: float = Field(
+        0.05, ge=0.0, le=0.5, description="how much nearer a new posture must be before switching to it"
+    )
 
     @model_validator(mode="after")
-    def _check(self) -> "EmotionParams":
+    def _check(self) -> EmotionParams:
         if not self.postures:
             raise ValueError("postures needs at least one name -> (valence, arousal) entry")
         return self

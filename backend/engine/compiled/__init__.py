@@ -52,8 +52,18 @@ def plain_frame(frame: Any, n: int) -> bool:
     1-D, contiguous, of length `n` (the embodiment's channels)."""
     v, m = frame.values, frame.mask
     # (ndim and size as ints: cheaper than comparing shape tuples, and the same test)
-    return (type(v) is _NDARRAY and type(m) is _NDARRAY and v.dtype is _F64 and m.dtype is _BOOL and v.ndim == 1
-            and m.ndim == 1 and v.size == n and m.size == n and v.flags.c_contiguous and m.flags.c_contiguous)
+    return (
+        type(v) is _NDARRAY
+        and type(m) is _NDARRAY
+        and v.dtype is _F64
+        and m.dtype is _BOOL
+        and v.ndim == 1
+        and m.ndim == 1
+        and v.size == n
+        and m.size == n
+        and v.flags.c_contiguous
+        and m.flags.c_contiguous
+    )
 
 
 _ENTRIES: dict[tuple[int, tuple], Any] = {}

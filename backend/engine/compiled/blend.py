@@ -19,8 +19,24 @@ MODE_CODES = {BlendMode.override: 0, BlendMode.additive: 1, BlendMode.average: 2
 
 
 @njit(cache=True)
-def mixer_tick(vals, masks, layer_masks, weights, fade_level, fade_target, fade_time, signal_weights, dt, modes,
-               base, rest, enum, out, out_mask, w):
+def mixer_tick(
+    vals,
+    masks,
+    layer_masks,
+    weights,
+    fade_level,
+    fade_target,
+    fade_time,
+    signal_weights,
+    dt,
+    modes,
+    base,
+    rest,
+    enum,
+    out,
+    out_mask,
+    w,
+):
     """Advance the fades (in place), write each layer's effective weight to `w` (L,) and the blend of
     layers (values `vals` and masks `masks`, both (L*C,), layer-major) over `base` to `out`/`out_mask`."""
     n_layers, n = weights.shape[0], base.shape[0]

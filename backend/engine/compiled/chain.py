@@ -25,9 +25,19 @@ CHAIN_SIG = (f8_3, f8_3, f8_2, f8_1, i8_1, f8_1, f8_1, f8_3, f8_2, f8_2, b1)
 def chain_args(chain) -> tuple:
     """The arrays of a `backend.engine.kinematics.Chain` in the order of `CHAIN_SIG` (contiguous)."""
     c = np.ascontiguousarray
-    return (c(chain._k), c(chain._k2), c(chain._axes), c(chain._revolute.astype(float)),
-            c(chain._src.astype(np.int64)), c(chain._mult), c(chain._off), c(chain._pre), c(chain._post),
-            c(chain._select), bool(chain._identity_map))
+    return (
+        c(chain._k),
+        c(chain._k2),
+        c(chain._axes),
+        c(chain._revolute.astype(float)),
+        c(chain._src.astype(np.int64)),
+        c(chain._mult),
+        c(chain._off),
+        c(chain._pre),
+        c(chain._post),
+        c(chain._select),
+        bool(chain._identity_map),
+    )
 
 
 @njit(cache=True)
@@ -91,14 +101,53 @@ def _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity):
     """Joint frames before their motion (m, 4, 4) and the tip pose (4, 4) for chain positions q."""
     frames = np.empty((pre.shape[0], 4, 4))
     tip = np.empty((4, 4))
-    _frames_into(q, k, k2, axes, rev, src, mult, off, pre, post, identity, frames, tip, np.empty((4, 4)),
-                 np.empty((4, 4)), np.empty((4, 4)))
+    _frames_into(
+        q,
+        k,
+        k2,
+        axes,
+        rev,
+        src,
+        mult,
+        off,
+        pre,
+        post,
+        identity,
+        frames,
+        tip,
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+    )
     return frames, tip
 
 
 @njit(cache=True)
-def _kinematics_into(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity, frames,
-                     tip, t, motion, tmp, p, d, jp_m, jd_m):
+def _kinematics_into(
+    q,
+    point,
+    direction,
+    k,
+    k2,
+    axes,
+    rev,
+    src,
+    mult,
+    off,
+    pre,
+    post,
+    select,
+    identity,
+    frames,
+    tip,
+    t,
+    motion,
+    tmp,
+    p,
+    d,
+    jp_m,
+    jd_m,
+):
     """`_kinematics` into given buffers: p, d (3,); jp_m, jd_m (3, m): the Jacobians over the chain's
     moving joints (the caller maps them by `select` unless `identity`); frames, tip, t, motion, tmp:
     `_frames_into`'s. The same arithmetic as `_kinematics`."""
@@ -130,9 +179,31 @@ def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post
     d = np.empty(3)
     jp_m = np.empty((3, m))
     jd_m = np.empty((3, m))
-    _kinematics_into(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post, select, identity,
-                     np.empty((m, 4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)),
-                     p, d, jp_m, jd_m)
+    _kinematics_into(
+        q,
+        point,
+        direction,
+        k,
+        k2,
+        axes,
+        rev,
+        src,
+        mult,
+        off,
+        pre,
+        post,
+        select,
+        identity,
+        np.empty((m, 4, 4)),
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+        p,
+        d,
+        jp_m,
+        jd_m,
+    )
     if identity:
         return p, d, jp_m, jd_m
     return p, d, _matmul(jp_m, select), _matmul(jd_m, select)
@@ -214,26 +285,129 @@ def _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a, inv, p
 def ik_constants(j_off, lower, upper, dof_lo, dof_hi, offset, axis):
     """The IK kernel's constant vectors in one array, in the order `ik_tick` reads them back: j_off, lower,
     upper (m,); dof_lo, dof_hi (nv,); offset, axis (3,) (one argument to convert per call instead of seven)."""
-    return np.ascontiguousarray(np.concatenate([j_off, lower, upper, dof_lo, dof_hi, offset, axis]), dtype=np.float64)
+    return np.ascontiguousarray(
+        np.concatenate([j_off, lower, upper, dof_lo, dof_hi, offset, axis]), dtype=np.float64
+    )
 
 
 @njit(cache=True)
-def ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, var, var_ch,
-            consts, look, lam2, iterations, max_step, converged, null_gain, null_range, k, k2, axes, rev, src, mult,
-            off, pre, post, select, identity):
+def ik_tick(
+    frame_values,
+    frame_mask,
+    values,
+    target,
+    weight,
+    delta,
+    out,
+    out_mask,
+    add_mask,
+    j_rows,
+    var,
+    var_ch,
+    consts,
+    look,
+    lam2,
+    iterations,
+    max_step,
+    converged,
+    null_gain,
+    null_range,
+    k,
+    k2,
+    axes,
+    rev,
+    src,
+    mult,
+    off,
+    pre,
+    post,
+    select,
+    identity,
+):
     """One IK tick (see `_ik_tick`) with its constant vectors packed by `ik_constants`."""
     m, nv = j_rows.shape[0], var.shape[0]
     o = 3 * m + 2 * nv
-    _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, consts[:m],
-             consts[m:2 * m], consts[2 * m:3 * m], var, var_ch, consts[3 * m:3 * m + nv], consts[3 * m + nv:o],
-             consts[o:o + 3], consts[o + 3:o + 6], look, lam2, iterations, max_step, converged, null_gain, null_range,
-             k, k2, axes, rev, src, mult, off, pre, post, select, identity)
+    _ik_tick(
+        frame_values,
+        frame_mask,
+        values,
+        target,
+        weight,
+        delta,
+        out,
+        out_mask,
+        add_mask,
+        j_rows,
+        consts[:m],
+        consts[m : 2 * m],
+        consts[2 * m : 3 * m],
+        var,
+        var_ch,
+        consts[3 * m : 3 * m + nv],
+        consts[3 * m + nv : o],
+        consts[o : o + 3],
+        consts[o + 3 : o + 6],
+        look,
+        lam2,
+        iterations,
+        max_step,
+        converged,
+        null_gain,
+        null_range,
+        k,
+        k2,
+        axes,
+        rev,
+        src,
+        mult,
+        off,
+        pre,
+        post,
+        select,
+        identity,
+    )
 
 
 @njit(cache=True)
-def _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_mask, add_mask, j_rows, j_off, lower,
-             upper, var, var_ch, dof_lo, dof_hi, offset, axis, look, lam2, iterations, max_step, converged,
-             null_gain, null_range, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+def _ik_tick(
+    frame_values,
+    frame_mask,
+    values,
+    target,
+    weight,
+    delta,
+    out,
+    out_mask,
+    add_mask,
+    j_rows,
+    j_off,
+    lower,
+    upper,
+    var,
+    var_ch,
+    dof_lo,
+    dof_hi,
+    offset,
+    axis,
+    look,
+    lam2,
+    iterations,
+    max_step,
+    converged,
+    null_gain,
+    null_range,
+    k,
+    k2,
+    axes,
+    rev,
+    src,
+    mult,
+    off,
+    pre,
+    post,
+    select,
+    identity,
+):
     """One IK tick (see `InverseKinematics.transform`): the stage-1 pose `values` (C,) takes the frame's
     set channels (in place); from it and last tick's correction `delta` (updated in place), solve
     toward `target` and write the frame with the moved joint DoFs, blended by `weight`, to `out`
@@ -260,16 +434,50 @@ def _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_m
     err = np.empty(3)
     # the forward kinematics' buffers, reused by every iteration
     m = pre.shape[0]
-    frames, tip, t4, motion, tmp = np.empty((m, 4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), \
-        np.empty((4, 4))
+    frames, tip, t4, motion, tmp = (
+        np.empty((m, 4, 4)),
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+        np.empty((4, 4)),
+    )
     point, d, jp_m, jd_m = np.empty(3), np.empty(3), np.empty((3, m)), np.empty((3, m))
     # the damped least squares' buffers
-    a3, inv3, pinv, jm, back = np.empty((3, 3)), np.empty((3, 3)), np.empty((nv, 3)), np.empty(3), np.empty(nv)
+    a3, inv3, pinv, jm, back = (
+        np.empty((3, 3)),
+        np.empty((3, 3)),
+        np.empty((nv, 3)),
+        np.empty(3),
+        np.empty(nv),
+    )
     dq = np.empty(nv)
     blocked = np.empty(nv, dtype=np.bool_)
     for _ in range(iterations):
-        _kinematics_into(q, offset, axis, k, k2, axes, rev, src, mult, off, pre, post, select, identity, frames,
-                         tip, t4, motion, tmp, point, d, jp_m, jd_m)
+        _kinematics_into(
+            q,
+            offset,
+            axis,
+            k,
+            k2,
+            axes,
+            rev,
+            src,
+            mult,
+            off,
+            pre,
+            post,
+            select,
+            identity,
+            frames,
+            tip,
+            t4,
+            motion,
+            tmp,
+            point,
+            d,
+            jp_m,
+            jd_m,
+        )
         if identity:
             jp, jd = jp_m, jd_m
         else:
@@ -338,8 +546,29 @@ def _ik_tick(frame_values, frame_mask, values, target, weight, delta, out, out_m
         out[var_ch[j]] = ch[j] + weight * delta[j]
 
 
-IK_SIG = (f8_1, b1_1, f8_1, f8_1, f8, f8_1, f8_1, b1_1, b1_1, f8_2, i8_1, i8_1, f8_1, b1, f8, i8, f8, f8, f8, f8,
-          *CHAIN_SIG)
+IK_SIG = (
+    f8_1,
+    b1_1,
+    f8_1,
+    f8_1,
+    f8,
+    f8_1,
+    f8_1,
+    b1_1,
+    b1_1,
+    f8_2,
+    i8_1,
+    i8_1,
+    f8_1,
+    b1,
+    f8,
+    i8,
+    f8,
+    f8,
+    f8,
+    f8,
+    *CHAIN_SIG,
+)
 
 
 @njit(cache=True)
@@ -357,33 +586,136 @@ def _limit(old, new, lo, hi, vmax, dt):
     return out
 
 
-def gaze_constants(rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax, eye_offset, j_off, jlo, jhi):
+def gaze_constants(
+    rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax, eye_offset, j_off, jlo, jhi
+):
     """The gaze kernel's constant vectors in one array, in the order `gaze_tick` reads them back: rest (C,);
     gain, share, follow_share (n,); follow_total (2,); tau, lo, hi, vmax (n,); eye_offset (3,); j_off,
     jlo, jhi (m,) (one argument to convert per call instead of thirteen)."""
-    return np.ascontiguousarray(np.concatenate([rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax,
-                                                eye_offset, j_off, jlo, jhi]), dtype=np.float64)
+    return np.ascontiguousarray(
+        np.concatenate(
+            [rest, gain, share, follow_share, follow_total, tau, lo, hi, vmax, eye_offset, j_off, jlo, jhi]
+        ),
+        dtype=np.float64,
+    )
 
 
 @njit(cache=True)
-def gaze_tick(x, dip, out, target, strength, dt, idx, axis, leader, consts, arc_dip, arc_max, arc_smoothing,
-              tolerance, j_rows, k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+def gaze_tick(
+    x,
+    dip,
+    out,
+    target,
+    strength,
+    dt,
+    idx,
+    axis,
+    leader,
+    consts,
+    arc_dip,
+    arc_max,
+    arc_smoothing,
+    tolerance,
+    j_rows,
+    k,
+    k2,
+    axes,
+    rev,
+    src,
+    mult,
+    off,
+    pre,
+    post,
+    select,
+    identity,
+):
     """One gaze tick (see `_gaze_tick`) with its constant vectors packed by `gaze_constants`."""
     n, c, m = x.shape[0], out.shape[0], j_rows.shape[0]
     o = c + 3 * n + 2
     o2 = o + 4 * n + 3
-    return _gaze_tick(x, dip, out, target, strength, dt, consts[:c], idx, axis, leader, consts[c:c + n],
-                      consts[c + n:c + 2 * n], consts[c + 2 * n:c + 3 * n], consts[c + 3 * n:o], consts[o:o + n],
-                      consts[o + n:o + 2 * n], consts[o + 2 * n:o + 3 * n], consts[o + 3 * n:o + 4 * n], arc_dip,
-                      arc_max, arc_smoothing, tolerance, consts[o + 4 * n:o2], j_rows, consts[o2:o2 + m],
-                      consts[o2 + m:o2 + 2 * m], consts[o2 + 2 * m:o2 + 3 * m], k, k2, axes, rev, src, mult, off, pre,
-                      post, select, identity)
+    return _gaze_tick(
+        x,
+        dip,
+        out,
+        target,
+        strength,
+        dt,
+        consts[:c],
+        idx,
+        axis,
+        leader,
+        consts[c : c + n],
+        consts[c + n : c + 2 * n],
+        consts[c + 2 * n : c + 3 * n],
+        consts[c + 3 * n : o],
+        consts[o : o + n],
+        consts[o + n : o + 2 * n],
+        consts[o + 2 * n : o + 3 * n],
+        consts[o + 3 * n : o + 4 * n],
+        arc_dip,
+        arc_max,
+        arc_smoothing,
+        tolerance,
+        consts[o + 4 * n : o2],
+        j_rows,
+        consts[o2 : o2 + m],
+        consts[o2 + m : o2 + 2 * m],
+        consts[o2 + 2 * m : o2 + 3 * m],
+        k,
+        k2,
+        axes,
+        rev,
+        src,
+        mult,
+        off,
+        pre,
+        post,
+        select,
+        identity,
+    )
 
 
 @njit(cache=True)
-def _gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain, share, follow_share, follow_total,
-               tau, lo, hi, vmax, arc_dip, arc_max, arc_smoothing, tolerance, eye_offset, j_rows, j_off, jlo, jhi,
-               k, k2, axes, rev, src, mult, off, pre, post, select, identity):
+def _gaze_tick(
+    x,
+    dip,
+    out,
+    target,
+    strength,
+    dt,
+    rest,
+    idx,
+    axis,
+    leader,
+    gain,
+    share,
+    follow_share,
+    follow_total,
+    tau,
+    lo,
+    hi,
+    vmax,
+    arc_dip,
+    arc_max,
+    arc_smoothing,
+    tolerance,
+    eye_offset,
+    j_rows,
+    j_off,
+    jlo,
+    jhi,
+    k,
+    k2,
+    axes,
+    rev,
+    src,
+    mult,
+    off,
+    pre,
+    post,
+    select,
+    identity,
+):
     """One gaze tick (see `Gaze.tick`): the gaze DoFs' angles from rest `x` (n,) and the arc dip
     `dip` (1,) advance in place; `out` (C,) receives rest + the gaze angles. Returns on_target."""
     n = x.shape[0]
@@ -394,7 +726,9 @@ def _gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain,
     _, pose = _frames(q, k, k2, axes, rev, src, mult, off, pre, post, identity)
     eye = np.empty(3)
     for r in range(3):
-        eye[r] = pose[r, 0] * eye_offset[0] + pose[r, 1] * eye_offset[1] + pose[r, 2] * eye_offset[2] + pose[r, 3]
+        eye[r] = (
+            pose[r, 0] * eye_offset[0] + pose[r, 1] * eye_offset[1] + pose[r, 2] * eye_offset[2] + pose[r, 3]
+        )
     l0, l1, l2 = pose[0, 0], pose[1, 0], pose[2, 0]
     r0, r1, r2 = target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]
     dist = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
@@ -420,7 +754,9 @@ def _gaze_tick(x, dip, out, target, strength, dt, rest, idx, axis, leader, gain,
         missing = desired - taken
         for i in range(n):
             a = axis[i]
-            goal[i] = min(max(goal[i] + (missing[a] / follow_total[a]) * follow_share[i] / gain[i], lo[i]), hi[i])
+            goal[i] = min(
+                max(goal[i] + (missing[a] / follow_total[a]) * follow_share[i] / gain[i], lo[i]), hi[i]
+            )
         target_x = np.empty(n)
         for i in range(n):
             alpha = 1.0 - math.exp(-dt / max(tau[i], 1e-9))

@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 from numba import njit
+from numba import types as nt
 
 from backend.engine.compiled import b1, b1_1, f8, f8_1, f8_2, f8_3, i8_1
-from numba import types as nt
 
 _SINE, _QUAD, _CUBIC, _QUART, _QUINT, _EXPO, _CIRC, _BACK, _ELASTIC, _BOUNCE = range(3, 13)
 
@@ -124,8 +124,17 @@ def evaluate(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, out):
         elif c == 1:  # linear
             out[i] = v0 + u * (v1 - v0)
         elif c == 2:  # bezier
-            out[i] = _bezier(t0, v0, h_right[i, idx, 0], h_right[i, idx, 1], h_left[i, nxt, 0], h_left[i, nxt, 1],
-                             t1, v1, t)
+            out[i] = _bezier(
+                t0,
+                v0,
+                h_right[i, idx, 0],
+                h_right[i, idx, 1],
+                h_left[i, nxt, 0],
+                h_left[i, nxt, 1],
+                t1,
+                v1,
+                t,
+            )
         else:
             out[i] = v0 + _ease(c, mode[i, idx], u) * (v1 - v0)
 
@@ -134,8 +143,29 @@ EVALUATE_SIG = (f8_2, f8_2, f8_3, f8_3, nt.int64[:, ::1], nt.int64[:, ::1], i8_1
 
 
 @njit(cache=True, error_model="numpy")
-def clip_tick(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, channels, relative, enum, rest, values,
-              xfade, k, from_values, old_mask, mask, rel, weight, out):
+def clip_tick(
+    keys_t,
+    keys_v,
+    h_right,
+    h_left,
+    code,
+    mode,
+    n_keys,
+    t,
+    channels,
+    relative,
+    enum,
+    rest,
+    values,
+    xfade,
+    k,
+    from_values,
+    old_mask,
+    mask,
+    rel,
+    weight,
+    out,
+):
     """A playing clip's frame (see `ClipPlayer.tick` and `CompiledClip.sample`): the curves at clip time
     `t` into the shown pose `values` (C,) at their `channels` (offsets from `rest` where `relative`,
     option indices rounded where `enum`); while `xfade`, `values` crossfades from `from_values` by `k`
@@ -160,5 +190,26 @@ def clip_tick(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, channels, 
         out[c] = rest[c] + weight * (values[c] - rest[c]) if rel else values[c]
 
 
-CLIP_SIG = (f8_2, f8_2, f8_3, f8_3, nt.int64[:, ::1], nt.int64[:, ::1], i8_1, f8, i8_1, b1_1, b1_1, f8_1, f8_1,
-            b1, f8, f8_1, b1_1, b1_1, b1, f8, f8_1)
+CLIP_SIG = (
+    f8_2,
+    f8_2,
+    f8_3,
+    f8_3,
+    nt.int64[:, ::1],
+    nt.int64[:, ::1],
+    i8_1,
+    f8,
+    i8_1,
+    b1_1,
+    b1_1,
+    f8_1,
+    f8_1,
+    b1,
+    f8,
+    f8_1,
+    b1_1,
+    b1_1,
+    b1,
+    f8,
+    f8_1,
+)

@@ -17,7 +17,9 @@ from backend.engine.compiled import b1, b1_1, f8, f8_1, f8_2
 
 
 @njit(cache=True)
-def breathe_tick(phi, offset_cycles, amp_override, amp_values, scale, amplitude, inhale, rest, lo, hi, mask, out):
+def breathe_tick(
+    phi, offset_cycles, amp_override, amp_values, scale, amplitude, inhale, rest, lo, hi, mask, out
+):
     """The breath at cycle phase `phi` (cycles): `Breathe.wave` of each DoF's phase, times its amplitude."""
     for c in range(out.shape[0]):
         if not mask[c]:

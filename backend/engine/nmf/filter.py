@@ -5,15 +5,43 @@ from __future__ import annotations
 
 import functools
 import numbers
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from backend.engine.nmf.kernels import HAVE_NUMBA, _entry_points, _run_compiled
 from backend.engine.nmf.params import (
-    _ACC, _BETA, _BYPASS, _CFG_LEN, _GID, _HASPOS, _HI, _IALPHA, _INIT, _JERK, _KA, _KJ, _KV, _LO, _MEMBER, _PARAMS,
-    _RHO, _SIGMA, _SP, _STATE, _VEL, _X, N_ROWS, ONE_PASS_MAX_DOFS, RATE_MAX, RATE_MIN, finite, parse_groups, preset,
+    _ACC,
+    _BETA,
+    _BYPASS,
+    _CFG_LEN,
+    _GID,
+    _HASPOS,
+    _HI,
+    _IALPHA,
+    _INIT,
+    _JERK,
+    _KA,
+    _KJ,
+    _KV,
+    _LO,
+    _MEMBER,
+    _PARAMS,
+    _RHO,
+    _SIGMA,
+    _SP,
+    _STATE,
+    _VEL,
+    _X,
+    N_ROWS,
+    ONE_PASS_MAX_DOFS,
+    RATE_MAX,
+    RATE_MIN,
+    finite,
+    parse_groups,
+    preset,
     stage_params,
 )
 from backend.engine.nmf.reference import _reference_step
@@ -52,14 +80,32 @@ class MotionFilter:
     `rate` is the output rate in Hz, in [1e-3, 1e6]. `use_numba=False` selects the numpy reference.
     """
 
-    def __init__(self, n_dofs: int, rate: float, order: int = 3, sigma: Any = 0.5, rho: Any = 0.5,
-                 vel_limit: Any = 20.0, acc_limit: Any = 100.0, jerk_limit: Any = 10000.0,
-                 limiter: str = "tanh", bypass: Any = False, pmin: Any = None, pmax: Any = None,
-                 beta: Any = 5.0, x0: Any = None, groups: Sequence[Sequence[int]] | None = None,
-                 use_numba: bool = True):
+    def __init__(
+        self,
+        n_dofs: int,
+        rate: float,
+        order: int = 3,
+        sigma: Any = 0.5,
+        rho: Any = 0.5,
+        vel_limit: Any = 20.0,
+        acc_limit: Any = 100.0,
+        jerk_limit: Any = 10000.0,
+        limiter: str = "tanh",
+        bypass: Any = False,
+        pmin: Any = None,
+        pmax: Any = None,
+        beta: Any = 5.0,
+        x0: Any = None,
+        groups: Sequence[Sequence[int]] | None = None,
+        use_numba: bool = True,
+    ):
         if isinstance(n_dofs, bool) or not isinstance(n_dofs, numbers.Integral) or n_dofs < 1:
             raise ValueError(f"n_dofs must be a positive integer, got {n_dofs!r}")
-        if isinstance(rate, bool) or not isinstance(rate, numbers.Real) or not RATE_MIN <= float(rate) <= RATE_MAX:
+        if (
+            isinstance(rate, bool)
+            or not isinstance(rate, numbers.Real)
+            or not RATE_MIN <= float(rate) <= RATE_MAX
+        ):
             raise ValueError(f"rate must be a number of Hz in [{RATE_MIN:g}, {RATE_MAX:g}], got {rate!r}")
         self.n = int(n_dofs)
         self.rate = float(rate)
@@ -78,8 +124,19 @@ class MotionFilter:
         self.groups = self._groups.members
         self.order = 3
         self.limiter = "tanh"
-        self.set_params(order=order, sigma=sigma, rho=rho, vel_limit=vel_limit, acc_limit=acc_limit,
-                        jerk_limit=jerk_limit, limiter=limiter, bypass=bypass, pmin=pmin, pmax=pmax, beta=beta)
+        self.set_params(
+            order=order,
+            sigma=sigma,
+            rho=rho,
+            vel_limit=vel_limit,
+            acc_limit=acc_limit,
+            jerk_limit=jerk_limit,
+            limiter=limiter,
+            bypass=bypass,
+            pmin=pmin,
+            pmax=pmax,
+            beta=beta,
+        )
         self._x0: np.ndarray | None = None
         if x0 is not None:
             self._x0 = finite("x0", x0, self.n)
@@ -88,33 +145,73 @@ class MotionFilter:
         self.reset()
 
     @classmethod
-    def from_preset(cls, name: str, n_dofs: int, rate: float, order: int = 3, limiter: str = "tanh",
-                    **overrides: Any) -> "MotionFilter":
+    def from_preset(
+        cls, name: str, n_dofs: int, rate: float, order: int = 3, limiter: str = "tanh", **overrides: Any
+    ) -> MotionFilter:
         """A filter with one of the paper's presets W (or "regular"), A, B, C, D, E; overrides win."""
         p = preset(name)
-        kw = dict(sigma=p.sigma, rho=p.rho, vel_limit=p.vel_limit, acc_limit=p.acc_limit,
-                  jerk_limit=p.jerk_limit, bypass=p.bypass)
+        kw = dict(
+            sigma=p.sigma,
+            rho=p.rho,
+            vel_limit=p.vel_limit,
+            acc_limit=p.acc_limit,
+            jerk_limit=p.jerk_limit,
+            bypass=p.bypass,
+        )
         kw.update(overrides)
         return cls(n_dofs, rate, order=order, limiter=limiter, **kw)
 
     # --- configuration ------------------------------------------------------------------------------
-    def set_params(self, *, order: int | None = None, sigma: Any = None, rho: Any = None, vel_limit: Any = None,
-                   acc_limit: Any = None, jerk_limit: Any = None, limiter: str | None = None, bypass: Any = None,
-                   pmin: Any = None, pmax: Any = None, beta: Any = None, clear_position_limits: bool = False) -> None:
+    def set_params(
+        self,
+        *,
+        order: int | None = None,
+        sigma: Any = None,
+        rho: Any = None,
+        vel_limit: Any = None,
+        acc_limit: Any = None,
+        jerk_limit: Any = None,
+        limiter: str | None = None,
+        bypass: Any = None,
+        pmin: Any = None,
+        pmax: Any = None,
+        beta: Any = None,
+        clear_position_limits: bool = False,
+    ) -> None:
         """Change parameters live, keeping the filter's state (no jump). Everything is validated
         before anything changes; None leaves a parameter as it is."""
         self._buf[_PARAMS] = stage_params(
-            self._buf[_PARAMS], self._groups, order=order, limiter=limiter, vel_limit=vel_limit,
-            acc_limit=acc_limit, jerk_limit=jerk_limit, sigma=sigma, rho=rho, beta=beta, bypass=bypass, pmin=pmin,
-            pmax=pmax, clear_position_limits=clear_position_limits)
+            self._buf[_PARAMS],
+            self._groups,
+            order=order,
+            limiter=limiter,
+            vel_limit=vel_limit,
+            acc_limit=acc_limit,
+            jerk_limit=jerk_limit,
+            sigma=sigma,
+            rho=rho,
+            beta=beta,
+            bypass=bypass,
+            pmin=pmin,
+            pmax=pmax,
+            clear_position_limits=clear_position_limits,
+        )
         if order is not None:
             self.order = int(order)
         if limiter is not None:
             self.limiter = limiter
         self._hard = self.limiter == "hard"
         g = self._groups
-        self._cfg[:] = (self.dt, self.order, float(self._hard), g.count, float(g.coupled),
-                        float(self._buf[_HASPOS].any()), float(np.all(self._buf[_BYPASS] != 0.0)), self.rate)
+        self._cfg[:] = (
+            self.dt,
+            self.order,
+            float(self._hard),
+            g.count,
+            float(g.coupled),
+            float(self._buf[_HASPOS].any()),
+            float(np.all(self._buf[_BYPASS] != 0.0)),
+            self.rate,
+        )
 
     # --- state ----------------------------------------------------------------------------------------
     def reset(self, x0: Any = None) -> None:
@@ -170,9 +267,17 @@ class MotionFilter:
     def params(self) -> dict[str, np.ndarray]:
         """Current per-DoF parameters (copies)."""
         b = self._buf
-        return {"vel_limit": b[_KV].copy(), "acc_limit": b[_KA].copy(), "jerk_limit": b[_KJ].copy(),
-                "sigma": b[_SIGMA].copy(), "rho": b[_RHO].copy(), "beta": b[_BETA].copy(),
-                "bypass": b[_BYPASS] != 0, "pmin": b[_LO].copy(), "pmax": b[_HI].copy()}
+        return {
+            "vel_limit": b[_KV].copy(),
+            "acc_limit": b[_KA].copy(),
+            "jerk_limit": b[_KJ].copy(),
+            "sigma": b[_SIGMA].copy(),
+            "rho": b[_RHO].copy(),
+            "beta": b[_BETA].copy(),
+            "bypass": b[_BYPASS] != 0,
+            "pmin": b[_LO].copy(),
+            "pmax": b[_HI].copy(),
+        }
 
     @property
     def compiled(self) -> bool:
@@ -245,7 +350,7 @@ class MotionFilter:
         else:
             for k in range(sps.shape[0]):
                 _reference_step(sps[k], self._buf, self._cfg)
-                out[:, k] = self._buf[_X:_JERK + 1]
+                out[:, k] = self._buf[_X : _JERK + 1]
         return FilterResult(out[0], out[1], out[2], out[3])
 
 
@@ -255,8 +360,11 @@ def filter_trajectory(setpoints: np.ndarray, rate: float, **kw: Any) -> FilterRe
     one = sps.ndim == 1
     sps2 = sps[:, None] if one else sps
     name = kw.pop("preset", None)
-    f = (MotionFilter.from_preset(name, sps2.shape[1], rate, **kw) if name
-         else MotionFilter(sps2.shape[1], rate, **kw))
+    f = (
+        MotionFilter.from_preset(name, sps2.shape[1], rate, **kw)
+        if name
+        else MotionFilter(sps2.shape[1], rate, **kw)
+    )
     res = f.run(sps2)
     if one:
         return FilterResult(res.position[:, 0], res.velocity[:, 0], res.acceleration[:, 0], res.jerk[:, 0])

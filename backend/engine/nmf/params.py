@@ -7,8 +7,9 @@ changes, so a rejected `set_params` leaves the filter as it was.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -22,10 +23,41 @@ ORDERS = (1, 2, 3)
 LIMITERS = ("tanh", "hard")
 
 # Rows of the buffer: state, then parameters (some derived once in set_params), then scratch.
-(_X, _VEL, _ACC, _JERK, _SP, _INIT,
- _KV, _KA, _KJ, _SIGMA, _RHO, _BETA, _BYPASS,
- _IHV, _IHA, _IHJ, _EXPO, _IOMR, _HASPOS, _LO, _HI, _CENTER, _IALPHA, _TWOB, _MEMBER, _GID, _HMIX,
- _WV, _WU, _WT, _WN, _WG1, _WG2) = range(33)
+(
+    _X,
+    _VEL,
+    _ACC,
+    _JERK,
+    _SP,
+    _INIT,
+    _KV,
+    _KA,
+    _KJ,
+    _SIGMA,
+    _RHO,
+    _BETA,
+    _BYPASS,
+    _IHV,
+    _IHA,
+    _IHJ,
+    _EXPO,
+    _IOMR,
+    _HASPOS,
+    _LO,
+    _HI,
+    _CENTER,
+    _IALPHA,
+    _TWOB,
+    _MEMBER,
+    _GID,
+    _HMIX,
+    _WV,
+    _WU,
+    _WT,
+    _WN,
+    _WG1,
+    _WG2,
+) = range(33)
 N_ROWS = 33
 _STATE = slice(_X, _INIT + 1)
 _PARAMS = slice(_KV, _HMIX + 1)
@@ -34,6 +66,7 @@ _PARAMS = slice(_KV, _HMIX + 1)
 # by constants become multiplications (a division costs several multiplications' time).
 # cfg vector: dt, order, hard, n_groups, grouped, any_pos, all_bypass, rate
 _CFG_LEN = 8
+
 
 @dataclass(frozen=True)
 class Preset:
@@ -49,9 +82,16 @@ class Preset:
     bypass: bool = False
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "meaning": self.meaning, "sigma": self.sigma, "rho": self.rho,
-                "vel_limit": self.vel_limit, "acc_limit": self.acc_limit, "jerk_limit": self.jerk_limit,
-                "bypass": self.bypass}
+        return {
+            "name": self.name,
+            "meaning": self.meaning,
+            "sigma": self.sigma,
+            "rho": self.rho,
+            "vel_limit": self.vel_limit,
+            "acc_limit": self.acc_limit,
+            "jerk_limit": self.jerk_limit,
+            "bypass": self.bypass,
+        }
 
 
 # W bypasses H, so its sigma/rho are unused; they are the constructor's defaults.
@@ -73,6 +113,7 @@ def preset(name: str) -> Preset:
     if key not in PRESETS:
         raise ValueError(f"unknown preset '{name}' (one of {', '.join(PRESETS)} or 'regular')")
     return PRESETS[key]
+
 
 # ------------------------------------------------------------------------------------------------
 # Validation of per-DoF values
@@ -153,10 +194,23 @@ def parse_groups(groups: Sequence[Sequence[int]] | None, n: int) -> Groups:
 # ------------------------------------------------------------------------------------------------
 
 
-def stage_params(rows: np.ndarray, groups: Groups, *, order: int | None = None, limiter: str | None = None,
-                 vel_limit: Any = None, acc_limit: Any = None, jerk_limit: Any = None, sigma: Any = None,
-                 rho: Any = None, beta: Any = None, bypass: Any = None, pmin: Any = None, pmax: Any = None,
-                 clear_position_limits: bool = False) -> np.ndarray:
+def stage_params(
+    rows: np.ndarray,
+    groups: Groups,
+    *,
+    order: int | None = None,
+    limiter: str | None = None,
+    vel_limit: Any = None,
+    acc_limit: Any = None,
+    jerk_limit: Any = None,
+    sigma: Any = None,
+    rho: Any = None,
+    beta: Any = None,
+    bypass: Any = None,
+    pmin: Any = None,
+    pmax: Any = None,
+    clear_position_limits: bool = False,
+) -> np.ndarray:
     """A copy of the parameter rows `rows` (the buffer's `_PARAMS` slice) with the given parameters set
     (None leaves one as it is) and the derived rows recomputed. Raises ValueError naming the first bad
     value; `rows` never changes."""
@@ -181,8 +235,11 @@ def _row(prm: np.ndarray, r: int) -> np.ndarray:
 
 
 def _set_limits(prm: np.ndarray, n: int, vel_limit: Any, acc_limit: Any, jerk_limit: Any) -> None:
-    for name, value, r in (("vel_limit", vel_limit, _KV), ("acc_limit", acc_limit, _KA),
-                           ("jerk_limit", jerk_limit, _KJ)):
+    for name, value, r in (
+        ("vel_limit", vel_limit, _KV),
+        ("acc_limit", acc_limit, _KA),
+        ("jerk_limit", jerk_limit, _KJ),
+    ):
         if value is not None:
             arr = per_dof(name, value, n)
             check(name, arr, np.isfinite(arr) & (arr > 0), "> 0 and finite")
@@ -243,8 +300,14 @@ def _check_groups(prm: np.ndarray, groups: Groups) -> None:
     for members in groups.members:
         if len(members) < 2:
             continue
-        for r, name in ((_KV, "vel_limit"), (_KA, "acc_limit"), (_KJ, "jerk_limit"), (_SIGMA, "sigma"),
-                        (_RHO, "rho"), (_BYPASS, "bypass")):
+        for r, name in (
+            (_KV, "vel_limit"),
+            (_KA, "acc_limit"),
+            (_KJ, "jerk_limit"),
+            (_SIGMA, "sigma"),
+            (_RHO, "rho"),
+            (_BYPASS, "bypass"),
+        ):
             vals = _row(prm, r)[members]
             if not np.all(vals == vals[0]):
                 raise ValueError(f"{name} must be equal within a coupled group (DoFs {members})")

@@ -10,13 +10,68 @@ import math
 import numpy as np
 
 from backend.engine.nmf.kernels import (  # the constants the compiled tanh/pow use, so the twins match
-    _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13, _EXP_HI, _EXP_LO, _INV_LN2, _L3, _L5, _L7,
-    _L9, _L11, _L13, _L15, _L17, _L19, _L21, _L23, _LN2_HI, _LN2_LO, _ROUND, _SQRT2, _TANH_CAP,
+    _C2,
+    _C3,
+    _C4,
+    _C5,
+    _C6,
+    _C7,
+    _C8,
+    _C9,
+    _C10,
+    _C11,
+    _C12,
+    _C13,
+    _EXP_HI,
+    _EXP_LO,
+    _INV_LN2,
+    _L3,
+    _L5,
+    _L7,
+    _L9,
+    _L11,
+    _L13,
+    _L15,
+    _L17,
+    _L19,
+    _L21,
+    _L23,
+    _LN2_HI,
+    _LN2_LO,
+    _ROUND,
+    _SQRT2,
+    _TANH_CAP,
 )
 from backend.engine.nmf.params import (
-    _ACC, _BYPASS, _CENTER, _EXPO, _GID, _HASPOS, _HI, _HMIX, _IALPHA, _IHA, _IHJ, _IHV, _INIT, _IOMR, _JERK,
-    _KA, _KJ, _KV, _LO, _MEMBER, _SP, _TWOB, _VEL, _X, H_BASE_MAX, RHO_MAX, V_CLAMP,
+    _ACC,
+    _BYPASS,
+    _CENTER,
+    _EXPO,
+    _GID,
+    _HASPOS,
+    _HI,
+    _HMIX,
+    _IALPHA,
+    _IHA,
+    _IHJ,
+    _IHV,
+    _INIT,
+    _IOMR,
+    _JERK,
+    _KA,
+    _KJ,
+    _KV,
+    _LO,
+    _MEMBER,
+    _SP,
+    _TWOB,
+    _VEL,
+    _X,
+    H_BASE_MAX,
+    RHO_MAX,
+    V_CLAMP,
 )
+
 
 def tanh_np(x: np.ndarray) -> np.ndarray:
     """numpy twin of `_tanh` (the same operations in the same order, so the same bits)."""
@@ -25,13 +80,35 @@ def tanh_np(x: np.ndarray) -> np.ndarray:
     y = a + a
     k = (y * _INV_LN2 + _ROUND) - _ROUND
     r = (y - k * _LN2_HI) - k * _LN2_LO
-    p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
-        _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+    p = r * (
+        1.0
+        + r
+        * (
+            _C2
+            + r
+            * (
+                _C3
+                + r
+                * (
+                    _C4
+                    + r
+                    * (
+                        _C5
+                        + r
+                        * (
+                            _C6
+                            + r
+                            * (_C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))
+                        )
+                    )
+                )
+            )
+        )
+    )
     s = np.ldexp(1.0, k.astype(np.int64))
     em1 = s * p + (s - 1.0)
     t = em1 / (em1 + 2.0)
     return np.where(x >= 0.0, t, -t)
-
 
 
 def pow_np(b: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -47,17 +124,62 @@ def pow_np(b: np.ndarray, e: np.ndarray) -> np.ndarray:
         ex = ex + np.where(big, 1.0, 0.0)
         f = (m - 1.0) / (m + 1.0)
         f2 = f * f
-        q = f2 * (_L3 + f2 * (_L5 + f2 * (_L7 + f2 * (_L9 + f2 * (_L11 + f2 * (_L13 + f2 * (
-            _L15 + f2 * (_L17 + f2 * (_L19 + f2 * (_L21 + f2 * _L23))))))))))
+        q = f2 * (
+            _L3
+            + f2
+            * (
+                _L5
+                + f2
+                * (
+                    _L7
+                    + f2
+                    * (
+                        _L9
+                        + f2
+                        * (
+                            _L11
+                            + f2 * (_L13 + f2 * (_L15 + f2 * (_L17 + f2 * (_L19 + f2 * (_L21 + f2 * _L23)))))
+                        )
+                    )
+                )
+            )
+        )
         lnb = ex * _LN2_HI + (ex * _LN2_LO + (f + f) * (1.0 + q))
         y = np.minimum(np.maximum(e * lnb, _EXP_LO), _EXP_HI)
         k = (y * _INV_LN2 + _ROUND) - _ROUND
         r = (y - k * _LN2_HI) - k * _LN2_LO
-        p = r * (1.0 + r * (_C2 + r * (_C3 + r * (_C4 + r * (_C5 + r * (_C6 + r * (
-            _C7 + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13))))))))))))
+        p = r * (
+            1.0
+            + r
+            * (
+                _C2
+                + r
+                * (
+                    _C3
+                    + r
+                    * (
+                        _C4
+                        + r
+                        * (
+                            _C5
+                            + r
+                            * (
+                                _C6
+                                + r
+                                * (
+                                    _C7
+                                    + r * (_C8 + r * (_C9 + r * (_C10 + r * (_C11 + r * (_C12 + r * _C13)))))
+                                )
+                            )
+                        )
+                    )
+                )
+            )
+        )
         s = np.ldexp(1.0, k.astype(np.int64))
         out = s * p + s
     return np.where(b > 0.0, out, 0.0)
+
 
 # ------------------------------------------------------------------------------------------------
 # Building blocks (numpy, the spec's formulas; used by the figures and the hand-computed tests)
@@ -105,6 +227,7 @@ def stabilise(v: np.ndarray | float, sigma: float, rho: float) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     return v * h_gain(np.abs(v), sigma, rho)
 
+
 # ------------------------------------------------------------------------------------------------
 # The numpy reference: the same arithmetic, vectorised over DoFs (tests; fallback without numba)
 # ------------------------------------------------------------------------------------------------
@@ -131,8 +254,9 @@ def _norms_np(vec: np.ndarray, buf: np.ndarray, n_groups: int) -> np.ndarray:
     return out
 
 
-def _limit_groups_np(vec: np.ndarray, k: np.ndarray, inv_h: np.ndarray, hard: bool, buf: np.ndarray,
-                     n_groups: int) -> np.ndarray:
+def _limit_groups_np(
+    vec: np.ndarray, k: np.ndarray, inv_h: np.ndarray, hard: bool, buf: np.ndarray, n_groups: int
+) -> np.ndarray:
     member = buf[_MEMBER] != 0.0
     if not member.any():
         return _lim_np(vec, k, inv_h, hard)

@@ -28,7 +28,8 @@ from roles, and an `input` node's declaration rules are its class's `check` hook
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from backend.engine.blocks.base import BlockContext
 from backend.engine.embodiment import Embodiment

@@ -28,17 +28,27 @@ def parse_document(source: Any, errors: list[Issue]) -> dict[str, Any] | None:
         try:
             source = json.loads(source.lstrip("\ufeff"))
         except json.JSONDecodeError as exc:
-            errors.append(Issue(code="malformed_json", line=exc.lineno, column=exc.colno,
-                                message=f"the file is not valid JSON: {exc.msg} at line {exc.lineno}, "
-                                        f"column {exc.colno}"))
+            errors.append(
+                Issue(
+                    code="malformed_json",
+                    line=exc.lineno,
+                    column=exc.colno,
+                    message=f"the file is not valid JSON: {exc.msg} at line {exc.lineno}, column {exc.colno}",
+                )
+            )
             return None
         except RecursionError:
             errors.append(Issue(code="malformed_json", message="the JSON is nested too deeply to read"))
             return None
     if not isinstance(source, dict):
         kind = {list: "a list", str: "a string", type(None): "null"}.get(type(source), type(source).__name__)
-        errors.append(Issue(code="schema", message=f"a program is a JSON object ({{\"format\": \"{FORMAT}\", "
-                                                   f"\"nodes\": [...], ...}}), but this document is {kind}"))
+        errors.append(
+            Issue(
+                code="schema",
+                message=f'a program is a JSON object ({{"format": "{FORMAT}", '
+                f'"nodes": [...], ...}}), but this document is {kind}',
+            )
+        )
         return None
     return source
 
@@ -52,8 +62,9 @@ def _schema_message(path: str, err: dict[str, Any]) -> str:
     return f"{path}: {phrase(err)} (got {short(err.get('input'))})"
 
 
-def parse_program(doc: dict[str, Any], errors: list[Issue]
-                  ) -> tuple[Program | None, dict[str, int], dict[str, list[int]]]:
+def parse_program(
+    doc: dict[str, Any], errors: list[Issue]
+) -> tuple[Program | None, dict[str, int], dict[str, list[int]]]:
     """Parse leniently: a broken node, edge or input is reported and left out, the rest goes on.
 
     Returns the program, the ids (and indices) of nodes left out because their entry is malformed,
@@ -62,23 +73,34 @@ def parse_program(doc: dict[str, Any], errors: list[Issue]
     broken: dict[str, int] = {}
     where: dict[str, list[int]] = {"nodes": [], "edges": [], "inputs": []}
     if "format" not in doc:
-        errors.append(Issue(code="wrong_format", path="format",
-                            message=f"the document has no 'format' field; add \"format\": \"{FORMAT}\""))
+        errors.append(
+            Issue(
+                code="wrong_format",
+                path="format",
+                message=f'the document has no \'format\' field; add "format": "{FORMAT}"',
+            )
+        )
         return None, broken, where
     fmt = doc.get("format")
     if fmt != FORMAT:
         newer = isinstance(fmt, str) and fmt.startswith("nutty-program/")
         hint = " (written for another version of Nutty)" if newer else ""
-        errors.append(Issue(code="wrong_format", path="format",
-                            message=f"format is {short(fmt)}{hint}; this engine reads '{FORMAT}'"))
+        errors.append(
+            Issue(
+                code="wrong_format",
+                path="format",
+                message=f"format is {short(fmt)}{hint}; this engine reads '{FORMAT}'",
+            )
+        )
         return None, broken, where
     parts: dict[str, list[Any]] = {"nodes": [], "edges": [], "inputs": []}
     models = {"nodes": Node, "edges": Edge, "inputs": ExposedInput}
     for key, model in models.items():
         raw = doc.get(key, [])
         if not isinstance(raw, list):
-            errors.append(Issue(code="schema", path=key,
-                                message=f"'{key}' must be a list, got {type(raw).__name__}"))
+            errors.append(
+                Issue(code="schema", path=key, message=f"'{key}' must be a list, got {type(raw).__name__}")
+            )
             continue
         for i, item in enumerate(raw):
             try:
@@ -93,8 +115,15 @@ def parse_program(doc: dict[str, Any], errors: list[Issue]
                 for err in exc.errors():
                     path = loc((key, i, *err["loc"]))
                     code = "invalid_input" if key == "inputs" and err["type"] == "value_error" else "schema"
-                    errors.append(Issue(code=code, node=node_id, port=name if isinstance(name, str) else None,
-                                        path=path, message=_schema_message(path, err)))
+                    errors.append(
+                        Issue(
+                            code=code,
+                            node=node_id,
+                            port=name if isinstance(name, str) else None,
+                            path=path,
+                            message=_schema_message(path, err),
+                        )
+                    )
     rest = {k: v for k, v in doc.items() if k not in models}
     for _ in range(2):  # report bad top-level fields, drop them, and go on with the graph
         try:

@@ -4,7 +4,8 @@ parameters against the robot (`unknown_dof`, or `invalid_param` for a pose value
 from __future__ import annotations
 
 import difflib
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 from pydantic import BaseModel
 
@@ -26,8 +27,9 @@ def _widget(info: Any) -> str | None:
     return extra.get("x-widget") if isinstance(extra, dict) else None
 
 
-def _dof_params(model: BaseModel, prefix: tuple[Any, ...] = ()
-                ) -> Iterator[tuple[tuple[Any, ...], str, Any, BaseModel]]:
+def _dof_params(
+    model: BaseModel, prefix: tuple[Any, ...] = ()
+) -> Iterator[tuple[tuple[Any, ...], str, Any, BaseModel]]:
     """Every DoF-naming parameter of a parameter model, nested models included.
 
     Yields (location, widget, value, owning model) for fields marked `x-widget: dofs` (selector lists)
@@ -65,20 +67,36 @@ def dof_errors(node: Node, index: int, params: BlockParams, emb: Embodiment) -> 
                 try:
                     select_dofs(emb, [sel])
                 except SelectorError as exc:
-                    out.append(Issue(code="unknown_dof", node=node.id, port=port,
-                                     path=_loc((f"nodes[{index}].params", *loc, j)),
-                                     message=f"{head}: {exc}{_dof_hint(emb, str(sel))}"))
+                    out.append(
+                        Issue(
+                            code="unknown_dof",
+                            node=node.id,
+                            port=port,
+                            path=_loc((f"nodes[{index}].params", *loc, j)),
+                            message=f"{head}: {exc}{_dof_hint(emb, str(sel))}",
+                        )
+                    )
         elif widget == POSE and isinstance(value, dict):
             for name, v in value.items():
                 path = _loc((f"nodes[{index}].params", *loc, name))
                 try:
                     pose_vector(emb, {name: v})
                 except SelectorError as exc:
-                    out.append(Issue(code="unknown_dof", node=node.id, port=port, path=path,
-                                     message=f"{head}: {exc}{_dof_hint(emb, str(name))}"))
+                    out.append(
+                        Issue(
+                            code="unknown_dof",
+                            node=node.id,
+                            port=port,
+                            path=path,
+                            message=f"{head}: {exc}{_dof_hint(emb, str(name))}",
+                        )
+                    )
                 except (ValueError, TypeError) as exc:
-                    out.append(Issue(code="invalid_param", node=node.id, port=port, path=path,
-                                     message=f"{head}: {exc}"))
+                    out.append(
+                        Issue(
+                            code="invalid_param", node=node.id, port=port, path=path, message=f"{head}: {exc}"
+                        )
+                    )
     return out
 
 
@@ -94,4 +112,3 @@ def find_value(data: Any, target: str, loc: tuple[Any, ...] = ()) -> tuple[Any, 
         if found is not None:
             return found
     return None
-

@@ -30,24 +30,40 @@ def _check_edge(state: CheckState, edge: Edge, i: int) -> None:
     src_ports, dst_ports = state.ports.get(src.node), state.ports.get(dst.node)
     out_ports = src_ports[1] if src_ports is not None else None
     in_ports = dst_ports[0] if dst_ports is not None else None
-    bad_ports = [_unknown_port(state, i, src, out_ports, "output", "from"),
-                 _unknown_port(state, i, dst, in_ports, "input", "to")]
+    bad_ports = [
+        _unknown_port(state, i, src, out_ports, "output", "from"),
+        _unknown_port(state, i, dst, in_ports, "input", "to"),
+    ]
     if any(bad_ports):
         return
     if out_ports is not None and in_ports is not None:
         t_out, t_in = out_ports[src.port].type, in_ports[dst.port].type
         if not port_accepts(t_in, t_out):
-            state.errors.append(Issue(code="port_type_mismatch", node=dst.node, port=dst.port, path=f"edges[{i}]",
-                                      message=f"cannot connect output '{src.node}.{src.port}' ({t_out.value}) to "
-                                              f"input '{dst.node}.{dst.port}' ({t_in.value})"))
+            state.errors.append(
+                Issue(
+                    code="port_type_mismatch",
+                    node=dst.node,
+                    port=dst.port,
+                    path=f"edges[{i}]",
+                    message=f"cannot connect output '{src.node}.{src.port}' ({t_out.value}) to "
+                    f"input '{dst.node}.{dst.port}' ({t_in.value})",
+                )
+            )
             return
     key = (dst.node, dst.port)
     if key in state.incoming:
         j, first = state.incoming[key]
-        state.errors.append(Issue(code="multiple_edges", node=dst.node, port=dst.port, path=f"edges[{i}]",
-                                  message=f"input '{dst.node}.{dst.port}' already has an edge from "
-                                          f"'{first.from_.node}.{first.from_.port}' (edges[{j}]); an input takes "
-                                          f"one edge (use a layer mixer to combine frames)"))
+        state.errors.append(
+            Issue(
+                code="multiple_edges",
+                node=dst.node,
+                port=dst.port,
+                path=f"edges[{i}]",
+                message=f"input '{dst.node}.{dst.port}' already has an edge from "
+                f"'{first.from_.node}.{first.from_.port}' (edges[{j}]); an input takes "
+                f"one edge (use a layer mixer to combine frames)",
+            )
+        )
         return
     state.incoming[key] = (i, edge)
     state.graph[src.node].add(dst.node)
@@ -64,22 +80,37 @@ def _unknown_node(state: CheckState, edge: Edge, i: int, end: Endpoint, role: st
     hint = difflib.get_close_matches(end.node, list(state.node_by_id), n=1)
     extra = f"; did you mean '{hint[0]}'?" if hint else ""
     verb = "comes from" if role == "from" else "goes to"
-    state.errors.append(Issue(code="unknown_node", node=end.node, port=end.port, path=f"edges[{i}].{role}.node",
-                              message=f"edge {src.node}.{src.port} -> {dst.node}.{dst.port} {verb} node "
-                                      f"'{end.node}', which does not exist{extra}"))
+    state.errors.append(
+        Issue(
+            code="unknown_node",
+            node=end.node,
+            port=end.port,
+            path=f"edges[{i}].{role}.node",
+            message=f"edge {src.node}.{src.port} -> {dst.node}.{dst.port} {verb} node "
+            f"'{end.node}', which does not exist{extra}",
+        )
+    )
     return True
 
 
-def _unknown_port(state: CheckState, i: int, end: Endpoint, ports: dict[str, Port] | None, kind: str,
-                  role: str) -> bool:
+def _unknown_port(
+    state: CheckState, i: int, end: Endpoint, ports: dict[str, Port] | None, kind: str, role: str
+) -> bool:
     """Report an end naming a port its node does not have (unknown ports: nothing to check)."""
     if ports is None or end.port in ports:
         return False
     hint = difflib.get_close_matches(end.port, list(ports), n=1)
     extra = f"did you mean '{hint[0]}'? " if hint else ""
-    state.errors.append(Issue(code="unknown_port", node=end.node, port=end.port, path=f"edges[{i}].{role}.port",
-                              message=f"node '{end.node}' ({state.node_by_id[end.node].type}) has no {kind} "
-                                      f"'{end.port}'; {extra}{_ports_text(ports, kind)}"))
+    state.errors.append(
+        Issue(
+            code="unknown_port",
+            node=end.node,
+            port=end.port,
+            path=f"edges[{i}].{role}.port",
+            message=f"node '{end.node}' ({state.node_by_id[end.node].type}) has no {kind} "
+            f"'{end.port}'; {extra}{_ports_text(ports, kind)}",
+        )
+    )
     return True
 
 
@@ -95,7 +126,13 @@ def check_required_inputs(state: CheckState) -> None:
             continue
         for name, port in known[0].items():
             if port.required and (node_id, name) not in state.incoming:
-                state.errors.append(Issue(code="missing_input", node=node_id, port=name,
-                                          path=f"nodes[{state.node_index[node_id]}]",
-                                          message=f"node '{node_id}' ({state.node_by_id[node_id].type}) needs an "
-                                                  f"edge into its '{name}' input ({port.type.value})"))
+                state.errors.append(
+                    Issue(
+                        code="missing_input",
+                        node=node_id,
+                        port=name,
+                        path=f"nodes[{state.node_index[node_id]}]",
+                        message=f"node '{node_id}' ({state.node_by_id[node_id].type}) needs an "
+                        f"edge into its '{name}' input ({port.type.value})",
+                    )
+                )

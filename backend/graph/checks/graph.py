@@ -21,11 +21,16 @@ def check_cycles(state: CheckState) -> None:
     state.ids = [n.id for n in state.program.nodes if state.node_by_id.get(n.id) is n]
     for loop in _cycles(state.ids, state.graph):
         closing = state.edge_at.get((loop[-1], loop[0]))
-        state.errors.append(Issue(code="cycle", node=loop[0], port=closing[1] if closing else None,
-                                  path=f"edges[{closing[0]}]" if closing else None,
-                                  message="nodes " + " -> ".join([*loop, loop[0]]) + " form a loop; frames and "
-                                          "signals must flow one way, from sources to the output"))
-
+        state.errors.append(
+            Issue(
+                code="cycle",
+                node=loop[0],
+                port=closing[1] if closing else None,
+                path=f"edges[{closing[0]}]" if closing else None,
+                message="nodes " + " -> ".join([*loop, loop[0]]) + " form a loop; frames and "
+                "signals must flow one way, from sources to the output",
+            )
+        )
 
     return None
 
@@ -97,14 +102,24 @@ def check_output(state: CheckState) -> None:
     state.outputs = [n for n in state.ids if _role(state, n) is Role.output]
     outputs = state.outputs
     if not outputs:
-        state.errors.append(Issue(code="no_output", path="nodes",
-                                  message="the program has no 'output' node; add one and connect the final frame "
-                                          "to its 'in' input"))
+        state.errors.append(
+            Issue(
+                code="no_output",
+                path="nodes",
+                message="the program has no 'output' node; add one and connect the final frame "
+                "to its 'in' input",
+            )
+        )
     elif len(outputs) > 1:
-        state.errors.append(Issue(code="multiple_outputs", node=outputs[1],
-                                  path=f"nodes[{state.node_index[outputs[1]]}]",
-                                  message=f"the program has {len(outputs)} output nodes ({', '.join(outputs)}); "
-                                          f"exactly one is allowed"))
+        state.errors.append(
+            Issue(
+                code="multiple_outputs",
+                node=outputs[1],
+                path=f"nodes[{state.node_index[outputs[1]]}]",
+                message=f"the program has {len(outputs)} output nodes ({', '.join(outputs)}); "
+                f"exactly one is allowed",
+            )
+        )
 
 
 def check_level(state: CheckState) -> None:
@@ -119,22 +134,38 @@ def check_level(state: CheckState) -> None:
     program_max = state.program.max_level
     if level > min(program_max, state.max_level):
         culprit = {3: Role.stage2, 2: Role.mixer}.get(level)
-        cause = next((n for n, r in frame if r is culprit), None) if culprit else \
-            (frame[1][0] if len(frame) > 1 else None)
+        cause = (
+            next((n for n, r in frame if r is culprit), None)
+            if culprit
+            else (frame[1][0] if len(frame) > 1 else None)
+        )
         why = {3: "it post-processes in stage 2", 2: "it mixes layers", 1: "it chains blocks"}[level]
         program_bound = program_max < state.max_level
-        which = f"the program's max_level ({program_max})" if program_bound else \
-            f"this engine's maximum ({state.max_level})"
-        state.errors.append(Issue(code="level_too_high", node=cause,
-                                  path="max_level" if program_bound or cause is None
-                                  else f"nodes[{state.node_index[cause]}]",
-                                  message=f"the program needs APU level {level} ({why}"
-                                          f"{f', node {cause!r}' if cause else ''}), above {which}"))
+        which = (
+            f"the program's max_level ({program_max})"
+            if program_bound
+            else f"this engine's maximum ({state.max_level})"
+        )
+        state.errors.append(
+            Issue(
+                code="level_too_high",
+                node=cause,
+                path="max_level" if program_bound or cause is None else f"nodes[{state.node_index[cause]}]",
+                message=f"the program needs APU level {level} ({why}"
+                f"{f', node {cause!r}' if cause else ''}), above {which}",
+            )
+        )
     for n in state.ids:
         if n not in upstream:
-            state.warnings.append(Issue(code="unconnected_node", node=n, path=f"nodes[{state.node_index[n]}]",
-                                        message=f"node '{n}' ({state.node_by_id[n].type}) does not feed the "
-                                                f"output, so it has no effect"))
+            state.warnings.append(
+                Issue(
+                    code="unconnected_node",
+                    node=n,
+                    path=f"nodes[{state.node_index[n]}]",
+                    message=f"node '{n}' ({state.node_by_id[n].type}) does not feed the "
+                    f"output, so it has no effect",
+                )
+            )
 
 
 def _role(state: CheckState, node_id: str) -> Role | None:

@@ -60,8 +60,15 @@ class NodeCheck:
         return (self.node_id, port) in self._state.incoming
 
     # --- reporting --------------------------------------------------------------------------------
-    def error(self, code: str, message: str, *, port: str | None = None, at: tuple[Any, ...] | None = None,
-              ports_in_doubt: bool = False) -> None:
+    def error(
+        self,
+        code: str,
+        message: str,
+        *,
+        port: str | None = None,
+        at: tuple[Any, ...] | None = None,
+        ports_in_doubt: bool = False,
+    ) -> None:
         """Report an error; `at` is the path inside the node's `params` (None: the node itself).
 
         `ports_in_doubt`: the error is about something the node's ports depend on, so the edges
@@ -69,16 +76,23 @@ class NodeCheck:
         """
         if code not in ERROR_CODES:
             raise ValueError(f"unknown error code {code!r}: add it to ERROR_CODES and docs/program-format.md")
-        self._state.errors.append(Issue(code=code, node=self.node_id, port=port, path=self._path(at), message=message))
+        self._state.errors.append(
+            Issue(code=code, node=self.node_id, port=port, path=self._path(at), message=message)
+        )
         self.failed = True
         self.ports_in_doubt = self.ports_in_doubt or ports_in_doubt
 
-    def warning(self, code: str, message: str, *, port: str | None = None, at: tuple[Any, ...] | None = None) -> None:
+    def warning(
+        self, code: str, message: str, *, port: str | None = None, at: tuple[Any, ...] | None = None
+    ) -> None:
         """Report a warning (it never makes the program invalid); `at` as for `error`."""
         if code not in WARNING_CODES:
-            raise ValueError(f"unknown warning code {code!r}: add it to WARNING_CODES and docs/program-format.md")
-        self._state.warnings.append(Issue(code=code, node=self.node_id, port=port, path=self._path(at),
-                                          message=message))
+            raise ValueError(
+                f"unknown warning code {code!r}: add it to WARNING_CODES and docs/program-format.md"
+            )
+        self._state.warnings.append(
+            Issue(code=code, node=self.node_id, port=port, path=self._path(at), message=message)
+        )
 
     def _path(self, at: tuple[Any, ...] | None) -> str:
         return loc(("nodes", self.index) if at is None else ("nodes", self.index, "params", *at))

@@ -12,14 +12,26 @@ def check_declarations(state: CheckState) -> None:
     for k, inp in enumerate(state.program.inputs):
         i = state.doc_index["inputs"][k]
         if inp.name in state.declared:
-            state.errors.append(Issue(code="duplicate_input", port=inp.name, path=f"inputs[{i}].name",
-                                      message=f"exposed input '{inp.name}' is declared twice; names must be unique"))
+            state.errors.append(
+                Issue(
+                    code="duplicate_input",
+                    port=inp.name,
+                    path=f"inputs[{i}].name",
+                    message=f"exposed input '{inp.name}' is declared twice; names must be unique",
+                )
+            )
             continue
         try:
             inp.coerce(inp.default)
         except ValueError as exc:
-            state.errors.append(Issue(code="invalid_input", port=inp.name, path=f"inputs[{i}].default",
-                                      message=f"the default of exposed {exc}"))
+            state.errors.append(
+                Issue(
+                    code="invalid_input",
+                    port=inp.name,
+                    path=f"inputs[{i}].default",
+                    message=f"the default of exposed {exc}",
+                )
+            )
         state.declared[inp.name] = inp
     # Inputs whose declaration is malformed were reported as schema errors; nodes reading them
     # should not add unknown_exposed_input on top.
@@ -33,5 +45,11 @@ def check_unused(state: CheckState) -> None:
     for k, inp in enumerate(state.program.inputs):
         i = state.doc_index["inputs"][k]
         if inp.name not in state.read_inputs:
-            state.warnings.append(Issue(code="unused_input", port=inp.name, path=f"inputs[{i}]",
-                                        message=f"exposed input '{inp.name}' is not read by any 'input' node"))
+            state.warnings.append(
+                Issue(
+                    code="unused_input",
+                    port=inp.name,
+                    path=f"inputs[{i}]",
+                    message=f"exposed input '{inp.name}' is not read by any 'input' node",
+                )
+            )

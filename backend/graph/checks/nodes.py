@@ -33,9 +33,15 @@ def check_nodes(state: CheckState) -> None:
 def _check_node(state: CheckState, node: Node, i: int) -> None:
     if node.id in state.node_by_id or node.id in state.broken:
         first = state.node_index.get(node.id, state.broken.get(node.id))
-        state.errors.append(Issue(code="duplicate_node", node=node.id, path=f"nodes[{i}].id",
-                                  message=f"node id '{node.id}' is used twice (nodes[{first}] "
-                                          f"and nodes[{i}]); ids must be unique"))
+        state.errors.append(
+            Issue(
+                code="duplicate_node",
+                node=node.id,
+                path=f"nodes[{i}].id",
+                message=f"node id '{node.id}' is used twice (nodes[{first}] "
+                f"and nodes[{i}]); ids must be unique",
+            )
+        )
         return
     state.node_by_id[node.id] = node
     state.node_index[node.id] = i
@@ -44,8 +50,14 @@ def _check_node(state: CheckState, node: Node, i: int) -> None:
     if cls is None:
         hint = difflib.get_close_matches(node.type, list(BLOCKS), n=1)
         extra = f"; did you mean '{hint[0]}'?" if hint else f" (known: {', '.join(sorted(BLOCKS))})"
-        state.errors.append(Issue(code="unknown_block_type", node=node.id, path=f"nodes[{i}].type",
-                                  message=f"node '{node.id}' has type '{node.type}', which is not a block{extra}"))
+        state.errors.append(
+            Issue(
+                code="unknown_block_type",
+                node=node.id,
+                path=f"nodes[{i}].type",
+                message=f"node '{node.id}' has type '{node.type}', which is not a block{extra}",
+            )
+        )
         return
     params = _params(state, node, i, cls)
     if params is None:
@@ -54,8 +66,14 @@ def _check_node(state: CheckState, node: Node, i: int) -> None:
     try:
         state.ports[node.id] = cls.ports(params)
     except Exception as exc:
-        state.errors.append(Issue(code="block_config", node=node.id, path=f"nodes[{i}].params",
-                                  message=f"node '{node.id}' ({node.type}): cannot derive its ports: {exc}"))
+        state.errors.append(
+            Issue(
+                code="block_config",
+                node=node.id,
+                path=f"nodes[{i}].params",
+                message=f"node '{node.id}' ({node.type}): cannot derive its ports: {exc}",
+            )
+        )
     own = NodeCheck(state, node, i)
     cls.check(params, own)
     if own.ports_in_doubt:
@@ -75,8 +93,14 @@ def _params(state: CheckState, node: Node, i: int, cls: type[Block]) -> BlockPar
     except ValidationError as exc:
         state.errors.extend(params_errors(node, i, cls, exc))
     except Exception as exc:  # a block's own validator misbehaving must not crash validation
-        state.errors.append(Issue(code="block_config", node=node.id, path=f"nodes[{i}].params",
-                                  message=f"node '{node.id}' ({node.type}): parameters rejected: {exc}"))
+        state.errors.append(
+            Issue(
+                code="block_config",
+                node=node.id,
+                path=f"nodes[{i}].params",
+                message=f"node '{node.id}' ({node.type}): parameters rejected: {exc}",
+            )
+        )
     return None
 
 
@@ -92,13 +116,25 @@ def _probe(state: CheckState, node: Node, i: int, cls: type[Block], params: Bloc
     except SelectorError as exc:
         where = find_value(params.model_dump(mode="json"), exc.selector) or ()
         parts = walk_loc(cls.Params, where)[0] if where else []
-        state.errors.append(Issue(code="unknown_dof", node=node.id, port=loc(parts) if parts else None,
-                                  path=loc((f"nodes[{i}].params", *where)),
-                                  message=f"node '{node.id}' ({node.type}): {exc}"))
+        state.errors.append(
+            Issue(
+                code="unknown_dof",
+                node=node.id,
+                port=loc(parts) if parts else None,
+                path=loc((f"nodes[{i}].params", *where)),
+                message=f"node '{node.id}' ({node.type}): {exc}",
+            )
+        )
     except Exception as exc:  # configure() says the parameters do not fit this robot
-        state.errors.append(Issue(code="block_config", node=node.id, path=f"nodes[{i}].params",
-                                  message=f"node '{node.id}' ({node.type}) cannot be set up on robot "
-                                          f"'{state.embodiment.name}': {exc}"))
+        state.errors.append(
+            Issue(
+                code="block_config",
+                node=node.id,
+                path=f"nodes[{i}].params",
+                message=f"node '{node.id}' ({node.type}) cannot be set up on robot "
+                f"'{state.embodiment.name}': {exc}",
+            )
+        )
 
 
 def check_wiring(state: CheckState) -> None:

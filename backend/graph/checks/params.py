@@ -16,6 +16,7 @@ from backend.graph.checks.text import short as _short
 from backend.graph.issues import Issue
 from backend.graph.schema import Node
 
+
 def _submodel(annotation: Any) -> type[BaseModel] | None:
     """The pydantic model inside an annotation such as `list[LayerSpec]` or `LayerSpec | None`."""
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
@@ -68,14 +69,20 @@ def params_errors(node: Node, index: int, cls: type[Block], exc: ValidationError
             where = f"'{_loc(parts)}' " if parts else ""
             port = _loc([*parts, name])
             what = f"has no setting '{name}' in {where}" if parts else f"has no parameter '{name}'"
-            out.append(Issue(code="unknown_param", node=node.id, port=port,
-                             path=_loc((f"nodes[{index}].params", *parts, name)),
-                             message=f"node '{node.id}' ({node.type}) {what.rstrip()}{extra}"))
+            out.append(
+                Issue(
+                    code="unknown_param",
+                    node=node.id,
+                    port=port,
+                    path=_loc((f"nodes[{index}].params", *parts, name)),
+                    message=f"node '{node.id}' ({node.type}) {what.rstrip()}{extra}",
+                )
+            )
             continue
         # Group the errors of one value (a union type reports one error per alternative).
         key = _loc(loc[: used + 1]) if loc else ""
         grouped.setdefault(key, []).append(err)
-    for key, errs in grouped.items():
+    for errs in grouped.values():
         loc = tuple(errs[0]["loc"])
         parts, _, used = walk_loc(cls.Params, loc)
         port = _loc(parts) if parts else (str(loc[0]) if loc else None)
@@ -89,6 +96,13 @@ def params_errors(node: Node, index: int, cls: type[Block], exc: ValidationError
             message = f"node '{node.id}' ({node.type}) needs parameter '{label}'"
         else:
             message = f"node '{node.id}' ({node.type}): parameter '{label}' {reason}, got {_short(got)}"
-        out.append(Issue(code="invalid_param", node=node.id, port=port,
-                         path=_loc((f"nodes[{index}].params", *loc[: used + 1])), message=message))
+        out.append(
+            Issue(
+                code="invalid_param",
+                node=node.id,
+                port=port,
+                path=_loc((f"nodes[{index}].params", *loc[: used + 1])),
+                message=message,
+            )
+        )
     return out

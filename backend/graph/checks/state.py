@@ -43,12 +43,16 @@ class CheckState:
     node_by_id: dict[str, Node] = field(default_factory=dict)
     node_index: dict[str, int] = field(default_factory=dict)
     params: dict[str, BlockParams] = field(default_factory=dict)  # nodes whose parameters are valid
-    ports: dict[str, Ports | None] = field(default_factory=dict)  # None: the node exists, its ports are unknown
+    ports: dict[str, Ports | None] = field(
+        default_factory=dict
+    )  # None: the node exists, its ports are unknown
     probes: dict[str, Block] = field(default_factory=dict)  # blocks built to check their parameters
     # --- edges (checks.edges) ---
     incoming: dict[tuple[str, str], tuple[int, Edge]] = field(default_factory=dict)  # (node, port) -> edge
     graph: dict[str, set[str]] = field(default_factory=lambda: defaultdict(set))  # node -> downstream
-    edge_at: dict[tuple[str, str], tuple[int, str]] = field(default_factory=dict)  # (src, dst) -> (edge, port)
+    edge_at: dict[tuple[str, str], tuple[int, str]] = field(
+        default_factory=dict
+    )  # (src, dst) -> (edge, port)
     good_edges: list[Edge] = field(default_factory=list)  # edges the APU wires
     # --- graph (checks.graph) ---
     ids: list[str] = field(default_factory=list)  # the nodes of the graph, in document order

@@ -30,7 +30,7 @@ def phrase(err: dict[str, Any]) -> str:
         return f"must be one of {ctx.get('expected')}"
     msg = str(err.get("msg", "is invalid"))
     if msg.startswith("Value error, "):
-        msg = msg[len("Value error, "):]
+        msg = msg[len("Value error, ") :]
     return msg[:1].lower() + msg[1:]
 
 
