@@ -4,11 +4,18 @@ import { Handle, Position, useUpdateNodeInternals, type NodeProps } from "@xyflo
 import { memo, useContext, useEffect } from "react";
 import type { NodeData } from "./graph";
 import { LiveContext, CatalogContext } from "./context";
+import { HANDLE_TOP, LIVE_ROW_HEIGHT, PORT_ROW_HEIGHT, PORT_ROWS_TOP } from "./layout/constants";
 import { CookBadge, WarningBadge, WarningLine } from "./live/NodeBadges";
 import { useCompact } from "./viewport";
 
-/** Port row pitch (px) of a collapsed block. */
+/** Port row pitch (px) of a collapsed block, its rows' top (and room below them), and its least body height. */
 const COMPACT_ROW = 20;
+const COMPACT_ROWS_TOP = 4;
+const COMPACT_BODY_MIN_HEIGHT = 36;
+/** Room below a full block's last live row. */
+const BODY_BOTTOM = 4;
+/** A live value's sparkline: its size, and the margin keeping its line off the top and bottom edges. */
+const SPARKLINE = { width: 60, height: 16, inset: 2 };
 
 export const PORT_COLOURS: Record<string, string> = {
   frame: "#f2f2f2",
@@ -34,9 +41,10 @@ function Sparkline({ values }: { values: number[] }) {
   if (values.length < 2) return null;
   const lo = Math.min(...values), hi = Math.max(...values);
   const span = hi - lo || 1;
-  const pts = values.map((v, i) => `${(i / (values.length - 1)) * 60},${14 - ((v - lo) / span) * 12}`).join(" ");
+  const { width, height, inset } = SPARKLINE;
+  const pts = values.map((v, i) => `${(i / (values.length - 1)) * width},${height - inset - ((v - lo) / span) * (height - 2 * inset)}`).join(" ");
   return (
-    <svg className="spark" width="60" height="16" aria-hidden>
+    <svg className="spark" width={width} height={height} aria-hidden>
       <polyline points={pts} fill="none" stroke="#8fd3ff" strokeWidth="1.2" />
     </svg>
   );
@@ -47,7 +55,7 @@ function formatValue(v: unknown): string {
   if (typeof v === "number") return Math.abs(v) >= 100 ? v.toFixed(0) : v.toFixed(3);
   if (typeof v === "boolean") return v ? "true" : "false";
   if (Array.isArray(v)) return "[" + v.map((x) => (typeof x === "number" ? x.toFixed(2) : String(x))).join(", ") + "]";
-  if (typeof v === "object" && v && "mask" in (v as any)) {
+  if (typeof v === "object" && v && "mask" in v) {
     const f = v as { mask: number; values: Record<string, number> };
     const first = Object.entries(f.values)[0];
     return first ? `${f.mask} DoFs · ${first[0]} ${first[1].toFixed(3)}` : "empty frame";
@@ -63,7 +71,7 @@ export function LiveRows({ id, ports, top }: { id: string; ports: string[]; top:
       {ports.map((name, i) => {
         const key = `${id}.${name}`;
         return (
-          <div key={`live-${name}`} className="live-row" style={{ top: top + i * 18 }}>
+          <div key={`live-${name}`} className="live-row" style={{ top: top + i * LIVE_ROW_HEIGHT }}>
             <span className="live-port">{name}</span>
             <span className="live" data-testid={`live-${key}`}>{formatValue(live.values[key])}</span>
             <Sparkline values={live.history[key] ?? []} />
@@ -82,7 +90,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
   const ins = Object.entries(data.inputs);
   const outs = Object.entries(data.outputs);
   const rows = Math.max(ins.length, outs.length, 1);
-  const liveTop = rows * 22 + 6;
+  const liveTop = PORT_ROWS_TOP + rows * PORT_ROW_HEIGHT;
   const layers = live.layers[id];
   // level of detail: zoomed out, a block is its enlarged title and its ports (no labels, values, layers)
   const compact = useCompact();
@@ -96,15 +104,15 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
         <WarningBadge id={id} />
       </div>
-      <div className="block-body" style={{ height: Math.max(rows * COMPACT_ROW + 8, 36) }}>
+      <div className="block-body" style={{ height: Math.max(rows * COMPACT_ROW + 2 * COMPACT_ROWS_TOP, COMPACT_BODY_MIN_HEIGHT) }}>
         <div className="compact-cook"><CookBadge id={id} /></div>
         {ins.map(([name, p], i) => (
           <Handle key={`in-${name}`} type="target" position={Position.Left} id={name} className={`handle ${p.type}`}
-                  style={{ background: PORT_COLOURS[p.type], top: 4 + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
+                  style={{ background: PORT_COLOURS[p.type], top: COMPACT_ROWS_TOP + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
         ))}
         {outs.map(([name, p], i) => (
           <Handle key={`out-${name}`} type="source" position={Position.Right} id={name} className={`handle ${p.type}`}
-                  style={{ background: PORT_COLOURS[p.type], top: 4 + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
+                  style={{ background: PORT_COLOURS[p.type], top: COMPACT_ROWS_TOP + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
         ))}
       </div>
     </div>
@@ -119,27 +127,24 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         <WarningBadge id={id} />
         <CookBadge id={id} />
       </div>
-      <div className="block-body" style={{ minHeight: liveTop + outs.length * 18 + 4 }}>
+      <div className="block-body" style={{ minHeight: liveTop + outs.length * LIVE_ROW_HEIGHT + BODY_BOTTOM }}>
         {ins.map(([name, p], i) => (
-          <div key={`in-${name}`} className="port-row in" style={{ top: 6 + i * 22 }}>
+          <div key={`in-${name}`} className="port-row in" style={{ top: PORT_ROWS_TOP + i * PORT_ROW_HEIGHT }}>
             <Handle type="target" position={Position.Left} id={name} className={`handle ${p.type}`}
-                    style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${name}: ${p.type}${p.doc ? " — " + p.doc : ""}`} />
+                    style={{ background: PORT_COLOURS[p.type], top: HANDLE_TOP }} title={`${name}: ${p.type}${p.doc ? " — " + p.doc : ""}`} />
             <span className="port-label">{name}</span>
           </div>
         ))}
-        {outs.map(([name, p], i) => {
-          const key = `${id}.${name}`;
-          return (
-            <div key={`out-${name}`} className="port-row out" style={{ top: 6 + i * 22 }}>
-              <span className="port-label">{name}</span>
-              <Handle type="source" position={Position.Right} id={name} className={`handle ${p.type}`}
-                      style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${name}: ${p.type}`} />
-            </div>
-          );
-        })}
+        {outs.map(([name, p], i) => (
+          <div key={`out-${name}`} className="port-row out" style={{ top: PORT_ROWS_TOP + i * PORT_ROW_HEIGHT }}>
+            <span className="port-label">{name}</span>
+            <Handle type="source" position={Position.Right} id={name} className={`handle ${p.type}`}
+                    style={{ background: PORT_COLOURS[p.type], top: HANDLE_TOP }} title={`${name}: ${p.type}`} />
+          </div>
+        ))}
         <LiveRows id={id} ports={outs.map(([name]) => name)} top={liveTop} />
         {layers && (
-          <div className="layers" style={{ marginTop: liveTop + outs.length * 18 }}>
+          <div className="layers" style={{ marginTop: liveTop + outs.length * LIVE_ROW_HEIGHT }}>
             {layers.map((l) => (
               <div key={l.name} className="layer-row" title={`${l.mode}, weight ${l.weight}`}>
                 <input type="checkbox" className="nodrag" checked={l.active} aria-label={`layer ${l.name} on`}

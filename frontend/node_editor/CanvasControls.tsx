@@ -2,13 +2,16 @@
 import { Panel, useReactFlow, useStore } from "@xyflow/react";
 import { MAX_FIT_ZOOM } from "./viewport";
 
+/** How long the buttons' zooms animate (ms). */
+const ZOOM_MS = 150;
+
 export function CanvasControls({ fit, autoLayout }: { fit: () => void; autoLayout: () => void }) {
   const flow = useReactFlow();
   const zoom = useStore((s) => Math.round(s.transform[2] * 100));
   return (
     <Panel position="bottom-left" className="canvas-controls" data-testid="canvas-controls">
-      <button onClick={() => flow.zoomIn({ duration: 150 })} title="Zoom in (wheel)" aria-label="zoom in">+</button>
-      <button onClick={() => flow.zoomOut({ duration: 150 })} title="Zoom out (wheel)" aria-label="zoom out">−</button>
+      <button onClick={() => flow.zoomIn({ duration: ZOOM_MS })} title="Zoom in (wheel)" aria-label="zoom in">+</button>
+      <button onClick={() => flow.zoomOut({ duration: ZOOM_MS })} title="Zoom out (wheel)" aria-label="zoom out">−</button>
       <span className="zoom-level" data-testid="zoom-level">{zoom}%</span>
       <button onClick={fit} title="Fit the selection or the graph, readable (F)" aria-label="fit view">Fit</button>
       <button onClick={() => {
@@ -16,7 +19,7 @@ export function CanvasControls({ fit, autoLayout }: { fit: () => void; autoLayou
         const r = document.querySelector(".graph .react-flow")!.getBoundingClientRect();
         // keep the centre of the view where it is
         const cx = (r.width / 2 - x) / z, cy = (r.height / 2 - y) / z;
-        flow.setViewport({ x: r.width / 2 - cx, y: r.height / 2 - cy, zoom: Math.min(1, MAX_FIT_ZOOM) }, { duration: 150 });
+        flow.setViewport({ x: r.width / 2 - cx, y: r.height / 2 - cy, zoom: Math.min(1, MAX_FIT_ZOOM) }, { duration: ZOOM_MS });
       }} title="Zoom to 100 %" aria-label="zoom 100%">1:1</button>
       <span className="sep" />
       <button onClick={autoLayout} title="Lay the graph out by stage, left to right (one undo step)" data-testid="auto-layout">Auto-layout</button>

@@ -3,7 +3,7 @@
 // change its colour.
 import { NodeResizer, type NodeProps } from "@xyflow/react";
 import { memo, useContext, useState } from "react";
-import { COMMENT_COLOURS } from "./annotations";
+import { COMMENT_COLOURS, COMMENT_MIN_SIZE } from "./annotations";
 import type { NodeData } from "./graph";
 import { OrganiseContext } from "./organise/context";
 
@@ -15,7 +15,7 @@ export const CommentFrame = memo(function CommentFrame({ id, data, selected }: N
   return (
     <div className={`comment-frame ${selected ? "selected" : ""}`} data-testid={`comment-${id}`}
          style={{ borderColor: colour, background: `${colour}33` }}>
-      <NodeResizer isVisible={!!selected} minWidth={120} minHeight={60} color={colour} />
+      <NodeResizer isVisible={!!selected} minWidth={COMMENT_MIN_SIZE.w} minHeight={COMMENT_MIN_SIZE.h} color={colour} />
       <div className="comment-title" style={{ background: colour }} onDoubleClick={() => setEditing(true)}>
         {editing ? (
           <input className="nodrag" autoFocus defaultValue={title} aria-label="comment title" data-testid={`comment-title-${id}`}

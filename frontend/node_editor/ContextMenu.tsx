@@ -1,5 +1,6 @@
 // A context menu at the pointer: a list of entries, closed by a pick, Escape or a click elsewhere.
 import { useEffect, useLayoutEffect, useRef, useState } from "react";
+import { MENU_EDGE_MARGIN } from "./layout/constants";
 
 export interface MenuEntry {
   label: string;
@@ -25,8 +26,9 @@ export function ContextMenu({ x, y, title, entries, onClose }: {
   useLayoutEffect(() => {
     const el = ref.current, parent = el?.parentElement;
     if (!el || !parent) return;
-    const left = Math.max(4, x + el.offsetWidth + 4 <= parent.clientWidth ? x : x - el.offsetWidth);
-    const top = Math.max(4, y + el.offsetHeight + 4 <= parent.clientHeight ? y : y - el.offsetHeight);
+    const m = MENU_EDGE_MARGIN;
+    const left = Math.max(m, x + el.offsetWidth + m <= parent.clientWidth ? x : x - el.offsetWidth);
+    const top = Math.max(m, y + el.offsetHeight + m <= parent.clientHeight ? y : y - el.offsetHeight);
     setPlace({ left, top });
   }, [x, y]);
   return (

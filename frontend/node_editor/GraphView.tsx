@@ -2,9 +2,10 @@
 // rules refuse is not drawn, and dropping it says why; one dropped on an occupied input replaces its wire.
 // Dropping a wire in empty space, Tab / Shift+A / Space, and the context menus open the quick-add search.
 import {
-  Background, MiniMap, ReactFlow, SelectionMode, useReactFlow, type Connection as FlowConnection, type EdgeChange, type NodeChange,
+  Background, MiniMap, ReactFlow, SelectionMode, useReactFlow, type Connection as FlowConnection, type EdgeChange,
+  type FinalConnectionState, type NodeChange,
 } from "@xyflow/react";
-import { useCallback, useEffect, useMemo, useRef, useState } from "react";
+import { useCallback, useEffect, useLayoutEffect, useMemo, useRef, useState } from "react";
 import { withRoutes } from "./annotations";
 import { layoutGraph } from "./autoLayout";
 import { BlockNode, PORT_COLOURS } from "./BlockNode";
@@ -14,6 +15,9 @@ import { CommentFrame } from "./CommentFrame";
 import { ContextMenu, type MenuEntry } from "./ContextMenu";
 import { type FlowEdge, type FlowNode } from "./graph";
 import { useCanvasKeys } from "./hooks/useCanvasKeys";
+import {
+  BLOCK_HEADER_HEIGHT, BLOCK_WIDTH, LAYER_ROW_HEIGHT, LAYERS_PADDING, LIVE_ROW_HEIGHT, MINIMAP_SIZE, PORT_ROW_HEIGHT, PORT_ROWS_TOP,
+} from "./layout/constants";
 import { OrganiseContext } from "./organise/context";
 import { useOrganise } from "./organise/useOrganise";
 import { SubgraphBar } from "./panels/SubgraphBar";
@@ -26,7 +30,7 @@ import { WarningsContext } from "./live/NodeBadges";
 import { WireOverlay, wireHoverHandlers } from "./live/WireProbes";
 import { errorsByNode, type Graph, type Position } from "./store/state";
 import { SubgraphNode } from "./SubgraphNode";
-import { fitReadable, frameOpening } from "./viewport";
+import { CANVAS_MAX_ZOOM, CANVAS_MIN_ZOOM, fitReadable, frameOpening } from "./viewport";
 
 const nodeTypes = { block: BlockNode, subgraph: SubgraphNode, comment: CommentFrame, reroute: RerouteNode };
 const edgeTypes = { routed: RoutedEdge };
@@ -34,6 +38,21 @@ export const FIT_VIEW = { padding: 0.15, maxZoom: 1.1 };
 /** A freshly loaded program is fitted into view once React Flow has measured its nodes. */
 const FIT_AFTER_LOAD_MS = 50;
 const TOAST_MS = 4000;
+/** The background grid's spacing. */
+const GRID_GAP = 22;
+/** Room below a block's last row in the auto-layout's estimate of its height (body padding, borders). */
+const BODY_BOTTOM = 8;
+/** Gap between a port dragged into empty space and the block the quick-add puts there. */
+const PORT_GAP = 40;
+/** Where the quick-add's block goes, from the point it was opened at: anywhere, centred on that point
+ * with its title under it; on a wire, a little higher, so the wire meets its ports; from a dragged port,
+ * beside the port (right of an output, left of an input), its first ports about level with it. */
+const QUICK_ADD_OFFSET = {
+  any: { x: -BLOCK_WIDTH / 2, y: -20 },
+  insert: { x: -BLOCK_WIDTH / 2, y: -40 },
+  fromOutput: { x: PORT_GAP, y: -45 },
+  fromInput: { x: -(BLOCK_WIDTH + PORT_GAP), y: -45 },
+};
 
 /** The nodes with the report's errors on them (unchanged nodes keep their identity: no re-render). */
 function withErrors(nodes: FlowNode[], errors: Record<string, string[]>): FlowNode[] {
@@ -63,9 +82,9 @@ function Toast() {
 /** Size of a block when not collapsed (what the layout makes room for, whatever the zoom now). */
 function fullSize(n: FlowNode, measured?: { width?: number; height?: number }) {
   const ins = Object.keys(n.data.inputs).length, outs = Object.keys(n.data.outputs).length;
-  const layers = Array.isArray(n.data.params.layers) ? n.data.params.layers.length * 18 + 12 : 0;
-  const height = 34 + Math.max(ins, outs, 1) * 22 + 6 + outs * 18 + 8 + layers;
-  return { width: Math.max(240, measured?.width ?? 0), height };
+  const layers = Array.isArray(n.data.params.layers) ? n.data.params.layers.length * LAYER_ROW_HEIGHT + LAYERS_PADDING : 0;
+  const height = BLOCK_HEADER_HEIGHT + Math.max(ins, outs, 1) * PORT_ROW_HEIGHT + PORT_ROWS_TOP + outs * LIVE_ROW_HEIGHT + BODY_BOTTOM + layers;
+  return { width: Math.max(BLOCK_WIDTH, measured?.width ?? 0), height };
 }
 
 type QuickState = { x: number; y: number; at: Position; mode: QuickAddMode };
@@ -87,8 +106,9 @@ export function GraphView() {
   const [menu, setMenu] = useState<MenuState | null>(null);
   const closeQuick = useCallback(() => setQuick(null), []);
   const closeMenu = useCallback(() => setMenu(null), []);
+  // the graph as it is now, for the layout's callbacks and timers (set once a render is committed)
   const graphRef = useRef(graph);
-  graphRef.current = graph;
+  useLayoutEffect(() => { graphRef.current = graph; }, [graph]);
 
   const autoLayout = useCallback(async (undoable = true) => {
     const g = graphRef.current;
@@ -112,14 +132,14 @@ export function GraphView() {
       else frameOpening(flow, g.nodes, g.edges, state.catalog);
     }, FIT_AFTER_LOAD_MS);
     return () => window.clearTimeout(timer);
-  }, [state.loaded.count, flow]);  // eslint-disable-line react-hooks/exhaustive-deps
+  }, [state.loaded.count, flow]);  // eslint-disable-line react-hooks/exhaustive-deps -- once per program loaded: a new catalog or autoLayout must not frame the view again
 
   // deletions come as one `deleted` action (onDelete): a node and its wires are one undo step
-  const onNodesChange = useCallback((changes: NodeChange[]) => {
+  const onNodesChange = useCallback((changes: NodeChange<FlowNode>[]) => {
     const rest = changes.filter((c) => c.type !== "remove");
     if (rest.length) dispatch({ type: "nodesChanged", changes: rest });
   }, [dispatch]);
-  const onEdgesChange = useCallback((changes: EdgeChange[]) => {
+  const onEdgesChange = useCallback((changes: EdgeChange<FlowEdge>[]) => {
     const rest = changes.filter((c) => c.type !== "remove");
     if (rest.length) dispatch({ type: "edgesChanged", changes: rest });
   }, [dispatch]);
@@ -130,8 +150,8 @@ export function GraphView() {
     type: "connected", connection: { source: c.source, sourceHandle: c.sourceHandle!, target: c.target, targetHandle: c.targetHandle! },
   }), [dispatch]);
   const lastProblem = useRef<string | null>(null);
-  const isValidConnection = useCallback((c: any) => {
-    lastProblem.current = replacingProblem(graph.nodes, graph.edges, c.source, c.sourceHandle, c.target, c.targetHandle);
+  const isValidConnection = useCallback((c: FlowConnection | FlowEdge) => {
+    lastProblem.current = replacingProblem(graph.nodes, graph.edges, c.source, c.sourceHandle ?? "", c.target, c.targetHandle ?? "");
     return lastProblem.current === null;
   }, [graph]);
 
@@ -145,15 +165,16 @@ export function GraphView() {
     setQuick(null);
     if (!q) return;
     const { at, mode } = q;
-    if (mode.kind === "any") dispatch({ type: "blockAdded", blockType: o.type, position: { x: at.x - 120, y: at.y - 20 } });
-    else if (mode.kind === "insert") dispatch({ type: "blockInserted", blockType: o.type, position: { x: at.x - 120, y: at.y - 40 }, edge: mode.edge });
+    const near = (offset: Position) => ({ x: at.x + offset.x, y: at.y + offset.y });
+    if (mode.kind === "any") dispatch({ type: "blockAdded", blockType: o.type, position: near(QUICK_ADD_OFFSET.any) });
+    else if (mode.kind === "insert") dispatch({ type: "blockInserted", blockType: o.type, position: near(QUICK_ADD_OFFSET.insert), edge: mode.edge });
     else dispatch({
       type: "blockAddedFrom", blockType: o.type, port: mode.port,
-      position: mode.port.side === "source" ? { x: at.x + 40, y: at.y - 45 } : { x: at.x - 280, y: at.y - 45 },
+      position: near(mode.port.side === "source" ? QUICK_ADD_OFFSET.fromOutput : QUICK_ADD_OFFSET.fromInput),
     });
   }, [quick, dispatch]);
 
-  const onConnectEnd = useCallback((event: MouseEvent | TouchEvent, end: any) => {
+  const onConnectEnd = useCallback((event: MouseEvent | TouchEvent, end: FinalConnectionState) => {
     // dropped on a port that refused the wire: say why
     if (end && end.isValid === false && end.toHandle && lastProblem.current) { say(`refused: ${lastProblem.current}`); return; }
     // dropped in empty space: the search for a block to wire it to, there
@@ -161,7 +182,7 @@ export function GraphView() {
     if (!end?.fromHandle || end.toHandle || target?.closest?.(".react-flow__node")) return;
     const p = "changedTouches" in event ? event.changedTouches[0] : event;
     const h = end.fromHandle;
-    openQuick(p.clientX, p.clientY, { kind: "from", port: { node: h.nodeId, handle: h.id, side: h.type } });
+    openQuick(p.clientX, p.clientY, { kind: "from", port: { node: h.nodeId, handle: h.id ?? "", side: h.type } });
   }, [say, openQuick]);
   const onDrop = (e: React.DragEvent) => {
     const type = e.dataTransfer.getData("application/nutty-block");
@@ -241,20 +262,20 @@ export function GraphView() {
     <main ref={canvas} className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
       <OrganiseContext.Provider value={organise.context}>
       <WarningsContext.Provider value={warnings}>
-      <ReactFlow nodes={nodes as any} edges={edges as any} nodeTypes={nodeTypes as any} edgeTypes={edgeTypes as any} {...wireHoverHandlers}
+      <ReactFlow nodes={nodes} edges={edges} nodeTypes={nodeTypes} edgeTypes={edgeTypes} {...wireHoverHandlers}
                  onEdgeDoubleClick={organise.onEdgeDoubleClick} onNodeDoubleClick={organise.onNodeDoubleClick}
                  onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect} onDelete={onDelete}
-                 onConnectEnd={onConnectEnd as any} isValidConnection={isValidConnection}
+                 onConnectEnd={onConnectEnd} isValidConnection={isValidConnection}
                  deleteKeyCode={["Delete", "Backspace"]} multiSelectionKeyCode="Shift"
                  // Blender/Unreal hands: left-drag on empty canvas box-selects, middle-drag (or Space+drag) pans, wheel zooms
                  selectionOnDrag panOnDrag={[1]} selectionMode={SelectionMode.Partial}
                  onPaneContextMenu={(e) => openMenu(e, { kind: "pane" })}
-                 onNodeContextMenu={onNodeContextMenu as any}
+                 onNodeContextMenu={onNodeContextMenu}
                  onSelectionContextMenu={(e) => openMenu(e, { kind: "node", ids: graph.nodes.filter((n) => n.selected).map((n) => n.id) })}
                  onEdgeContextMenu={(e, edge) => openMenu(e, { kind: "wire", edge: edge.id })}
-                 minZoom={0.2} maxZoom={2.5} proOptions={{ hideAttribution: true }}>
-        <Background color="#2b313b" gap={22} />
-        <MiniMap pannable zoomable nodeColor="#3a4150" maskColor="rgba(10,12,16,0.6)" style={{ width: 180, height: 110 }} />
+                 minZoom={CANVAS_MIN_ZOOM} maxZoom={CANVAS_MAX_ZOOM} proOptions={{ hideAttribution: true }}>
+        <Background color="#2b313b" gap={GRID_GAP} />
+        <MiniMap pannable zoomable nodeColor="#3a4150" maskColor="rgba(10,12,16,0.6)" style={MINIMAP_SIZE} />
         <CanvasControls fit={() => fitReadable(flow)} autoLayout={() => autoLayout(true)} />
         <WireOverlay edges={graph.edges} />
       </ReactFlow>

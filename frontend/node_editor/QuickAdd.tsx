@@ -2,6 +2,7 @@
 // or anything), filtered as one types; arrows + Enter or a click picks, Escape closes.
 import { useEffect, useLayoutEffect, useMemo, useRef, useState } from "react";
 import { CATEGORY_COLOURS } from "./BlockNode";
+import { MENU_EDGE_MARGIN } from "./layout/constants";
 import { CATEGORIES } from "./ports";
 import { matching, offers, type Offer, type QuickAddMode } from "./quickAdd";
 import { useEditor } from "./store/EditorStore";
@@ -24,9 +25,10 @@ export function QuickAdd({ x, y, mode, onPick, onClose }: {
   const box = useRef<HTMLDivElement>(null);
   const list = useRef<HTMLDivElement>(null);
   // offers are fixed when the search opens (the graph may change under it with live edits)
-  const all = useMemo(() => offers(state.catalog, graph.nodes, graph.edges, mode), [mode]);  // eslint-disable-line
+  const all = useMemo(() => offers(state.catalog, graph.nodes, graph.edges, mode), [mode]);  // eslint-disable-line react-hooks/exhaustive-deps -- fixed when the search opens, see above
   const shown = useMemo(() => matching(all, query), [all, query]);
-  useEffect(() => setActive(0), [query]);
+  // a new query starts again from its first match
+  const search = (text: string) => { setQuery(text); setActive(0); };
   useEffect(() => {
     const away = (e: PointerEvent) => { if (!box.current?.contains(e.target as Node)) onClose(); };
     window.addEventListener("pointerdown", away, true);
@@ -50,22 +52,23 @@ export function QuickAdd({ x, y, mode, onPick, onClose }: {
     const el = box.current, parent = el?.parentElement;
     if (!el || !parent) return;
     // right of and below the pointer, or left of / above it when there is no room
-    const left = Math.max(4, x + el.offsetWidth + 4 <= parent.clientWidth ? x : Math.min(x - el.offsetWidth, parent.clientWidth - el.offsetWidth - 4));
-    const top = Math.max(4, y + el.offsetHeight + 4 <= parent.clientHeight ? y : Math.min(y - el.offsetHeight, parent.clientHeight - el.offsetHeight - 4));
+    const m = MENU_EDGE_MARGIN;
+    const left = Math.max(m, x + el.offsetWidth + m <= parent.clientWidth ? x : Math.min(x - el.offsetWidth, parent.clientWidth - el.offsetWidth - m));
+    const top = Math.max(m, y + el.offsetHeight + m <= parent.clientHeight ? y : Math.min(y - el.offsetHeight, parent.clientHeight - el.offsetHeight - m));
     setPlace((p) => (p.left === left && p.top === top ? p : { left, top }));
   }, [x, y, shown.length]);
   const { left, top } = place;
-  let lastCategory = "";
   return (
     <div ref={box} className="quick-add" data-testid="quick-add" style={{ left, top }} onContextMenu={(e) => e.preventDefault()}>
       <div className="qa-head">{heading(mode)}</div>
       <input autoFocus className="qa-search" placeholder="Search blocks…" aria-label="quick add search" value={query}
-             onChange={(e) => setQuery(e.target.value)} onKeyDown={onKey} />
+             onChange={(e) => search(e.target.value)} onKeyDown={onKey} />
       <div className="qa-list" ref={list} role="listbox">
         {shown.length === 0 && <div className="qa-empty">{all.length ? "no block matches" : "no block fits here"}</div>}
         {shown.map((o, i) => {
-          const head = !query && o.entry.category !== lastCategory ? TITLES[o.entry.category] ?? o.entry.category : null;
-          lastCategory = o.entry.category;
+          // a category's title above its first block (none while searching)
+          const previous = i > 0 ? shown[i - 1].entry.category : "";
+          const head = !query && o.entry.category !== previous ? TITLES[o.entry.category] ?? o.entry.category : null;
           return (
             <div key={o.type}>
               {head && <div className="qa-group">{head}</div>}

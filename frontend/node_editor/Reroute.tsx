@@ -10,6 +10,6 @@ export const RerouteNode = memo(function RerouteNode({ id, selected }: NodeProps
 });
 
 export function RoutedEdge({ id, sourceX, sourceY, targetX, targetY, data, style, markerEnd }: EdgeProps) {
-  const via = ((data as any)?.via ?? []) as { x: number; y: number }[];
+  const via = (data?.via ?? []) as { x: number; y: number }[];
   return <BaseEdge id={id} path={routedPath(sourceX, sourceY, targetX, targetY, via)} style={style} markerEnd={markerEnd} />;
 }

@@ -3,9 +3,13 @@
 import { Handle, Position, type NodeProps } from "@xyflow/react";
 import { memo, useContext } from "react";
 import { LiveRows, PORT_COLOURS } from "./BlockNode";
+import { HANDLE_TOP, LIVE_ROW_HEIGHT, PORT_ROW_HEIGHT, PORT_ROWS_TOP } from "./layout/constants";
 import { CookBadge, WarningBadge } from "./live/NodeBadges";
 import { OrganiseContext } from "./organise/context";
 import type { NodeData } from "./graph";
+
+/** Room in the body beside its rows (above and below them). */
+const BODY_PADDING = 8;
 
 export const SubgraphNode = memo(function SubgraphNode({ id, data, selected }: NodeProps & { data: NodeData }) {
   const { openSubgraph } = useContext(OrganiseContext);
@@ -25,22 +29,22 @@ export const SubgraphNode = memo(function SubgraphNode({ id, data, selected }: N
         <button className="nodrag open-subgraph" data-testid={`open-${id}`} title="Open the subgraph to edit its blocks"
                 onClick={(e) => { e.stopPropagation(); openSubgraph(id); }}>Open</button>
       </div>
-      <div className="block-body" style={{ minHeight: rows * 22 + 8 + outs.length * 18 }}>
+      <div className="block-body" style={{ minHeight: rows * PORT_ROW_HEIGHT + BODY_PADDING + outs.length * LIVE_ROW_HEIGHT }}>
         {ins.map(([port, p], i) => (
-          <div key={`in-${port}`} className="port-row in" style={{ top: 6 + i * 22 }}>
+          <div key={`in-${port}`} className="port-row in" style={{ top: PORT_ROWS_TOP + i * PORT_ROW_HEIGHT }}>
             <Handle type="target" position={Position.Left} id={port} className={`handle ${p.type}`}
-                    style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${port}: ${p.type} — ${p.doc}`} />
+                    style={{ background: PORT_COLOURS[p.type], top: HANDLE_TOP }} title={`${port}: ${p.type} — ${p.doc}`} />
             <span className="port-label">{port}</span>
           </div>
         ))}
         {outs.map(([port, p], i) => (
-          <div key={`out-${port}`} className="port-row out" style={{ top: 6 + i * 22 }}>
+          <div key={`out-${port}`} className="port-row out" style={{ top: PORT_ROWS_TOP + i * PORT_ROW_HEIGHT }}>
             <span className="port-label">{port}</span>
             <Handle type="source" position={Position.Right} id={port} className={`handle ${p.type}`}
-                    style={{ background: PORT_COLOURS[p.type], top: 11 }} title={`${port}: ${p.type} — ${p.doc}`} />
+                    style={{ background: PORT_COLOURS[p.type], top: HANDLE_TOP }} title={`${port}: ${p.type} — ${p.doc}`} />
           </div>
         ))}
-        <LiveRows id={id} ports={outs.map(([port]) => port)} top={rows * 22 + 6} />
+        <LiveRows id={id} ports={outs.map(([port]) => port)} top={PORT_ROWS_TOP + rows * PORT_ROW_HEIGHT} />
       </div>
       {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
     </div>

@@ -3,7 +3,7 @@
 // Flow nodes of their own types ("comment", "reroute"), so dragging, selecting, deleting and undo work
 // as for blocks; they never reach the compiler as blocks. A reroute bends the drawing of one edge and
 // the edge stays one program edge. Pure functions (tested with vitest).
-import type { FlowEdge, FlowNode } from "./graph";
+import type { FlowEdge, FlowNode } from "./flowTypes";
 
 export interface Comment { id: string; x: number; y: number; w: number; h: number; title: string; colour: string }
 export interface Endpoint { node: string; port: string }
@@ -11,6 +11,12 @@ export interface Reroute { id: string; x: number; y: number; edge: { from: Endpo
 
 export const COMMENT_COLOURS = ["#4a5a78", "#6a4a78", "#3f6b55", "#7a5a2e", "#7a3a44", "#505560"];
 export const COMMENT_SIZE = { w: 420, h: 260 };
+/** The least size a comment frame can be resized to: room for its title and colour swatches. */
+export const COMMENT_MIN_SIZE = { w: 120, h: 60 };
+/** Comment frames are drawn behind every block and wire. */
+const COMMENT_Z_INDEX = -1000;
+/** A routed wire leaves and reaches each point horizontally, over at least this distance. */
+const MIN_TANGENT = 20;
 /** A reroute dot's size on the canvas: its position is its top-left corner, wires go through its centre. */
 export const REROUTE_SIZE = 14;
 
@@ -19,7 +25,7 @@ const num = (v: unknown, d: number) => (typeof v === "number" && Number.isFinite
 export function commentNode(c: Partial<Comment> & { id: string }): FlowNode {
   const w = num(c.w, COMMENT_SIZE.w), h = num(c.h, COMMENT_SIZE.h);
   return {
-    id: c.id, type: "comment", position: { x: num(c.x, 0), y: num(c.y, 0) }, width: w, height: h, zIndex: -1000,
+    id: c.id, type: "comment", position: { x: num(c.x, 0), y: num(c.y, 0) }, width: w, height: h, zIndex: COMMENT_Z_INDEX,
     data: { type: "comment", params: { title: c.title ?? "Comment", colour: c.colour ?? COMMENT_COLOURS[0] }, ui: {}, inputs: {}, outputs: {}, errors: [] },
   };
 }
@@ -89,7 +95,7 @@ export function routedPath(sx: number, sy: number, tx: number, ty: number, via: 
   let d = `M ${sx},${sy}`;
   for (let i = 1; i < pts.length; i++) {
     const a = pts[i - 1], b = pts[i];
-    const dx = Math.max(Math.abs(b.x - a.x) / 2, 20);
+    const dx = Math.max(Math.abs(b.x - a.x) / 2, MIN_TANGENT);
     d += ` C ${a.x + dx},${a.y} ${b.x - dx},${b.y} ${b.x},${b.y}`;
   }
   return d;

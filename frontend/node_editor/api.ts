@@ -1,7 +1,7 @@
 // The server's HTTP API (docs/api-contract.md). Every type here is generated from the backend's
 // pydantic models (./generated, `npm run gen:types`); this module only makes the calls.
 import type {
-  BlockEntry, CommandAccepted, ExposedInputs, GhostSet, InputSet, ParamsApplied, PrevizInfo, ProgramLoaded,
+  BlockEntry, CommandAccepted, ErrorDetail, ExposedInputs, GhostSet, InputSet, ParamsApplied, PrevizInfo, ProgramLoaded,
   RobotDescription, RunningProgram, Saved, ValidationReport,
 } from "./generated/api";
 import type { Command } from "./generated/commands";
@@ -14,9 +14,10 @@ export type { JsonSchema } from "./jsonSchema";
 
 export type Catalog = Record<string, BlockEntry>;
 
-/** A refused request: `detail` is the contract's error detail (`code`, `message`, maybe a `report`). */
+/** A refused request: `detail` is the contract's error detail (`code`, `message`, maybe a `report`); a
+ * response from outside the contract (a proxy's, a body that is not JSON) may lack any of them. */
 export class ApiError extends Error {
-  constructor(public status: number, public detail: any) {
+  constructor(public status: number, public detail: Partial<ErrorDetail> | null) {
     super(detail?.message ?? `HTTP ${status}`);
   }
 }

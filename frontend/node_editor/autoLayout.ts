@@ -3,12 +3,18 @@
 import ELK, { type ElkExtendedEdge, type ElkNode } from "elkjs/lib/elk.bundled.js";
 import type { Catalog } from "./api";
 import type { FlowEdge, FlowNode } from "./graph";
+import { BLOCK_WIDTH } from "./layout/constants";
 
 /** Left-to-right rank of each category: what feeds comes first. */
 export const STAGE_RANK: Record<string, number> = { signals: 0, sources: 0, operators: 1, layers: 2, stage2: 3, output: 4 };
 
 export type Size = { width: number; height: number };
-const DEFAULT_SIZE: Size = { width: 240, height: 120 };
+const DEFAULT_SIZE: Size = { width: BLOCK_WIDTH, height: 120 };
+/** Gaps between columns (room for the wires between them) and between the blocks of a column. */
+const COLUMN_GAP = 90;
+const ROW_GAP = 36;
+/** A port's size to ELK: wires end at its centre. */
+const PORT_SIZE = 8;
 
 let elk: InstanceType<typeof ELK> | null = null;
 
@@ -40,8 +46,8 @@ export async function layoutGraph(
       "elk.algorithm": "layered",
       "elk.direction": "RIGHT",
       "elk.partitioning.activate": "true",
-      "elk.layered.spacing.nodeNodeBetweenLayers": "90",
-      "elk.spacing.nodeNode": "36",
+      "elk.layered.spacing.nodeNodeBetweenLayers": String(COLUMN_GAP),
+      "elk.spacing.nodeNode": String(ROW_GAP),
       "elk.layered.nodePlacement.strategy": "NETWORK_SIMPLEX",
       "elk.layered.crossingMinimization.semiInteractive": "true",
       "elk.edgeRouting": "SPLINES",
@@ -59,9 +65,9 @@ export async function layoutGraph(
         },
         // ELK orders ports clockwise: east ones top to bottom, then west ones bottom to top
         ports: [
-          ...ins.map((p, i) => ({ id: `${n.id}\u0000in\u0000${p}`, width: 8, height: 8,
+          ...ins.map((p, i) => ({ id: `${n.id}\u0000in\u0000${p}`, width: PORT_SIZE, height: PORT_SIZE,
             layoutOptions: { "elk.port.side": "WEST", "elk.port.index": String(outs.length + ins.length - 1 - i) } })),
-          ...outs.map((p, i) => ({ id: `${n.id}\u0000out\u0000${p}`, width: 8, height: 8,
+          ...outs.map((p, i) => ({ id: `${n.id}\u0000out\u0000${p}`, width: PORT_SIZE, height: PORT_SIZE,
             layoutOptions: { "elk.port.side": "EAST", "elk.port.index": String(i) } })),
         ],
       };

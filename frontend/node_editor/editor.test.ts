@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import blocks from "./generated/blocks.json";
-import type { BlockEntry } from "./api";
+import type { BlockEntry, Program } from "./api";
 import { autoLayout, connectionProblem, flowToProgram, pasteClipboard, programToFlow } from "./graph";
 import * as H from "./history";
 import { fieldsFromSchema, hexToRgb, rgbToHex } from "./schemaForm";
@@ -22,7 +22,7 @@ const program = {
     { from: { node: "wave", port: "out" }, to: { node: "mix", port: "idle" } },
     { from: { node: "mix", port: "out" }, to: { node: "output", port: "in" } },
   ],
-} as any;
+} satisfies Program;
 
 describe("graph <-> program", () => {
   it("round-trips losslessly, editor data included", () => {
@@ -44,7 +44,7 @@ describe("graph <-> program", () => {
     expect(connectionProblem(nodes, edges, "wave", "out", "mix", "base_weight")).toMatch(/cannot connect frame output/);
   });
   it("lays out unpositioned programs left to right by depth", () => {
-    const pos = autoLayout({ ...program, nodes: program.nodes.map((n: any) => ({ ...n, ui: {} })) });
+    const pos = autoLayout({ ...program, nodes: program.nodes.map((n) => ({ ...n, ui: {} })) });
     expect(pos.in_amp.x).toBeLessThan(pos.wave.x);
     expect(pos.wave.x).toBeLessThan(pos.mix.x);
     expect(pos.mix.x).toBeLessThan(pos.output.x);

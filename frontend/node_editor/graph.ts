@@ -2,41 +2,19 @@
 // Pure functions (tested with vitest); ports and type rules come from the backend (./ports), and the
 // server stays the judge of validity.
 import { annotationsFromFlow, annotationsToFlow, isAnnotation } from "./annotations";
-import type { Catalog, PortSpec, PortType, Program } from "./api";
+import type { Catalog, Program } from "./api";
+import type { FlowEdge, FlowNode } from "./flowTypes";
 import type { History } from "./history";
 import { accepts, portsOf, type Ports } from "./ports";
 
-export interface NodeData {
-  type: string;
-  params: Record<string, unknown>;
-  ui: Record<string, unknown>;
-  inputs: Record<string, PortSpec>;
-  outputs: Record<string, PortSpec>;
-  errors: string[];
-  [key: string]: unknown;
-}
+// the canvas's node and edge shapes live apart (./flowTypes), so that ./annotations needs nothing from here
+export type { FlowEdge, FlowNode, NodeData } from "./flowTypes";
 
-export interface FlowNode {
-  id: string;
-  /** "subgraph": a node using a subgraph; "comment", "reroute": editor annotations (./annotations). */
-  type: "block" | "subgraph" | "comment" | "reroute";
-  position: { x: number; y: number };
-  data: NodeData;
-  selected?: boolean;
-  width?: number;
-  height?: number;
-  zIndex?: number;
-  measured?: { width?: number; height?: number };
-}
-
-export interface FlowEdge {
-  id: string;
-  source: string;
-  sourceHandle: string;
-  target: string;
-  targetHandle: string;
-  data?: { type: PortType };
-}
+/** The simple layout's spacing of columns (by depth) and rows (document order): a block's width or
+ * height and a gap. The canvas's auto-layout (./autoLayout, ELK) measures instead. */
+const DEPTH_LAYOUT_STEP = { x: 270, y: 150 };
+/** Pasted blocks land this far right of and below their originals, so both stay visible. */
+const PASTE_OFFSET = 40;
 
 /** The `type` of a node that uses a subgraph (`params.subgraph` names its definition). */
 export const SUBGRAPH = "subgraph";
@@ -136,7 +114,7 @@ export function programToFlow(program: Program, catalog: Catalog): { nodes: Flow
   const notes = annotationsToFlow(meta.ui as Record<string, unknown> | undefined);
   if (meta.ui) meta.ui = notes.rest;
   const nodes = [...notes.nodes.filter((n) => n.type === "comment"), ...blocks, ...notes.nodes.filter((n) => n.type === "reroute")];
-  const edges: FlowEdge[] = (pedges ?? []).map((e: any) => {
+  const edges: FlowEdge[] = (pedges ?? []).map((e) => {
     const src = nodes.find((n) => n.id === e.from.node);
     const t = src?.data.outputs[e.from.port]?.type ?? "frame";
     const fe = { source: e.from.node, sourceHandle: e.from.port, target: e.to.node, targetHandle: e.to.port };
@@ -182,13 +160,13 @@ export function flowToProgram(nodes: FlowNode[], edges: FlowEdge[], meta: Meta):
 }
 
 function needsLayout(p: Program): boolean {
-  return (p.nodes ?? []).some((n) => typeof (n.ui as any)?.x !== "number" || typeof (n.ui as any)?.y !== "number");
+  return (p.nodes ?? []).some((n) => typeof n.ui?.x !== "number" || typeof n.ui?.y !== "number");
 }
 
 /** Layered layout: column = longest path from a source, rows in document order. */
-export function autoLayout(p: Program, dx = 270, dy = 150): Record<string, { x: number; y: number }> {
+export function autoLayout(p: Program, dx = DEPTH_LAYOUT_STEP.x, dy = DEPTH_LAYOUT_STEP.y): Record<string, { x: number; y: number }> {
   const nodes = p.nodes ?? [];
-  const edges = (p.edges ?? []) as any[];
+  const edges = p.edges ?? [];
   const depth: Record<string, number> = {};
   for (const n of nodes) depth[n.id] = 0;
   for (let pass = 0; pass < nodes.length; pass++) {
@@ -222,7 +200,7 @@ export function freshId(nodes: FlowNode[], type: string): string {
 
 /** Copy: the selected nodes and the edges between them; paste gives fresh ids and an offset. */
 export function pasteClipboard(
-  existing: FlowNode[], clip: { nodes: FlowNode[]; edges: FlowEdge[] }, offset = 40,
+  existing: FlowNode[], clip: { nodes: FlowNode[]; edges: FlowEdge[] }, offset = PASTE_OFFSET,
 ): { nodes: FlowNode[]; edges: FlowEdge[] } {
   const rename: Record<string, string> = {};
   const all = [...existing];

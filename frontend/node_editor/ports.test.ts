@@ -1,6 +1,6 @@
 // The editor applies the backend's port rules and wiring rule (generated/blocks.json, generated/rules.json).
 import { describe, expect, it } from "vitest";
-import type { BlockEntry, Program } from "./api";
+import type { BlockEntry, PortType, Program } from "./api";
 import blocks from "./generated/blocks.json";
 import generatedRules from "./generated/rules.json";
 import { connectionProblem, programToFlow } from "./graph";
@@ -36,7 +36,7 @@ describe("port rules", () => {
 describe("wiring rule", () => {
   it("is the backend's compatibility table", () => {
     for (const [target, sources] of Object.entries(generatedRules.accepts))
-      for (const source of generatedRules.port_types) expect(accepts(target as any, source as any)).toBe(sources.includes(source));
+      for (const source of generatedRules.port_types) expect(accepts(target as PortType, source as PortType)).toBe(sources.includes(source));
     expect(accepts("float", "int")).toBe(true);
     expect(accepts("int", "float")).toBe(false);
   });

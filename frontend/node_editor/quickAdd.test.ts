@@ -1,6 +1,6 @@
 // The quick-add search: which blocks it offers for a dragged port or a wire, and the text filter.
 import { describe, expect, it } from "vitest";
-import type { BlockEntry } from "./api";
+import type { BlockEntry, Program } from "./api";
 import blocks from "./generated/blocks.json";
 import { programToFlow } from "./graph";
 import { layoutGraph, partitions } from "./autoLayout";
@@ -24,7 +24,7 @@ const program = {
     { from: { node: "mix", port: "out" }, to: { node: "nmf", port: "in" } },
     { from: { node: "nmf", port: "out" }, to: { node: "output", port: "in" } },
   ],
-} as any;
+} satisfies Program;
 const { nodes, edges } = programToFlow(program, catalog);
 const types = (list: { type: string }[]) => list.map((o) => o.type);
 

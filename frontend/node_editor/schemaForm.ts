@@ -77,7 +77,7 @@ export function fieldsFromSchema(schema: JsonSchema): Field[] {
       out.push({ ...base, kind: "text" });
       continue;
     }
-    if (t === "array" && s.items && (s.items as JsonSchema).type === "number" && (s as any).maxItems === 3 && /colou?r/.test(name)) {
+    if (t === "array" && s.items && (s.items as JsonSchema).type === "number" && s.maxItems === 3 && /colou?r/.test(name)) {
       out.push({ ...base, kind: "colour" });
       continue;
     }

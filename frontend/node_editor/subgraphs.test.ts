@@ -1,17 +1,19 @@
 import { describe, expect, it } from "vitest";
-import interactive from "../../robots/nutty_desk/programs/interactive.json";
+import interactiveJson from "../../robots/nutty_desk/programs/interactive.json";
 import blocks from "./generated/blocks.json";
-import type { BlockEntry } from "./api";
+import type { BlockEntry, Program } from "./api";
 import { annotationsFromFlow, withRoutes } from "./annotations";
-import { flowToProgram, programToFlow, type FlowNode } from "./graph";
+import { flowToProgram, programToFlow, type FlowNode, type SubgraphDef } from "./graph";
 import { initialState, reducer, structureKey, type EditorState } from "./store/state";
 import { liveInside, signalsInside } from "./organise/liveInside";
+import type { Live } from "./telemetry";
 import { breadcrumb, exposedCandidates, groupCandidates, groupSelection, nodePorts, openDefinition } from "./subgraphs";
 
 const catalog: Record<string, BlockEntry> = Object.fromEntries((blocks as unknown as BlockEntry[]).map((b) => [b.type, b]));
+const interactive = interactiveJson as Program;
 const IDLE = ["breathe", "wander", "wander_filter", "weight_shift", "blink", "eyelid_filter"];
 
-function loaded(program: any): EditorState {
+function loaded(program: Program): EditorState {
   const s = reducer({ ...initialState, catalog }, { type: "programLoaded", program: structuredClone(program) });
   return s;
 }
@@ -43,22 +45,22 @@ describe("grouping", () => {
   it("turns the selection into a definition, one subgraph node and rewired edges, in one undo step", () => {
     const before = loaded(interactive);
     const after = grouped();
-    const p = flowToProgram(after.history.present.nodes, after.history.present.edges, after.meta!) as any;
-    const def = p.subgraphs.idle;
-    expect(def.nodes.map((n: any) => n.id).sort()).toEqual([...IDLE].sort());
+    const p = flowToProgram(after.history.present.nodes, after.history.present.edges, after.meta!);
+    const def = p.subgraphs!.idle;
+    expect(def.nodes!.map((n) => n.id).sort()).toEqual([...IDLE].sort());
     expect(def.edges).toEqual([
       { from: { node: "wander", port: "out" }, to: { node: "wander_filter", port: "in" } },
       { from: { node: "blink", port: "out" }, to: { node: "eyelid_filter", port: "in" } },
     ]);
     expect(def.inputs).toContainEqual({ name: "breathe_amplitude", node: "breathe", port: "amplitude" });
     expect(def.outputs).toContainEqual({ name: "eyelid_filter_out", node: "eyelid_filter", port: "out" });
-    const node = p.nodes.find((n: any) => n.id === "idle");
+    const node = p.nodes!.find((n) => n.id === "idle")!;
     expect(node.type).toBe("subgraph");
     expect(node.params).toEqual({ subgraph: "idle" });
-    expect(p.nodes.some((n: any) => IDLE.includes(n.id))).toBe(false);
+    expect(p.nodes!.some((n) => IDLE.includes(n.id))).toBe(false);
     expect(p.edges).toContainEqual({ from: { node: "breath_amplitude", port: "value" }, to: { node: "idle", port: "breathe_amplitude" } });
     expect(p.edges).toContainEqual({ from: { node: "idle", port: "eyelid_filter_out" }, to: { node: "mix", port: "blink" } });
-    expect(p.edges).toHaveLength((interactive as any).edges.length - 2);
+    expect(p.edges).toHaveLength(interactive.edges!.length - 2);
     const flowNode = after.history.present.nodes.find((n) => n.id === "idle")!;
     expect(flowNode.type).toBe("subgraph");
     expect(flowNode.data.inputs.breathe_amplitude.type).toBe("float");
@@ -94,28 +96,28 @@ describe("opening a subgraph", () => {
     const whole = structureKey(g.history.present, g.meta);
     const inside = reducer(g, { type: "subgraphOpened", node: "idle" });
     expect(inside.history.present.nodes.map((n) => n.id).sort()).toEqual([...IDLE].sort());
-    expect(breadcrumb(inside.meta).map((c) => c.label)).toEqual([(interactive as any).name, "idle"]);
+    expect(breadcrumb(inside.meta).map((c) => c.label)).toEqual([interactive.name, "idle"]);
     expect(structureKey(inside.history.present, inside.meta)).toBe(whole);  // nothing changed: same program
     // edit an inner parameter: the definition changes, the outer program keeps its shape
     const edited = reducer(inside, { type: "paramsEdited", node: "breathe", params: { ...inside.history.present.nodes.find((n) => n.id === "breathe")!.data.params, frequency: 0.4 }, at: 0 });
-    const p = flowToProgram(edited.history.present.nodes, edited.history.present.edges, edited.meta!) as any;
-    expect(p.nodes.some((n: any) => n.id === "idle")).toBe(true);
-    expect(p.subgraphs.idle.nodes.find((n: any) => n.id === "breathe").params.frequency).toBe(0.4);
-    expect(openDefinition(edited.history.present, edited.meta)!.definition.nodes!.find((n: any) => n.id === "breathe")!.params!.frequency).toBe(0.4);
+    const p = flowToProgram(edited.history.present.nodes, edited.history.present.edges, edited.meta!);
+    expect(p.nodes!.some((n) => n.id === "idle")).toBe(true);
+    expect(p.subgraphs!.idle.nodes!.find((n) => n.id === "breathe")!.params!.frequency).toBe(0.4);
+    expect(openDefinition(edited.history.present, edited.meta)!.definition.nodes!.find((n) => n.id === "breathe")!.params!.frequency).toBe(0.4);
     const back = reducer(edited, { type: "subgraphClosed" });
     expect(back.meta?.inside).toBeUndefined();
     expect(back.history.present.nodes.some((n) => n.id === "idle")).toBe(true);
-    const q = flowToProgram(back.history.present.nodes, back.history.present.edges, back.meta!) as any;
+    const q = flowToProgram(back.history.present.nodes, back.history.present.edges, back.meta!);
     expect(q).toEqual(p);
   });
 
   it("inserts a library subgraph by embedding its definition", () => {
     const g = grouped();
-    const def = (flowToProgram(g.history.present.nodes, g.history.present.edges, g.meta!) as any).subgraphs.idle;
+    const def = flowToProgram(g.history.present.nodes, g.history.present.edges, g.meta!).subgraphs!.idle as SubgraphDef;
     const blank = loaded({ format: "nutty-program/1", name: "b", nodes: [], edges: [], ui: {} });
     const s = reducer(blank, { type: "subgraphInserted", name: "idle", definition: def, position: { x: 0, y: 0 } });
-    const p = flowToProgram(s.history.present.nodes, s.history.present.edges, s.meta!) as any;
-    expect(p.subgraphs.idle).toEqual(def);
+    const p = flowToProgram(s.history.present.nodes, s.history.present.edges, s.meta!);
+    expect(p.subgraphs!.idle).toEqual(def);
     expect(p.nodes).toEqual([{ id: "idle", type: "subgraph", params: { subgraph: "idle" }, ui: { x: 0, y: 0 } }]);
   });
 });
@@ -133,7 +135,7 @@ describe("comment frames and reroutes round-trip through ui", () => {
       { id: "output", type: "output", params: {}, ui: { x: 300, y: 0 } },
     ],
     edges: [{ from: { node: "wave", port: "out" }, to: { node: "output", port: "in" } }],
-  } as any;
+  } satisfies Program;
 
   it("loads them as canvas nodes and writes them back unchanged", () => {
     const { nodes, edges, meta } = programToFlow(structuredClone(program), catalog);
@@ -146,9 +148,9 @@ describe("comment frames and reroutes round-trip through ui", () => {
 
   it("drops a reroute whose wire is gone, keeps the program's edges as they are", () => {
     const { nodes, meta } = programToFlow(structuredClone(program), catalog);
-    const p = flowToProgram(nodes, [], meta) as any;
-    expect(p.ui.reroutes).toBeUndefined();
-    expect(p.ui.comments).toHaveLength(1);
+    const p = flowToProgram(nodes, [], meta);
+    expect(p.ui!.reroutes).toBeUndefined();
+    expect(p.ui!.comments).toHaveLength(1);
     expect(p.nodes).toHaveLength(2);
   });
 
@@ -157,12 +159,12 @@ describe("comment frames and reroutes round-trip through ui", () => {
     s = reducer(s, { type: "commentAdded", position: { x: 10, y: 20 } });
     const added = s.history.present.nodes.find((n) => n.type === "comment" && n.id !== "note-1") as FlowNode;
     s = reducer(s, { type: "paramsEdited", node: added.id, params: { ...added.data.params, title: "Gaze" }, at: 0 });
-    s = reducer(s, { type: "nodesChanged", changes: [{ type: "dimensions", id: added.id, dimensions: { width: 600, height: 200 }, resizing: false, setAttributes: true } as any] });
+    s = reducer(s, { type: "nodesChanged", changes: [{ type: "dimensions", id: added.id, dimensions: { width: 600, height: 200 }, resizing: false, setAttributes: true }] });
     const { comments } = annotationsFromFlow(s.history.present.nodes, s.history.present.edges);
     expect(comments.find((c) => c.id === added.id)).toMatchObject({ x: 10, y: 20, w: 600, h: 200, title: "Gaze" });
     s = reducer(s, { type: "rerouteAdded", edge: "wave.out->output.in", position: { x: 200, y: 40 } });
-    const p = flowToProgram(s.history.present.nodes, s.history.present.edges, s.meta!) as any;
-    expect(p.ui.reroutes).toHaveLength(2);
+    const p = flowToProgram(s.history.present.nodes, s.history.present.edges, s.meta!);
+    expect(p.ui!.reroutes).toHaveLength(2);
     expect(p.edges).toHaveLength(1);
   });
 });
@@ -171,8 +173,8 @@ describe("live values inside an open subgraph", () => {
   it("subscribes to the flat ids and shows them under the inner ids", () => {
     expect(signalsInside([{ node: "breathe", port: "out" }], "idle")).toEqual([{ node: "idle/breathe", port: "out" }]);
     expect(signalsInside([{ node: "breathe", port: "out" }], undefined)).toEqual([{ node: "breathe", port: "out" }]);
-    const live = { values: { "idle/breathe.out": 1, "mix.out": 2 }, history: { "idle/breathe.out": [1] }, layers: { "idle/m": [] } };
-    expect(liveInside(live as any, "idle")).toEqual({ values: { "breathe.out": 1 }, history: { "breathe.out": [1] }, layers: { m: [] } });
+    const live: Live = { values: { "idle/breathe.out": 1, "mix.out": 2 }, history: { "idle/breathe.out": [1] }, layers: { "idle/m": [] }, t: 0, profile: null };
+    expect(liveInside(live, "idle")).toEqual({ values: { "breathe.out": 1 }, history: { "breathe.out": [1] }, layers: { m: [] }, t: 0, profile: null });
   });
 });
 
@@ -187,11 +189,11 @@ describe("editing an open subgraph's ports", () => {
       .map((c) => (c.name === "breathe_out" ? { ...c, name: "breath" } : c));
     const edited = reducer(inside, { type: "exposedEdited", ports, description: "idle motion" });
     const back = reducer(edited, { type: "subgraphClosed" });
-    const p = flowToProgram(back.history.present.nodes, back.history.present.edges, back.meta!) as any;
-    expect(p.subgraphs.idle.description).toBe("idle motion");
-    expect(p.subgraphs.idle.outputs.map((o: any) => o.name)).toEqual(["breath", "wander_filter_out", "eyelid_filter_out"]);
+    const p = flowToProgram(back.history.present.nodes, back.history.present.edges, back.meta!);
+    expect(p.subgraphs!.idle.description).toBe("idle motion");
+    expect(p.subgraphs!.idle.outputs!.map((o) => o.name)).toEqual(["breath", "wander_filter_out", "eyelid_filter_out"]);
     expect(p.edges).toContainEqual({ from: { node: "idle", port: "breath" }, to: { node: "mix", port: "idle" } });
-    expect(p.edges.some((e: any) => e.to.node === "mix" && e.to.port === "shift")).toBe(false);
+    expect(p.edges!.some((e) => e.to.node === "mix" && e.to.port === "shift")).toBe(false);
     expect(Object.keys(back.history.present.nodes.find((n) => n.id === "idle")!.data.outputs)).toEqual(["breath", "wander_filter_out", "eyelid_filter_out"]);
   });
 

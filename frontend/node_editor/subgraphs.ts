@@ -10,7 +10,8 @@ import {
   type SubgraphDef,
 } from "./graph";
 import * as H from "./history";
-import type { EditorState, Graph, Position } from "./store/state";
+import { NEW_BLOCK_CLEARANCE, NEW_BLOCK_STEP } from "./layout/constants";
+import type { EditorState, Graph, Position } from "./store/types";
 
 export { nodePorts, SUBGRAPH };
 export type { ExposedPort, SubgraphDef };
@@ -163,7 +164,7 @@ export function usedDefinitions(nodes: FlowNode[], defs: Record<string, Subgraph
     const name = stack.pop()!;
     if (used.has(name)) continue;
     used.add(name);
-    for (const n of defs[name]?.nodes ?? []) if (n.type === SUBGRAPH) stack.push(String((n.params as any)?.subgraph));
+    for (const n of defs[name]?.nodes ?? []) if (n.type === SUBGRAPH) stack.push(String(n.params?.subgraph));
   }
   return used;
 }
@@ -194,8 +195,8 @@ export function breadcrumb(meta: Meta | null): { label: string; levels: number }
 /** The definition being edited (the open subgraph's inside as it is now), or null at the top. */
 export function openDefinition(graph: Graph, meta: Meta | null): { name: string; definition: SubgraphDef } | null {
   if (!meta?.inside) return null;
-  const composed = flowToProgram(graph.nodes, graph.edges, meta) as any;
-  return { name: meta.inside.name, definition: composed.subgraphs[meta.inside.name] };
+  const composed = flowToProgram(graph.nodes, graph.edges, meta);
+  return { name: meta.inside.name, definition: composed.subgraphs![meta.inside.name] as SubgraphDef };
 }
 
 function openSubgraph(state: EditorState, id: string): EditorState {
@@ -207,7 +208,7 @@ function openSubgraph(state: EditorState, id: string): EditorState {
   const def = (meta.subgraphs ?? {})[name] as SubgraphDef | undefined;
   if (!def) return { ...state, toast: `this program defines no subgraph '${name}'` };
   const { inside: _, ...plain } = meta;
-  const inner = programToFlow({ ...plain, nodes: def.nodes ?? [], edges: def.edges ?? [], ui: def.ui ?? {} } as any, state.catalog);
+  const inner = programToFlow({ ...plain, nodes: def.nodes ?? [], edges: def.edges ?? [], ui: def.ui ?? {} }, state.catalog);
   const path = meta.inside ? `${meta.inside.path}/${id}` : id;
   const innerMeta: Meta = {
     ...inner.meta,
@@ -227,7 +228,7 @@ function closeSubgraph(state: EditorState, levels = 1): EditorState {
   for (let k = 0; k < levels && next.meta?.inside; k++) {
     const meta = next.meta!;
     const ctx = meta.inside!;
-    const composed = flowToProgram(next.history.present.nodes, next.history.present.edges, meta) as any;
+    const composed = flowToProgram(next.history.present.nodes, next.history.present.edges, meta);
     const defs = composed.subgraphs as Record<string, SubgraphDef>;
     const outerMeta = { ...ctx.outerMeta, name: meta.name, subgraphs: defs } as Meta;
     const outer = ctx.outer.present;
@@ -253,7 +254,8 @@ function insertSubgraph(state: EditorState, name: string, definition: SubgraphDe
   if (defs[name] && JSON.stringify(defs[name]) !== JSON.stringify(definition)) defName = freshName(Object.keys(defs), name);
   defs[defName] = structuredClone(definition);
   const pos = { ...position };
-  while (graph.nodes.some((n) => !isAnnotation(n) && Math.abs(n.position.x - pos.x) < 240 && Math.abs(n.position.y - pos.y) < 140)) pos.y += 150;
+  const covered = (n: FlowNode) => Math.abs(n.position.x - pos.x) < NEW_BLOCK_CLEARANCE.x && Math.abs(n.position.y - pos.y) < NEW_BLOCK_CLEARANCE.y;
+  while (graph.nodes.some((n) => !isAnnotation(n) && covered(n))) pos.y += NEW_BLOCK_STEP;
   const node: FlowNode = {
     id: freshId(graph.nodes, name), type: "subgraph", position: pos, selected: true,
     data: { type: SUBGRAPH, params: { subgraph: defName }, ui: {}, ...nodePorts(SUBGRAPH, { subgraph: defName }, defs, state.catalog), errors: [] },
@@ -329,14 +331,20 @@ export function organise(state: EditorState, action: OrganiseAction): EditorStat
   }
 }
 
+/** A comment frame's margin around the blocks it is made around, the room above them for its title, and
+ * the size it assumes of a block not measured yet. */
+const FRAME_MARGIN = 40;
+const FRAME_TITLE = 20;
+const UNMEASURED = { width: 220, height: 120 };
+
 /** A comment frame around the selected blocks (with a margin), or at `fallback` when none is selected. */
 export function frameAround(graph: Graph, fallback: Position): { position: Position; size?: { w: number; h: number } } {
   const sel = selectedBlocks(graph);
   if (!sel.length) return { position: fallback };
-  const m = 40;
+  const m = FRAME_MARGIN;
   const xs = sel.map((n) => n.position.x), ys = sel.map((n) => n.position.y);
-  const x2 = sel.map((n) => n.position.x + (n.measured?.width ?? 220)), y2 = sel.map((n) => n.position.y + (n.measured?.height ?? 120));
-  const x = Math.min(...xs) - m, y = Math.min(...ys) - m - 20;
+  const x2 = sel.map((n) => n.position.x + (n.measured?.width ?? UNMEASURED.width)), y2 = sel.map((n) => n.position.y + (n.measured?.height ?? UNMEASURED.height));
+  const x = Math.min(...xs) - m, y = Math.min(...ys) - m - FRAME_TITLE;
   return { position: { x, y }, size: { w: Math.max(...x2) + m - x, h: Math.max(...y2) + m - y } };
 }
 

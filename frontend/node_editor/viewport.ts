@@ -3,6 +3,7 @@
 import { useStore, type ReactFlowInstance } from "@xyflow/react";
 import type { Catalog } from "./api";
 import type { FlowEdge, FlowNode } from "./graph";
+import { BLOCK_WIDTH, FALLBACK_CANVAS_SIZE } from "./layout/constants";
 
 /** Below this zoom blocks collapse to an enlarged title and their ports (see .block.compact). */
 export const LOD_ZOOM = 0.7;
@@ -12,9 +13,20 @@ export const COMPACT_TITLE_PX = 28;
 /** The least zoom the editor picks itself (opening, fit): collapsed titles stay ≥ 11 px on screen. */
 export const READABLE_ZOOM = 0.42;
 export const MAX_FIT_ZOOM = 1.1;
+/** The zooms the canvas allows (wheel, buttons, minimap). */
+export const CANVAS_MIN_ZOOM = 0.2;
+export const CANVAS_MAX_ZOOM = 2.5;
 const PADDING = 0.12;
 /** Flow-space size of a block, for bounds of blocks not measured yet. */
-const BLOCK = { width: 240, height: 130 };
+const BLOCK = { width: BLOCK_WIDTH, height: 130 };
+/** Screen px that a program's output chain is kept inside the view's edges when it opens. */
+const CHAIN_MARGIN = 40;
+/** A free spot for a new block: inside the view's edges by this much (screen px), on rings around the
+ * view's centre (this many, each a step across and down), this far from other blocks. */
+const SPOT_INSET = 20;
+const SPOT_RINGS = 12;
+const SPOT_STEP = { x: BLOCK.width / 2 + 10, y: 80 };
+const SPOT_CLEARANCE = { x: BLOCK.width + 10, y: 150 };
 
 /** Whether blocks are collapsed: re-renders a node only when the zoom crosses LOD_ZOOM. */
 export function useCompact(): boolean {
@@ -39,7 +51,7 @@ function boundsOf(flow: ReactFlowInstance, ids: Set<string>): Rect | null {
 function paneSize(): { width: number; height: number } {
   const el = document.querySelector(".graph .react-flow");
   const r = el?.getBoundingClientRect();
-  return { width: r?.width || 800, height: r?.height || 600 };
+  return { width: r?.width || FALLBACK_CANVAS_SIZE.width, height: r?.height || FALLBACK_CANVAS_SIZE.height };
 }
 
 function fitZoom(rect: Rect): number {
@@ -87,7 +99,7 @@ export function frameOpening(flow: ReactFlowInstance, nodes: FlowNode[], edges: 
   const near = boundsOf(flow, feeds) ?? core;
   const zoom = Math.max(READABLE_ZOOM, Math.min(MAX_FIT_ZOOM, fitZoom(near)));
   const { width, height } = paneSize();
-  const halfW = width / 2 / zoom, halfH = height / 2 / zoom, margin = 40 / zoom;
+  const halfW = width / 2 / zoom, halfH = height / 2 / zoom, margin = CHAIN_MARGIN / zoom;
   // centre on the neighbourhood, moved so that the chain stays in view (its output end, its top first)
   const keep = (c: number, lo: number, hi: number, otherwise: number) => (lo <= hi ? Math.min(hi, Math.max(lo, c)) : otherwise);
   const xLo = core.x + core.width + margin - halfW, xHi = core.x - margin + halfW;
@@ -110,17 +122,17 @@ export function fitReadable(flow: ReactFlowInstance, duration = 200) {
 export function visibleSpot(flow: ReactFlowInstance, nodes: FlowNode[]): { x: number; y: number } {
   const el = document.querySelector(".graph .react-flow");
   const r = el?.getBoundingClientRect() ?? { left: 0, top: 0, width: window.innerWidth, height: window.innerHeight };
-  const a = flow.screenToFlowPosition({ x: r.left + 20, y: r.top + 20 });
-  const b = flow.screenToFlowPosition({ x: r.left + r.width - 20, y: r.top + r.height - 20 });
+  const a = flow.screenToFlowPosition({ x: r.left + SPOT_INSET, y: r.top + SPOT_INSET });
+  const b = flow.screenToFlowPosition({ x: r.left + r.width - SPOT_INSET, y: r.top + r.height - SPOT_INSET });
   const w = BLOCK.width, h = BLOCK.height;
   const cx = (a.x + b.x) / 2 - w / 2, cy = (a.y + b.y) / 2 - h / 2;
-  const free = (x: number, y: number) => !nodes.some((n) => Math.abs(n.position.x - x) < w + 10 && Math.abs(n.position.y - y) < 150);
+  const free = (x: number, y: number) => !nodes.some((n) => Math.abs(n.position.x - x) < SPOT_CLEARANCE.x && Math.abs(n.position.y - y) < SPOT_CLEARANCE.y);
   const inView = (x: number, y: number) => x >= a.x && y >= a.y && x + w <= b.x && y + h <= b.y;
   // rings around the centre of the view, nearest first
-  for (let ring = 0; ring < 12; ring++) {
+  for (let ring = 0; ring < SPOT_RINGS; ring++) {
     for (let i = -ring; i <= ring; i++) {
       for (const [dx, dy] of [[i, -ring], [i, ring], [-ring, i], [ring, i]]) {
-        const x = cx + dx * (w / 2 + 10), y = cy + dy * 80;
+        const x = cx + dx * SPOT_STEP.x, y = cy + dy * SPOT_STEP.y;
         if (inView(x, y) && free(x, y)) return { x, y };
       }
     }

@@ -54,8 +54,7 @@ export function useProgramSync(say: (message: string) => void) {
 
   useEffect(() => {
     synced.current = loaded.fromServer ? syncKey(true, graph, meta) : "";
-    // only when a program arrives: the graph and meta are the loaded ones then
-  }, [loaded]);
+  }, [loaded]);  // eslint-disable-line react-hooks/exhaustive-deps -- only when a program arrives: the graph and meta are the loaded ones then
 
   useEffect(() => {
     if (!meta) return;

@@ -10,15 +10,15 @@ const RECONNECT_MS = 1000;
 /** Every output port of the graph, as a stable list while the set of outputs stays the same. */
 export function useSignals(nodes: FlowNode[]): SignalRef[] {
   const key = nodes.map((n) => `${n.id}:${Object.keys(n.data.outputs).join(",")}`).join(";");
-  return useMemo(() => nodes.flatMap((n) => Object.keys(n.data.outputs).map((port) => ({ node: n.id, port }))), [key]);
+  return useMemo(() => nodes.flatMap((n) => Object.keys(n.data.outputs).map((port) => ({ node: n.id, port }))),
+    [key]);  // eslint-disable-line react-hooks/exhaustive-deps -- `key` stands for the outputs of `nodes`: a moved block keeps the list
 }
 
 export function useTelemetry(signals: SignalRef[]) {
   const [live, setLive] = useState(emptyLive);
   const [samples, setSamples] = useState(emptySamples);
   const socket = useRef<WebSocket | null>(null);
-  const wanted = useRef(signals);
-  wanted.current = signals;
+  const wanted = useRef(signals);  // what a (re)connected socket subscribes to
 
   useEffect(() => {
     let closed = false;
@@ -39,6 +39,7 @@ export function useTelemetry(signals: SignalRef[]) {
   }, []);
 
   useEffect(() => {
+    wanted.current = signals;
     const ws = socket.current;
     if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(subscription(signals)));
   }, [signals]);

@@ -22,7 +22,8 @@ export function DrivenBy({ param, driver }: { param: string; driver: Driver }) {
   );
 }
 
-type Layer = Record<string, unknown> & { name: string };
+/** A layer mixer's layer as its `layers` parameter holds it. */
+export type Layer = Record<string, unknown> & { name: string };
 
 const MODES = ["override", "additive", "average"];
 

@@ -4,7 +4,7 @@
 // DoF count and first DoFs. Also the canvas's live bar: the warning count (a click frames the first
 // node concerned) and the cook-time heat toggle.
 import { Panel, useInternalNode, useViewport, type Edge } from "@xyflow/react";
-import { useContext, useEffect, useMemo, useRef, useSyncExternalStore } from "react";
+import { useContext, useEffect, useMemo, useState, useSyncExternalStore } from "react";
 import type { SignalRef } from "../api";
 import { LiveContext } from "../context";
 import type { FlowEdge } from "../graph";
@@ -16,6 +16,12 @@ import { cookText, firstWarnedNode, isFrame, plotted, signed, stats, summarise }
 
 const PROBE_SECONDS = 3;
 const LEAVE_MS = 350;  // time to reach the tooltip's pin button after leaving the wire
+/** The wire tooltip's offset from the pointer (screen px), and how far the pointer moves along a wire
+ * before the tooltip follows it. */
+const TOOLTIP_OFFSET = 8;
+const TOOLTIP_FOLLOW_PX = 3;
+/** A probe's plot: its size, and the margin keeping its line off the top and bottom edges. */
+const PLOT = { width: 168, height: 44, inset: 3 };
 
 // ---- hover state (outside React: the graph view does not re-render on a hover) -----------------
 
@@ -52,7 +58,7 @@ export const wireHoverHandlers = {
   onEdgeMouseEnter: (ev: React.MouseEvent, edge: Edge) => { keepHover(); setHover({ edge: edge.id, ...localPoint(ev) }); },
   onEdgeMouseMove: (ev: React.MouseEvent, edge: Edge) => {
     keepHover();
-    if (hover?.edge !== edge.id || Math.hypot(hover.x - localPoint(ev).x, hover.y - localPoint(ev).y) > 3) setHover({ edge: edge.id, ...localPoint(ev) });
+    if (hover?.edge !== edge.id || Math.hypot(hover.x - localPoint(ev).x, hover.y - localPoint(ev).y) > TOOLTIP_FOLLOW_PX) setHover({ edge: edge.id, ...localPoint(ev) });
   },
   onEdgeMouseLeave: () => dropHoverSoon(),
 };
@@ -73,7 +79,7 @@ export function useWatchedSignals(edges: FlowEdge[]): SignalRef[] {
       if (e && !out.some((s) => s.node === e.source && s.port === e.sourceHandle)) out.push({ node: e.source, port: e.sourceHandle });
     }
     return out;
-  }, [key]);
+  }, [key]);  // eslint-disable-line react-hooks/exhaustive-deps -- new only when the watched wires or the number of wires change (`key`): no resubscription otherwise
 }
 
 function WireTooltip({ edges }: { edges: FlowEdge[] }) {
@@ -84,7 +90,7 @@ function WireTooltip({ edges }: { edges: FlowEdge[] }) {
   if (!h || !edge) return null;
   const value = live.values[signalOf(edge)];
   return (
-    <div className="wire-tip nodrag nopan" data-testid="wire-tooltip" style={{ left: h.x + 8, top: h.y + 8 }}
+    <div className="wire-tip nodrag nopan" data-testid="wire-tooltip" style={{ left: h.x + TOOLTIP_OFFSET, top: h.y + TOOLTIP_OFFSET }}
          onMouseEnter={keepHover} onMouseLeave={dropHoverSoon}>
       <div className="wire-tip-head">
         {!probes.includes(edge.id) && (
@@ -111,31 +117,37 @@ function useWireMidpoint(edge: FlowEdge): { x: number; y: number } | null {
   return { x: (a.x + b.x) / 2, y: (a.y + b.y) / 2 };
 }
 
-const W = 168, H = 44;
+/** A probe's samples (the last PROBE_SECONDS of its wire's number) and the time of the last one taken. */
+interface Trace { t: number; pts: { t: number; v: number }[] }
+const NO_TRACE: Trace = { t: -1, pts: [] };
+
+/** The trace with the sample `v` at time `t` (a stream that went back in time, restarted, starts afresh). */
+function traced(trace: Trace, t: number, v: number): Trace {
+  const last = trace.pts[trace.pts.length - 1];
+  const kept = last && t < last.t ? [] : trace.pts;
+  return { t, pts: [...kept, { t, v }].filter((p) => p.t >= t - PROBE_SECONDS) };
+}
 
 function Probe({ edge }: { edge: FlowEdge }) {
   const live = useContext(LiveContext);
   const { x: vx, y: vy, zoom } = useViewport();
   const mid = useWireMidpoint(edge);
-  const buffer = useRef<{ t: number; v: number }[]>([]);
-  const lastT = useRef(-1);
+  const [trace, setTrace] = useState(NO_TRACE);
   const value = live.values[signalOf(edge)];
   const num = plotted(value);
-  if (live.t !== lastT.current && num !== undefined) {
-    // appended during render: the buffer is this probe's own, derived from the stream it renders
-    lastT.current = live.t;
-    if (buffer.current.length && live.t < buffer.current[buffer.current.length - 1].t) buffer.current = [];  // restarted
-    buffer.current.push({ t: live.t, v: num });
-    while (buffer.current.length && buffer.current[0].t < live.t - PROBE_SECONDS) buffer.current.shift();
-  }
+  // each new message adds its sample while rendering (React renders again at once with it): the trace is
+  // this probe's own, derived from the stream it renders
+  if (live.t !== trace.t && num !== undefined) setTrace(traced(trace, live.t, num));
   if (!mid) return null;
-  const pts = buffer.current;
+  const pts = trace.pts;
   const st = stats(pts.map((p) => p.v));
   const lo = st ? st.min : 0, hi = st ? st.max : 1;
   const span = hi - lo || 1;
   const t0 = live.t - PROBE_SECONDS;
-  const line = pts.map((p) => `${(((p.t - t0) / PROBE_SECONDS) * W).toFixed(1)},${(H - 3 - ((p.v - lo) / span) * (H - 6)).toFixed(1)}`).join(" ");
-  const zeroY = lo < 0 && hi > 0 ? H - 3 - ((0 - lo) / span) * (H - 6) : null;
+  const { width: W, height: H, inset } = PLOT;
+  const y = (v: number) => H - inset - ((v - lo) / span) * (H - 2 * inset);
+  const line = pts.map((p) => `${(((p.t - t0) / PROBE_SECONDS) * W).toFixed(1)},${y(p.v).toFixed(1)}`).join(" ");
+  const zeroY = lo < 0 && hi > 0 ? y(0) : null;
   return (
     <div className="probe nodrag nopan nowheel" data-testid={`probe-${edge.id}`} data-points={pts.length}
          data-last={st ? st.last : ""} style={{ left: mid.x * zoom + vx, top: mid.y * zoom + vy }}>

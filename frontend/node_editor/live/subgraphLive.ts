@@ -18,7 +18,7 @@ export function exposedSignal(id: string, node: { type: string; params?: Record<
   const inner = out && (def.nodes ?? []).find((n) => n.id === out.node);
   if (!out || !inner) return null;
   const innerId = `${id}/${inner.id}`;
-  if (inner.type === SUBGRAPH) return exposedSignal(innerId, inner as any, out.port, defs, [...seen, name]);
+  if (inner.type === SUBGRAPH) return exposedSignal(innerId, inner, out.port, defs, [...seen, name]);
   return { node: innerId, port: out.port };
 }
 

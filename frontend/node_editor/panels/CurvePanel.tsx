@@ -2,7 +2,7 @@
 // with the trajectory-helper's colouring of the final curve: green ok, orange velocity, pink
 // acceleration, red jerk violation of the robot's limits.
 // The DoF shown is the robot's first continuous one until the user picks another.
-import { useContext, useEffect, useRef, useState } from "react";
+import { useContext, useEffect, useMemo, useRef, useState } from "react";
 import uPlot from "uplot";
 import "uplot/dist/uPlot.min.css";
 import type { DofInfo } from "../api";
@@ -13,6 +13,12 @@ import { classify, CLASS_COLOURS, CLASS_NAMES } from "../trajectory";
 import { ticks } from "../live/logic";
 
 const AXIS_FONT_PX = 7;  // about one character of the axis font
+/** The plot's height, and its width before its box is measured. */
+const PLOT_HEIGHT = 150;
+const FALLBACK_WIDTH = 600;
+/** The value axis: at least this wide, or its longest label and this much room beside it. */
+const Y_AXIS_MIN_WIDTH = 44;
+const Y_AXIS_LABEL_ROOM = 20;
 
 export function CurvePanel() {
   const samples = useContext(SamplesContext);
@@ -29,13 +35,20 @@ function CurvePlot({ samples, dof, info, rate, onDof, dofs }: {
 }) {
   const box = useRef<HTMLDivElement>(null);
   const plot = useRef<uPlot | null>(null);
-  const classes = useRef<number[]>([]);
+  // each sample's class: the server's per-frame classes (exact at the engine's rate), or finite
+  // differences of the decimated samples from a server that does not send them
+  const classes = useMemo(() => {
+    const final = samples.final[dof] ?? [];
+    if (samples.classes.length === final.length && samples.classes.length) return samples.classes.map((c) => c[dof] ?? 0);
+    return info ? classify(final, rate, info.velocity ?? Infinity, info.acceleration ?? Infinity, info.jerk ?? Infinity) : [];
+  }, [samples, dof, info, rate]);
+  const drawn = useRef<number[]>([]);  // the classes the plot's draw hook colours the final curve with
 
   useEffect(() => {
     if (!box.current) return;
     const opts: uPlot.Options = {
-      width: box.current.clientWidth || 600,
-      height: 150,
+      width: box.current.clientWidth || FALLBACK_WIDTH,
+      height: PLOT_HEIGHT,
       legend: { show: false },
       scales: { x: { time: false } },
       axes: [
@@ -49,7 +62,7 @@ function CurvePlot({ samples, dof, info, rate, onDof, dofs }: {
             box.current?.setAttribute("data-y-ticks", labels.join(" "));
             return labels;
           },
-          size: (_u, values) => Math.max(44, ...(values ?? []).map((v) => String(v).length * AXIS_FONT_PX + 20)),
+          size: (_u, values) => Math.max(Y_AXIS_MIN_WIDTH, ...(values ?? []).map((v) => String(v).length * AXIS_FONT_PX + Y_AXIS_LABEL_ROOM)),
         },
       ],
       series: [
@@ -63,7 +76,7 @@ function CurvePlot({ samples, dof, info, rate, onDof, dofs }: {
             const ctx = u.ctx;
             const xs = u.data[0] as number[];
             const ys = u.data[2] as (number | null)[];
-            const cls = classes.current;
+            const cls = drawn.current;
             ctx.save();
             for (let i = 1; i < xs.length; i++) {
               const c = cls[i] ?? 0;
@@ -81,23 +94,18 @@ function CurvePlot({ samples, dof, info, rate, onDof, dofs }: {
       },
     };
     plot.current = new uPlot(opts, [[], [], []], box.current);
-    const ro = new ResizeObserver(() => plot.current?.setSize({ width: box.current!.clientWidth, height: 150 }));
+    const ro = new ResizeObserver(() => plot.current?.setSize({ width: box.current!.clientWidth, height: PLOT_HEIGHT }));
     ro.observe(box.current);
     return () => { ro.disconnect(); plot.current?.destroy(); };
   }, []);
 
   useEffect(() => {
-    const final = samples.final[dof] ?? [];
-    const stage1 = samples.stage1[dof] ?? [];
-    // Prefer the server's per-frame classes (exact at the engine's rate); fall back to finite
-    // differences of the decimated samples when talking to a server that does not send them.
-    if (samples.classes.length === final.length && samples.classes.length) classes.current = samples.classes.map((c) => c[dof] ?? 0);
-    else if (info) classes.current = classify(final, rate, info.velocity ?? Infinity, info.acceleration ?? Infinity, info.jerk ?? Infinity);
-    plot.current?.setData([samples.t, stage1, final]);
-  }, [samples, dof, info, rate]);
+    drawn.current = classes;
+    plot.current?.setData([samples.t, samples.stage1[dof] ?? [], samples.final[dof] ?? []]);
+  }, [samples, dof, classes]);
 
   const counts = [0, 0, 0, 0];
-  for (const c of classes.current) counts[c]++;
+  for (const c of classes) counts[c]++;
   return (
     <div className="curves" data-testid="curve-panel">
       <div className="curve-head">

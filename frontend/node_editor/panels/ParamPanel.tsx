@@ -6,7 +6,7 @@ import { fieldsFromSchema, hexToRgb, rgbToHex, type Field } from "../schemaForm"
 import { useActions, useEditor } from "../store/EditorStore";
 import { errorsByNode } from "../store/state";
 import { drivenBy } from "../live/logic";
-import { DrivenBy, LayerStack } from "../live/ParamExtras";
+import { DrivenBy, LayerStack, type Layer } from "../live/ParamExtras";
 
 function DofPicker({ value, robot, onChange }: { value: string[]; robot: RobotDescription | null; onChange: (v: string[]) => void }) {
   const [text, setText] = useState("");
@@ -87,11 +87,14 @@ function FieldEditor({ f, value, robot, clips, onChange }: { f: Field; value: un
   }
 }
 
+/** A JSON field grows with its text up to this many rows, then scrolls. */
+const JSON_MAX_ROWS = 10;
+
 function JsonField({ value, onChange }: { value: unknown; onChange: (v: unknown) => void }) {
   const [text, setText] = useState(JSON.stringify(value ?? null, null, 1));
   const [bad, setBad] = useState(false);
   return (
-    <textarea className={bad ? "bad" : ""} rows={Math.min(10, text.split("\n").length + 1)} value={text}
+    <textarea className={bad ? "bad" : ""} rows={Math.min(JSON_MAX_ROWS, text.split("\n").length + 1)} value={text}
               onChange={(e) => setText(e.target.value)}
               onBlur={() => { try { onChange(JSON.parse(text)); setBad(false); } catch { setBad(true); } }} />
   );
@@ -117,7 +120,7 @@ export function ParamPanel() {
           return (
             <div key={f.name} className={`field ${bad}`}>
               <span className="field-name">{f.label}</span>
-              <LayerStack node={node.id} layers={params.layers as any}
+              <LayerStack node={node.id} layers={params.layers as Layer[]}
                           onChange={(layers, live) => onChange(node.id, { ...params, layers }, live)} />
             </div>
           );

@@ -5,6 +5,9 @@ import { useEffect, useState } from "react";
 import { withToken } from "../api";
 import { useActions, useEditor } from "../store/EditorStore";
 
+/** The popped-out Pre-Viz window's size. */
+const POPOUT_FEATURES = "width=1100,height=800";
+
 /** The Pre-Viz URL with `embed=1` added to its query. */
 export function embedUrl(url: string): string {
   return url + (url.includes("?") ? "&" : "?") + "embed=1";
@@ -31,7 +34,7 @@ export function PrevizPanel() {
           <button type="button" data-testid="previz-enlarge" aria-pressed={big} title={big ? "back to the corner (Esc)" : "enlarge over the graph"}
                   onClick={() => setBig(!big)}>{big ? "⤡ shrink" : "⤢ enlarge"}</button>
           <button type="button" data-testid="previz-popout" disabled={url === null} title="open the Pre-Viz in its own window"
-                  onClick={() => url && window.open(url, "nutty-previz", "width=1100,height=800")}>↗ pop out</button>
+                  onClick={() => url && window.open(url, "nutty-previz", POPOUT_FEATURES)}>↗ pop out</button>
         </span>
       </div>
       {url ? <iframe title="Pre-Viz" src={embedUrl(url)} /> : <div className="muted pad">Pre-Viz disabled on this server.</div>}

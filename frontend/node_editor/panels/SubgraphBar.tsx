@@ -4,10 +4,14 @@
 import { useReactFlow } from "@xyflow/react";
 import { useCallback, useEffect, useMemo, useState } from "react";
 import { api, ApiError } from "../api";
+import { FALLBACK_CANVAS_SIZE } from "../layout/constants";
 import { useActions, useEditor } from "../store/EditorStore";
 import {
   breadcrumb, exposedCandidates, frameAround, groupCandidates, openDefinition, selectedBlocks, SUBGRAPH, type Candidate, type SubgraphDef,
 } from "../subgraphs";
+
+/** A new comment frame (none selected) goes a third of the way into the visible canvas, both ways. */
+const NEW_COMMENT_PARTS = 3;
 
 /** Sent on `window` when the library's subgraphs change (the palette lists them again). */
 export const SUBGRAPHS_CHANGED = "nutty:subgraphs-changed";
@@ -100,7 +104,7 @@ export function SubgraphBar() {
     const name = window.prompt("Save the subgraph to the robot's library as", toLibrary.name);
     if (!name) return;
     try {
-      await api.saveSubgraph(name, toLibrary.definition as any);
+      await api.saveSubgraph(name, toLibrary.definition);
       window.dispatchEvent(new Event(SUBGRAPHS_CHANGED));
       say(`saved subgraph '${name}' to the library`);
     } catch (e) {
@@ -111,7 +115,10 @@ export function SubgraphBar() {
 
   const addComment = useCallback(() => {
     const box = document.querySelector(".graph")?.getBoundingClientRect();
-    const centre = flow.screenToFlowPosition({ x: (box?.left ?? 0) + (box?.width ?? 800) / 3, y: (box?.top ?? 0) + (box?.height ?? 600) / 3 });
+    const centre = flow.screenToFlowPosition({
+      x: (box?.left ?? 0) + (box?.width ?? FALLBACK_CANVAS_SIZE.width) / NEW_COMMENT_PARTS,
+      y: (box?.top ?? 0) + (box?.height ?? FALLBACK_CANVAS_SIZE.height) / NEW_COMMENT_PARTS,
+    });
     dispatch({ type: "commentAdded", ...frameAround(graph, centre) });
   }, [flow, graph, dispatch]);
 

@@ -1,37 +1,44 @@
 // The palette's "Subgraphs" group: the robot library's subgraphs (GET /api/subgraphs). Double-click
 // one (or its +) to add it to the program: its definition is copied into the program's subgraphs.
 import { useReactFlow } from "@xyflow/react";
-import { useCallback, useEffect, useState } from "react";
+import { useEffect, useState } from "react";
 import { api } from "../api";
 import { useActions, useEditor } from "../store/EditorStore";
 import type { SubgraphDef } from "../subgraphs";
 import { SUBGRAPHS_CHANGED } from "./SubgraphBar";
 
+type Item = { name: string; definition: SubgraphDef };
+
+/** An inserted subgraph's node goes at this part of the window's width and height (left of centre, above
+ * it: where the canvas is, between the side bars and above the bottom panels). */
+const INSERT_AT = { x: 0.4, y: 0.3 };
+
+/** The library's subgraphs with their definitions (one that cannot be read is left out). */
+async function librarySubgraphs(): Promise<Item[]> {
+  const names = await api.subgraphs();
+  const defs = await Promise.all(names.map((n) => api.getSubgraph(n).catch(() => null)));
+  return names.flatMap((name, i) => (defs[i] ? [{ name, definition: defs[i] as unknown as SubgraphDef }] : []));
+}
+
 export function SubgraphLibrary() {
   const { dispatch } = useEditor();
   const { say } = useActions();
   const flow = useReactFlow();
-  const [items, setItems] = useState<{ name: string; definition: SubgraphDef }[]>([]);
+  const [items, setItems] = useState<Item[]>([]);
 
-  const refresh = useCallback(async () => {
-    try {
-      const names = await api.subgraphs();
-      const defs = await Promise.all(names.map((n) => api.getSubgraph(n).catch(() => null)));
-      setItems(names.flatMap((name, i) => (defs[i] ? [{ name, definition: defs[i] as unknown as SubgraphDef }] : [])));
-    } catch (e) {
-      say(`cannot list the library's subgraphs: ${e}`);
-    }
-  }, [say]);
-
+  // listed on opening and again whenever a subgraph is saved to the library
   useEffect(() => {
+    const refresh = () => {
+      librarySubgraphs().then(setItems).catch((e) => say(`cannot list the library's subgraphs: ${e}`));
+    };
     refresh();
     window.addEventListener(SUBGRAPHS_CHANGED, refresh);
     return () => window.removeEventListener(SUBGRAPHS_CHANGED, refresh);
-  }, [refresh]);
+  }, [say]);
 
   const add = (name: string, definition: SubgraphDef) => dispatch({
     type: "subgraphInserted", name, definition,
-    position: flow.screenToFlowPosition({ x: window.innerWidth * 0.4, y: window.innerHeight * 0.3 }),
+    position: flow.screenToFlowPosition({ x: window.innerWidth * INSERT_AT.x, y: window.innerHeight * INSERT_AT.y }),
   });
 
   return (

@@ -171,7 +171,8 @@ describe("drafts", () => {
     const draft = reducer(s, { type: "programLoaded", program: { ...program, name: "other" }, libName: "other" });
     expect(draft.live).toBe(false);
     expect(draft.runningName).toBe("p");  // the robot still runs p
-    expect(statusText({ ...report, valid: false, errors: [{ message: "x" }] } as any, false, false)).toContain("to go live");
+    const refused = { code: "x", column: null, line: null, message: "x", node: null, path: null, port: null };
+    expect(statusText({ ...report, valid: false, errors: [refused] }, false, false)).toContain("to go live");
     const live = reducer(draft, { type: "wentLive", report });
     expect(live.live).toBe(true);
     expect(live.runningName).toBe("other");

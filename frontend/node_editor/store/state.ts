@@ -1,53 +1,26 @@
 // The editor's state and every change to it, as one pure reducer (tested with vitest).
 // Side effects (HTTP, WebSockets, timers, dialogs) live in the hooks, which dispatch these actions.
 import { applyEdgeChanges, applyNodeChanges, type EdgeChange, type NodeChange } from "@xyflow/react";
-import type {
-  Catalog, ExposedInput, PrevizInfo, Program, RobotDescription, ValidationReport,
-} from "../api";
+import type { Catalog, ExposedInput, PrevizInfo, Program, RobotDescription, ValidationReport } from "../api";
 import {
-  connectionProblem, edgeId, flowToProgram, freshId, pasteClipboard, programToFlow, type FlowEdge, type FlowNode, type Meta,
+  edgeId, flowToProgram, freshId, pasteClipboard, programToFlow, type FlowEdge, type FlowNode, type Meta,
 } from "../graph";
 import * as H from "../history";
+import { NEW_BLOCK_CLEARANCE, NEW_BLOCK_STEP } from "../layout/constants";
 import { defaultParams, portsOf } from "../ports";
 import { firstInputFor, firstOutputFor, replacingProblem, withoutOccupant, type PortRef } from "../quickAdd";
 import { organise, type OrganiseAction } from "../subgraphs";
+import type { Connection, EditorState, Graph, Position } from "./types";
 
-export type Graph = { nodes: FlowNode[]; edges: FlowEdge[] };
-export type Connection = { source: string; sourceHandle: string; target: string; targetHandle: string };
-export type Position = { x: number; y: number };
-
-export interface EditorState {
-  catalog: Catalog;
-  robot: RobotDescription | null;
-  previz: PrevizInfo | null;
-  meta: Meta | null;
-  history: H.History<Graph>;
-  report: ValidationReport | null;
-  syncing: boolean;
-  dirty: boolean;
-  /** Name of the program in the robot's library that the graph was opened from or saved as. */
-  libName: string | null;
-  library: string[];
-  clips: string[];
-  inputs: { decls: ExposedInput[]; values: Record<string, unknown> };
-  toast: string | null;
-  consoleLines: string[];
-  /** Counts loaded programs (the graph view fits each one into view); `fromServer`: the running one. */
-  loaded: { count: number; fromServer: boolean };
-  /** The last parameter edit: edits of one node in quick succession are one undo step. */
-  lastParamEdit: { node: string; at: number } | null;
-  /** Live: the graph is the robot's running program and edits reach it. Draft: edits are only validated
-   * until "Go live" swaps the graph in (New, Open and Import open drafts). */
-  live: boolean;
-  /** Name of the program the robot runs (shown while a draft is edited). */
-  runningName: string | null;
-}
+// the state's shape lives apart (./types), so that ../subgraphs, whose cases this reducer delegates to,
+// needs nothing from here
+export type { Connection, EditorState, Graph, Position } from "./types";
 
 export type Action =
   | { type: "serverDescribed"; catalog: Catalog; robot: RobotDescription; previz: PrevizInfo }
   | { type: "programLoaded"; program: Program; fromServer?: boolean; libName?: string | null; report?: ValidationReport | null }
-  | { type: "nodesChanged"; changes: NodeChange[] }
-  | { type: "edgesChanged"; changes: EdgeChange[] }
+  | { type: "nodesChanged"; changes: NodeChange<FlowNode>[] }
+  | { type: "edgesChanged"; changes: EdgeChange<FlowEdge>[] }
   | { type: "connected"; connection: Connection }
   | { type: "blockAdded"; blockType: string; position: Position }
   | { type: "paramsEdited"; node: string; params: Record<string, unknown>; at: number }
@@ -91,11 +64,11 @@ export const initialState: EditorState = {
 
 /** The program's structure (no positions): what the server must have; equal keys need no sync. */
 export function structureKey(g: Graph, meta: Meta | null): string {
-  const p = flowToProgram(g.nodes.map((n) => ({ ...n, position: { x: 0, y: 0 } })), g.edges, meta ?? ({} as Meta)) as any;
+  const p = flowToProgram(g.nodes.map((n) => ({ ...n, position: { x: 0, y: 0 } })), g.edges, meta ?? ({} as Meta));
   // inside an open subgraph the enclosing graph (and every definition) is in it too: no positions there either
-  const still = (nodes: any[] = []) => nodes.map((n) => ({ ...n, ui: { ...n.ui, x: 0, y: 0 } }));
-  if (p.subgraphs) p.subgraphs = Object.fromEntries(Object.entries(p.subgraphs).map(([k, d]: [string, any]) => [k, { ...d, nodes: still(d.nodes) }]));
-  return JSON.stringify({ ...p, nodes: still(p.nodes) });
+  const still = (nodes: Program["nodes"] = []) => nodes.map((n) => ({ ...n, ui: { ...n.ui, x: 0, y: 0 } }));
+  const subgraphs = p.subgraphs && Object.fromEntries(Object.entries(p.subgraphs).map(([k, d]) => [k, { ...d, nodes: still(d.nodes) }]));
+  return JSON.stringify({ ...p, ...(subgraphs ? { subgraphs } : {}), nodes: still(p.nodes) });
 }
 
 /** The graph with one node's parameters replaced (unset ones dropped) and its ports derived again;
@@ -157,7 +130,8 @@ function newBlock(state: EditorState, type: string, position: Position): FlowNod
   const { inputs, outputs } = portsOf(entry, params);
   const pos = { ...position };
   // never drop a new block exactly on top of another one
-  while (graph.nodes.some((n) => Math.abs(n.position.x - pos.x) < 240 && Math.abs(n.position.y - pos.y) < 140)) pos.y += 150;
+  while (graph.nodes.some((n) => Math.abs(n.position.x - pos.x) < NEW_BLOCK_CLEARANCE.x && Math.abs(n.position.y - pos.y) < NEW_BLOCK_CLEARANCE.y))
+    pos.y += NEW_BLOCK_STEP;
   const node: FlowNode = {
     id: freshId(graph.nodes, type), type: "block", position: pos, selected: true,
     data: { type, params, ui: {}, inputs, outputs, errors: [] },
@@ -252,7 +226,7 @@ export function reducer(state: EditorState, action: Action): EditorState {
       };
     }
     case "nodesChanged": {
-      const nodes = applyNodeChanges(action.changes, graph.nodes as any) as unknown as FlowNode[];
+      const nodes = applyNodeChanges(action.changes, graph.nodes);
       const removed = new Set(action.changes.flatMap((c) => (c.type === "remove" ? [c.id] : [])));
       const edges = removed.size ? graph.edges.filter((e) => !removed.has(e.source) && !removed.has(e.target)) : graph.edges;
       // selection and drag steps are not edits; a drop or a removal is
@@ -261,7 +235,7 @@ export function reducer(state: EditorState, action: Action): EditorState {
       return edit(state, { nodes, edges }, meaningful);
     }
     case "edgesChanged": {
-      const edges = applyEdgeChanges(action.changes, graph.edges as any) as unknown as FlowEdge[];
+      const edges = applyEdgeChanges(action.changes, graph.edges);
       return edit(state, { ...graph, edges }, action.changes.some((c) => c.type === "remove"));
     }
     case "connected":
