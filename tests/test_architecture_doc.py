@@ -1,13 +1,16 @@
 """docs/architecture.md's worked examples run as written: a block with a drivable parameter, a long-action
-command, a driver and an editor panel are each the one file the page says, and work end to end."""
+command (an AI tool too), a driver, an importer and an editor panel are each the one file the page says,
+registered by the entry-point lines it gives (installed as a throwaway distribution), and work end to end."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import re
 import socket
 import sys
+import tomllib
 import types
 from pathlib import Path
 
@@ -16,11 +19,12 @@ import pytest
 from fastapi.testclient import TestClient
 
 from backend.api import create_app
-from backend.control import REGISTRY
-from backend.drivers import DRIVER_OPTIONS, add_driver_options, build_drivers
-from backend.engine.blocks import BLOCKS, block_catalog
+from backend.drivers import add_driver_options, build_drivers
+from backend.engine.blocks import block_catalog
 from backend.graph.builder import ProgramBuilder
+from backend.importers import detect_format, import_clip
 from backend.session import EngineSession
+from tests.plugin_dist import installed
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = (ROOT / "docs" / "architecture.md").read_text()
@@ -42,11 +46,28 @@ def load(name: str, module: str) -> types.ModuleType:
     return mod
 
 
+def entry_points(name: str) -> dict[str, dict[str, str]]:
+    """The `[project.entry-points."nutty.x"]` lines of an example, as group -> {name -> "module:Class"}."""
+    return tomllib.loads(example(name))["project"]["entry-points"]
+
+
 @pytest.fixture()
-def sway():
-    yield load("block", "backend.engine.blocks.sway")
-    BLOCKS.pop("sway", None)
-    sys.modules.pop("backend.engine.blocks.sway", None)
+def example_module(tmp_path):
+    """Load an example as its module, registered by the example's entry-point lines."""
+    with contextlib.ExitStack() as stack:
+
+        def use(name: str, module: str) -> types.ModuleType:
+            mod = load(name, module)
+            stack.callback(sys.modules.pop, module, None)
+            stack.enter_context(installed(tmp_path / name, f"docs-{name}", entry_points(f"{name}-entry")))
+            return mod
+
+        yield use
+
+
+@pytest.fixture()
+def sway(example_module):
+    return example_module("block", "backend.engine.blocks.sway")
 
 
 def test_block_example_registers_and_its_drivable_parameter_is_a_port(desk, sway):
@@ -86,11 +107,8 @@ def test_block_example_amount_follows_a_wired_signal(desk, sway):
 
 
 @pytest.fixture()
-def fall_asleep():
-    mod = load("command", "backend.control.fall_asleep_example")
-    yield mod.FallAsleep
-    REGISTRY.remove("fall_asleep")
-    sys.modules.pop("backend.control.fall_asleep_example", None)
+def fall_asleep(example_module):
+    return example_module("command", "backend.control.sleep").FallAsleep
 
 
 def test_command_example_is_a_long_action_over_rest(desk, fall_asleep):
@@ -113,16 +131,17 @@ def test_command_example_is_a_long_action_over_rest(desk, fall_asleep):
 
             bad = client.post("/api/commands", json={"type": "fall_asleep", "duration": 99})
             assert bad.status_code == 422 and bad.json()["detail"]["field"].endswith("duration")
+
+            tools = {t["name"]: t for t in client.get("/api/tools").json()["tools"]}
+            assert tools["fall_asleep"]["command"] == "fall_asleep" and tools["fall_asleep"]["long_action"]
+            assert tools["fall_asleep"]["parameters"]["properties"]["duration"]["maximum"] == 30.0
     finally:
         session.engine.close()
 
 
 @pytest.fixture()
-def udp_json():
-    mod = load("driver", "backend.drivers.udp_json")
-    yield mod
-    DRIVER_OPTIONS.pop("udp-json", None)
-    sys.modules.pop("backend.drivers.udp_json", None)
+def udp_json(example_module):
+    return example_module("driver", "backend.drivers.udp_json")
 
 
 def test_driver_example_is_on_the_command_line_and_sends_frames(desk, udp_json):
@@ -151,6 +170,16 @@ def test_driver_example_is_on_the_command_line_and_sends_frames(desk, udp_json):
     for g in got:
         expected = by_time[g["t"]].position[desk.channel_index["head_yaw"]]
         assert g["positions"]["head_yaw"] == pytest.approx(expected)
+
+
+def test_importer_example_reads_its_suffix(desk, example_module, tmp_path):
+    example_module("importer", "backend.importers.tsv")
+    path = tmp_path / "look.tsv"
+    path.write_text("time\thead_yaw\n0\t0\n0.5\t0.3\n1\t0\n")
+    assert detect_format(path) == "tsv"
+    doc, report = import_clip(path, desk, up="y")
+    assert doc["source"]["format"] == "tsv" and [k["v"] for k in doc["tracks"]["head_yaw"]] == [0, 0.3, 0]
+    assert "--up/--forward do not apply to TSV columns; ignored" in report["notes"]
 
 
 def test_panel_example_is_the_shipped_panel_and_listed_once():

@@ -7,7 +7,8 @@ import pytest
 from pydantic import ValidationError
 
 from backend.engine.blocks import BLOCKS, BlockContext
-from backend.engine.blocks.expressive import find_pairs, spring_step_matrix
+from backend.engine.blocks.expressive import find_pairs
+from backend.engine.blocks.overlap import spring_step_matrix
 from backend.engine.frames import FrameEvent, PartialFrame
 
 

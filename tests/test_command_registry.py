@@ -57,7 +57,8 @@ def test_the_union_schema_and_long_actions_come_from_the_registry():
 
 @pytest.fixture()
 def nod():
-    """A long action defined the way a newcomer adds one: one class (registered by defining it)."""
+    """A long action defined the way a newcomer adds one: one class, registered here directly (its entry
+    point would, in an installed package: tests/test_plugins.py)."""
 
     class Nod(BlockCommand):
         """Nod into the 'curious' posture over `duration` seconds (a command defined by a test)."""
@@ -76,6 +77,7 @@ def nod():
         def stop_owned(cls, block: Any, command_id: str) -> None:
             GoPosture.stop_owned(block, command_id)
 
+    REGISTRY.add(Nod)
     yield Nod
     REGISTRY.remove("test_nod")  # the other tests see the bundled commands only
 

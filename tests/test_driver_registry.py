@@ -1,4 +1,5 @@
-"""Drivers declare their own command-line option: a new driver is one file, no list to edit."""
+"""Drivers declare their own command-line option: a new driver is one class and its entry point
+(tests/test_plugins.py installs one from another package; here classes are registered directly)."""
 
 from __future__ import annotations
 
@@ -8,13 +9,14 @@ import pytest
 
 from backend.drivers import (
     DRIVER_OPTIONS,
+    DriverOption,
     FrameRecorder,
     OscDriver,
     SimulatedServos,
     add_driver_options,
     build_drivers,
+    register_driver,
 )
-from backend.drivers.registry import driver_option
 from backend.engine.runtime import Sink
 from backend.session import EngineSession
 
@@ -59,8 +61,9 @@ def test_bad_values_are_refused_with_the_reason(flag, value, message):
 def test_a_new_driver_is_one_declaration(desk):
     received = []
 
-    @driver_option("test-probe", metavar="N", parse=int, help="keep every N-th frame")
     class Probe(Sink):
+        option = DriverOption("test-probe", metavar="N", parse=int, help="keep every N-th frame")
+
         def __init__(self, every: int):
             super().__init__("probe", max_queue=64, decimate=every)
 
@@ -71,6 +74,7 @@ def test_a_new_driver_is_one_declaration(desk):
         def consume(self, frame):
             received.append(frame.t)
 
+    register_driver(Probe)
     try:
         assert "--test-probe" in parser().format_help()
         sinks = build_drivers(desk, parser().parse_args(["--test-probe", "5", "--sim-servo", "0"]))
@@ -86,6 +90,6 @@ def test_a_new_driver_is_one_declaration(desk):
 
 def test_declaring_the_same_option_twice_is_an_error():
     with pytest.raises(ValueError, match="--osc is declared twice"):
-        driver_option("osc", metavar="X", help="again")(OscDriver)
+        register_driver(OscDriver)
     assert DRIVER_OPTIONS["osc"].build == OscDriver.from_option
     assert DRIVER_OPTIONS["record"].build == FrameRecorder.from_option

@@ -6,6 +6,7 @@ from typing import Any, Literal
 
 from pydantic import Field
 
+from backend.control.ai import AiTool
 from backend.control.base import BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
 from backend.control.targets import layers_of
@@ -24,16 +25,31 @@ class PlayClip(BlockCommand):
 
     acts_on = CLIP_PLAYER
     long_action = True
+    ai_tool = AiTool(
+        "play_clip",
+        "Play one of the robot's recorded moves (a gesture or an emotion clip).",
+        available=lambda live: live.has("clip_player") and bool(live.clips),
+        choices={"clip": (lambda live: live.clips, "the robot's clips")},
+        hide=("anchors",),
+        order=10,
+    )
     type: Literal["play_clip"] = "play_clip"
     clip: str = Field(..., min_length=1, max_length=80, description="name of a clip of the robot's library")
-    speed: float | None = Field(None, gt=0.0, le=5.0, description="playback speed (1 = authored timing)")
-    mode: Literal["once", "loop", "ping_pong"] | None = Field(
-        None, description="once (default: then it completes), loop or ping_pong (both go on until stopped)"
+    speed: float | None = Field(
+        default=None, gt=0.0, le=5.0, description="playback speed (1 = authored timing)"
     )
-    crossfade: float | None = Field(None, ge=0.0, le=10.0, description="crossfade from the current pose (s)")
-    anchors: dict[str, float] | None = Field(None, description="anchor name -> time (s) it must land at")
+    mode: Literal["once", "loop", "ping_pong"] | None = Field(
+        default=None,
+        description="once (default: then it completes), loop or ping_pong (both go on until stopped)",
+    )
+    crossfade: float | None = Field(
+        default=None, ge=0.0, le=10.0, description="crossfade from the current pose (s)"
+    )
+    anchors: dict[str, float] | None = Field(
+        default=None, description="anchor name -> time (s) it must land at"
+    )
     if_busy: Literal["replace", "queue", "reject"] | None = Field(
-        None,
+        default=None,
         description="while another clip plays on this player: replace it (crossfade; default), queue "
         "behind it, or reject this play",
     )
@@ -62,7 +78,7 @@ class StopClip(BlockCommand):
     acts_on = CLIP_PLAYER
     type: Literal["stop_clip"] = "stop_clip"
     fade: float | None = Field(
-        None, ge=0.0, le=10.0, description="fade-out time (s; default: the player's release)"
+        default=None, ge=0.0, le=10.0, description="fade-out time (s; default: the player's release)"
     )
 
     def run(self, ctx: CommandContext) -> Any:

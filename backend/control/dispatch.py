@@ -22,7 +22,7 @@ _built: tuple[int, Any, TypeAdapter] | None = None  # (registry generation, unio
 def _union() -> tuple[Any, TypeAdapter]:
     global _built
     if _built is None or _built[0] != REGISTRY.generation:
-        union = Annotated[Union[REGISTRY.classes()], Field(discriminator="type")]  # noqa: UP007 (X | Y cannot spread a runtime tuple)
+        union: Any = Annotated[Union[REGISTRY.classes()], Field(discriminator="type")]  # noqa: UP007 (X | Y cannot spread a runtime tuple)
         _built = (REGISTRY.generation, union, TypeAdapter(union))
     return _built[1], _built[2]
 

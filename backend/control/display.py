@@ -7,14 +7,17 @@ program, or an event injected into the next frame.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from pydantic import Field, field_validator
 
+from backend.control.ai import AiTool
 from backend.control.base import BaseCommand, BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
 from backend.control.postures import Vec3
 from backend.control.targets import blocks_of, tell
+from backend.engine.blocks.core import pose_vector
+from backend.engine.frames import FrameEvent
 
 
 class _Audible(BlockCommand):
@@ -22,6 +25,8 @@ class _Audible(BlockCommand):
     channel of that kind, which needs no waiting (acked `completed`)."""
 
     long_action = True
+    if TYPE_CHECKING:  # each subclass declares its Literal tag; Any, as a Literal narrows a str
+        type: Any
     channel: ClassVar[str]  # the kind of event DoF that carries it without a block
     event: ClassVar[str]  # the FrameEvent kind it becomes
 
@@ -35,7 +40,6 @@ class _Audible(BlockCommand):
                 f"robot '{session.embodiment.name}' has no {self.channel} channel", code="no_target"
             )
         self.check_channel(dof)
-        from backend.engine.frames import FrameEvent
 
         payload = self.event_payload()
         session.engine.inject_event(FrameEvent(dof.name, self.event, payload))
@@ -52,6 +56,12 @@ class Say(_Audible):
     """Say a text: through the program's say block (lip flap, started/completed), else as a speech event."""
 
     acts_on = Target(blocks=("say",), role="engine", what="say block")
+    ai_tool = AiTool(
+        "say",
+        "Say a sentence aloud (with the mouth moving while it speaks).",
+        available=lambda live: live.has("say") or "speech" in live.channels,
+        order=60,
+    )
     channel = "speech"
     event = "say"
     type: Literal["say"] = "say"
@@ -77,6 +87,13 @@ class PlaySound(_Audible):
     """Play a sound clip: through the program's play_sound block, else as a sound event."""
 
     acts_on = Target(blocks=("play_sound",), role="engine", what="play_sound block")
+    ai_tool = AiTool(
+        "play_sound",
+        "Play one of the robot's sound effects.",
+        available=lambda live: live.has("play_sound") or "sound" in live.channels,
+        choices={"sound": (lambda live: live.sounds, "the robot's sounds")},
+        order=70,
+    )
     channel = "sound"
     event = "sound"
     type: Literal["play_sound"] = "play_sound"
@@ -102,6 +119,10 @@ class _Display(BaseCommand):
     engine override on the DoF (cleared by `reset` and `stop_all`). Subclasses declare the field
     `dof` (the DoF to set, None for the robot's first of `dof_type`) and the value's field."""
 
+    if TYPE_CHECKING:  # each subclass declares these fields, with its own description and tag
+        dof: str | None
+        type: Any
+
     dof_type: ClassVar[str]  # the DofType (value) of the DoFs it can set
     value_field: ClassVar[str]  # the field holding the value, named in errors
 
@@ -118,7 +139,6 @@ class _Display(BaseCommand):
         raise NotImplementedError
 
     def override(self, session: Any) -> dict[str, Any]:
-        from backend.engine.blocks.core import pose_vector
 
         dof = self.display_dof(session.embodiment)
         value = self.value()
@@ -148,10 +168,17 @@ class SetLed(_Display):
     """Set a colour DoF (an LED or LED group) to an RGB colour in [0, 1]."""
 
     acts_on = Target(blocks=("led",), role="engine", what="led block")
+    ai_tool = AiTool(
+        "set_led",
+        "Set an LED (or LED group) to a colour, [r, g, b] each 0..1. Held until reset or stop.",
+        available=lambda live: bool(live.colour_dofs),
+        choices={"dof": (lambda live: live.colour_dofs, "the robot's LEDs")},
+        order=80,
+    )
     dof_type = "colour"
     value_field = "colour"
     type: Literal["set_led"] = "set_led"
-    dof: str | None = Field(None, description="colour DoF; default: the robot's first")
+    dof: str | None = Field(default=None, description="colour DoF; default: the robot's first")
     colour: Vec3 = Field(..., description="[r, g, b], each within 0..1")
 
     @field_validator("colour")
@@ -169,10 +196,20 @@ class SetFace(_Display):
     """Show a face/screen expression (an option of an enum display DoF)."""
 
     acts_on = Target(blocks=("face",), role="engine", what="face block")
+    ai_tool = AiTool(
+        "set_face",
+        "Show a facial expression on the robot's face display. Held until reset or stop.",
+        available=lambda live: bool(live.enum_dofs),
+        choices={
+            "expression": (lambda live: live.expressions, "the expressions"),
+            "dof": (lambda live: live.enum_dofs, "the robot's face displays"),
+        },
+        order=90,
+    )
     dof_type = "enum"
     value_field = "expression"
     type: Literal["set_face"] = "set_face"
-    dof: str | None = Field(None, description="enum display DoF; default: the robot's first")
+    dof: str | None = Field(default=None, description="enum display DoF; default: the robot's first")
     expression: str = Field(..., description="an option of that DoF (e.g. smile)")
 
     def value(self) -> Any:

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 from pydantic import Field
 
+from backend.control.ai import AiTool, Choice
 from backend.control.base import BaseCommand, BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
 from backend.control.targets import declares_input, set_inputs
@@ -18,17 +19,49 @@ _Reach = Annotated[float, Field(ge=-GAZE_REACH, le=GAZE_REACH)]
 GazePoint = tuple[_Reach, _Reach, _Reach]
 
 
+def _easings(live: Any) -> list[Choice]:
+    from backend.engine.blocks.posture import Easing  # only when tools are built: commands load no blocks
+
+    return [Choice(e) for e in get_args(Easing)]
+
+
+def _gaze_notes(live: Any) -> str:
+    decl = live.input("gaze_target")
+    ranges = "; ".join(f"{axis} {lo:g}..{hi:g} rad" for axis, (lo, hi) in live.gaze_range.items())
+    return (
+        "`target` is a point [x, y, z] in metres in the robot's base frame: x forward, y to the robot's "
+        "left, z up. The head and body turn toward it "
+        + (
+            f"as far as the gaze joints reach ({ranges}; yaw + is left, pitch + is down); "
+            if ranges
+            else "; "
+        )
+        + "a point beyond that is looked toward as far as they go, and the robot's limits always hold."
+        + (f" Looking straight ahead: {decl.default}." if decl is not None else "")
+    )
+
+
 class GoPosture(BlockCommand):
     """Go to a named posture of the robot's pose library."""
 
     acts_on = Target(blocks=("posture",), what="posture block")
     long_action = True
+    ai_tool = AiTool(
+        "set_posture",
+        "Move to one of the robot's named postures (a held pose) over `duration` seconds.",
+        available=lambda live: live.has("posture") and bool(live.postures),
+        choices={
+            "posture": (lambda live: live.postures, "the robot's postures"),
+            "easing": (_easings, "the easing curves"),
+        },
+        order=20,
+    )
     type: Literal["go_posture"] = "go_posture"
     posture: str = Field(..., min_length=1, max_length=80, description="name of a posture of the robot")
     duration: float | None = Field(
-        None, gt=0.0, le=30.0, description="time to get there (s; default: the block's)"
+        default=None, gt=0.0, le=30.0, description="time to get there (s; default: the block's)"
     )
-    easing: str | None = Field(None, description="easing curve of the move (default: the block's)")
+    easing: str | None = Field(default=None, description="easing curve of the move (default: the block's)")
 
     def run(self, ctx: CommandContext) -> Any:
         return self.tell(ctx, self.block(ctx.session), "go", self.args())
@@ -44,6 +77,13 @@ class SetGaze(BaseCommand):
     """Look at a point (m, robot base frame): sets the program's `gaze_target` input."""
 
     acts_on = Target(role="input", what="gaze_target input")
+    ai_tool = AiTool(
+        "look_at",
+        "Look at a point in space (the gaze follows it smoothly, head first, body after).",
+        available=lambda live: live.input("gaze_target") is not None,
+        notes=_gaze_notes,
+        order=30,
+    )
     type: Literal["set_gaze"] = "set_gaze"
     target: GazePoint = Field(
         ...,

@@ -8,6 +8,7 @@ from pydantic import Field, SkipValidation, StrictFloat, StrictInt, StrictStr
 
 from backend.control.base import BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
+from backend.engine.blocks.puppet import PuppetValueError
 
 # A target: rad or m for a continuous DoF, [r, g, b] for a colour, an option name for an expression.
 # The schema shows the type; the puppet block checks each target against its DoF (`Puppet.resolve`), with
@@ -32,7 +33,9 @@ class Puppet(BlockCommand):
         default_factory=dict,
         description="DoF name -> target: rad/m within the DoF's limits, [r, g, b] in 0..1, or an option name",
     )
-    release: bool = Field(False, description="end the stream now: the layer fades out (give no values)")
+    release: bool = Field(
+        default=False, description="end the stream now: the layer fades out (give no values)"
+    )
 
     def run(self, ctx: CommandContext) -> Any:
         if not isinstance(self.values, dict) or len(self.values) > MAX_TARGETS:
@@ -46,7 +49,6 @@ class Puppet(BlockCommand):
         block = self.block(ctx.session)
         if self.release:
             return self.tell(ctx, block, "release", {})
-        from backend.engine.blocks.puppet import PuppetValueError
 
         try:
             channels, values = block.resolve(self.values)  # checked here, so a bad message changes nothing

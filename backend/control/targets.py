@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 from backend.control.errors import CommandError
+from backend.engine.blocks.base import BlockCommandError, Role
 
 
 def blocks_of(session: Any, type_names: tuple[str, ...]) -> list[Any]:
@@ -18,7 +19,6 @@ def blocks_of(session: Any, type_names: tuple[str, ...]) -> list[Any]:
 
 def mixers(session: Any) -> list[Any]:
     """The running program's layer mixers (blocks with the mixer role)."""
-    from backend.engine.blocks.base import Role
 
     apu = session.engine.apu
     return apu.blocks_of(Role.mixer) if apu else []
@@ -102,7 +102,6 @@ def find_block(
 def tell(session: Any, block: Any, command: str, args: dict[str, Any]) -> Any:
     """Hand `command` to a block in the clock thread; its refusal becomes a CommandError `rejected` (or
     the refusal's own `code`, e.g. `busy`)."""
-    from backend.engine.blocks.base import BlockCommandError
 
     try:
         return session.engine.call(lambda: block.handle(command, args))

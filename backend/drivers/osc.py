@@ -14,14 +14,17 @@ from __future__ import annotations
 
 import time
 
-from backend.drivers.registry import driver_option, host_port
+from backend.drivers.registry import DriverOption, host_port
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 
 
-@driver_option("osc", metavar="HOST:PORT", parse=host_port, help="also send every frame as OSC to HOST:PORT")
-class OscDriver(Sink):
+class OscDriver(Sink[AnimationFrame]):
+    option = DriverOption(
+        "osc", metavar="HOST:PORT", parse=host_port, help="also send every frame as OSC to HOST:PORT"
+    )
+
     def __init__(
         self,
         embodiment: Embodiment,
@@ -30,7 +33,7 @@ class OscDriver(Sink):
         prefix: str = "/nutty",
         decimate: int = 1,
     ):
-        from pythonosc.udp_client import SimpleUDPClient
+        from pythonosc.udp_client import SimpleUDPClient  # only for an OSC driver: every driver loads
 
         if not 0 < port < 65536:
             raise ValueError(f"OSC port must be within 1..65535, got {port}")
@@ -45,10 +48,11 @@ class OscDriver(Sink):
         return cls(embodiment, host, port)
 
     def consume(self, frame: AnimationFrame) -> None:
-        from pythonosc.osc_bundle_builder import OscBundleBuilder
-        from pythonosc.osc_message_builder import OscMessageBuilder
+        from pythonosc.osc_bundle_builder import OscBundleBuilder  # python-osc: see __init__
+        from pythonosc.osc_message_builder import OscMessageBuilder  # python-osc: see __init__
 
-        bundle = OscBundleBuilder(time.time())
+        now = time.time()  # the OSC time tag: float seconds since the epoch, as python-osc documents
+        bundle = OscBundleBuilder(now)  # pyright: ignore[reportArgumentType]  # its annotation says int
         head = OscMessageBuilder(address=f"{self.prefix}/frame")
         head.add_arg(int(frame.seq))
         head.add_arg(float(frame.t))

@@ -11,14 +11,15 @@ from pathlib import Path
 
 import numpy as np
 
-from backend.drivers.registry import driver_option
+from backend.drivers.registry import DriverOption
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 
 
-@driver_option("record", metavar="FILE.jsonl", help="record every frame to a JSONL file")
-class FrameRecorder(Sink):
+class FrameRecorder(Sink[AnimationFrame]):
+    option = DriverOption("record", metavar="FILE.jsonl", help="record every frame to a JSONL file")
+
     def __init__(self, embodiment: Embodiment, path: str | Path, decimate: int = 1):
         self.emb = embodiment
         self.path = Path(path)

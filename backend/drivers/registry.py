@@ -1,20 +1,32 @@
-"""Drivers that the command line can attach: one declaration per driver class, no list to edit.
+"""Drivers that the command line can attach: one declaration per driver class, one entry point.
 
-A driver module declares its command-line option with `@driver_option(...)` on its `Sink` class;
-`nutty serve` (and any tool that takes drivers, e.g. a robot-side bridge) gets the option from
-`add_driver_options(parser)` and the sinks from `build_drivers(embodiment, args)`. Every module of
-`backend.drivers` is imported by the package, so adding a driver is one new file (and its test).
+A driver is a `Sink` class that declares its command-line option as `option = DriverOption(...)` and
+makes itself from the option's value with `from_option(embodiment, value)`. It is registered by an entry
+point named after the option, in the pyproject.toml of its distribution (this project's, or a plugin
+package's; see backend.plugins):
+
+    [project.entry-points."nutty.drivers"]
+    udp-json = "backend.drivers.udp_json:UdpJsonDriver"
+
+then `pip install -e .`. `nutty serve` (and any tool that takes drivers, e.g. a robot-side bridge)
+gets the options from `add_driver_options(parser)` and the sinks from `build_drivers(embodiment, args)`.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from backend.engine.embodiment import Embodiment
 from backend.engine.runtime import Sink
+from backend.plugins import load
+
+
+def _unregistered(embodiment: Embodiment, value: Any) -> Sink:
+    raise TypeError("a driver option builds its sink once its class is registered (register_driver)")
 
 
 @dataclass(frozen=True)
@@ -22,18 +34,19 @@ class DriverOption:
     """How one driver appears on the command line.
 
     `name` is the driver's short name (`osc`, `record`, `sim-servo`) and its flag (`--<name>`);
-    `build(embodiment, value)` makes the sink from the option's value; `parse` converts and validates
-    the text (an `argparse` type: raise `argparse.ArgumentTypeError` with a clear message);
-    `enabled(value)` says whether the given value asks for the driver (e.g. 0 Hz disables servos).
+    `parse` converts and validates the text (an `argparse` type: raise `argparse.ArgumentTypeError`
+    with a clear message); `enabled(value)` says whether the given value asks for the driver (e.g.
+    0 Hz disables servos). `build(embodiment, value)` makes the sink from the option's value: the
+    class's `from_option`, filled in when the class is registered.
     """
 
     name: str
     metavar: str
     help: str
-    build: Callable[[Embodiment, Any], Sink]
     parse: Callable[[str], Any] = str
     default: Any = None
     enabled: Callable[[Any], bool] = bool
+    build: Callable[[Embodiment, Any], Sink] = _unregistered
 
     @property
     def dest(self) -> str:
@@ -43,29 +56,36 @@ class DriverOption:
 DRIVER_OPTIONS: dict[str, DriverOption] = {}
 
 
-def driver_option(
-    name: str,
-    *,
-    metavar: str,
-    help: str,
-    parse: Callable[[str], Any] = str,
-    default: Any = None,
-    enabled: Callable[[Any], bool] = bool,
-):
-    """Class decorator: declare a `Sink` subclass's command-line option.
+def option_name(cls: Any) -> str:
+    """The option name a driver class declares (its entry point's name)."""
+    return cls.option.name
 
-    The class must provide `from_option(embodiment, value) -> Sink` (a classmethod).
-    """
 
-    def register(cls: type[Sink]) -> type[Sink]:
-        if name in DRIVER_OPTIONS:
-            raise ValueError(
-                f"driver option --{name} is declared twice ({DRIVER_OPTIONS[name].build} and {cls})"
-            )
-        DRIVER_OPTIONS[name] = DriverOption(name, metavar, help, cls.from_option, parse, default, enabled)
-        return cls
+def register_driver(cls: type[Sink], registry: dict[str, DriverOption] | None = None) -> type[Sink]:
+    """Add a driver class's option to `registry` (default DRIVER_OPTIONS; names are unique). The plugin
+    loader calls it for every `nutty.drivers` entry point (`reload`)."""
+    options = DRIVER_OPTIONS if registry is None else registry
+    opt = getattr(cls, "option", None)
+    if not isinstance(opt, DriverOption):
+        raise TypeError(f"{cls!r} declares no `option = DriverOption(...)`")
+    build: Callable[[Embodiment, Any], Sink] | None = getattr(cls, "from_option", None)
+    if not callable(build):
+        raise TypeError(f"{cls!r} has no from_option(embodiment, value) classmethod")
+    if opt.name in options:
+        raise ValueError(
+            f"driver option --{opt.name} is declared twice ({options[opt.name].build} and {cls})"
+        )
+    options[opt.name] = dataclasses.replace(opt, build=build)
+    return cls
 
-    return register
+
+def reload() -> None:
+    """Fill DRIVER_OPTIONS (in place) from the `nutty.drivers` entry points; on a PluginError it is left
+    as it was."""
+    found: dict[str, DriverOption] = {}
+    load("nutty.drivers", option_name, lambda cls: register_driver(cls, found))
+    DRIVER_OPTIONS.clear()
+    DRIVER_OPTIONS.update(found)
 
 
 def add_driver_options(parser: argparse.ArgumentParser) -> None:

@@ -15,7 +15,7 @@ import threading
 import numpy as np
 from numba import njit
 
-from backend.drivers.registry import driver_option, positive_or_off
+from backend.drivers.registry import DriverOption, positive_or_off
 from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
@@ -58,14 +58,15 @@ def _servo_step(
         sq_error[k] += err * err
 
 
-@driver_option(
-    "sim-servo",
-    metavar="HZ",
-    parse=positive_or_off,
-    default=8.0,
-    help="bandwidth of the simulated servos whose tracking error /api/status reports (0 = off)",
-)
-class SimulatedServos(Sink):
+class SimulatedServos(Sink[AnimationFrame]):
+    option = DriverOption(
+        "sim-servo",
+        metavar="HZ",
+        parse=positive_or_off,
+        default=8.0,
+        help="bandwidth of the simulated servos whose tracking error /api/status reports (0 = off)",
+    )
+
     def __init__(self, embodiment: Embodiment, bandwidth_hz: float = 8.0, decimate: int = 1):
         if not bandwidth_hz > 0:
             raise ValueError(f"bandwidth_hz must be > 0, got {bandwidth_hz}")

@@ -32,8 +32,13 @@ After clamping, the trajectory-helper (`limits.analyse_clip`) counts per DoF the
 velocity, acceleration and jerk limits and says what the clip would need (`fit_limits` applies the
 slow-down factor). The clip is validated and compiled against the robot before it is returned.
 
-Modules: `sources` (reading files), `bad_data` (checks and repairs), `tracks` with `convert` and
-`keys` (channels -> DoF keys), `clip_warnings`, `report`, and `pipeline` (the steps in order).
+Modules: `sources` (the importers' interface and registry, reading files), `bad_data` (checks and
+repairs), `tracks` with `convert` and `keys` (channels -> DoF keys), `clip_warnings`, `report`, and
+`pipeline` (the steps in order).
+
+The file formats are importers (`sources.Importer`: name, suffixes, `read`), picked by the file's
+suffix (or `--format`) from IMPORTERS, which holds those the `nutty.importers` entry points name (this
+project's and installed plugin packages'; backend.plugins).
 """
 
 from __future__ import annotations
@@ -44,8 +49,8 @@ from typing import Any
 import numpy as np
 
 # Everything below stays importable from `backend.importers`, as before the package was split.
-from backend.importers.keys import SAMPLED_DT, decimate, hermite_keys  # noqa: F401
-from backend.importers.mapping import (  # noqa: F401
+from backend.importers.keys import SAMPLED_DT, decimate, hermite_keys  # noqa: F401 (public names)
+from backend.importers.mapping import (  # noqa: F401 (public names)
     ChannelMap,
     ClipImportError,
     MappingSpec,
@@ -56,9 +61,9 @@ from backend.importers.mapping import (  # noqa: F401
     parse_mapping,
     resolve_channel,
 )
-from backend.importers.pipeline import FILL_MODES, MAX_DURATION, MAX_MESSAGE, run_import  # noqa: F401
+from backend.importers.pipeline import FILL_MODES, MAX_DURATION, MAX_MESSAGE, run_import  # noqa: F401 (public names)
 from backend.importers.report import format_report
-from backend.importers.rotations import (  # noqa: F401
+from backend.importers.rotations import (  # noqa: F401 (public names)
     RotationError,
     axis_conversion,
     davenport,
@@ -72,11 +77,25 @@ from backend.importers.rotations import (  # noqa: F401
     swing_twist,
     twist_angle,
 )
-from backend.importers.sources import FORMATS, detect_format, read_channels
+from backend.importers.sources import (
+    FORMATS,
+    IMPORTERS,
+    Importer,
+    ReadOptions,
+    detect_format,
+    read_channels,
+    register_importer,
+    reload,
+)
+
+reload()
 
 __all__ = [
     "FORMATS",
+    "IMPORTERS",
     "ClipImportError",
+    "Importer",
+    "ReadOptions",
     "SourceChannel",
     "decimate",
     "detect_format",
@@ -84,6 +103,8 @@ __all__ = [
     "hermite_keys",
     "import_clip",
     "read_channels",
+    "register_importer",
+    "reload",
     "swing_twist",
     "twist_angle",
 ]

@@ -112,6 +112,7 @@ def drop_first_frames(
             ch.values = [v for v, k in zip(ch.values, keep) if k]
         if ch.in_tangents is not None:
             ch.in_tangents = ch.in_tangents[keep]
+        if ch.out_tangents is not None:
             ch.out_tangents = ch.out_tangents[keep]
     notes.append(f"--skip-frames {n}: dropped the keys before t = {cut:g} s; the clip starts there")
     return channels

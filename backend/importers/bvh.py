@@ -25,11 +25,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from backend.importers.mapping import ClipImportError, SourceChannel
 from backend.importers.rotations import IDENTITY, quat_axis_angle, quat_conj, quat_mul, quat_normalise
+from backend.importers.sources import Importer, ReadOptions
 
 _AXIS = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
 _CHANNELS = ("xposition", "yposition", "zposition", "xrotation", "yrotation", "zrotation")
@@ -96,6 +98,19 @@ def read_bvh(
     channels = _source_channels(hier, data, np.arange(n_frames) * dt, rest_frame, rest_note)
     info = {"frames": n_frames, "frame_time": dt, "joints": len(hier.names), "rest": rest_note}
     return channels, info, notes
+
+
+class BvhImporter(Importer):
+    """BVH motion capture: the OFFSET pose or `--rest-frame` is the rest pose, +Y up."""
+
+    name = "bvh"
+    label = "BVH"
+    suffixes = (".bvh",)
+    options = frozenset({"rest_frame"})
+
+    @classmethod
+    def read(cls, path: Path, options: ReadOptions) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
+        return read_bvh(path, rest_frame=options.rest_frame, fill=options.fill, max_gap=options.max_gap)
 
 
 def _read_hierarchy(tok: _Tokens) -> _Hierarchy:

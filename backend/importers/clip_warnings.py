@@ -9,8 +9,16 @@ from typing import Any
 
 import numpy as np
 
+from backend.engine.embodiment import Embodiment
 from backend.importers.mapping import ChannelMap, SourceChannel, dof_axis
-from backend.importers.rotations import RotationError, axis_conversion, quat_angle, quat_conj, quat_mul
+from backend.importers.rotations import (
+    RotationError,
+    axis_conversion,
+    quat_angle,
+    quat_conj,
+    quat_mul,
+    quat_to_matrix,
+)
 
 
 def _fmt_axis(a: np.ndarray) -> str:
@@ -22,7 +30,6 @@ def _other_conversions(axis: np.ndarray, target: np.ndarray, conversion: dict[st
     the current conversion) would lie along the DoF's axis `target`: the same --up first."""
     if not conversion:
         return []
-    from backend.importers.rotations import quat_to_matrix
 
     up, fwd = conversion["up"], conversion["forward"]
     src = quat_to_matrix(quat_conj(axis_conversion(up, fwd))) @ axis
@@ -49,13 +56,13 @@ def swing_warning(
     ch: SourceChannel,
     cmap: ChannelMap,
     sw: dict[str, Any],
-    emb,
+    emb: Embodiment,
     limit: float,
     conversion: dict[str, str] | None = None,
 ) -> dict[str, Any]:
     axis = np.array(sw["principal_axis"])
     dofs = [t.dof for t in cmap.targets]
-    forwards = _other_conversions(axis, cmap.targets[0].axis, conversion) if len(dofs) == 1 else []
+    forwards = _other_conversions(axis, cmap.axes[0], conversion) if len(dofs) == 1 else []
     # the robot DoF whose axis is closest to the principal axis
     best, best_dot = None, 0.0
     for d in emb.dofs:
@@ -97,7 +104,10 @@ def swing_warning(
 
 
 def first_frame_warning(
-    rows: list[tuple[str, float, float, float, SourceChannel]], emb, skipped: int, conv: np.ndarray
+    rows: list[tuple[str, float, float, float, SourceChannel]],
+    emb: Embodiment,
+    skipped: int,
+    conv: np.ndarray,
 ) -> dict[str, Any] | None:
     """The first frame jumps to the second more than the DoF can move in one frame (and much more than
     any later frame-to-frame step): a T-pose or rest frame at the start."""

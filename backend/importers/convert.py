@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from backend.engine.embodiment import Embodiment
 from backend.importers.keys import bezier_keys, densify_slerp, is_sampled, make_keys, sample_hermite
 from backend.importers.mapping import ChannelMap, ClipImportError, SourceChannel
 from backend.importers.rotations import (
@@ -23,13 +24,20 @@ from backend.importers.rotations import (
     quat_conj,
     quat_mul,
     quat_normalise,
+    quat_to_matrix,
     swing_twist,
     twist_angle,
 )
 
 
 def convert_channel(
-    ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, shift: float, tol: float, interp: str | None
+    ch: SourceChannel,
+    cmap: ChannelMap,
+    emb: Embodiment,
+    conv: np.ndarray,
+    shift: float,
+    tol: float,
+    interp: str | None,
 ) -> dict[str, Any]:
     """{"tracks": [(keys, how, sample times, sample values, clamped samples) per target], "swing": {...}}."""
     times = np.asarray(ch.times, dtype=float) + shift
@@ -95,18 +103,17 @@ def convert_channel(
 
 
 def _qrot(q: np.ndarray) -> np.ndarray:
-    from backend.importers.rotations import quat_to_matrix
 
     return quat_to_matrix(q)
 
 
 def _convert_rotation(
-    ch: SourceChannel, cmap: ChannelMap, emb, conv: np.ndarray, times: np.ndarray, tol: float
+    ch: SourceChannel, cmap: ChannelMap, emb: Embodiment, conv: np.ndarray, times: np.ndarray, tol: float
 ) -> dict[str, Any]:
     pre = quat_mul(conv, ch.pre)
     post = quat_mul(ch.post, quat_conj(conv))
     targets = cmap.targets
-    axes = [t.axis for t in targets]
+    axes = cmap.axes
 
     def robot(q: np.ndarray) -> np.ndarray:
         return hemisphere(quat_mul(quat_mul(pre, q), post))

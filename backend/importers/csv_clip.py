@@ -12,10 +12,26 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from backend.importers.mapping import ClipImportError, SourceChannel
+from backend.importers.sources import Importer, ReadOptions
+
+
+class CsvImporter(Importer):
+    """CSV keys: a `time` column, then one column per DoF (values in the DoF's own units)."""
+
+    name = "csv"
+    label = "CSV"
+    suffixes = (".csv",)
+    options = frozenset({"interp"})
+    axes = False  # columns are DoF values, not rotations in space
+
+    @classmethod
+    def read(cls, path: Path, options: ReadOptions) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
+        return read_csv(path, fill=options.fill)
 
 
 def read_csv(path: str | Path, fill: str | None = None) -> tuple[list[SourceChannel], dict, list[str]]:

@@ -22,9 +22,11 @@ from typing import Any
 from urllib.parse import unquote
 
 import numpy as np
+from pygltflib import GLTF2
 
 from backend.importers.mapping import ClipImportError, SourceChannel
 from backend.importers.rotations import IDENTITY, quat_conj, quat_from_matrix, quat_mul, quat_normalise
+from backend.importers.sources import Importer, ReadOptions
 
 _COMPONENT = {
     5120: np.int8,
@@ -135,7 +137,6 @@ class _Reader:
 
 
 def _load(path: Path) -> Any:
-    from pygltflib import GLTF2
 
     try:
         return GLTF2().load(str(path))
@@ -188,6 +189,19 @@ def read_gltf(
         channels.extend(_read_channel(gltf, reader, anim, ci, ch, scene, notes))
     info = {"animation": names[index], "animation_index": index}
     return channels, info, notes
+
+
+class GltfImporter(Importer):
+    """glTF 2.0 and GLB files: one animation (`--animation`), +Y up."""
+
+    name = "gltf"
+    label = "glTF"
+    suffixes = (".gltf", ".glb")
+    options = frozenset({"animation"})
+
+    @classmethod
+    def read(cls, path: Path, options: ReadOptions) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
+        return read_gltf(path, options.animation)
 
 
 def _animation_index(path: Path, names: list[str], animation: str | int | None) -> int:

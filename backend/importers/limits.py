@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from backend.engine import trajectory
+from backend.engine.embodiment import Embodiment
 
 MAX_SCALE = 20.0
 SEARCH_BUDGET = 4e6  # samples x DoFs one fit evaluation may take (a long clip searches a shorter range)
@@ -56,7 +57,7 @@ class _Track:
         return np.where(t >= self.t[-1], self.v[-1], out)
 
 
-def continuous_tracks(doc: dict[str, Any], emb) -> list[str]:
+def continuous_tracks(doc: dict[str, Any], emb: Embodiment) -> list[str]:
     return [
         d
         for d, keys in doc["tracks"].items()
@@ -76,7 +77,9 @@ def sampler(doc: dict[str, Any], dofs: list[str]):
     return sample
 
 
-def analyse_clip(doc: dict[str, Any], emb, rate: float = 100.0, suggest: bool = True) -> dict[str, Any]:
+def analyse_clip(
+    doc: dict[str, Any], emb: Embodiment, rate: float = 100.0, suggest: bool = True
+) -> dict[str, Any]:
     """The limits section of the import report (see the module doc)."""
     dofs = continuous_tracks(doc, emb)
     duration = float(doc.get("duration", 0.0))

@@ -32,16 +32,19 @@ import difflib
 import json
 import math
 import re
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from backend.engine.embodiment import Dimension, DofType, Embodiment
+
+# Source channels and the robot's joint frames live in their own modules; re-exported here, where the
+# importers import them.
+from backend.importers.channels import ChannelMap, ClipImportError, DofTarget, MappingSpec, SourceChannel
+from backend.importers.robot_frames import dof_axis, dof_joint, robot_joint_frames, urdf_joint_axes
 from backend.importers.rotations import (
-    IDENTITY,
     RotationError,
     check_axes,
     quat_axis_angle,
@@ -59,6 +62,7 @@ __all__ = [
     "SourceChannel",
     "check_mapping",
     "dof_axis",
+    "dof_joint",
     "load_mapping",
     "normalise_name",
     "parse_mapping",
@@ -70,209 +74,6 @@ __all__ = [
     "twist_angle",
     "urdf_joint_axes",
 ]
-
-
-class ClipImportError(ValueError):
-    """A file that cannot be imported (missing, unknown format, malformed, bad data, nothing to map)."""
-
-
-@dataclass
-class SourceChannel:
-    """One animated channel of a source file.
-
-    kind: "rotation" (values (N, 4) quaternions x, y, z, w: the node's *local* rotation, as stored),
-    "translation" (values (N, 3), local), "scale" or "scalar" (values (N,) numbers, or option names
-    for CSV enum columns).
-    interp: "STEP", "LINEAR" or "CUBICSPLINE"; for CUBICSPLINE `in_tangents`/`out_tangents` have the
-    shape of `values` (derivatives per second, as glTF stores them).
-    Rest pose, in the source's world axes: a rotation's change from rest, in world axes, is
-    `pre * q * post` (pre: the parent's rest world rotation; post: the inverse of the node's own
-    rest world rotation); a translation's is `pre * (p - rest)`.
-    unit: how a sample is named in messages ("frame" for BVH, "key" for glTF, "row" for CSV).
-    """
-
-    name: str
-    kind: str
-    times: np.ndarray
-    values: Any
-    interp: str = "LINEAR"
-    in_tangents: np.ndarray | None = None
-    out_tangents: np.ndarray | None = None
-    path: str = ""  # source path label: rotation, translation, weights[0], column, ...
-    decimate: bool = False  # keys may be dropped where linear interpolation reproduces them
-    detail: str = ""  # for the report
-    pre: np.ndarray = field(default_factory=lambda: IDENTITY.copy())
-    post: np.ndarray = field(default_factory=lambda: IDENTITY.copy())
-    rest: np.ndarray | None = None  # translation at rest (local)
-    unit: str = "key"
-    rest_note: str = ""
-
-    @property
-    def label(self) -> str:
-        return f"{self.name}.{self.path}" if self.path else self.name
-
-
-@dataclass
-class DofTarget:
-    """One DoF a channel drives: the rotation about (or translation along) `axis` (robot frame)."""
-
-    dof: str
-    axis: np.ndarray | None
-    scale: float = 1.0
-    offset: float = 0.0
-    axis_given: bool = False
-
-
-@dataclass
-class ChannelMap:
-    """How one source channel drives one DoF, or several (a rotation split in the listed order)."""
-
-    targets: list[DofTarget]
-    how: str = "exact name"
-    key: str | None = None  # the mapping file's entry
-
-    @property
-    def dof(self) -> str:
-        return self.targets[0].dof
-
-    @property
-    def axis(self) -> np.ndarray | None:
-        return self.targets[0].axis
-
-    @property
-    def scale(self) -> float:
-        return self.targets[0].scale
-
-    @property
-    def offset(self) -> float:
-        return self.targets[0].offset
-
-
-@dataclass
-class MappingSpec:
-    """A parsed mapping file: source name -> list of entries (None means: ignore the channel)."""
-
-    joints: dict[str, list[dict[str, Any]] | None] = field(default_factory=dict)
-    path: str = ""
-
-
-# --------------------------------------------------------------------------------------------------
-# The robot's joint frames at rest
-# --------------------------------------------------------------------------------------------------
-
-_FRAMES_CACHE: dict[str, dict[str, dict[str, Any]]] = {}
-_SPATIAL_AXES = {
-    "x": (1, 0, 0),
-    "y": (0, 1, 0),
-    "z": (0, 0, 1),
-    "roll": (1, 0, 0),
-    "pitch": (0, 1, 0),
-    "yaw": (0, 0, 1),
-}
-
-
-def _floats(text: str | None, default: str, n: int = 3) -> list[float]:
-    try:
-        vals = [float(x) for x in (text if text is not None else default).split()]
-    except ValueError:
-        vals = [float(x) for x in default.split()]
-    return (
-        vals
-        if len(vals) == n and all(math.isfinite(v) for v in vals)
-        else [float(x) for x in default.split()]
-    )
-
-
-def _rpy_quat(r: float, p: float, y: float) -> np.ndarray:
-    qz = quat_axis_angle([0, 0, 1], y)
-    qy = quat_axis_angle([0, 1, 0], p)
-    qx = quat_axis_angle([1, 0, 0], r)
-    return quat_mul(quat_mul(qz, qy), qx)
-
-
-def robot_joint_frames(urdf_path: str | Path) -> dict[str, dict[str, Any]]:
-    """Joint name -> {"axis": local unit axis, "world_axis": the axis in the robot's base frame in
-    the URDF's zero configuration, "world": that frame's rotation (quaternion), "child", "parent"}."""
-    key = str(urdf_path)
-    if key not in _FRAMES_CACHE:
-        try:
-            root = ET.parse(key).getroot()
-        except (OSError, ET.ParseError) as exc:
-            raise ClipImportError(f"cannot read joint axes from '{urdf_path}': {exc}") from exc
-        raw: dict[str, dict[str, Any]] = {}
-        for j in root.iter("joint"):
-            el = j.find("axis")
-            try:
-                axis = unit(_floats(el.get("xyz") if el is not None else None, "1 0 0"))
-            except RotationError:
-                axis = np.array([1.0, 0.0, 0.0])
-            o = j.find("origin")
-            rpy = _floats(o.get("rpy") if o is not None else None, "0 0 0")
-            parent = j.find("parent")
-            child = j.find("child")
-            raw[j.get("name", "")] = {
-                "axis": axis,
-                "origin": _rpy_quat(*rpy),
-                "parent": parent.get("link", "") if parent is not None else "",
-                "child": child.get("link", "") if child is not None else "",
-            }
-        by_child = {v["child"]: k for k, v in raw.items()}
-        frames: dict[str, dict[str, Any]] = {}
-
-        def world(name: str, depth: int = 0) -> np.ndarray:
-            if name in frames:
-                return frames[name]["world"]
-            j = raw[name]
-            up = by_child.get(j["parent"])
-            base = world(up, depth + 1) if up is not None and depth < 256 else IDENTITY
-            q = quat_mul(base, j["origin"])
-            m = _qmat(q)
-            frames[name] = {
-                "axis": j["axis"],
-                "world": q,
-                "world_axis": unit(m @ j["axis"]),
-                "child": j["child"],
-                "parent": up,
-            }
-            return q
-
-        for name in raw:
-            world(name)
-        _FRAMES_CACHE[key] = frames
-    return _FRAMES_CACHE[key]
-
-
-def _qmat(q: np.ndarray) -> np.ndarray:
-    from backend.importers.rotations import quat_to_matrix
-
-    return quat_to_matrix(q)
-
-
-def urdf_joint_axes(urdf_path: str | Path) -> dict[str, np.ndarray]:
-    """Joint name -> unit axis (the URDF `<axis xyz>`, default 1 0 0) in the joint's own frame."""
-    return {k: v["axis"] for k, v in robot_joint_frames(urdf_path).items()}
-
-
-def dof_joint(emb: Embodiment, dof_name: str) -> str | None:
-    """The URDF joint a DoF turns: its own, or for a symbolic DoF the one it drives most."""
-    d = emb.dof(dof_name)
-    if d.drives:
-        return max(d.drives.items(), key=lambda kv: abs(kv[1]))[0]
-    return d.joint
-
-
-def dof_axis(emb: Embodiment, dof_name: str) -> np.ndarray | None:
-    """The default axis of a DoF in the robot's frame at rest (the URDF's zero configuration): its
-    joint's axis (the most-driven joint's for a symbolic DoF), the base axis for a spatial DoF;
-    None if unknown."""
-    d = emb.dof(dof_name)
-    if d.axis in _SPATIAL_AXES:
-        return np.array(_SPATIAL_AXES[d.axis], dtype=float)
-    joint = dof_joint(emb, dof_name)
-    if joint is None or emb.urdf_path is None:
-        return None
-    f = robot_joint_frames(emb.urdf_path).get(joint)
-    return None if f is None else f["world_axis"]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -307,8 +108,6 @@ def load_mapping(path: str | Path) -> MappingSpec:
         raise ClipImportError(f"cannot read mapping file '{path}': {exc.strerror or exc}") from exc
     try:
         if p.suffix.lower() in (".yaml", ".yml"):
-            import yaml
-
             raw = yaml.safe_load(text)
         else:
             raw = json.loads(text)
@@ -527,7 +326,7 @@ def _finish(
         )
     if len(targets) > 1:
         try:
-            check_axes([t.axis for t in targets])
+            check_axes([t.axis for t in targets if t.axis is not None])  # a rotation's: every one has one
         except RotationError as exc:
             raise ClipImportError(f"{key}: {' then '.join(t.dof for t in targets)}: {exc}") from None
     return ChannelMap(targets, how, key), ""

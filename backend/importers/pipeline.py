@@ -12,9 +12,11 @@ from typing import Any
 
 import numpy as np
 
+from backend.engine.clips import CLIP_FORMAT, Clip, ClipError, compile_clip
 from backend.importers.bad_data import check_times, check_values, drop_first_frames
 from backend.importers.clip_warnings import first_frame_warning
 from backend.importers.keys import round_key
+from backend.importers.limits import analyse_clip, scale_clip_time
 from backend.importers.mapping import (
     ClipImportError,
     MappingSpec,
@@ -25,7 +27,7 @@ from backend.importers.mapping import (
 )
 from backend.importers.report import build_report
 from backend.importers.rotations import RotationError, axis_conversion
-from backend.importers.sources import read_channels
+from backend.importers.sources import IMPORTERS, read_channels
 from backend.importers.tracks import TrackOptions, map_channels
 
 FILL_MODES = ("hold", "linear")
@@ -87,7 +89,7 @@ def run_import(
     )
     if not channels:
         raise ClipImportError(f"'{path}' has no animated channels")
-    where = f"{kind.upper() if kind != 'gltf' else 'glTF'} '{path.name}'"
+    where = f"{IMPORTERS[kind].label} '{path.name}'"
     channels, shift, end, filled = prepare_channels(channels, where, fill, max_gap, skip_frames, notes)
     conv, conversion = source_axes(kind, up, forward, notes)
     if spec is not None:
@@ -97,23 +99,37 @@ def run_import(
         conversion=conversion,
         shift=shift,
         tolerance=tolerance,
-        interp=interp if kind == "csv" else None,
+        interp=interp if "interp" in IMPORTERS[kind].options else None,
         swing_warn=swing_warn,
     )
-    result = map_channels(channels, emb, spec, opts)
-    if not result.tracks:
-        why = "; ".join(f"{u['source']}: {u['reason']}" for u in result.unmapped[:8])
-        raise ClipImportError(
-            short(f"no channel of '{path.name}' maps to a DoF of robot '{emb.name}' ({why})")
-        )
-    jump = first_frame_warning(result.first_frames, emb, skip_frames, conv)
-    if jump:
-        result.warnings.append(jump)
+    result = map_tracks(channels, emb, spec, opts, path.name, skip_frames)
     doc = clip_document(path, kind, info, emb, result.tracks, end, name)
     report = build_report(path, kind, emb, doc, info, conversion, result, filled, notes)
     if analyse:
         report["limits"] = analyse_limits(doc, emb, rate, fit_limits, report)
     return doc, report
+
+
+def map_tracks(
+    channels: list[SourceChannel],
+    emb,
+    spec: MappingSpec | None,
+    opts: TrackOptions,
+    file_name: str,
+    skip_frames: int,
+):
+    """The channels mapped to DoF tracks (`map_channels`), with a warning when the first frame jumps
+    (a T-pose or rest frame at the start); a ClipImportError naming why when no channel maps to a DoF."""
+    result = map_channels(channels, emb, spec, opts)
+    if not result.tracks:
+        why = "; ".join(f"{u['source']}: {u['reason']}" for u in result.unmapped[:8])
+        raise ClipImportError(
+            short(f"no channel of '{file_name}' maps to a DoF of robot '{emb.name}' ({why})")
+        )
+    jump = first_frame_warning(result.first_frames, emb, skip_frames, opts.conv)
+    if jump:
+        result.warnings.append(jump)
+    return result
 
 
 def check_options(
@@ -193,10 +209,11 @@ def prepare_channels(
 def source_axes(
     kind: str, up: str | None, forward: str, notes: list[str]
 ) -> tuple[np.ndarray, dict[str, str] | None]:
-    """(quaternion (w, x, y, z) turning source axes into the robot's, {"up", "forward"} or None for CSV)."""
-    if kind == "csv":
+    """(quaternion (w, x, y, z) turning source axes into the robot's, {"up", "forward"} or None for a
+    format without axes (CSV))."""
+    if not IMPORTERS[kind].axes:
         if up not in (None, "z") or forward != "x":
-            notes.append("--up/--forward do not apply to CSV columns; ignored")
+            notes.append(f"--up/--forward do not apply to {IMPORTERS[kind].label} columns; ignored")
         return np.array([0.0, 0.0, 0.0, 1.0]), None
     up = up or "y"
     try:
@@ -216,7 +233,6 @@ def clip_document(
     name: str | None,
 ) -> dict[str, Any]:
     """The `nutty-clip/1` document, validated and compiled against the robot."""
-    from backend.engine.clips import CLIP_FORMAT
 
     doc: dict[str, Any] = {
         "format": CLIP_FORMAT,
@@ -239,7 +255,6 @@ def analyse_limits(
 ) -> dict[str, Any]:
     """The trajectory-helper's report on the clip sampled at `rate` Hz; with `fit_limits` the clip is
     slowed down in place when a uniform slow-down fits (the report's duration and notes follow)."""
-    from backend.importers.limits import analyse_clip, scale_clip_time
 
     lim = analyse_clip(doc, emb, rate)
     if not fit_limits:
@@ -275,7 +290,6 @@ def analyse_limits(
 
 def validate(doc: dict[str, Any], emb) -> None:
     """The clip must validate and compile for the robot; otherwise a short ClipImportError."""
-    from backend.engine.clips import Clip, ClipError, compile_clip
 
     try:
         Clip.model_validate(doc)  # the compact document is written as is (no defaults spelled out)

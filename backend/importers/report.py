@@ -5,13 +5,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from backend.engine.embodiment import Embodiment
 from backend.importers.tracks import MappedChannels
 
 
 def build_report(
     path: Path,
     kind: str,
-    emb,
+    emb: Embodiment,
     doc: dict[str, Any],
     info: dict[str, Any],
     conversion: dict[str, str] | None,

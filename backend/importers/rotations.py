@@ -13,9 +13,9 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
 
@@ -24,7 +24,7 @@ class RotationError(ValueError):
     """Bad axes or rotations (no direction, parallel axes)."""
 
 
-def unit(v: Any) -> np.ndarray:
+def unit(v: ArrayLike) -> np.ndarray:
     v = np.asarray(v, dtype=float).reshape(3)
     n = float(np.linalg.norm(v))
     if not math.isfinite(n) or n < 1e-12:
@@ -57,7 +57,7 @@ def quat_normalise(q: np.ndarray) -> np.ndarray:
     return q / np.where(n == 0, 1.0, n)
 
 
-def quat_axis_angle(axis: np.ndarray, angle: np.ndarray | float) -> np.ndarray:
+def quat_axis_angle(axis: ArrayLike, angle: np.ndarray | float) -> np.ndarray:
     """Quaternions (x, y, z, w) for rotations by `angle` (rad, scalar or (N,)) about `axis`."""
     axis = unit(axis)
     half = 0.5 * np.asarray(angle, dtype=float)

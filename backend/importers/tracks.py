@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from backend.engine.embodiment import Embodiment
 from backend.importers.clip_warnings import swing_warning
 from backend.importers.convert import convert_channel
 from backend.importers.keys import clamp_keys, is_sampled
@@ -44,14 +45,17 @@ class MappedChannels:
 
 
 def map_channels(
-    channels: list[SourceChannel], emb, spec: MappingSpec | None, opts: TrackOptions
+    channels: list[SourceChannel], emb: Embodiment, spec: MappingSpec | None, opts: TrackOptions
 ) -> MappedChannels:
     """Resolve, convert and clamp every channel; report rows keep the channels' order."""
     resolved = [(ch, *resolve_channel(ch, emb, spec)) for ch in channels]
-    # channels named by the mapping file claim their DoFs before channels matched by name
-    order = sorted(
-        range(len(resolved)), key=lambda i: (resolved[i][1] is None or resolved[i][1].key is None, i)
-    )
+
+    def named_first(i: int) -> tuple[bool, int]:
+        """Channels named by the mapping file claim their DoFs before channels matched by name."""
+        cmap = resolved[i][1]
+        return (cmap is None or cmap.key is None, i)
+
+    order = sorted(range(len(resolved)), key=named_first)
     out = MappedChannels()
     driven_by: dict[str, str] = {}
     rows: dict[int, list[dict[str, Any]]] = {}
@@ -83,7 +87,7 @@ def _add_tracks(
     ch: SourceChannel,
     cmap: ChannelMap,
     converted: dict[str, Any],
-    emb,
+    emb: Embodiment,
     out: MappedChannels,
     driven_by: dict[str, str],
 ) -> list[dict[str, Any]]:

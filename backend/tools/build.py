@@ -1,6 +1,7 @@
-"""Tool definitions for the running robot: the declared tools (backend.tools.table) whose command the
-running program can carry out, each with a JSON Schema of its arguments generated from the command
-model and filled with the live robot's, program's and library's values (backend.tools.live).
+"""Tool definitions for the running robot: the declared tools (the commands' `ai_tool` declarations,
+gathered by backend.tools.table) whose command the running program can carry out, each with a JSON
+Schema of its arguments generated from the command model and filled with the live robot's, program's
+and library's values (backend.tools.live).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from typing import Any
 from backend.control.base import BlockCommand
 from backend.tools.live import Live, read_live
 from backend.tools.schema import model_arguments, with_choices
-from backend.tools.table import TOOLS, ToolSpec, WaitOptions
+from backend.tools.table import ToolSpec, WaitOptions, tool_specs
 
 WAITING = (
     "The answer comes at once with the action's `id` and status (`started`, or `queued`); pass "
@@ -64,7 +65,7 @@ class ToolSet:
 def build_tools(session: Any) -> ToolSet:
     """The tools `session` (an EngineSession) offers now."""
     live = read_live(session)
-    return ToolSet(tuple(_tool(spec, live) for spec in TOOLS if spec.available(live)), live)
+    return ToolSet(tuple(_tool(spec, live) for spec in tool_specs() if spec.available(live)), live)
 
 
 def _tool(spec: ToolSpec, live: Live) -> Tool:

@@ -16,6 +16,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
+from backend.control.ai import ToolArgumentError
 from backend.hub import TERMINAL
 from backend.tools.build import Tool, build_tools
 from backend.tools.errors import ToolError
@@ -47,7 +48,7 @@ async def call_tool(hub: Any, name: str, arguments: Any) -> dict[str, Any]:
     waiting = WaitOptions()
     if tool.long_action:
         waiting = _validated(WaitOptions, {k: args.pop(k) for k in ("wait", "timeout") if k in args})
-    command = tool.spec.route(args) if tool.spec.route else {"type": tool.command, **args}
+    command = _command(tool, args)
     with listening(hub) as events:
         ack = await asyncio.to_thread(hub.run_command, command)
         entry, timed_out = hub.commands.get(ack["id"]), False
@@ -62,6 +63,16 @@ async def call_tool(hub: Any, name: str, arguments: Any) -> dict[str, Any]:
         "waited": waiting.wait and ack["status"] in OPEN,
         "timed_out": timed_out,
     }
+
+
+def _command(tool: Tool, args: dict[str, Any]) -> dict[str, Any]:
+    """The command a tool call sends: its declared route's, or the tool's command with the arguments."""
+    if tool.spec.route is None:
+        return {"type": tool.command, **args}
+    try:
+        return tool.spec.route(args)
+    except ToolArgumentError as exc:
+        raise ToolError(str(exc), field=exc.field) from exc
 
 
 def check_choices(tool: Tool, arguments: dict[str, Any]) -> None:

@@ -11,22 +11,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+# A command's tool declaration lists its values as Choices, so the class lives beside the declaration.
+from backend.control.ai import Choice
 from backend.control.targets import layer_members, layers_of, mixers
+from backend.engine.clips import Clip
 from backend.engine.embodiment import DofType
 
-
-@dataclass(frozen=True)
-class Choice:
-    """One value an argument may take, with what a model needs to pick it: a one-line description and,
-    for a clip, its duration."""
-
-    name: str
-    description: str = ""
-    duration: float | None = None  # s (a clip's length)
-
-    def line(self) -> str:
-        detail = f" ({self.duration:g} s)" if self.duration is not None else ""
-        return f"- {self.name}{detail}: {self.description}" if self.description else f"- {self.name}{detail}"
+__all__ = ["Choice", "Live", "read_live"]
 
 
 @dataclass
@@ -99,7 +90,6 @@ def read_live(session: Any) -> Live:
 
 
 def _clips(session: Any) -> list[Choice]:
-    from backend.engine.clips import Clip
 
     out = []
     for name in _names(session, "clips"):

@@ -12,6 +12,7 @@ import copy
 import functools
 from typing import Any
 
+from backend.control.ai import input_value_schema  # noqa: F401  (kept importable from here)
 from backend.tools.live import Choice
 
 COMMAND_HIDDEN = ("type", "id")  # a command's tag, and the id the server assigns
@@ -73,27 +74,3 @@ def with_choices(prop: dict[str, Any], choices: list[Choice], what: str) -> dict
         "enum": [c.name for c in choices],
         "description": f"{text}One of {what}:\n{lines}",
     }
-
-
-def input_value_schema(decl: Any) -> dict[str, Any]:
-    """The JSON Schema of one exposed input's value, from its declaration (type, range, options)."""
-    kind = decl.type
-    if kind in ("float", "int"):
-        schema: dict[str, Any] = {"type": "number" if kind == "float" else "integer"}
-        if decl.min is not None:
-            schema["minimum"] = decl.min
-        if decl.max is not None:
-            schema["maximum"] = decl.max
-    elif kind == "bool":
-        schema = {"type": "boolean"}
-    elif kind == "string":
-        schema = {"type": "string", **({"enum": list(decl.options)} if decl.options else {})}
-    elif kind in ("vec3", "colour"):
-        item: dict[str, Any] = {"type": "number"}
-        if kind == "colour":
-            item.update(minimum=0.0, maximum=1.0)
-        schema = {"type": "array", "items": item, "minItems": 3, "maxItems": 3}
-    else:  # an event input takes any JSON value
-        schema = {}
-    text = decl.description or f"exposed input '{decl.name}'"
-    return {**schema, "description": f"{text} (default {decl.default!r})"}

@@ -1,9 +1,8 @@
-"""The Animation Block library. Importing this package registers every block module in it."""
+"""The Animation Block library: BLOCKS holds every block type the `nutty.blocks` entry points name
+(this project's, in pyproject.toml, and those of installed plugin packages; see backend.plugins). It is
+filled when this package is imported; `reload()` reads the entry points again."""
 
 from __future__ import annotations
-
-import importlib
-import pkgutil
 
 from backend.engine.blocks.base import (
     BLOCKS,
@@ -15,15 +14,19 @@ from backend.engine.blocks.base import (
     Role,
     register_block,
 )
+from backend.engine.blocks.catalog import CATEGORIES, block_catalog, editor_rules
+from backend.plugins import load
 
-# Modules that define no block: the base classes, ports and their rules, the catalog built from the registry.
-_SUPPORT = {"base", "ports", "catalog"}
 
-for _info in pkgutil.iter_modules(__path__):
-    if _info.name not in _SUPPORT and not _info.name.startswith("_"):
-        importlib.import_module(f"{__name__}.{_info.name}")
+def reload() -> None:
+    """Fill BLOCKS (in place) from the `nutty.blocks` entry points; on a PluginError it is left as it was."""
+    found: dict[str, type[Block]] = {}
+    load("nutty.blocks", lambda cls: cls.type_name, lambda cls: register_block(cls, found))
+    BLOCKS.clear()
+    BLOCKS.update(found)
 
-from backend.engine.blocks.catalog import CATEGORIES, block_catalog, editor_rules  # noqa: E402  (after the blocks)
+
+reload()
 
 __all__ = [
     "BLOCKS",
@@ -37,4 +40,5 @@ __all__ = [
     "block_catalog",
     "editor_rules",
     "register_block",
+    "reload",
 ]

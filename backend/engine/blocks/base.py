@@ -30,8 +30,13 @@ Conventions
 - A block never changes the frames and values it receives, nor what `driven` returns: arrays are
   shared between blocks and from tick to tick.
 
-Register a block class with `@register_block`. Every module of this package is imported by
-`backend.engine.blocks`, so a new block needs no other edit.
+A block type is registered by an entry point (backend.plugins), named after its `type_name`, in the
+pyproject.toml of its distribution (this project's, or a plugin package's):
+
+    [project.entry-points."nutty.blocks"]
+    sway = "backend.engine.blocks.sway:Sway"
+
+then `pip install -e .`. Defining or importing the class registers nothing.
 """
 
 from __future__ import annotations
@@ -43,14 +48,30 @@ import math
 from dataclasses import dataclass, field
 from enum import StrEnum
 from types import SimpleNamespace
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Generic, TypeVar, get_args
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from pydantic.fields import FieldInfo
+
+# Drivable parameters and signal values live in `driven`; re-exported here, where blocks import them.
+from backend.engine.blocks.driven import (  # noqa: F401 (re-exported: the names were importable from here before the split)
+    _NUMBERS,
+    _PLAIN,
+    _UNSET,
+    Clamp,
+    Drive,
+    DrivenMemo,
+    DrivenParam,
+    _number,
+    _zero_signs,
+    colour_or_none,
+    drivable,
+    driven_params,
+    vec3_or_none,
+)
 
 # Port types and the wiring rule live in `ports`; they are re-exported here, where blocks import them.
-from backend.engine.blocks.ports import (  # noqa: F401
+from backend.engine.blocks.ports import (  # noqa: F401 (re-exported: the names were importable from here before the split)
     COMPATIBLE_SIGNALS,
     Port,
     PortRule,
@@ -61,6 +82,7 @@ from backend.engine.blocks.ports import (  # noqa: F401
 from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import PartialFrame
+from backend.engine.library import Resources
 from backend.safe_json import validation_bytes
 
 
@@ -102,233 +124,6 @@ DofSelection = Annotated[
 
 
 # --------------------------------------------------------------------------------------------------
-# Signal values and drivable parameters
-# --------------------------------------------------------------------------------------------------
-
-
-def vec3_or_none(value: Any) -> np.ndarray | None:
-    """A finite 3-vector from a vec3 signal, or None when it is missing or not finite."""
-    if value is None:
-        return None
-    if type(value) in (list, tuple) and len(value) == 3:  # the common case, without numpy's conversions
-        a, b, c = value
-        if isinstance(a, (int, float)) and isinstance(b, (int, float)) and isinstance(c, (int, float)):
-            a, b, c = float(a), float(b), float(c)
-            return np.array((a, b, c)) if math.isfinite(a) and math.isfinite(b) and math.isfinite(c) else None
-    try:
-        v = np.array(value, dtype=float).reshape(-1)  # a copy: contiguous, and never the sender's array
-    except (TypeError, ValueError):
-        return None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        return None
-    return v
-
-
-def colour_or_none(value: Any) -> np.ndarray | None:
-    """A colour [r, g, b] with components in [0, 1] from a signal or command, or None when it is not one."""
-    c = vec3_or_none(value)
-    if c is None:
-        return None
-    r, g, b = c.tolist()  # three Python comparisons beat two numpy reductions on 3 numbers
-    return c if 0.0 <= r <= 1.0 and 0.0 <= g <= 1.0 and 0.0 <= b <= 1.0 else None
-
-
-def _number(value: Any) -> Any:
-    """A wired number, or None when it is missing or not finite (NaN/inf never override a parameter)."""
-    if isinstance(value, (float, int)) and not math.isfinite(value):
-        return None
-    return value
-
-
-# What a wired value of each port type must be to override its parameter (None: not usable).
-_USABLE = {
-    PortType.vec3: vec3_or_none,
-    PortType.colour: colour_or_none,
-    PortType.float: _number,
-    PortType.int: _number,
-}
-
-Clamp = Literal["range", "floor"]
-
-
-@dataclass(frozen=True)
-class Drive:
-    """Marks a parameter as drivable (see `drivable`); kept in the pydantic field's metadata, which the
-    JSON Schema does not show."""
-
-    doc: str = ""
-    port: PortType = PortType.float
-    clamp: Clamp | None = None
-
-
-def drivable(
-    field_info: FieldInfo, doc: str = "", *, port: PortType = PortType.float, clamp: Clamp | None = None
-) -> Any:
-    """Declare a parameter drivable by a signal: `amplitude: float = drivable(Field(...), "overrides …")`.
-
-    The block then has an input port of the parameter's name, type `port` and doc `doc`, and
-    `Block.driven(inputs)` resolves the parameter each tick: a connected, usable signal (a finite number,
-    a valid vec3 or colour) overrides it. `clamp="range"` keeps a wired number within the field's
-    `ge`/`le` bounds, `clamp="floor"` only above its `ge` bound; without `clamp` it is taken as it is.
-    """
-    field_info.metadata.append(Drive(doc, port, clamp))
-    return field_info
-
-
-@dataclass(frozen=True)
-class DrivenParam:
-    """One drivable parameter of a block class: its port, and how a wired value replaces it."""
-
-    name: str
-    port: Port
-    lo: float | None = None
-    hi: float | None = None
-
-    @classmethod
-    def of(cls, name: str, info: FieldInfo, drive: Drive) -> DrivenParam:
-        lo = hi = None
-        if drive.clamp is not None:
-            lo = next((m.ge for m in info.metadata if getattr(m, "ge", None) is not None), None)  # Field(ge=)
-            hi = next((m.le for m in info.metadata if getattr(m, "le", None) is not None), None)  # Field(le=)
-            if lo is None or (drive.clamp == "range" and hi is None):
-                raise TypeError(f"drivable parameter '{name}' has clamp={drive.clamp!r} but no ge/le bounds")
-            if drive.clamp == "floor":
-                hi = None
-        return cls(name, Port(drive.port, drive.doc), lo, hi)
-
-    def resolve(self, wired: Any, fallback: Any) -> Any:
-        """The wired value when it is usable, else `fallback`; numbers as float/int, clamped as declared."""
-        kind = self.port.type
-        if (
-            type(wired) is float and kind is PortType.float and math.isfinite(wired)
-        ):  # the common case, shortly
-            lo, hi = self.lo, self.hi
-            return (
-                wired
-                if lo is None and hi is None
-                else min(max(wired, -math.inf if lo is None else lo), math.inf if hi is None else hi)
-            )
-        usable = _USABLE.get(kind)
-        value = wired if usable is None else usable(wired)
-        if value is None:
-            if kind in (PortType.vec3, PortType.colour):  # as an array, like a wired one, when it is valid
-                converted = usable(fallback)
-                return fallback if converted is None else converted
-            value = fallback
-        if value is None or kind not in (PortType.float, PortType.int):
-            return value
-        value = float(value) if kind is PortType.float else int(value)
-        if self.lo is not None:
-            value = max(value, self.lo)
-        if self.hi is not None:
-            value = min(value, self.hi)
-        return value
-
-
-def driven_params(params_model: type[BaseModel]) -> dict[str, DrivenParam]:
-    """The drivable parameters of a parameter model, in field order."""
-    out = {}
-    for name, info in params_model.model_fields.items():
-        drive = next((m for m in info.metadata if isinstance(m, Drive)), None)
-        if drive is not None:
-            out[name] = DrivenParam.of(name, info, drive)
-    return out
-
-
-class _Unset:
-    """The fallback of a drivable parameter `driven` was not given one for."""
-
-
-_UNSET = _Unset()
-_PLAIN = frozenset({type(None), float, int, bool, str, _Unset})
-_NUMBERS = frozenset({float, int, bool})
-_COMPARED_PORTS = frozenset({PortType.float, PortType.int, PortType.vec3, PortType.colour})
-
-
-class _DrivenMemo:
-    """What `Block.driven` keeps between calls for one parameter object: the parameters resolved with
-    nothing wired, and the last call's key (wired values, then fallbacks) with its result.
-
-    A key equal to the last one gives the last result when that is sure to be what resolving it again
-    would give: every drivable port is a number or vector port (whose values are converted, so 1, 1.0
-    and True resolve alike), and every item of the last key was a plain value (None, a number, a string)
-    or a list or tuple of numbers (kept as a tuple: a producer may change its list in place, and compared
-    as the vector ports' own cache does); a number equal to zero must also have the same sign (-0.0 == 0 ==
-    0.0, an int zero counting as +0.0). Any other key (an array, …) is resolved anew."""
-
-    __slots__ = (
-        "exact",
-        "floats",
-        "key",
-        "lists",
-        "name_set",
-        "names",
-        "ns",
-        "params",
-        "ports_compared",
-        "static",
-        "static_ns",
-        "zeros",
-    )
-
-    def __init__(self, params: BaseModel, drivables: dict[str, DrivenParam]):
-        self.params = params
-        self.names = tuple(drivables)
-        self.name_set = frozenset(self.names)
-        self.static = {name: d.resolve(None, getattr(params, name)) for name, d in drivables.items()}
-        self.static_ns = SimpleNamespace(**self.static)
-        self.ports_compared = all(d.port.type in _COMPARED_PORTS for d in drivables.values())
-        # When every parameter is a float port: per parameter (its DrivenParam, the parameter's value, and the
-        # clamp bounds as `resolve` applies them to a finite float: None without a clamp, else lo/hi or ∓inf).
-        self.floats = None
-        if all(d.port.type is PortType.float for d in drivables.values()):
-            self.floats = tuple(
-                (d, getattr(params, name), None, None)
-                if d.lo is None and d.hi is None
-                else (
-                    d,
-                    getattr(params, name),
-                    -math.inf if d.lo is None else d.lo,
-                    math.inf if d.hi is None else d.hi,
-                )
-                for name, d in drivables.items()
-            )
-        self.key, self.lists, self.zeros, self.exact, self.ns = None, False, None, False, None
-
-    def hit(self, key: tuple) -> bool:
-        """Whether `key` (a `driven` key) resolves to the last result."""
-        if not self.exact:
-            return False
-        if self.lists:
-            key = tuple([tuple(v) if type(v) is list else v for v in key])
-        try:
-            return key == self.key and (self.zeros is None or _zero_signs(key) == self.zeros)
-        except (ValueError, TypeError):  # an array compared with a number
-            return False
-
-    def remember(self, key: tuple, result: SimpleNamespace) -> None:
-        exact, lists, zeros = self.ports_compared, False, False
-        for value in key:
-            kind = type(value)
-            if kind in _NUMBERS:
-                zeros = zeros or value == 0
-            elif kind is list or kind is tuple:
-                lists = lists or kind is list
-                exact = exact and all(type(x) in _NUMBERS for x in value)
-            elif kind not in _PLAIN:
-                exact = False
-        if lists:
-            key = tuple([tuple(v) if type(v) is list else v for v in key])
-        self.key, self.lists, self.exact, self.ns = key, lists, exact, result
-        self.zeros = _zero_signs(key) if exact and zeros else None
-
-
-def _zero_signs(key: tuple) -> list[float]:
-    """The signs of a key's numbers equal to zero, in order (an int or bool zero counts as +0.0)."""
-    return [math.copysign(1.0, v) for v in key if type(v) in _NUMBERS and v == 0]
-
-
-# --------------------------------------------------------------------------------------------------
 # Context and blocks
 # --------------------------------------------------------------------------------------------------
 
@@ -346,7 +141,7 @@ class BlockContext:
     embodiment: Embodiment
     rate: float
     inputs: dict[str, Any] = field(default_factory=dict)
-    resources: Any = None
+    resources: Resources | None = None
     seed: int = 0
     events: list[dict[str, Any]] = field(default_factory=list)  # block -> engine notifications
     compiled: bool = field(default_factory=default_compiled)
@@ -384,7 +179,25 @@ def copy_state(state: Any) -> Any:
     return out
 
 
-class Block:
+P = TypeVar("P", bound="BlockParams")
+
+
+def _params_argument(cls: type) -> type[BlockParams] | None:
+    """The parameter model a class names as its type argument (`class Lfo(SignalBlock[LfoParams])`)."""
+    for base in cls.__dict__.get("__orig_bases__", ()):
+        for arg in get_args(base):
+            if isinstance(arg, type) and issubclass(arg, BlockParams):
+                return arg
+    return None
+
+
+class Block(Generic[P]):
+    """The base of every block, generic over its parameter model `P`: `self.params` is a `P`.
+
+    A block names its model once, as the type argument (`class Lfo(SignalBlock[LfoParams])`), which
+    also sets `Params`, the model the validator and the editor's panel read.
+    """
+
     type_name: ClassVar[str] = ""
     title: ClassVar[str] = ""
     category: ClassVar[str] = "operators"  # one of catalog.CATEGORIES
@@ -400,9 +213,14 @@ class Block:
     # The run-time state: a dataclass; `reset()` puts a fresh instance at `self.state`.
     State: ClassVar[type | None] = None
     state: Any
+    params: P
+    _wired_cache: dict[str, tuple[tuple[Any, ...], BlockParams, Any]]  # driven(): last vector per param
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        named = _params_argument(cls)
+        if named is not None and "Params" not in cls.__dict__:
+            cls.Params = named
         declared = cls.__dict__.get("inputs", cls._declared_inputs)
         cls._declared_inputs = declared
         cls.drivables = driven_params(cls.Params)
@@ -416,7 +234,7 @@ class Block:
                 f"instead of overriding ports()"
             )
 
-    def __init__(self, params: BlockParams, ctx: BlockContext, node_id: str = ""):
+    def __init__(self, params: P, ctx: BlockContext, node_id: str = ""):
         self.params = params
         self.ctx = ctx
         self.node_id = node_id or self.type_name
@@ -459,14 +277,14 @@ class Block:
 
     # --- program checks (called by backend.graph.checks; `node` is its NodeCheck) ----------------
     @classmethod
-    def check(cls, params: BlockParams, node: Any) -> None:
+    def check(cls, params: P, node: Any) -> None:
         """Rules of this block type beyond its parameter model, checked before it is configured.
 
         Report with `node.error(code, message, port=..., at=<path in params>)`; default: none.
         """
 
     @classmethod
-    def check_wiring(cls, params: BlockParams, node: Any) -> None:
+    def check_wiring(cls, params: P, node: Any) -> None:
         """Warnings once the program's edges are known (`node.connected(port)`); default: none."""
 
     # --- life cycle -----------------------------------------------------------------------------
@@ -478,7 +296,7 @@ class Block:
         if self.State is not None:
             self.state = self.State()
 
-    def update_params(self, params: BlockParams) -> None:
+    def update_params(self, params: P) -> None:
         """Apply new parameters live, keeping state (a slider drag never causes a jump by itself)."""
         self.params = params
         self.configure()
@@ -513,7 +331,7 @@ class Block:
         params = self.params
         memo = self.__dict__.get("_driven_memo")
         if memo is None or memo.params is not params:
-            memo = self._driven_memo = _DrivenMemo(params, self.drivables)
+            memo = self._driven_memo = DrivenMemo(params, self.drivables)
         names, get = memo.names, inputs.get
         if fallbacks:
             if not memo.name_set.issuperset(fallbacks):
@@ -538,7 +356,7 @@ class Block:
             return memo.ns
         if memo.floats is not None and not fallbacks:
             # Number parameters only: `DrivenParam.resolve`'s shortcut for a finite float inline, the rest by it.
-            # What `_DrivenMemo.remember` works out, on the way: plain items only (exact), any float zero.
+            # What `DrivenMemo.remember` works out, on the way: plain items only (exact), any float zero.
             values, plain, zeros = memo.static.copy(), True, False
             for name, wired, (d, raw, lo, hi) in zip(names, key, memo.floats):
                 if wired is None:
@@ -559,7 +377,7 @@ class Block:
         return result
 
     def _resolve_driven(
-        self, key: tuple, fallbacks: dict[str, Any], memo: _DrivenMemo, params: BlockParams
+        self, key: tuple, fallbacks: dict[str, Any], memo: DrivenMemo, params: BlockParams
     ) -> SimpleNamespace:
         """`driven` worked out for `key` (its wired values first): the static values, then per parameter
         the wired value resolved against the fallback given (or the parameter) when it is usable."""
@@ -593,7 +411,7 @@ class Block:
         return PartialFrame.empty(self.emb.n_channels)
 
 
-class Operator(Block):
+class Operator(Block[P]):
     """A block that transforms the frame on its `in` port into the frame on its `out` port.
 
     With no frame on `in` (nothing upstream this tick) it outputs `without_input()` (an empty frame)
@@ -620,7 +438,7 @@ class Operator(Block):
         raise NotImplementedError
 
 
-class Source(Block):
+class Source(Block[P]):
     """A block that creates a frame (on `out`) from its parameters, inputs and state."""
 
     category = "sources"
@@ -628,7 +446,7 @@ class Source(Block):
     outputs = FRAME_OUT
 
 
-class SignalBlock(Block):
+class SignalBlock(Block[P]):
     """A block that computes scalar signals (exposed inputs, math, oscillators, mappings)."""
 
     category = "signals"
@@ -644,15 +462,19 @@ def _schema_defaults(params_model: type[BaseModel]) -> dict[str, Any]:
 BLOCKS: dict[str, type[Block]] = {}
 
 
-def register_block(cls: type[Block]) -> type[Block]:
-    """Class decorator adding a block type to the registry (type names are unique)."""
+def register_block(cls: type[Block], registry: dict[str, type[Block]] | None = None) -> type[Block]:
+    """Add a block type to `registry` (default BLOCKS; type names are unique). The plugin loader calls it
+    for every `nutty.blocks` entry point (`backend.engine.blocks.reload`)."""
+    blocks = BLOCKS if registry is None else registry
+    if not (isinstance(cls, type) and issubclass(cls, Block)):
+        raise TypeError(f"{cls!r} is not a Block subclass")
     if not cls.type_name:
         raise TypeError(f"{cls.__name__} has no type_name")
-    if cls.type_name in BLOCKS and BLOCKS[cls.type_name] is not cls:
+    if cls.type_name in blocks and blocks[cls.type_name] is not cls:
         raise TypeError(
-            f"block type '{cls.type_name}' registered twice ({BLOCKS[cls.type_name].__name__}, {cls.__name__})"
+            f"block type '{cls.type_name}' registered twice ({blocks[cls.type_name].__name__}, {cls.__name__})"
         )
     if not cls.doc and cls.__doc__:  # the class docstring is the doc the editor shows
         cls.doc = inspect.cleandoc(cls.__doc__)
-    BLOCKS[cls.type_name] = cls
+    blocks[cls.type_name] = cls
     return cls

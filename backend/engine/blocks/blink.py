@@ -10,7 +10,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, register_block
+from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source
 from backend.engine.blocks.idle import block_rng
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
@@ -19,29 +19,30 @@ from backend.engine.selectors import channel_mask
 class BlinkParams(BlockParams):
     dofs: DofSelection = Field(default=["blink"])
     closed: float | Literal["max", "min"] = Field(
-        "max", description="position of a closed eyelid (rad or m), or 'max'/'min' for each DoF's limit"
+        default="max",
+        description="position of a closed eyelid (rad or m), or 'max'/'min' for each DoF's limit",
     )
-    close_time: float = Field(0.08, ge=0.02, le=1.0, description="time to close (s)")
-    hold_time: float = Field(0.03, ge=0.0, le=1.0, description="time held closed (s)")
-    open_time: float = Field(0.18, ge=0.02, le=2.0, description="time to open again (s)")
-    min_interval: float = Field(1.5, ge=0.2, le=120.0, description="shortest time between blinks (s)")
-    mean_interval: float = Field(4.0, ge=0.2, le=120.0, description="average time between blinks (s)")
-    max_interval: float = Field(10.0, ge=0.2, le=120.0, description="longest time between blinks (s)")
+    close_time: float = Field(default=0.08, ge=0.02, le=1.0, description="time to close (s)")
+    hold_time: float = Field(default=0.03, ge=0.0, le=1.0, description="time held closed (s)")
+    open_time: float = Field(default=0.18, ge=0.02, le=2.0, description="time to open again (s)")
+    min_interval: float = Field(default=1.5, ge=0.2, le=120.0, description="shortest time between blinks (s)")
+    mean_interval: float = Field(default=4.0, ge=0.2, le=120.0, description="average time between blinks (s)")
+    max_interval: float = Field(default=10.0, ge=0.2, le=120.0, description="longest time between blinks (s)")
     double_blink_probability: float = Field(
-        0.1, ge=0.0, le=1.0, description="chance a blink is doubled (0..1)"
+        default=0.1, ge=0.0, le=1.0, description="chance a blink is doubled (0..1)"
     )
     double_blink_gap: float = Field(
-        0.12, ge=0.0, le=2.0, description="pause between the two blinks of a double blink (s)"
+        default=0.12, ge=0.0, le=2.0, description="pause between the two blinks of a double blink (s)"
     )
     gaze_shift_threshold: float = Field(
-        0.2,
+        default=0.2,
         ge=0.0,
         le=math.pi,
         description="gaze change that counts as a gaze shift (rad: angle between target directions, or change "
         "of a gaze angle)",
     )
     seed: int = Field(
-        0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
+        default=0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
     )
 
     @model_validator(mode="after")
@@ -55,8 +56,7 @@ class BlinkParams(BlockParams):
         return self
 
 
-@register_block
-class Blink(Source):
+class Blink(Source[BlinkParams]):
     """Blinks the eyelids at natural random intervals, never during a held expression, gladly at a gaze shift.
 
     A blink closes fast, holds briefly and opens more slowly; intervals follow a gamma distribution with
@@ -69,7 +69,6 @@ class Blink(Source):
 
     type_name = "blink"
     title = "Blink scheduler"
-    Params = BlinkParams
     inputs = {
         "hold": Port(PortType.bool, "while true, no blink starts (a held expression)"),
         "gaze": Port(

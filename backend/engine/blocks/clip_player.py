@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -17,7 +18,6 @@ from backend.engine.blocks.base import (
     PortType,
     Source,
     drivable,
-    register_block,
 )
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
 from backend.engine.compiled import entry_point
@@ -45,17 +45,25 @@ class ClipPlayerBusy(BlockCommandError):
 
 class ClipPlayerParams(BlockParams):
     clip: str | None = Field(
-        None, description="clip to play (from robots/<robot>/clips/)", json_schema_extra={"x-widget": "clip"}
+        default=None,
+        description="clip to play (from robots/<robot>/clips/)",
+        json_schema_extra={"x-widget": "clip"},
     )
-    autoplay: bool = Field(False, description="start playing `clip` when the program starts")
-    mode: PlayMode = Field("once", description="once, loop, or ping_pong (forward then backward)")
+    autoplay: bool = Field(default=False, description="start playing `clip` when the program starts")
+    mode: PlayMode = Field(default="once", description="once, loop, or ping_pong (forward then backward)")
     speed: float = drivable(
-        Field(1.0, ge=0.05, le=5.0, description="playback speed (1 = authored timing)"),
+        Field(default=1.0, ge=0.05, le=5.0, description="playback speed (1 = authored timing)"),
         "overrides the speed (e.g. from an emotion mapping)",
     )
-    crossfade: float = Field(0.3, ge=0.0, le=5.0, description="blend-in time from the current pose (s)")
-    release: float = Field(0.4, ge=0.0, le=5.0, description="blend-out time after the clip ends or stops (s)")
-    hold: bool = Field(False, description="after a `once` clip ends, hold its last pose instead of releasing")
+    crossfade: float = Field(
+        default=0.3, ge=0.0, le=5.0, description="blend-in time from the current pose (s)"
+    )
+    release: float = Field(
+        default=0.4, ge=0.0, le=5.0, description="blend-out time after the clip ends or stops (s)"
+    )
+    hold: bool = Field(
+        default=False, description="after a `once` clip ends, hold its last pose instead of releasing"
+    )
     dofs: DofSelection = Field(default=["*"], description="DoFs the clip may set (others are ignored)")
 
 
@@ -64,8 +72,7 @@ def _smooth(x: float) -> float:
     return x * x * (3.0 - 2.0 * x)
 
 
-@register_block
-class ClipPlayer(Source):
+class ClipPlayer(Source[ClipPlayerParams]):
     """Plays keyframed clips (per-DoF animation curves) once, looped or ping-pong, at any speed.
 
     Commands: `play {clip, speed?, mode?, crossfade?, anchors?, if_busy?}`, `stop {fade?, command_id?}`,
@@ -84,7 +91,6 @@ class ClipPlayer(Source):
 
     type_name = "clip_player"
     title = "Clip player"
-    Params = ClipPlayerParams
     inputs = {"trigger": Port(PortType.bool, "a rising edge plays `clip`")}
     outputs = {
         "out": Port(PortType.frame, "the clip's pose on its DoFs"),
@@ -311,12 +317,14 @@ class ClipPlayer(Source):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         s = self.state
         trigger = bool(inputs.get("trigger") or False)
-        if s.pending_autoplay or (trigger and not s.last_trigger and self.params.clip):
+        name = self.params.clip
+        if s.pending_autoplay or (trigger and not s.last_trigger and name):
             s.pending_autoplay = False
-            try:
-                self._start(self.params.clip, {})
-            except BlockCommandError as exc:
-                self.ctx.notify(self.node_id, "error", message=str(exc))
+            if name:  # autoplay is only pending with a clip set
+                try:
+                    self._start(name, {})
+                except BlockCommandError as exc:
+                    self.ctx.notify(self.node_id, "error", message=str(exc))
         s.last_trigger = trigger
         clip = s.current
         events: list[FrameEvent] = []
@@ -328,7 +336,7 @@ class ClipPlayer(Source):
                 events = self._advance(clip, dt, speed)
                 clip = s.current  # a queued clip may have started as this one completed
             if self._kernel is not None and self.ctx.compiled and s.values.shape == self.emb.rest.shape:
-                return self._tick_compiled(dt, clip, events)
+                return self._tick_compiled(self._kernel, dt, clip, events)
             clip.sample(s.pos, self.emb.rest, s.values)
             if s.xfade_t < s.xfade:
                 s.xfade_t += dt
@@ -356,7 +364,9 @@ class ClipPlayer(Source):
             "time": s.pos,
         }
 
-    def _tick_compiled(self, dt: float, clip: CompiledClip, events: list[FrameEvent]) -> dict[str, Any]:
+    def _tick_compiled(
+        self, kernel: Callable[..., None], dt: float, clip: CompiledClip, events: list[FrameEvent]
+    ) -> dict[str, Any]:
         """The compiled twin of the end of `tick` with a clip: sample, crossfade, envelope, frame out.
         The mask out is the state's own (never changed in place) unless a crossfade adds the old one."""
         s, rest = self.state, self.emb.rest
@@ -371,7 +381,7 @@ class ClipPlayer(Source):
         weight = _smooth(s.env)
         out = np.empty(rest.shape[0])
         c = clip.curves
-        self._kernel(
+        kernel(
             c.t,
             c.v,
             c.h_right,

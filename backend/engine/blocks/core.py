@@ -25,7 +25,6 @@ from backend.engine.blocks.base import (
     SignalBlock,
     Source,
     drivable,
-    register_block,
 )
 from backend.engine.compiled import entry_point, plain_frame
 from backend.engine.compiled.frames import (
@@ -36,7 +35,7 @@ from backend.engine.compiled.frames import (
     hold_tick,
     limiter_tick,
 )
-from backend.engine.embodiment import DofType
+from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import SelectorError, channel_mask, select_dofs
 
@@ -49,8 +48,7 @@ class OutputParams(BlockParams):
     pass
 
 
-@register_block
-class Output(Block):
+class Output(Block[OutputParams]):
     """The program's output: the Animation Frame sent to the robot.
 
     Channels the incoming frame does not set keep their last value (the rest pose at start), so a
@@ -62,7 +60,6 @@ class Output(Block):
     title = "Robot output"
     category = "output"
     role = Role.output
-    Params = OutputParams
     inputs = {"in": Port(PortType.frame, "final frame", required=True)}
     outputs = {}
 
@@ -98,11 +95,10 @@ SIGNAL_TYPES = Literal["float", "int", "bool", "string", "vec3", "colour", "even
 
 class InputParams(BlockParams):
     name: str = Field(..., min_length=1, description="name of the program's exposed input to read")
-    type: SIGNAL_TYPES = Field("float", description="signal type of the exposed input")
+    type: SIGNAL_TYPES = Field(default="float", description="signal type of the exposed input")
 
 
-@register_block
-class ExposedInput(SignalBlock):
+class ExposedInput(SignalBlock[InputParams]):
     """Reads one of the program's exposed inputs (e.g. `arousal`, `gaze_target`) as a signal.
 
     Exposed inputs are declared by the program with a type, default and range, and set at run time by
@@ -111,8 +107,7 @@ class ExposedInput(SignalBlock):
 
     type_name = "input"
     title = "Exposed input"
-    Params = InputParams
-    outputs: dict[str, Port] = {}
+    outputs = {}
     port_rules = (
         PortRule(side="outputs", name="value", type="{type}", doc="current value of the exposed input"),
     )
@@ -160,8 +155,7 @@ class RestPoseParams(BlockParams):
     dofs: DofSelection = Field(default=["*"])
 
 
-@register_block
-class RestPose(Source):
+class RestPose(Source[RestPoseParams]):
     """The robot's rest pose on the selected DoFs.
 
     A neutral base layer: under an additive idle layer it gives a robot that breathes around its rest.
@@ -169,7 +163,6 @@ class RestPose(Source):
 
     type_name = "rest_pose"
     title = "Rest pose"
-    Params = RestPoseParams
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs)
@@ -181,7 +174,7 @@ class RestPose(Source):
 PoseValue = float | list[float] | str
 
 
-def pose_vector(emb, values: dict[str, PoseValue]) -> tuple[np.ndarray, np.ndarray]:
+def pose_vector(emb: Embodiment, values: dict[str, PoseValue]) -> tuple[np.ndarray, np.ndarray]:
     """Channel values and mask for a pose given as DoF name -> value.
 
     Continuous DoFs take a number, colour DoFs `[r, g, b]` in [0, 1], enum DoFs an option name or
@@ -225,19 +218,17 @@ class PoseParams(BlockParams):
         json_schema_extra={"x-widget": "pose"},
     )
     posture: str | None = Field(
-        None,
+        default=None,
         description="named posture of the robot, applied under `values`",
         json_schema_extra={"x-widget": "posture"},
     )
 
 
-@register_block
-class Pose(Source):
+class Pose(Source[PoseParams]):
     """A constant pose: fixed values for some DoFs (and/or a named posture of the robot)."""
 
     type_name = "pose"
     title = "Constant pose"
-    Params = PoseParams
 
     def configure(self) -> None:
         values: dict[str, PoseValue] = {}
@@ -255,25 +246,27 @@ class Pose(Source):
 class SineParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
     amplitude: float = drivable(
-        Field(0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)"),
+        Field(default=0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)"),
         "overrides the amplitude parameter",
     )
     frequency: float = drivable(
-        Field(0.25, ge=0.0, le=20.0, description="cycles per second (Hz)"),
+        Field(default=0.25, ge=0.0, le=20.0, description="cycles per second (Hz)"),
         "overrides the frequency parameter",
     )
-    phase: float = Field(0.0, ge=-2 * math.pi, le=2 * math.pi, description="phase at t=0 (rad)")
+    phase: float = Field(default=0.0, ge=-2 * math.pi, le=2 * math.pi, description="phase at t=0 (rad)")
     phase_spread: float = Field(
-        0.0, ge=-math.pi, le=math.pi, description="extra phase per selected DoF (rad), for wave-like motion"
+        default=0.0,
+        ge=-math.pi,
+        le=math.pi,
+        description="extra phase per selected DoF (rad), for wave-like motion",
     )
     offset: float = drivable(
-        Field(0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)"),
+        Field(default=0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)"),
         "overrides the offset parameter",
     )
 
 
-@register_block
-class Sine(Source):
+class Sine(Source[SineParams]):
     """A sine wave around the rest pose on the selected continuous DoFs.
 
     `rest + offset + amplitude * sin(2*pi*frequency*t + phase + i*phase_spread)`; the phase is
@@ -283,7 +276,6 @@ class Sine(Source):
 
     type_name = "sine"
     title = "Sine"
-    Params = SineParams
 
     @dataclass
     class State:
@@ -309,13 +301,14 @@ class Sine(Source):
 class GainOffsetParams(BlockParams):
     dofs: DofSelection = Field(default=["*"])
     gain: float = drivable(
-        Field(1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose")
+        Field(default=1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose")
     )
-    offset: float = drivable(Field(0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)"))
+    offset: float = drivable(
+        Field(default=0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)")
+    )
 
 
-@register_block
-class GainOffset(Operator):
+class GainOffset(Operator[GainOffsetParams]):
     """Scales each selected DoF's deviation from the rest pose and adds an offset.
 
     `rest + gain * (value - rest) + offset` on the selected continuous DoFs; other DoFs pass through.
@@ -324,7 +317,6 @@ class GainOffset(Operator):
 
     type_name = "gain_offset"
     title = "Gain / offset"
-    Params = GainOffsetParams
 
     def configure(self) -> None:
         self.sel = channel_mask(self.emb, self.params.dofs, continuous_only=True)
@@ -343,16 +335,16 @@ class GainOffset(Operator):
 
 class MaskParams(BlockParams):
     dofs: DofSelection = Field(default=["*"])
-    mode: Literal["keep", "remove"] = Field("keep", description="keep only the selected DoFs, or remove them")
+    mode: Literal["keep", "remove"] = Field(
+        default="keep", description="keep only the selected DoFs, or remove them"
+    )
 
 
-@register_block
-class Mask(Operator):
+class Mask(Operator[MaskParams]):
     """Keeps only the selected DoFs of a frame (or removes them); events follow their DoFs."""
 
     type_name = "mask"
     title = "Mask DoFs"
-    Params = MaskParams
 
     def configure(self) -> None:
         sel = channel_mask(self.emb, self.params.dofs)
@@ -374,15 +366,14 @@ class Mask(Operator):
 
 class SafetyParams(BlockParams):
     velocity_scale: float = Field(
-        1.0, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]"
+        default=1.0, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]"
     )
     margin: float = Field(
-        0.0, ge=0.0, le=0.5, description="fraction of each DoF's range kept free at both ends"
+        default=0.0, ge=0.0, le=0.5, description="fraction of each DoF's range kept free at both ends"
     )
 
 
-@register_block
-class SafetyLimiter(Block):
+class SafetyLimiter(Block[SafetyParams]):
     """Keeps every DoF within its position limits and slews it at most at its velocity limit.
 
     The last line of defence before the robot: whatever the program does, each continuous channel
@@ -394,7 +385,6 @@ class SafetyLimiter(Block):
     title = "Safety limiter"
     category = "stage2"
     role = Role.stage2
-    Params = SafetyParams
     inputs = FRAME_IN
     outputs = FRAME_OUT
 

@@ -23,7 +23,6 @@ from backend.engine.blocks.base import (
     Source,
     colour_or_none,
     drivable,
-    register_block,
 )
 from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
 from backend.engine.frames import FrameEvent, PartialFrame
@@ -67,7 +66,7 @@ def _colour(value: Any, where: str) -> np.ndarray:
 
 class LedParams(BlockParams):
     dof: str | None = Field(
-        None,
+        default=None,
         description="colour DoF (LED or LED group); default: the robot's first",
         json_schema_extra={"x-widget": "dof"},
     )
@@ -83,16 +82,18 @@ class LedParams(BlockParams):
         port=PortType.colour,
     )
     mode: Literal["solid", "pulse", "breathe"] = Field(
-        "solid",
+        default="solid",
         description="solid; pulse (a quick flash then a fade, like a heartbeat); breathe (a slow sine)",
     )
     frequency: float = drivable(
-        Field(0.5, ge=0.0, le=10.0, description="pulses or breaths per second (Hz)"),
+        Field(default=0.5, ge=0.0, le=10.0, description="pulses or breaths per second (Hz)"),
         "overrides the frequency (Hz)",
         clamp="floor",
     )
     depth: float = drivable(
-        Field(0.5, ge=0.0, le=1.0, description="how far the brightness dips (0 = none, 1 = to black)"),
+        Field(
+            default=0.5, ge=0.0, le=1.0, description="how far the brightness dips (0 = none, 1 = to black)"
+        ),
         "overrides the depth (0..1)",
         clamp="range",
     )
@@ -116,8 +117,7 @@ def brightness(mode: str, u: float, depth: float) -> float:
     return 1.0
 
 
-@register_block
-class Led(Source):
+class Led(Source[LedParams]):
     """Sets an LED (a colour DoF) to a colour, solid, pulsing or breathing.
 
     The colour comes from the `colour` input when connected, else from the last `set_led` command, else
@@ -127,7 +127,6 @@ class Led(Source):
 
     type_name = "led"
     title = "LED"
-    Params = LedParams
 
     @dataclass
     class State:
@@ -184,19 +183,18 @@ class Led(Source):
 
 class FaceParams(BlockParams):
     dof: str | None = Field(
-        None,
+        default=None,
         description="enum display DoF (face/screen); default: the robot's first",
         json_schema_extra={"x-widget": "dof"},
     )
     expression: str | None = drivable(
-        Field(None, description="option to show; default: the DoF's rest option"),
+        Field(default=None, description="option to show; default: the DoF's rest option"),
         "overrides the expression (an option name)",
         port=PortType.string,
     )
 
 
-@register_block
-class Face(Source):
+class Face(Source[FaceParams]):
     """Shows a face/screen expression: one option of an enum display DoF (smile, frown, …).
 
     The expression comes from the `expression` input when connected (unknown names are ignored), else
@@ -206,7 +204,6 @@ class Face(Source):
 
     type_name = "face"
     title = "Face expression"
-    Params = FaceParams
 
     @dataclass
     class State:
@@ -256,31 +253,32 @@ class Face(Source):
 
 class SayParams(BlockParams):
     dof: str | None = Field(
-        None, description="speech DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"}
+        default=None,
+        description="speech DoF; default: the robot's first",
+        json_schema_extra={"x-widget": "dof"},
     )
     text: str = drivable(
-        Field("", max_length=2000, description="text said on a rising edge of the trigger input"),
+        Field(default="", max_length=2000, description="text said on a rising edge of the trigger input"),
         "overrides the text parameter",
         port=PortType.string,
     )
     words_per_second: float = Field(
-        2.5, ge=0.5, le=10.0, description="speaking rate used to estimate the duration"
+        default=2.5, ge=0.5, le=10.0, description="speaking rate used to estimate the duration"
     )
-    min_duration: float = Field(0.4, ge=0.0, le=10.0, description="shortest estimated utterance (s)")
-    lip_sync: bool = Field(True, description="flap the mouth while speaking")
+    min_duration: float = Field(default=0.4, ge=0.0, le=10.0, description="shortest estimated utterance (s)")
+    lip_sync: bool = Field(default=True, description="flap the mouth while speaking")
     lip_dof: str | None = Field(
-        None,
+        default=None,
         description="continuous DoF opening the mouth; default: mouth_open if any",
         json_schema_extra={"x-widget": "dof"},
     )
-    syllable_rate: float = Field(4.0, ge=0.5, le=12.0, description="mouth flaps per second (Hz)")
+    syllable_rate: float = Field(default=4.0, ge=0.5, le=12.0, description="mouth flaps per second (Hz)")
     lip_amount: float = Field(
-        0.7, ge=0.0, le=1.0, description="how far the mouth opens (fraction of its range)"
+        default=0.7, ge=0.0, le=1.0, description="how far the mouth opens (fraction of its range)"
     )
 
 
-@register_block
-class Say(Source):
+class Say(Source[SayParams]):
     """Speaks a text: a `say` event on the speech DoF, with the mouth flapping while it lasts.
 
     Triggered by the `say` command (the API's say, which waits for completion) or a rising edge of the
@@ -291,7 +289,6 @@ class Say(Source):
 
     type_name = "say"
     title = "Say"
-    Params = SayParams
     inputs = {"trigger": Port(PortType.bool, "says `text` on a rising edge")}
     outputs = {**FRAME_OUT, "speaking": Port(PortType.bool, "true while speaking")}
 
@@ -390,18 +387,19 @@ class Say(Source):
 
 class PlaySoundParams(BlockParams):
     dof: str | None = Field(
-        None, description="sound DoF; default: the robot's first", json_schema_extra={"x-widget": "dof"}
+        default=None,
+        description="sound DoF; default: the robot's first",
+        json_schema_extra={"x-widget": "dof"},
     )
     sound: str | None = Field(
-        None, description="clip played on a rising edge of the trigger input; default: the first"
+        default=None, description="clip played on a rising edge of the trigger input; default: the first"
     )
     duration: float = Field(
-        1.0, ge=0.05, le=60.0, description="estimated length of a clip, for `completed` (s)"
+        default=1.0, ge=0.05, le=60.0, description="estimated length of a clip, for `completed` (s)"
     )
 
 
-@register_block
-class PlaySound(Source):
+class PlaySound(Source[PlaySoundParams]):
     """Plays a sound clip: a `sound` event on the sound DoF, with started/completed notifications.
 
     Triggered by the `play_sound` command or a rising edge of the `trigger` input (playing `sound`).
@@ -411,7 +409,6 @@ class PlaySound(Source):
 
     type_name = "play_sound"
     title = "Play sound"
-    Params = PlaySoundParams
     inputs = {"trigger": Port(PortType.bool, "plays `sound` on a rising edge")}
     outputs = {**FRAME_OUT, "playing": Port(PortType.bool, "true while a clip plays")}
 

@@ -1,5 +1,5 @@
 """Expressive operators (the paper's animation principles applied to a frame): mirror, asymmetry,
-exaggeration, arcs, follow-through and delays (overlapping action).
+exaggeration and arcs (follow-through and delays, the overlapping action, are in `overlap`).
 
 Every operator transforms the frame on its `in` port and passes through the channels it does not
 touch, keeping the frame's events. All per-tick work is vectorised over channels.
@@ -22,7 +22,6 @@ from backend.engine.blocks.base import (
     Port,
     PortType,
     drivable,
-    register_block,
 )
 from backend.engine.embodiment import Dof, DofType, Embodiment
 from backend.engine.frames import FrameHistory, PartialFrame
@@ -67,13 +66,15 @@ class MirrorParams(BlockParams):
         default_factory=list,
         description="explicit [left, right] DoF pairs, in addition to those found by name",
     )
-    auto_pair: bool = Field(True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r")
+    auto_pair: bool = Field(
+        default=True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r"
+    )
     negate: DofSelection = Field(
         default=["*yaw*", "*roll*"],
         description="DoFs whose deviation from rest flips sign (yaw/roll turn the other way)",
     )
     mix: float = drivable(
-        Field(1.0, ge=0.0, le=1.0, description="0 = original, 1 = fully mirrored (blend in between)"),
+        Field(default=1.0, ge=0.0, le=1.0, description="0 = original, 1 = fully mirrored (blend in between)"),
         "overrides the mix parameter (0..1)",
         clamp="range",
     )
@@ -84,8 +85,7 @@ class MirrorParams(BlockParams):
         return self
 
 
-@register_block
-class Mirror(Operator):
+class Mirror(Operator[MirrorParams]):
     """Mirrors a frame left/right: swaps paired DoFs and flips yaw/roll about the rest pose.
 
     Left/right pairs are found by name (ear_left/ear_right, left_arm/right_arm, eye_l/eye_r) or given
@@ -96,7 +96,6 @@ class Mirror(Operator):
 
     type_name = "mirror"
     title = "Mirror left/right"
-    Params = MirrorParams
 
     def configure(self) -> None:
         emb = self.emb
@@ -140,13 +139,18 @@ class AsymmetryParams(BlockParams):
     )
     delay: float = drivable(
         Field(
-            0.06, ge=0.0, le=MAX_ASYM_DELAY, description="lag of the right side of each left/right pair (s)"
+            default=0.06,
+            ge=0.0,
+            le=MAX_ASYM_DELAY,
+            description="lag of the right side of each left/right pair (s)",
         ),
         "overrides the delay parameter (s)",
         clamp="range",
     )
     pairs: PairList = Field(default_factory=list, description="explicit [left, right] DoF pairs")
-    auto_pair: bool = Field(True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r")
+    auto_pair: bool = Field(
+        default=True, description="pair DoFs by name: *_left/*_right, left_*/right_*, *_l/*_r"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> AsymmetryParams:
@@ -160,8 +164,7 @@ class AsymmetryParams(BlockParams):
         return self
 
 
-@register_block
-class Asymmetry(Operator):
+class Asymmetry(Operator[AsymmetryParams]):
     """Breaks robotic symmetry: per-DoF offsets and gains, and a small lag on the right side of pairs.
 
     Perfectly mirrored ears or eyelids look mechanical. This operator delays the right DoF of each
@@ -171,7 +174,6 @@ class Asymmetry(Operator):
 
     type_name = "asymmetry"
     title = "Asymmetry"
-    Params = AsymmetryParams
     State = FrameHistory
 
     def configure(self) -> None:
@@ -208,18 +210,24 @@ class Asymmetry(Operator):
 class ExaggerateParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
     gain: float = drivable(
-        Field(1.5, ge=0.0, le=3.0, description="scale of the deviation from the reference (1 = unchanged)"),
+        Field(
+            default=1.5,
+            ge=0.0,
+            le=3.0,
+            description="scale of the deviation from the reference (1 = unchanged)",
+        ),
         "overrides the gain parameter (0..3)",
         clamp="range",
     )
     reference: Literal["rest", "moving_average"] = Field(
-        "rest", description="deviation from the rest pose, or from a moving average of the input"
+        default="rest", description="deviation from the rest pose, or from a moving average of the input"
     )
-    time_constant: float = Field(1.0, ge=0.01, le=30.0, description="moving-average time constant (s)")
+    time_constant: float = Field(
+        default=1.0, ge=0.01, le=30.0, description="moving-average time constant (s)"
+    )
 
 
-@register_block
-class Exaggerate(Operator):
+class Exaggerate(Operator[ExaggerateParams]):
     """Exaggeration: scales each selected DoF's deviation from a reference, clamped to its limits.
 
     With reference `rest` a gain of 2 doubles every gesture's amplitude around the rest pose; with
@@ -230,7 +238,6 @@ class Exaggerate(Operator):
 
     type_name = "exaggerate"
     title = "Exaggerate"
-    Params = ExaggerateParams
 
     @dataclass
     class State:
@@ -267,25 +274,34 @@ class Exaggerate(Operator):
 
 class ArcParams(BlockParams):
     primary: str = Field(
-        "head_yaw",
+        default="head_yaw",
         description="DoF whose velocity drives the coupling",
         json_schema_extra={"x-widget": "dof"},
     )
     secondary: str = Field(
-        "head_pitch", description="DoF that receives the offset", json_schema_extra={"x-widget": "dof"}
+        default="head_pitch",
+        description="DoF that receives the offset",
+        json_schema_extra={"x-widget": "dof"},
     )
     gain: float = drivable(
-        Field(0.08, ge=-2.0, le=2.0, description="offset on the secondary per primary speed (rad per rad/s)"),
+        Field(
+            default=0.08,
+            ge=-2.0,
+            le=2.0,
+            description="offset on the secondary per primary speed (rad per rad/s)",
+        ),
         "overrides the gain parameter (rad per rad/s)",
     )
     mode: Literal["abs", "signed"] = Field(
-        "abs",
+        default="abs",
         description="abs: same direction whatever way the primary moves (a dip); signed: follows its sign",
     )
     threshold: float = Field(
-        0.0, ge=0.0, le=10.0, description="primary speed below which nothing is added (rad/s)"
+        default=0.0, ge=0.0, le=10.0, description="primary speed below which nothing is added (rad/s)"
     )
-    smoothing: float = Field(0.08, ge=0.0, le=2.0, description="time constant of the velocity smoothing (s)")
+    smoothing: float = Field(
+        default=0.08, ge=0.0, le=2.0, description="time constant of the velocity smoothing (s)"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> ArcParams:
@@ -294,8 +310,7 @@ class ArcParams(BlockParams):
         return self
 
 
-@register_block
-class Arc(Operator):
+class Arc(Operator[ArcParams]):
     """Arcs: couples a secondary DoF to the speed of a primary DoF, so straight moves become curved.
 
     The primary's velocity is estimated from the frame, smoothed, and `gain * speed` is added to the
@@ -305,7 +320,6 @@ class Arc(Operator):
 
     type_name = "arc"
     title = "Arc"
-    Params = ArcParams
     outputs = {**FRAME_OUT, "offset": Port(PortType.float, "offset currently added to the secondary (rad)")}
 
     @dataclass
@@ -341,151 +355,3 @@ class Arc(Operator):
             values[self.is_] = min(max(base + offset, emb.min[self.is_]), emb.max[self.is_])
             mask[self.is_] = True
         return {"out": PartialFrame(values, mask, frame.events), "offset": offset}
-
-
-# --------------------------------------------------------------------------------------------------
-# Follow-through
-# --------------------------------------------------------------------------------------------------
-
-
-def spring_step_matrix(freq: float, zeta: float, dt: float) -> np.ndarray:
-    """Exact 2x2 transition of a damped spring's (error, velocity) over dt (input held over the step).
-
-    e'' = -w^2 e - 2 zeta w e', with e = position - target. Exact for any dt, so the response has the
-    same shape at every tick rate and is unconditionally stable.
-    """
-    w = 2.0 * math.pi * freq
-    decay = math.exp(-zeta * w * dt)
-    if 1.0 - zeta < 1e-6:  # critical damping
-        return decay * np.array([[1.0 + w * dt, dt], [-w * w * dt, 1.0 - w * dt]])
-    wd = w * math.sqrt(1.0 - zeta * zeta)
-    c, s = math.cos(wd * dt), math.sin(wd * dt)
-    return decay * np.array([[c + zeta * w * s / wd, s / wd], [-w * w * s / wd, c - zeta * w * s / wd]])
-
-
-class FollowThroughParams(BlockParams):
-    dofs: DofSelection = Field(default=["stationary:*"])
-    enabled: bool = Field(
-        False, description="off by default: overshoot moves the robot beyond the programmed pose"
-    )
-    frequency: float = Field(2.0, ge=0.1, le=20.0, description="natural frequency of the spring (Hz)")
-    damping: float = Field(0.3, ge=0.05, le=1.0, description="damping ratio (1 = critical, no overshoot)")
-    max_overshoot: float = Field(
-        0.15, ge=0.0, le=1.0, description="largest distance from the input the output may reach (rad or m)"
-    )
-
-
-@register_block
-class FollowThrough(Operator):
-    """Follow-through: a damped spring on the selected DoFs, so they overshoot and settle after a stop.
-
-    Each selected DoF follows its input through an under-damped spring (natural frequency and damping
-    ratio), integrated exactly so it behaves the same at any tick rate. Because overshoot takes the robot
-    beyond the programmed pose, the block is disabled by default (then it passes the frame through
-    exactly); when enabled the output never strays more than `max_overshoot` from the input and stays
-    within the DoF's limits.
-    """
-
-    type_name = "follow_through"
-    title = "Follow-through"
-    Params = FollowThroughParams
-
-    @dataclass
-    class State:
-        x: np.ndarray  # the spring's position
-        v: np.ndarray  # its velocity
-        target: np.ndarray  # the last input
-        primed: bool = False
-
-    def configure(self) -> None:
-        self.sel = channel_mask(self.emb, self.params.dofs, continuous_only=True)
-        self._matrix_key: tuple | None = None
-
-    def reset(self) -> None:
-        rest = self.emb.rest
-        self.state = self.State(x=rest.copy(), v=np.zeros(self.emb.n_channels), target=rest.copy())
-
-    def _matrix(self, dt: float) -> np.ndarray:
-        key = (self.params.frequency, self.params.damping, dt)
-        if key != self._matrix_key:
-            self._matrix_key, self._m = key, spring_step_matrix(*key)
-        return self._m
-
-    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
-        s = self.state
-        u = np.where(frame.mask, frame.values, s.target)
-        if not s.primed:
-            s.x, s.target, s.primed = u.copy(), u.copy(), True
-        u_vel = (u - s.target) / dt if dt > 0 else np.zeros_like(u)
-        s.target = u
-        if not self.params.enabled or dt <= 0:
-            s.x, s.v = u.copy(), u_vel  # track the input, so enabling later never jumps
-            return {"out": PartialFrame(frame.values, frame.mask, frame.events)}
-        m = self._matrix(dt)
-        e = s.x - u
-        e_new = m[0, 0] * e + m[0, 1] * s.v
-        v_new = m[1, 0] * e + m[1, 1] * s.v
-        lim = self.params.max_overshoot
-        clipped = np.clip(e_new, -lim, lim)
-        v_new = np.where(clipped != e_new, u_vel, v_new)  # held at the bound: move with the input
-        emb = self.emb
-        x_new = np.clip(u + clipped, emb.min, emb.max)
-        v_new = np.where(x_new != u + clipped, 0.0, v_new)  # at a position limit: stop there
-        s.x = np.where(self.sel, x_new, u)
-        s.v = np.where(self.sel, v_new, u_vel)
-        values = np.where(self.sel & frame.mask, s.x, frame.values)
-        return {"out": PartialFrame(values, frame.mask, frame.events)}
-
-
-# --------------------------------------------------------------------------------------------------
-# Delay / overlap
-# --------------------------------------------------------------------------------------------------
-
-MAX_DELAY = 2.0
-
-
-class DelayParams(BlockParams):
-    dofs: DofSelection = Field(default=["*"])
-    delay: float = Field(0.1, ge=0.0, le=MAX_DELAY, description="delay of the selected DoFs (s)")
-    delays: dict[str, float] = Field(
-        default_factory=dict, description="DoF name -> its own delay (s, 0..2), overriding `delay`"
-    )
-
-    @model_validator(mode="after")
-    def _check(self) -> DelayParams:
-        for name, d in self.delays.items():
-            if not (0.0 <= d <= MAX_DELAY):
-                raise ValueError(f"delays['{name}'] = {d} s is outside 0..{MAX_DELAY}")
-        return self
-
-
-@register_block
-class Delay(Operator):
-    """Delays the selected DoFs by a fixed time, for overlapping action (one part moves after another).
-
-    Put it on the layer that drives the ears, say, with 0.15 s: the ears follow the head's motion a
-    moment later instead of in lock-step. Each DoF can have its own delay; unselected DoFs and events
-    pass through at once. The delay is rounded to whole ticks.
-    """
-
-    type_name = "delay"
-    title = "Delay / overlap"
-    Params = DelayParams
-    State = FrameHistory
-
-    def configure(self) -> None:
-        emb = self.emb
-        sel = channel_mask(emb, self.params.dofs)
-        seconds = np.where(sel, self.params.delay, 0.0)
-        for name, d in self.params.delays.items():
-            if not emb.has_dof(name):
-                raise ValueError(f"delays: robot '{emb.name}' has no DoF '{name}'")
-            seconds[emb.dof(name).channels] = d
-        self.lag = np.rint(seconds * self.ctx.rate).astype(np.intp)
-
-    def reset(self) -> None:
-        self.state = FrameHistory.for_delay(MAX_DELAY, self.ctx.rate, self.emb.n_channels)
-
-    def transform(self, dt: float, frame: PartialFrame, inputs: dict[str, Any]) -> dict[str, Any]:
-        values, mask = self.state.push_read(frame.values, frame.mask, self.lag)
-        return {"out": PartialFrame(values, mask, frame.events)}

@@ -16,7 +16,6 @@ from backend.engine.blocks.base import (
     PortType,
     Source,
     drivable,
-    register_block,
 )
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_constants, gaze_tick
@@ -40,7 +39,7 @@ def _wrap(a: float) -> float:
 class GazeParams(BlockParams):
     target: list[float] = drivable(
         Field(
-            [1.0, 0.0, 0.3],
+            default=[1.0, 0.0, 0.3],
             min_length=3,
             max_length=3,
             description="point to look at (m, robot base frame); used when `target` is unconnected",
@@ -49,13 +48,13 @@ class GazeParams(BlockParams):
         port=PortType.vec3,
     )
     yaw_dofs: list[str] | None = Field(
-        None,
+        default=None,
         description="DoFs that turn the gaze left/right, leader first (default: the robot's gaze.yaw_joints, "
         "most distal first)",
         json_schema_extra={"x-widget": "dofs"},
     )
     pitch_dofs: list[str] | None = Field(
-        None,
+        default=None,
         description="DoFs that turn the gaze down/up, leader first (default: the robot's gaze.pitch_joints, "
         "most distal first)",
         json_schema_extra={"x-widget": "dofs"},
@@ -65,44 +64,43 @@ class GazeParams(BlockParams):
         description="DoF name -> share of its axis once settled (normalised per axis; unlisted DoFs take 1)",
     )
     eye_link: str | None = Field(
-        None, description="URDF link of the eyes (default: the robot's gaze.eye_link)"
+        default=None, description="URDF link of the eyes (default: the robot's gaze.eye_link)"
     )
     eye_offset: list[float] | None = Field(
-        None,
+        default=None,
         min_length=3,
         max_length=3,
         description="eye point in the eye link's frame (m; default: gaze.eye_offset)",
     )
     follow_lag: float = Field(
-        0.25,
+        default=0.25,
         ge=0.0,
         le=5.0,
         description="first-order time constant added per follower stage (s): the 2nd DoF of "
         "an axis lags by this, the 3rd by twice this, …",
     )
-    max_speed: float = Field(3.0, gt=0.0, le=20.0, description="speed cap for every gaze DoF (rad/s)")
+    max_speed: float = Field(default=3.0, gt=0.0, le=20.0, description="speed cap for every gaze DoF (rad/s)")
     speed_fraction: float = Field(
-        0.8, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]"
+        default=0.8, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]"
     )
     arc_dip: float = Field(
-        0.05,
+        default=0.05,
         ge=0.0,
         le=1.0,
         description="pitch dip (rad, + = down) per rad/s of yaw speed: turns follow an arc",
     )
-    arc_max: float = Field(0.08, ge=0.0, le=0.5, description="largest arc dip (rad)")
+    arc_max: float = Field(default=0.08, ge=0.0, le=0.5, description="largest arc dip (rad)")
     strength: float = drivable(
-        Field(1.0, ge=0.0, le=1.0, description="0 = rest pose, 1 = full gaze (blend, 0..1)"),
+        Field(default=1.0, ge=0.0, le=1.0, description="0 = rest pose, 1 = full gaze (blend, 0..1)"),
         "overrides the strength parameter (0..1)",
         clamp="range",
     )
     tolerance: float = Field(
-        0.05, gt=0.0, le=1.0, description="`on_target` when the gaze is within this angle (rad)"
+        default=0.05, gt=0.0, le=1.0, description="`on_target` when the gaze is within this angle (rad)"
     )
 
 
-@register_block
-class Gaze(Source):
+class Gaze(Source[GazeParams]):
     """Looks at a 3D target: head leads, body follows, turns follow an arc.
 
     Each tick the block computes, from the eye point (the robot's gaze eye link and offset, posed by forward
@@ -118,7 +116,6 @@ class Gaze(Source):
 
     type_name = "gaze"
     title = "Gaze / look-at"
-    Params = GazeParams
     outputs = {
         **FRAME_OUT,
         "on_target": Port(PortType.bool, "the gaze points at the target (within tolerance)"),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,7 +22,6 @@ from backend.engine.blocks.base import (
     DofSelection,
     Source,
     drivable,
-    register_block,
 )
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.idle import (
@@ -69,7 +69,7 @@ def per_dof_vector(
 class BreatheParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
     amplitude: float = drivable(
-        Field(0.03, ge=0.0, le=1.0, description="peak deviation from the rest pose (rad or m)"),
+        Field(default=0.03, ge=0.0, le=1.0, description="peak deviation from the rest pose (rad or m)"),
         "overrides the amplitude parameter (rad or m)",
         clamp="range",
     )
@@ -78,12 +78,12 @@ class BreatheParams(BlockParams):
         description="per-DoF peak deviation overriding `amplitude` (DoF name -> rad or m; negative inverts)",
     )
     frequency: float = drivable(
-        Field(0.25, ge=0.0, le=5.0, description="breaths per second (Hz)"),
+        Field(default=0.25, ge=0.0, le=5.0, description="breaths per second (Hz)"),
         "overrides the frequency parameter (Hz)",
         clamp="range",
     )
     phase_spread: float = Field(
-        0.4,
+        default=0.4,
         ge=-math.pi,
         le=math.pi,
         description="extra phase lag per selected DoF (rad), so the breath travels",
@@ -92,12 +92,14 @@ class BreatheParams(BlockParams):
         default_factory=dict, description="extra phase per DoF (DoF name -> rad), added to the spread"
     )
     inhale_ratio: float = Field(
-        0.4, ge=0.3, le=0.7, description="fraction of a cycle spent inhaling (rising); < 0.5 inhales faster"
+        default=0.4,
+        ge=0.3,
+        le=0.7,
+        description="fraction of a cycle spent inhaling (rising); < 0.5 inhales faster",
     )
 
 
-@register_block
-class Breathe(Source):
+class Breathe(Source[BreatheParams]):
     """Asymmetric breathing around the rest pose on the selected DoFs.
 
     Each DoF follows a smooth cycle that rises during the inhale (the first `inhale_ratio` of the cycle)
@@ -109,7 +111,6 @@ class Breathe(Source):
 
     type_name = "breathe"
     title = "Breathing"
-    Params = BreatheParams
 
     @dataclass
     class State:
@@ -172,21 +173,23 @@ class Breathe(Source):
 class NoiseParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*", "!*blink*", "!gaze_*"])
     amplitude: float = drivable(
-        Field(0.02, ge=0.0, le=1.0, description="standard deviation around the rest pose (rad or m)"),
+        Field(default=0.02, ge=0.0, le=1.0, description="standard deviation around the rest pose (rad or m)"),
         "overrides the amplitude parameter (rad or m)",
         clamp="range",
     )
-    tau: float = Field(1.5, ge=0.05, le=60.0, description="correlation time of the wander (s)")
+    tau: float = Field(default=1.5, ge=0.05, le=60.0, description="correlation time of the wander (s)")
     smoothing: float = Field(
-        0.3, ge=0.0, le=10.0, description="time constant of the second low-pass stage (s); 0 turns it off"
+        default=0.3,
+        ge=0.0,
+        le=10.0,
+        description="time constant of the second low-pass stage (s); 0 turns it off",
     )
     seed: int = Field(
-        0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
+        default=0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
     )
 
 
-@register_block
-class Noise(Source):
+class Noise(Source[NoiseParams]):
     """Smooth mean-reverting random wander (Ornstein-Uhlenbeck) around the rest pose.
 
     Each selected DoF wanders independently, pulled back to rest with correlation time `tau`; a second
@@ -197,7 +200,6 @@ class Noise(Source):
 
     type_name = "noise"
     title = "Smooth noise"
-    Params = NoiseParams
 
     @dataclass
     class State:
@@ -248,7 +250,7 @@ class Noise(Source):
         amp = self.driven(inputs).amplitude
         emb, st = self.emb, self.state
         if self._kernel is not None and self.ctx.compiled:
-            return self._tick_compiled(dt, amp)
+            return self._tick_compiled(self._kernel, dt, amp)
         if dt > 0:
             self._transition(dt)
             a, b, c, l11, l21, l22, _ = self._coef
@@ -264,7 +266,7 @@ class Noise(Source):
         values = np.clip(emb.rest + amp * norm * st.y, emb.min, emb.max)
         return {"out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, [])}
 
-    def _tick_compiled(self, dt: float, amp: float) -> dict[str, Any]:
+    def _tick_compiled(self, kernel: Callable[..., None], dt: float, amp: float) -> dict[str, Any]:
         """The compiled twin of `tick` (same random draws, same arithmetic)."""
         emb, st, p = self.emb, self.state, self.params
         step = dt > 0
@@ -283,7 +285,7 @@ class Noise(Source):
         norm = math.sqrt((p.tau + p.smoothing) / p.tau)
         out = np.empty(emb.n_channels)
         coef = self._coef_array if step else np.zeros(6)  # without a step the coefficients are not read
-        self._kernel(
+        kernel(
             st.x,
             st.y,
             e,
@@ -307,12 +309,16 @@ class Noise(Source):
 
 class WeightShiftParams(BlockParams):
     dofs: DofSelection = Field(default=["*roll*", "*body*", "*torso*"])
-    amplitude: float = Field(0.08, ge=0.0, le=1.0, description="largest offset from the rest pose (rad or m)")
-    min_interval: float = Field(4.0, ge=0.5, le=120.0, description="shortest time between shifts (s)")
-    max_interval: float = Field(12.0, ge=0.5, le=120.0, description="longest time between shifts (s)")
-    shift_duration: float = Field(2.5, ge=0.1, le=30.0, description="time to ease into a new offset (s)")
+    amplitude: float = Field(
+        default=0.08, ge=0.0, le=1.0, description="largest offset from the rest pose (rad or m)"
+    )
+    min_interval: float = Field(default=4.0, ge=0.5, le=120.0, description="shortest time between shifts (s)")
+    max_interval: float = Field(default=12.0, ge=0.5, le=120.0, description="longest time between shifts (s)")
+    shift_duration: float = Field(
+        default=2.5, ge=0.1, le=30.0, description="time to ease into a new offset (s)"
+    )
     seed: int = Field(
-        0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
+        default=0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
     )
 
     @model_validator(mode="after")
@@ -324,8 +330,7 @@ class WeightShiftParams(BlockParams):
         return self
 
 
-@register_block
-class WeightShift(Source):
+class WeightShift(Source[WeightShiftParams]):
     """Slow, asymmetric posture shifts, like a person shifting their weight.
 
     Every random interval between `min_interval` and `max_interval` a new offset within ±`amplitude` is
@@ -336,7 +341,6 @@ class WeightShift(Source):
 
     type_name = "weight_shift"
     title = "Weight shift"
-    Params = WeightShiftParams
 
     @dataclass
     class State:

@@ -8,7 +8,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import BlockParams, Operator, PortType, Role, drivable, register_block
+from backend.engine.blocks.base import BlockParams, Operator, PortType, Role, drivable
 from backend.engine.compiled import entry_point, plain_frame
 from backend.engine.compiled.chain import IK_SIG, chain_args, ik_constants, ik_tick
 from backend.engine.frames import PartialFrame
@@ -25,36 +25,36 @@ NULL_GAIN = 0.2  # per iteration: pull toward the stage-1 pose within the task's
 
 class IkParams(BlockParams):
     mode: Literal["look_at", "reach"] = Field(
-        "look_at",
+        default="look_at",
         description="look_at: point the tip's axis at the target; reach: move the tip point to the target",
     )
     base_link: str | None = Field(
-        None, description="URDF link the chain starts from (default: the URDF root)"
+        default=None, description="URDF link the chain starts from (default: the URDF root)"
     )
     tip_link: str | None = Field(
-        None, description="URDF link at the end of the chain (default: the robot's gaze.eye_link)"
+        default=None, description="URDF link at the end of the chain (default: the robot's gaze.eye_link)"
     )
     tip_offset: list[float] | None = Field(
-        None,
+        default=None,
         min_length=3,
         max_length=3,
         description="point in the tip link's frame (m) that looks or reaches (default: gaze.eye_offset for the eye link)",
     )
     axis: list[float] = Field(
-        [1.0, 0.0, 0.0],
+        default=[1.0, 0.0, 0.0],
         min_length=3,
         max_length=3,
         description="pointing direction in the tip link's frame (look_at)",
     )
     dofs: list[str] | None = Field(
-        None,
+        default=None,
         description="DoF selectors the IK may change (default: every joint DoF of the chain); "
         "symbolic DoFs are never changed",
         json_schema_extra={"x-widget": "dofs"},
     )
     target: list[float] | None = drivable(
         Field(
-            None,
+            default=None,
             min_length=3,
             max_length=3,
             description="target point (m, robot base frame) when `target` is unconnected",
@@ -63,20 +63,21 @@ class IkParams(BlockParams):
         port=PortType.vec3,
     )
     weight: float = drivable(
-        Field(1.0, ge=0.0, le=1.0, description="blend from the stage-1 pose (0) to the IK solution (1)"),
+        Field(
+            default=1.0, ge=0.0, le=1.0, description="blend from the stage-1 pose (0) to the IK solution (1)"
+        ),
         "overrides the weight parameter (0..1)",
         clamp="range",
     )
     damping: float = Field(
-        0.05, ge=0.0, le=1.0, description="damping λ of the damped least squares (rad or m)"
+        default=0.05, ge=0.0, le=1.0, description="damping λ of the damped least squares (rad or m)"
     )
     iterations: int = Field(
-        4, ge=1, le=20, description="solver iterations per tick (warm-started from the last tick)"
+        default=4, ge=1, le=20, description="solver iterations per tick (warm-started from the last tick)"
     )
 
 
-@register_block
-class InverseKinematics(Operator):
+class InverseKinematics(Operator[IkParams]):
     """Points a chain's tip at a target (look-at) or moves it to the target (reach).
 
     A stage-2 post-processor: each tick it starts from the stage-1 pose plus the correction it found last
@@ -91,7 +92,6 @@ class InverseKinematics(Operator):
     title = "Inverse kinematics"
     category = "stage2"
     role = Role.stage2
-    Params = IkParams
 
     @dataclass
     class State:

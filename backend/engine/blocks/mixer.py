@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from operator import is_
 from typing import Any
@@ -19,7 +20,6 @@ from backend.engine.blocks.base import (
     PortRule,
     PortType,
     Role,
-    register_block,
 )
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.blend import MIXER_SIG, MODE_CODES, mixer_tick
@@ -34,13 +34,13 @@ class LayerSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     name: str = Field(..., description="layer (and input port) name")
-    mode: BlendMode = Field(BlendMode.override, description="override, additive or average")
-    weight: float = Field(1.0, ge=0.0, le=1.0, description="blend weight (0..1)")
-    fade: float = Field(0.5, ge=0.0, le=30.0, description="fade-in/out time on (de)activation (s)")
+    mode: BlendMode = Field(default=BlendMode.override, description="override, additive or average")
+    weight: float = Field(default=1.0, ge=0.0, le=1.0, description="blend weight (0..1)")
+    fade: float = Field(default=0.5, ge=0.0, le=30.0, description="fade-in/out time on (de)activation (s)")
     mask: list[str] = Field(
         default=["*"], description="DoF selectors this layer may set", json_schema_extra={"x-widget": "dofs"}
     )
-    active: bool = Field(True, description="whether the layer starts active")
+    active: bool = Field(default=True, description="whether the layer starts active")
 
     @field_validator("name")
     @classmethod
@@ -71,8 +71,7 @@ class MixerParams(BlockParams):
         return v
 
 
-@register_block
-class LayerMixer(Block):
+class LayerMixer(Block[MixerParams]):
     """Blends layers into one frame: override by priority, additive offsets, weighted averages.
 
     Each layer has a blend mode, a weight, a DoF mask and a fade time; activating or deactivating a
@@ -84,7 +83,6 @@ class LayerMixer(Block):
     title = "Layer mixer"
     category = "layers"
     role = Role.mixer
-    Params = MixerParams
     outputs = {"out": Port(PortType.frame, "blended frame")}
 
     @dataclass
@@ -141,7 +139,8 @@ class LayerMixer(Block):
         self._no_values = np.zeros(self.emb.n_channels)
         self._no_mask = np.zeros(self.emb.n_channels, dtype=bool)
         self._w = np.zeros(len(layers))
-        self._masks_memo: tuple | None = None  # (the layers' mask objects, their concatenation), read only
+        # (the layers' mask objects, their concatenation), read only
+        self._masks_memo: tuple[list[np.ndarray], np.ndarray] | None = None
 
     def reset(self) -> None:
         active = np.array([1.0 if layer.active else 0.0 for layer in self.params.layers])
@@ -178,11 +177,12 @@ class LayerMixer(Block):
                 vals = masks = None
             if (
                 vals is not None
+                and masks is not None
                 and vals.dtype == np.float64
                 and masks.dtype == np.bool_
                 and vals.shape == masks.shape == (self._values.size,)
             ):
-                return self._tick_compiled(dt, inputs, frames, vals, masks)
+                return self._tick_compiled(self._kernel, dt, inputs, frames, vals, masks)
         return self._tick_reference(dt, inputs)
 
     def _read_weight_ports(self, inputs: dict[str, Any]) -> None:
@@ -192,12 +192,18 @@ class LayerMixer(Block):
                 self.signal_weights[i] = min(max(float(self.signal(inputs, port, 1.0)), 0.0), 1.0)
 
     def _tick_compiled(
-        self, dt: float, inputs: dict[str, Any], frames: list, vals: np.ndarray, masks: np.ndarray
+        self,
+        kernel: Callable[..., None],
+        dt: float,
+        inputs: dict[str, Any],
+        frames: list,
+        vals: np.ndarray,
+        masks: np.ndarray,
     ) -> dict[str, Any]:
         s, emb, w = self.state, self.emb, self._w
         self._read_weight_ports(inputs)
         values, mask = np.empty(emb.n_channels), np.empty(emb.n_channels, dtype=bool)
-        self._kernel(
+        kernel(
             vals,
             masks,
             self.layer_masks,

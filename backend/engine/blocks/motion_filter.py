@@ -13,7 +13,8 @@ output measured at most 0.62 J on a square wave, but without that guarantee.
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from collections.abc import Callable
+from typing import Any, Literal, TypedDict, TypeVar
 
 import numpy as np
 from pydantic import Field
@@ -26,7 +27,6 @@ from backend.engine.blocks.base import (
     PortType,
     Role,
     drivable,
-    register_block,
 )
 from backend.engine.compiled import entry_point, plain_frame
 from backend.engine.compiled.frames import FILTER_SIG, filter_tick
@@ -40,59 +40,79 @@ PresetName = Literal["W", "A", "B", "C", "D", "E", "custom"]
 
 class FilterParams(BlockParams):
     preset: PresetName = Field(
-        "D",
+        default="D",
         description="the paper's character presets (W regular, A slow & smooth, "
         "B slow & vivid, C fast & vivid, D fast & smooth, E fast & very "
         "smooth) or custom σ/ρ",
     )
     sigma: float | None = drivable(
-        Field(None, ge=0.0, le=1.0, description="smoothness σ (0..1); overrides the preset"),
+        Field(default=None, ge=0.0, le=1.0, description="smoothness σ (0..1); overrides the preset"),
         "overrides σ",
         clamp="range",
     )
     rho: float | None = drivable(
-        Field(None, ge=0.0, le=1.0, description="responsiveness ρ (0..1); overrides the preset"),
+        Field(default=None, ge=0.0, le=1.0, description="responsiveness ρ (0..1); overrides the preset"),
         "overrides ρ",
         clamp="range",
     )
-    bypass: bool = Field(False, description="bypass H: the regular filter W (limits only, no character)")
-    order: Literal[1, 2, 3] = Field(
-        3, description="continuity order: 1 velocity, 2 acceleration, 3 jerk limited"
+    bypass: bool = Field(
+        default=False, description="bypass H: the regular filter W (limits only, no character)"
     )
-    limiter: Literal["tanh", "hard"] = Field("tanh", description="tanh (smooth, keeps headroom) or hard clip")
+    order: Literal[1, 2, 3] = Field(
+        default=3, description="continuity order: 1 velocity, 2 acceleration, 3 jerk limited"
+    )
+    limiter: Literal["tanh", "hard"] = Field(
+        default="tanh", description="tanh (smooth, keeps headroom) or hard clip"
+    )
     limit_scale: float = Field(
-        1.0,
+        default=1.0,
         gt=0.0,
         le=1.0,
         description="fraction of the robot's velocity, acceleration and jerk limits to use (0..1]",
     )
     vel_limit: float | None = Field(
-        None,
+        default=None,
         gt=0.0,
         le=1e6,
         description="velocity bound of the output for every "
         "filtered DoF (units/s); default: the robot's per-DoF limits",
     )
     acc_limit: float | None = Field(
-        None,
+        default=None,
         gt=0.0,
         le=1e8,
         description="acceleration bound of the output (units/s²); default: the robot's per-DoF limits",
     )
     jerk_limit: float | None = Field(
-        None,
+        default=None,
         gt=0.0,
         le=1e10,
         description="jerk bound of the output (units/s³); default: the robot's per-DoF limits",
     )
-    beta: float = Field(5.0, ge=1.0, le=200.0, description="position-saturation exponent β (>= 1)")
+    beta: float = Field(default=5.0, ge=1.0, le=200.0, description="position-saturation exponent β (>= 1)")
 
 
 class MotionFilterParams(FilterParams):
     dofs: DofSelection = Field(default=["stationary:*", "spatial:*"])
 
 
-class _FilterBlock(Block):
+FP = TypeVar("FP", bound=FilterParams)
+
+
+class _Limits(TypedDict):
+    """The filter's per-DoF bounds, as `MotionFilter` and its `set_params` take them."""
+
+    vel_limit: np.ndarray
+    acc_limit: np.ndarray
+    jerk_limit: np.ndarray
+
+
+class _Range(TypedDict):
+    pmin: np.ndarray
+    pmax: np.ndarray
+
+
+class _FilterBlock(Block[FP]):
     inputs = {"in": Port(PortType.frame, "set-points (a stepped, CGI-style frame)", required=True)}
     outputs = {"out": Port(PortType.frame, "filtered, motor-safe frame")}
 
@@ -135,9 +155,9 @@ class _FilterBlock(Block):
                 groups.append(local)
                 for arr in (vel, acc, jerk):  # a coupled group shares its most conservative limit
                     arr[local] = arr[local].min()
-        self._limits = dict(vel_limit=vel, acc_limit=acc, jerk_limit=jerk)
+        self._limits = _Limits(vel_limit=vel, acc_limit=acc, jerk_limit=jerk)
         self._groups = groups
-        self._pos = dict(pmin=emb.min[idx], pmax=emb.max[idx])
+        self._pos = _Range(pmin=emb.min[idx], pmax=emb.max[idx])
         sigma, rho, bypass = self._character()
         old = getattr(self, "filter", None)
         if old is not None and old.n == max(1, idx.size) and old.groups == groups:
@@ -220,7 +240,7 @@ class _FilterBlock(Block):
             and self.ctx.compiled
             and (frame is None or plain_frame(frame, self.emb.n_channels))
         ):
-            return self._tick_compiled(frame)
+            return self._tick_compiled(self._kernel, self.filter, frame)
         sp = self._sp
         if frame is not None:
             np.copyto(sp, frame.values[self.idx])
@@ -236,9 +256,12 @@ class _FilterBlock(Block):
         mask[self.idx] = True
         return {"out": PartialFrame(values, mask, events)}
 
-    def _tick_compiled(self, frame: PartialFrame | None) -> dict[str, Any]:
-        """The compiled twin of the end of `tick`: set-points, one filter step, the frame out."""
-        emb, f = self.emb, self.filter
+    def _tick_compiled(
+        self, kernel: Callable[..., None], f: MotionFilter, frame: PartialFrame | None
+    ) -> dict[str, Any]:
+        """The compiled twin of the end of `tick`: set-points, one filter step (of `f`, the block's
+        filter), the frame out."""
+        emb = self.emb
         values = np.empty(emb.n_channels)
         has = frame is not None
         mask_in = frame.mask if has else self._no_mask
@@ -247,7 +270,7 @@ class _FilterBlock(Block):
             mask, written = memo[2], self._mask_scratch
         else:
             mask = written = np.empty(emb.n_channels, dtype=bool)
-        self._kernel(
+        kernel(
             frame.values if has else emb.rest,
             mask_in,
             has,
@@ -263,8 +286,7 @@ class _FilterBlock(Block):
         return {"out": PartialFrame(values, mask, frame.events if has else [])}
 
 
-@register_block
-class MotionFilterBlock(_FilterBlock):
+class MotionFilterBlock(_FilterBlock[MotionFilterParams]):
     """The Nutty Motion Filter on the selected DoFs: stepped motion in, smooth motor-safe motion out.
 
     Limits velocity, acceleration and jerk to the robot's limits while the character parameters
@@ -276,14 +298,12 @@ class MotionFilterBlock(_FilterBlock):
     title = "Motion filter (NMF)"
     category = "operators"
     role = Role.operator
-    Params = MotionFilterParams
 
     def selection(self) -> np.ndarray:
         return channel_mask(self.emb, self.params.dofs, continuous_only=True)
 
 
-@register_block
-class MotionFilterStage2(_FilterBlock):
+class MotionFilterStage2(_FilterBlock[FilterParams]):
     """The Nutty Motion Filter on every continuous DoF and colour, as the last stage before the robot.
 
     The paper's Level 3 post-processor: whatever the layers produce, every DoF reaches the robot within
@@ -295,7 +315,6 @@ class MotionFilterStage2(_FilterBlock):
     title = "Motion filter (stage 2)"
     category = "stage2"
     role = Role.stage2
-    Params = FilterParams
 
     def selection(self) -> np.ndarray:
         return self.emb.channel_kind != ChannelKind.enum

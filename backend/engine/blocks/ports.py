@@ -90,9 +90,9 @@ class PortRule(BaseModel):
     type: str = Field(
         ..., description="a port type, or a template naming the parameter holding one ('{type}')"
     )
-    doc: str = Field("", description="port doc (a template)")
+    doc: str = Field(default="", description="port doc (a template)")
     each: str | None = Field(
-        None, description="list parameter: one port per item, templates filled from the item"
+        default=None, description="list parameter: one port per item, templates filled from the item"
     )
 
     @model_validator(mode="after")

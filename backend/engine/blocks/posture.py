@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -9,9 +10,12 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import BlockCommandError, BlockParams, Port, PortType, Source, register_block
+from backend.engine.asset_errors import LibraryError, NotFound
+from backend.engine.blocks.base import BlockCommandError, BlockParams, Port, PortType, Source
 from backend.engine.blocks.core import pose_vector
 from backend.engine.frames import PartialFrame
+
+log = logging.getLogger(__name__)
 
 Easing = Literal[
     "linear", "sine_in_out", "quad_in_out", "cubic_in_out", "quint_in_out", "back_out", "elastic_out"
@@ -41,16 +45,17 @@ def ease(name: str, u: float) -> float:
 
 class PostureParams(BlockParams):
     posture: str | None = Field(
-        None,
+        default=None,
         description="posture to hold at start (from the robot's pose library)",
         json_schema_extra={"x-widget": "posture"},
     )
-    duration: float = Field(1.0, ge=0.05, le=10.0, description="time to reach a new posture (s)")
-    easing: Easing = Field("sine_in_out", description="slow in/out by default; back/elastic overshoot")
+    duration: float = Field(default=1.0, ge=0.05, le=10.0, description="time to reach a new posture (s)")
+    easing: Easing = Field(
+        default="sine_in_out", description="slow in/out by default; back/elastic overshoot"
+    )
 
 
-@register_block
-class Posture(Source):
+class Posture(Source[PostureParams]):
     """Goes to a named posture of the robot (happy, sad, curious, …) with a duration and an easing.
 
     Run-time command `go {posture, duration?, easing?}` (the API's go_posture) starts a move from where
@@ -60,7 +65,6 @@ class Posture(Source):
 
     type_name = "posture"
     title = "Posture"
-    Params = PostureParams
     outputs = {"out": Port(PortType.frame, "the pose"), "moving": Port(PortType.bool, "true while moving")}
 
     @dataclass
@@ -88,7 +92,10 @@ class Posture(Source):
             try:
                 doc = lib.get("postures", name)
                 values = doc.get("values", doc)
-            except Exception:
+            except NotFound:
+                values = None  # not in the library: perhaps one the robot's embodiment declares
+            except LibraryError as exc:  # a posture file that cannot be read: say so, fall back
+                log.warning("posture '%s' in the library is unusable (%s); trying the robot's own", name, exc)
                 values = None
         if values is None:
             values = self.emb.postures.get(name)

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, register_block
+from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source
 from backend.engine.embodiment import DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
@@ -18,15 +18,15 @@ from backend.engine.selectors import channel_mask
 class PuppetParams(BlockParams):
     dofs: DofSelection = Field(default=["*"], description="DoFs a client may puppeteer (others are refused)")
     timeout: float = Field(
-        0.5,
+        default=0.5,
         ge=0.05,
         le=10.0,
         description="watchdog: with no message for this long (s, engine "
         "time) the stream counts as dropped and fades out",
     )
-    fade_in: float = Field(0.3, ge=0.0, le=5.0, description="blend-in time when a stream starts (s)")
+    fade_in: float = Field(default=0.3, ge=0.0, le=5.0, description="blend-in time when a stream starts (s)")
     fade_out: float = Field(
-        0.5, ge=0.0, le=5.0, description="blend-out time when the stream ends or drops (s)"
+        default=0.5, ge=0.0, le=5.0, description="blend-out time when the stream ends or drops (s)"
     )
 
 
@@ -38,8 +38,7 @@ class PuppetValueError(ValueError):
         self.dof = dof
 
 
-@register_block
-class Puppet(Source):
+class Puppet(Source[PuppetParams]):
     """Holds the pose a client streams with `puppet` commands (Blender's live link), for a puppet layer.
 
     Each `puppet` command sets the targets of the DoFs it names (the others keep theirs). While messages
@@ -52,7 +51,6 @@ class Puppet(Source):
 
     type_name = "puppet"
     title = "Puppet (live link)"
-    Params = PuppetParams
     outputs = {
         "out": Port(PortType.frame, "the streamed pose on the DoFs the client set"),
         "weight": Port(PortType.float, "blend envelope 0..1 (wire to the mixer's layer weight)"),

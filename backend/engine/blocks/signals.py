@@ -10,7 +10,7 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock, drivable, register_block
+from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock, drivable
 
 # --------------------------------------------------------------------------------------------------
 # Math
@@ -23,25 +23,29 @@ MathOp = Literal[
 
 class MathParams(BlockParams):
     op: MathOp = Field(
-        "add",
+        default="add",
         description="operation on a (and b): add, subtract, multiply, divide, min, max, "
         "map_range, clamp, abs, smoothstep",
     )
     a: float = drivable(
-        Field(0.0, description="value of a when its input is not connected"),
+        Field(default=0.0, description="value of a when its input is not connected"),
         "first operand (overrides parameter a)",
     )
     b: float = drivable(
-        Field(0.0, description="value of b when its input is not connected"),
+        Field(default=0.0, description="value of b when its input is not connected"),
         "second operand (overrides parameter b)",
     )
-    in_min: float = Field(0.0, description="map_range/smoothstep: input value mapped to out_min (lower edge)")
-    in_max: float = Field(1.0, description="map_range/smoothstep: input value mapped to out_max (upper edge)")
-    out_min: float = Field(0.0, description="map_range: output at in_min")
-    out_max: float = Field(1.0, description="map_range: output at in_max")
-    clamped: bool = Field(True, description="map_range: keep the output within [out_min, out_max]")
-    min: float = Field(0.0, description="clamp: lower bound")
-    max: float = Field(1.0, description="clamp: upper bound")
+    in_min: float = Field(
+        default=0.0, description="map_range/smoothstep: input value mapped to out_min (lower edge)"
+    )
+    in_max: float = Field(
+        default=1.0, description="map_range/smoothstep: input value mapped to out_max (upper edge)"
+    )
+    out_min: float = Field(default=0.0, description="map_range: output at in_min")
+    out_max: float = Field(default=1.0, description="map_range: output at in_max")
+    clamped: bool = Field(default=True, description="map_range: keep the output within [out_min, out_max]")
+    min: float = Field(default=0.0, description="clamp: lower bound")
+    max: float = Field(default=1.0, description="clamp: upper bound")
 
     @model_validator(mode="after")
     def _check(self) -> MathParams:
@@ -52,8 +56,7 @@ class MathParams(BlockParams):
         return self
 
 
-@register_block
-class Math(SignalBlock):
+class Math(SignalBlock[MathParams]):
     """Scalar math on signals: arithmetic, min/max, map range, clamp, abs and smoothstep.
 
     Inputs `a` and `b` override the parameters of the same name. Unary operations (map_range, clamp,
@@ -63,7 +66,6 @@ class Math(SignalBlock):
 
     type_name = "math"
     title = "Math"
-    Params = MathParams
     outputs = {"value": Port(PortType.float, "result")}
 
     @dataclass
@@ -141,24 +143,24 @@ def waveform(shape: str, u: float, knots: tuple[float, float] = (0.0, 0.0)) -> f
 
 class LfoParams(BlockParams):
     waveform: Waveform = Field(
-        "sine", description="sine, triangle, square, saw or random_smooth (smooth noise)"
+        default="sine", description="sine, triangle, square, saw or random_smooth (smooth noise)"
     )
     frequency: float = drivable(
-        Field(0.5, ge=0.0, le=50.0, description="cycles per second (Hz)"),
+        Field(default=0.5, ge=0.0, le=50.0, description="cycles per second (Hz)"),
         "overrides the frequency (Hz)",
         clamp="floor",
     )
     amplitude: float = drivable(
-        Field(1.0, ge=0.0, le=100.0, description="peak deviation from the offset"), "overrides the amplitude"
+        Field(default=1.0, ge=0.0, le=100.0, description="peak deviation from the offset"),
+        "overrides the amplitude",
     )
     offset: float = drivable(
-        Field(0.0, ge=-100.0, le=100.0, description="centre value"), "overrides the offset"
+        Field(default=0.0, ge=-100.0, le=100.0, description="centre value"), "overrides the offset"
     )
-    phase: float = Field(0.0, ge=0.0, le=1.0, description="phase at start (cycles, 0..1)")
+    phase: float = Field(default=0.0, ge=0.0, le=1.0, description="phase at start (cycles, 0..1)")
 
 
-@register_block
-class Lfo(SignalBlock):
+class Lfo(SignalBlock[LfoParams]):
     """A low-frequency oscillator: `offset + amplitude * wave(phase)` as a signal.
 
     Waveforms sine, triangle, square, saw, or random_smooth (a new random level every cycle, eased
@@ -168,7 +170,6 @@ class Lfo(SignalBlock):
 
     type_name = "lfo"
     title = "LFO"
-    Params = LfoParams
     outputs = {"value": Port(PortType.float, "current value")}
 
     @dataclass
@@ -210,37 +211,49 @@ DEFAULT_POSTURES: dict[str, tuple[float, float]] = {
 
 class EmotionParams(BlockParams):
     valence: float = drivable(
-        Field(0.0, ge=-1.0, le=1.0, description="unpleasant (-1) to pleasant (+1), when not connected"),
+        Field(
+            default=0.0, ge=-1.0, le=1.0, description="unpleasant (-1) to pleasant (+1), when not connected"
+        ),
         "valence -1..1 (overrides the parameter)",
         clamp="range",
     )
     arousal: float = drivable(
-        Field(0.0, ge=-1.0, le=1.0, description="calm (-1) to excited (+1), when not connected"),
+        Field(default=0.0, ge=-1.0, le=1.0, description="calm (-1) to excited (+1), when not connected"),
         "arousal -1..1 (overrides the parameter)",
         clamp="range",
     )
     speed_min: float = Field(
-        0.6, gt=0.0, le=1.0, description="speed multiplier at arousal -1 (1 at arousal 0)"
+        default=0.6, gt=0.0, le=1.0, description="speed multiplier at arousal -1 (1 at arousal 0)"
     )
-    speed_max: float = Field(1.6, ge=1.0, le=4.0, description="speed multiplier at arousal +1")
+    speed_max: float = Field(default=1.6, ge=1.0, le=4.0, description="speed multiplier at arousal +1")
     amplitude_min: float = Field(
-        0.5, ge=0.0, le=1.0, description="amplitude gain at arousal -1 (1 at arousal 0)"
+        default=0.5, ge=0.0, le=1.0, description="amplitude gain at arousal -1 (1 at arousal 0)"
     )
-    amplitude_max: float = Field(1.5, ge=1.0, le=3.0, description="amplitude gain at arousal +1")
+    amplitude_max: float = Field(default=1.5, ge=1.0, le=3.0, description="amplitude gain at arousal +1")
     valence_amplitude: float = Field(
-        0.2, ge=0.0, le=1.0, description="extra amplitude gain at |valence| = 1 (strong feelings show)"
+        default=0.2,
+        ge=0.0,
+        le=1.0,
+        description="extra amplitude gain at |valence| = 1 (strong feelings show)",
     )
-    droop: float = Field(0.2, ge=0.0, le=1.0, description="posture offset at valence -1 (rad, + = head down)")
-    arousal_lift: float = Field(0.05, ge=0.0, le=0.5, description="posture lift at arousal +1 (rad, head up)")
+    droop: float = Field(
+        default=0.2, ge=0.0, le=1.0, description="posture offset at valence -1 (rad, + = head down)"
+    )
+    arousal_lift: float = Field(
+        default=0.05, ge=0.0, le=0.5, description="posture lift at arousal +1 (rad, head up)"
+    )
     postures: dict[str, tuple[float, float]] = Field(
         default_factory=lambda: dict(DEFAULT_POSTURES),
         description="posture name -> its (valence, arousal); the nearest one is output",
     )
     smoothing: float = Field(
-        0.5, ge=0.0, le=10.0, description="time constant of the valence/arousal smoothing (s)"
+        default=0.5, ge=0.0, le=10.0, description="time constant of the valence/arousal smoothing (s)"
     )
     hysteresis: float = Field(
-        0.05, ge=0.0, le=0.5, description="how much nearer a new posture must be before switching to it"
+        default=0.05,
+        ge=0.0,
+        le=0.5,
+        description="how much nearer a new posture must be before switching to it",
     )
 
     @model_validator(mode="after")
@@ -250,8 +263,7 @@ class EmotionParams(BlockParams):
         return self
 
 
-@register_block
-class Emotion(SignalBlock):
+class Emotion(SignalBlock[EmotionParams]):
     """Maps valence and arousal to animation parameters: speed, amplitude, posture offset and posture.
 
     Arousal changes timing (speed multiplier from `speed_min` to `speed_max`) and, with the strength
@@ -263,7 +275,6 @@ class Emotion(SignalBlock):
 
     type_name = "emotion"
     title = "Emotion"
-    Params = EmotionParams
     outputs = {
         "speed": Port(PortType.float, "timing multiplier (1 = neutral)"),
         "amplitude": Port(PortType.float, "gain for idle motion and gestures (1 = neutral)"),
