@@ -27,8 +27,9 @@ from typing import Any
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.responses import HTMLResponse
+from fastapi.staticfiles import StaticFiles
 
-from backend import security
+from backend import __version__, security
 from backend.hub import Hub
 from backend.routes import analysis, commands, library, program, robot, sockets, status, tools
 from backend.routes.errors import SafeJSONResponse, install_error_handlers
@@ -84,7 +85,7 @@ def create_app(
 
     app = FastAPI(
         title="Nutty",
-        version="0.1.0",
+        version=__version__,
         lifespan=lifespan,
         default_response_class=SafeJSONResponse,
         description="Robot animation engine: Animation Programs, commands, telemetry and frames.",
@@ -106,8 +107,6 @@ def create_app(
 def _serve_editor(app: FastAPI, hub: Hub, frontend_dir: Path | None) -> None:
     """The editor at / (frontend/dist), or a page saying it is not built. Mounted last: it takes every path."""
     if frontend_dir is not None and (frontend_dir / "index.html").exists():
-        from fastapi.staticfiles import StaticFiles
-
         app.mount("/", StaticFiles(directory=str(frontend_dir), html=True), name="editor")
         return
 

@@ -4,12 +4,15 @@ fan-out to every /ws/control client.
 Commands from REST and /ws/control both go through `Hub.run_command` (validate, log, execute, ack)
 and `Hub.cancel`; their events reach clients in one shape (docs/api-contract.md): every command gets
 at most one `started` and one terminal event (`completed`, `cancelled` or `failed`), all under its id.
+A refused command raises a `DomainError` (backend.errors) with its code; each edge (HTTP, WebSocket,
+Zenoh) answers it in its own way.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 import threading
 import time
 import uuid
@@ -18,10 +21,11 @@ from collections.abc import Callable
 from typing import Any
 
 from backend import control
-from backend.routes.errors import api_error
+from backend.errors import DomainError
 from backend.session import EngineSession
 
 TERMINAL = ("completed", "cancelled", "failed")
+log = logging.getLogger(__name__)
 
 
 def jsonable(v: Any) -> bool:
@@ -50,7 +54,7 @@ class CommandLog:
         self._lock = threading.Lock()
 
     def add(self, cid: str, command: Any) -> dict[str, Any]:
-        """Log a new command; a live command with the same id is a conflict (409)."""
+        """Log a new command; a live command with the same id is a DomainError `duplicate_id`."""
         entry = {
             "id": cid,
             "type": command.type,
@@ -61,10 +65,9 @@ class CommandLog:
         with self._lock:
             old = self._items.get(cid)
             if old is not None and old["status"] not in TERMINAL:
-                raise api_error(
-                    409,
-                    "duplicate_id",
+                raise DomainError(
                     f"command '{cid}' is still {old['status']}: choose another id",
+                    code="duplicate_id",
                     field="id",
                     id=cid,
                 )
@@ -99,7 +102,7 @@ class CommandLog:
         """Whether an event for command `cid` may go out, and the command's type (None if unknown)."""
         with self._lock:
             entry = self._items.get(cid) if cid else None
-            if entry is None:
+            if entry is None or cid is None:
                 return True, None
             flags = self._flags[cid]
             if event == "started":
@@ -167,7 +170,7 @@ class Hub:
             try:
                 fn(message)
             except Exception:  # a listener's fault never stops the events to the sockets
-                pass
+                log.exception("event listener %r failed on a %s message", fn, message.get("event"))
         loop = self.loop
         if loop is None or loop.is_closed():
             return
@@ -180,23 +183,21 @@ class Hub:
     def run_command(self, data: Any) -> dict[str, Any]:
         """Validate, log and execute one command (a JSON object); returns the ack.
 
-        Raises HTTPException (4xx) on error: 422 for a malformed or rejected command, 404 when its
-        target is not there, 409 for the id of a command still running.
+        Raises a DomainError: the parser's CommandError for a malformed command (not logged); once the
+        command is logged, its CommandError with its `id` (`no_target`, `busy`, ...), `duplicate_id`
+        for the id of a command still running, or `rejected` when carrying it out failed.
         """
-        try:
-            cmd = control.parse_command(data)
-        except control.CommandError as exc:
-            raise api_error(422, exc.code, str(exc), field=exc.field) from exc
+        cmd = control.parse_command(data)
         cid = cmd.id or uuid.uuid4().hex[:12]
         entry = self.commands.add(cid, cmd)
         try:
             result = control.execute(self.session, cmd, cid, cancel=self._cancel_target)
         except control.CommandError as exc:
             self._fail(cid, exc)
-            raise api_error(exc.http_status, exc.code, str(exc), field=exc.field, id=cid) from exc
+            raise control.CommandError(str(exc), exc.field, exc.code, **{**exc.extra, "id": cid}) from exc
         except (ValueError, TypeError, KeyError, TimeoutError) as exc:
             self._fail(cid, exc)
-            raise api_error(422, "rejected", str(exc), id=cid) from exc
+            raise DomainError(str(exc), code="rejected", id=cid) from exc
         done = isinstance(result, dict) and result.get("done")
         self.commands.update(cid, result=result if jsonable(result) else None)
         if cmd.long_action and not done:
@@ -219,15 +220,14 @@ class Hub:
         return {"target": target, "status": self.cancel(target)["status"]}
 
     def cancel(self, cid: str) -> dict[str, Any]:
-        """Cancel a long action by id (DELETE /api/commands/{id}); a finished one keeps its status."""
+        """Cancel a long action by id (DELETE /api/commands/{id}); a finished one keeps its status.
+        DomainError `unknown_command` for an id nobody sent."""
         entry = self.commands.get(cid)
         if entry is None:
-            raise api_error(404, "unknown_command", f"no command with id '{cid}'")
+            raise DomainError(f"no command with id '{cid}'", code="unknown_command")
         if entry["status"] in TERMINAL:
             return {"id": cid, "status": entry["status"]}
         control.cancel_command(self.session, entry["type"], cid)
         self._emit(cid, "cancelled")
-        return {
-            "id": cid,
-            "status": self.commands.get(cid)["status"] if self.commands.get(cid) else "cancelled",
-        }
+        now = self.commands.get(cid)
+        return {"id": cid, "status": now["status"] if now else "cancelled"}

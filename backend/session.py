@@ -15,24 +15,37 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from backend import control
 from backend.engine.apu import MAX_LEVEL
 from backend.engine.blocks import BLOCKS
+from backend.engine.blocks.base import BlockContext
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.library import RobotLibrary
 from backend.engine.runtime import Engine
-from backend.graph.compiler import Issue, ValidationReport, compile_program
+from backend.errors import DomainError
+from backend.graph.compiler import Compiled, Issue, ValidationReport, compile_program
+from backend.graph.library_docs import library_validators
 from backend.graph.schema import Program
+from backend.graph.subgraph_library import standalone_issues
 from backend.graph.subgraphs import inner_definition_node
 
 
-class SessionError(ValueError):
-    """A rejected change. `report` carries every validation error when the cause is a program."""
+class SessionError(DomainError):
+    """A rejected change. `report` carries every validation error when the cause is a program.
+
+    Codes: `invalid_program` (a program or a live change that does not compile; with the report),
+    `no_program`, `unknown_node`, `unknown_param`, `invalid_param`, `block_config`, `invalid_rate`.
+    """
 
     def __init__(self, message: str, report: ValidationReport | None = None, code: str = "invalid"):
-        super().__init__(message)
+        super().__init__(message, code=code)
         self.report = report
-        self.code = code
+
+    @property
+    def detail(self) -> dict[str, Any]:
+        """The error object with the report (null when the cause is not a program's validation)."""
+        return {**super().detail, "report": self.report.model_dump() if self.report else None}
 
     def render(self) -> str:
         if self.report is None:
@@ -48,7 +61,9 @@ class EngineSession:
     def __init__(self, engine: Engine, library: RobotLibrary | None = None):
         self.engine = engine
         self.embodiment: Embodiment = engine.embodiment
-        self.library = library or RobotLibrary(_robot_folder(engine.embodiment), engine.embodiment)
+        self.library = library or RobotLibrary(
+            _robot_folder(engine.embodiment), engine.embodiment, validators=library_validators()
+        )
         engine.ctx.resources = self.library
         self.program: Program | None = None  # the running document (with its subgraphs, if any)
         self.flat: Program | None = None  # the running program with subgraphs flattened: the APU's node ids
@@ -115,14 +130,10 @@ class EngineSession:
 
     def validate_subgraph(self, name: str, doc: Any) -> ValidationReport:
         """Check a standalone subgraph definition (a library entry) against this robot."""
-        from backend.graph.subgraphs import standalone_issues
-
         _, issues = standalone_issues(name, doc, self.embodiment, self._scratch_ctx())
         return ValidationReport(valid=not issues, errors=issues)
 
     def _scratch_ctx(self):
-        from backend.engine.blocks.base import BlockContext
-
         return BlockContext(
             embodiment=self.embodiment,
             rate=self.engine.rate,
@@ -131,7 +142,7 @@ class EngineSession:
             compiled=self.engine.ctx.compiled,
         )
 
-    def _compile_live(self, source: Any, refusal: str):
+    def _compile_live(self, source: Any, refusal: str) -> Compiled:
         """Compile `source` for this engine (raises SessionError with the report if it is invalid); the
         blocks, built against a scratch context, are pointed at the engine's live one."""
         result = compile_program(
@@ -141,11 +152,14 @@ class EngineSession:
             ctx=self._scratch_ctx(),
             rate=self.engine.rate,
         )
-        if not result.ok:
-            raise SessionError(f"{refusal} ({len(result.report.errors)} error(s))", result.report)
-        for step in result.apu.steps:
+        compiled = result.compiled()
+        if compiled is None:
+            raise SessionError(
+                f"{refusal} ({len(result.report.errors)} error(s))", result.report, code="invalid_program"
+            )
+        for step in compiled.apu.steps:
             step.block.ctx = self.engine.ctx
-        return result
+        return compiled
 
     def load_program(self, source: Any) -> tuple[ValidationReport, list[str]]:
         """Validate and hot-swap a program at the next tick boundary (atomic: all or nothing).
@@ -155,7 +169,7 @@ class EngineSession:
         with self._lock:
             result = self._compile_live(source, "program is invalid")
             apu = result.apu
-            declared = {i.name: i for i in result.program.inputs}  # type: ignore[union-attr]
+            declared = {i.name: i for i in result.program.inputs}
 
             def install_inputs() -> None:
                 live = self.engine.ctx.inputs
@@ -173,11 +187,14 @@ class EngineSession:
                 changed = self._changed_params(result.flat, result.params)
 
                 def apply_params() -> list[str]:
+                    running = self.engine.apu
+                    if running is None:  # the same structure as the running program: there is one
+                        raise SessionError("no program is running", code="no_program")
                     for node_id, params in changed.items():
-                        self.engine.apu.block(node_id).update_params(params)
+                        running.block(node_id).update_params(params)
                     install_inputs()
-                    self.engine.apu.source = result.program  # its editor data and subgraphs as sent
-                    return [st.node_id for st in self.engine.apu.steps]
+                    running.source = result.program  # its editor data and subgraphs as sent
+                    return [st.node_id for st in running.steps]
 
                 kept = self.engine.call(apply_params)
                 self.program = result.program
@@ -190,7 +207,7 @@ class EngineSession:
             self.program = result.program
             self.flat = result.flat
             self.report = result.report
-            return result.report, list(kept)  # type: ignore[arg-type]
+            return result.report, list(kept)
 
     def reset(self, fade: float | None = None) -> None:
         """The running program as it starts: fresh blocks (every layer as the program declares it, no
@@ -345,14 +362,10 @@ class EngineSession:
 
     def check_command(self, command: dict[str, Any], where: str = "command") -> None:
         """Validate a command before it is scheduled (raises ValueError naming the field)."""
-        from backend import control
-
         control.parse_command(command, where=where)
 
     def execute(self, command: dict[str, Any]) -> Any:
         """Carry out one command now (at the next tick boundary)."""
-        from backend import control
-
         return control.execute(self, control.parse_command(command))
 
     def run_headless(

@@ -11,9 +11,11 @@ from typing import Any, Literal
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
+from backend.api_types import FilteredTracks, TrackAnalysis
 from backend.control.targets import blocks_of
+from backend.engine.blocks.motion_filter import FilterParams
 from backend.engine.track_analysis import TrackError, analyze_tracks, filter_tracks
-from backend.routes.errors import api_error
+from backend.errors import DomainError
 from backend.routes.json_body import SafeJsonRoute
 from backend.routes.state import SessionDep
 
@@ -30,15 +32,20 @@ class TracksBody(BaseModel):
 
 class FilterBody(TracksBody):
     preset: Literal["W", "A", "B", "C", "D", "E"] | None = Field(
-        None, description="one of the paper's NMF presets; omitted: the running program's stage-2 filter"
+        default=None,
+        description="one of the paper's NMF presets; omitted: the running program's stage-2 filter",
     )
 
 
-def _track_error(exc: TrackError) -> Exception:
-    return api_error(422, "invalid_track", str(exc), field=exc.field)
+def _track_error(exc: TrackError) -> DomainError:
+    return DomainError(str(exc), code="invalid_track", field=exc.field)
 
 
-@router.post("/analyze", summary="Trajectory-helper: where posted tracks break the robot's limits")
+@router.post(
+    "/analyze",
+    response_model=TrackAnalysis,
+    summary="Trajectory-helper: where posted tracks break the robot's limits",
+)
 async def analyze(body: TracksBody, session: SessionDep) -> dict[str, Any]:
     """Per DoF, ranges of samples over the velocity (orange), acceleration (pink) or jerk (red) limit,
     or outside the position limits, each with its worst ratio to the limit; see
@@ -50,21 +57,20 @@ async def analyze(body: TracksBody, session: SessionDep) -> dict[str, Any]:
 
 
 @router.post(
-    "/filter", summary="Ghost: posted tracks through the motion filter (a preset or the program's stage 2)"
+    "/filter",
+    response_model=FilteredTracks,
+    summary="Ghost: posted tracks through the motion filter (a preset or the program's stage 2)",
 )
 async def filter_route(body: FilterBody, session: SessionDep) -> dict[str, Any]:
-    from backend.engine.blocks.motion_filter import FilterParams
-
     if body.preset is not None:
         params, used = FilterParams(preset=body.preset), body.preset
     else:
         stage2 = blocks_of(session, ("nmf_stage2",))
         if not stage2:
-            raise api_error(
-                422,
-                "no_stage2",
+            raise DomainError(
                 "the running program has no stage-2 motion filter (nmf_stage2): "
                 "name a preset (W, A, B, C, D or E)",
+                code="no_stage2",
                 field="preset",
             )
         params, used = stage2[0].params, "program"

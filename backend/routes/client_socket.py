@@ -4,7 +4,7 @@ client's disconnect and the app's shutdown, so no task, sink or client count out
 from __future__ import annotations
 
 import asyncio
-import contextlib
+import logging
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -12,6 +12,8 @@ from fastapi import WebSocket
 
 from backend import security
 from backend.security import MAX_WS_MESSAGE, JsonSafetyError, cancel_all
+
+log = logging.getLogger(__name__)
 
 
 class ClientSocket:
@@ -60,11 +62,12 @@ class ClientSocket:
             try:
                 await handle(data)
             except Exception:  # never let one message take the socket down
+                log.exception("%s: handling a message failed", self.ws.url.path)
                 await self.error("internal_error", "the server could not handle this message")
 
     async def run(self, receiver: Awaitable[None], sender: Awaitable[None] | None = None) -> None:
         """Race the receive loop, the send loop and the app's shutdown; the first to end ends all."""
-        tasks = [asyncio.ensure_future(receiver)]
+        tasks: list[asyncio.Future[Any]] = [asyncio.ensure_future(receiver)]
         if sender is not None:
             tasks.append(asyncio.ensure_future(sender))
         if self.stopping is not None:
@@ -74,5 +77,7 @@ class ClientSocket:
         finally:
             await cancel_all(tasks)
         if self.stopping is not None and self.stopping.is_set():
-            with contextlib.suppress(Exception):
+            try:
                 await self.ws.close(code=1001, reason="server shutting down")
+            except Exception:  # the client may have gone meanwhile: nothing left to tell it
+                log.debug("closing %s at shutdown failed", self.ws.url.path, exc_info=True)

@@ -12,8 +12,9 @@ from typing import Any
 from fastapi import APIRouter
 
 from backend import control
+from backend.api_types import CommandAccepted, CommandCancelled, CommandEntry, ExposedInputs, InputSet
+from backend.errors import DomainError
 from backend.routes.bodies import CommandDoc, InputValue
-from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
 from backend.routes.state import HubDep, SessionDep
 from backend.routes.telemetry import signal_json
@@ -21,7 +22,11 @@ from backend.routes.telemetry import signal_json
 router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["commands"])
 
 
-@router.get("/inputs", summary="Exposed inputs of the running program: values and declarations")
+@router.get(
+    "/inputs",
+    response_model=ExposedInputs,
+    summary="Exposed inputs of the running program: values and declarations",
+)
 def get_inputs(session: SessionDep) -> dict[str, Any]:
     decls = [i.model_dump() for i in session.program.inputs] if session.program else []
     return {
@@ -30,29 +35,33 @@ def get_inputs(session: SessionDep) -> dict[str, Any]:
     }
 
 
-@router.put("/inputs/{name}", summary="Set one exposed input")
+@router.put("/inputs/{name}", response_model=InputSet, summary="Set one exposed input")
 async def put_input(name: str, body: InputValue, session: SessionDep) -> dict[str, Any]:
     try:
         command = control.parse_command({"type": "set_input", "name": name, "value": body.value})
         result = await asyncio.to_thread(control.execute, session, command)
     except control.CommandError as exc:
-        raise api_error(422, "invalid_input", str(exc), field=name) from exc
+        raise DomainError(str(exc), code="invalid_input", field=name) from exc
     return {"name": name, "value": result[name]}
 
 
-@router.post("/commands", summary="Run a command (one typed union; see /api/schema/commands)")
+@router.post(
+    "/commands",
+    response_model=CommandAccepted,
+    summary="Run a command (one typed union; see /api/schema/commands)",
+)
 async def post_command(command: CommandDoc, hub: HubDep) -> dict[str, Any]:
     return await asyncio.to_thread(hub.run_command, command)
 
 
-@router.get("/commands/{cid}", summary="A command's status")
+@router.get("/commands/{cid}", response_model=CommandEntry, summary="A command's status")
 def get_command(cid: str, hub: HubDep) -> dict[str, Any]:
     entry = hub.commands.get(cid)
     if entry is None:
-        raise api_error(404, "unknown_command", f"no command with id '{cid}'")
+        raise DomainError(f"no command with id '{cid}'", code="unknown_command")
     return entry
 
 
-@router.delete("/commands/{cid}", summary="Cancel a long action")
+@router.delete("/commands/{cid}", response_model=CommandCancelled, summary="Cancel a long action")
 async def cancel_command(cid: str, hub: HubDep) -> dict[str, Any]:
     return await asyncio.to_thread(hub.cancel, cid)

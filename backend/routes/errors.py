@@ -1,4 +1,10 @@
-"""Errors in the contract's one shape, `{"detail": {"code", "message", "field"?, ...}}`, never a traceback."""
+"""Errors in the contract's one shape, `{"detail": {"code", "message", "field"?, ...}}`, never a traceback.
+
+The core raises `DomainError` (backend.errors) with a code; `http_status` is the one table from code to
+HTTP status, used by the app's handler here and for the Zenoh link's reply status
+(backend/zenoh_link/engine.py). Errors that only an HTTP request can have (a body's media type, its
+size, a proxied page) are raised here with their status (`api_error`).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +16,43 @@ from fastapi.responses import JSONResponse, Response
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from backend import security
+from backend.errors import DomainError
+
+# Codes answered with something other than 422 (the request is understood but refused).
+NOT_FOUND_CODES = frozenset(
+    {
+        "no_target",  # a command's target: the running program has nothing to carry it out
+        "unknown_command",  # a command id nobody sent
+        "no_program",
+        "unknown_node",
+        "unknown_block_type",
+        "not_found",  # a library asset
+        "no_urdf",
+        "no_visuals",
+        "no_previz",
+    }
+)
+CONFLICT_CODES = frozenset(
+    {
+        "busy",  # the target plays another command's action and the command said `reject`
+        "duplicate_id",  # the id of a command still running
+    }
+)
+
+
+def http_status(exc: DomainError) -> int:
+    """The HTTP status for a refused request: 404 when what it names is not there, 409 when it
+    conflicts with what runs now, else 422."""
+    if exc.code in NOT_FOUND_CODES:
+        return 404
+    return 409 if exc.code in CONFLICT_CODES else 422
+
+
+def error_detail(exc: DomainError, **extra: Any) -> dict[str, Any]:
+    """`exc`'s error object, its message safe to encode, with `extra` (e.g. a command's `id`) added."""
+    detail = {**exc.detail, **extra}
+    detail["message"] = security.safe_text(detail["message"])
+    return detail
 
 
 def api_error(status: int, code: str, message: str, **extra: Any) -> HTTPException:
@@ -60,6 +103,10 @@ def install_error_handlers(app: FastAPI) -> None:
             else {"code": str(exc.detail or "error").lower().replace(" ", "_"), "message": str(exc.detail)}
         )
         return SafeJSONResponse({"detail": detail}, status_code=exc.status_code, headers=exc.headers)
+
+    @app.exception_handler(DomainError)
+    async def refused(_: Request, exc: DomainError) -> Response:
+        return SafeJSONResponse({"detail": error_detail(exc)}, status_code=http_status(exc))
 
     @app.exception_handler(RequestValidationError)
     async def request_error(_: Request, exc: RequestValidationError) -> Response:

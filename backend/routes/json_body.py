@@ -59,7 +59,15 @@ class _ParsedRequest(Request):
 
 
 class SafeJsonRoute(APIRoute):
-    """An APIRoute whose JSON body (if it takes one) is read by `read_json` before FastAPI sees it."""
+    """An APIRoute whose JSON body (if it takes one) is read by `read_json` before FastAPI sees it.
+
+    Its answer is checked against its `response_model` (backend.api_types) and carries exactly the keys
+    the handler gave: a model's optional fields describe keys that may be there, they are never added
+    as nulls (handlers return plain JSON documents, so every key they set counts as set)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs["response_model_exclude_unset"] = True
+        super().__init__(*args, **kwargs)
 
     def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
         handler = super().get_route_handler()

@@ -8,14 +8,18 @@ from typing import Any
 from fastapi import APIRouter
 from fastapi.responses import PlainTextResponse, Response
 
-from backend.routes.errors import api_error
+from backend.api_types import RobotDescription
+from backend.engine.visual_scene import NoVisuals, scene_glb
+from backend.errors import DomainError
 from backend.routes.json_body import SafeJsonRoute
 from backend.routes.state import SessionDep
 
 router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["robot"])
 
 
-@router.get("/robot", summary="The robot's embodiment and kinematronics table")
+@router.get(
+    "/robot", response_model=RobotDescription, summary="The robot's embodiment and kinematronics table"
+)
 def robot(session: SessionDep) -> dict[str, Any]:
     return {**session.embodiment.to_dict(), "urdf": "/api/robot/urdf"}
 
@@ -23,7 +27,7 @@ def robot(session: SessionDep) -> dict[str, Any]:
 @router.get("/robot/urdf", response_class=PlainTextResponse, summary="The robot's URDF")
 def robot_urdf(session: SessionDep) -> str:
     if session.embodiment.urdf_path is None:
-        raise api_error(404, "no_urdf", "this robot has no URDF file")
+        raise DomainError("this robot has no URDF file", code="no_urdf")
     return session.embodiment.urdf_path.read_text()
 
 
@@ -31,13 +35,11 @@ def robot_urdf(session: SessionDep) -> str:
     "/robot/scene.glb",
     response_class=Response,
     summary="The robot's visual meshes (GLB, every joint at zero)",
-    responses={200: {"content": {"model/gltf-binary": {}}}},
+    responses={200: {"content": {"model/gltf-binary": {"schema": {"type": "string", "format": "binary"}}}}},
 )
 def robot_scene(session: SessionDep) -> Response:
-    from backend.engine.visual_scene import NoVisuals, scene_glb
-
     try:
         glb = scene_glb(session.embodiment)
     except NoVisuals as exc:
-        raise api_error(404, "no_visuals", str(exc)) from exc
+        raise DomainError(str(exc), code="no_visuals") from exc
     return Response(glb, media_type="model/gltf-binary")

@@ -8,20 +8,25 @@ Each handler races its send loop against the client's disconnect and the app's s
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 from typing import Any
 
-from fastapi import APIRouter, HTTPException, WebSocket
+import msgpack
+from fastapi import APIRouter, WebSocket
 
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
+from backend.errors import DomainError
 from backend.hub import Hub, put_drop_oldest
 from backend.routes.client_socket import ClientSocket
+from backend.routes.errors import error_detail
 from backend.routes.state import HubDep
 from backend.routes.telemetry import Subscription, SubscriptionError
 
 router = APIRouter()
 MAX_DECIMATE = 1000
+log = logging.getLogger(__name__)
 
 
 async def _open(ws: WebSocket, hub: Hub, kind: str) -> ClientSocket:
@@ -45,13 +50,11 @@ async def ws_control(ws: WebSocket, hub: HubDep) -> None:
         cid = data.get("id") if isinstance(data, dict) and isinstance(data.get("id"), str) else None
         try:
             ack = await asyncio.to_thread(hub.run_command, data)
-        except HTTPException as exc:
-            detail = (
-                exc.detail if isinstance(exc.detail, dict) else {"code": "error", "message": str(exc.detail)}
-            )
-            await sock.send({"type": "error", "id": cid, **detail})
+        except DomainError as exc:
+            await sock.send({"type": "error", "id": cid, **error_detail(exc)})
             return
         except Exception:  # a fault of the server, not of the message: say so, keep the socket
+            log.exception("/ws/control: command %r failed", cid)
             await sock.error("internal_error", "the server could not carry out this command", id=cid)
             return
         await sock.send({"type": "ack", **ack})
@@ -72,8 +75,7 @@ async def ws_telemetry(ws: WebSocket, hub: HubDep) -> None:
         try:
             sub.update(data)
         except SubscriptionError as exc:
-            extra = {"field": exc.field} if exc.field else {}
-            await sock.error("invalid_message", str(exc), **extra)
+            await sock.send({"type": "error", **error_detail(exc)})
             return
         await sock.send({"type": "subscribed", "signals": len(sub.signals), "rate": sub.rate})
 
@@ -105,7 +107,8 @@ async def _send_telemetry(sock: ClientSocket, hub: Hub, sub: Subscription) -> No
             continue
         try:
             last_seq, text = sub.text(hub.session, frame, (sub.rate, slot))
-        except Exception:
+        except Exception:  # one subscription's fault: the client subscribes again, the socket stays
+            log.exception("/ws/telemetry: building the message for %s failed", sub.signal_keys)
             await sock.error("internal_error", "telemetry for this subscription failed; subscribe again")
             sub.signals = []
             continue
@@ -148,12 +151,12 @@ async def ws_frames(ws: WebSocket, hub: HubDep) -> None:
 
 
 async def _send_frames(sock: ClientSocket, queue: asyncio.Queue, emb: Any, fmt: str) -> None:
-    import msgpack
-
     while True:
         frame: AnimationFrame = await queue.get()
         doc = frame.to_dict(emb)
         if fmt == "json":
             await sock.send(doc)
         else:
-            await sock.send_bytes(msgpack.packb(doc))
+            packed = msgpack.packb(doc)
+            if packed is not None:  # packb returns the bytes when it is given no stream
+                await sock.send_bytes(packed)

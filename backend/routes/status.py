@@ -5,10 +5,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, HTTPException, Request, WebSocket
+from fastapi import APIRouter, Request, WebSocket
 from fastapi.responses import RedirectResponse, Response
 
 from backend import security
+from backend.api_types import GhostSet, PrevizInfo, Profile, ServerStatus
+from backend.errors import DomainError
 from backend.hub import Hub
 from backend.routes.bodies import GhostToggle
 from backend.routes.errors import api_error
@@ -26,11 +28,15 @@ def _previz_urls(hub: Hub, request: Request) -> dict[str, Any]:
     return {"url": f"{base}/previz/", "direct": direct, "token_required": hub.token is not None}
 
 
-def _no_previz() -> HTTPException:
-    return api_error(404, "no_previz", "this server runs without a Pre-Viz")
+def _no_previz() -> DomainError:
+    return DomainError("this server runs without a Pre-Viz", code="no_previz")
 
 
-@router.get("/status", summary="Tick statistics, APU level, drivers with drop counts, clients")
+@router.get(
+    "/status",
+    response_model=ServerStatus,
+    summary="Tick statistics, APU level, drivers with drop counts, clients",
+)
 def status(request: Request, hub: HubDep) -> dict[str, Any]:
     session = hub.session
     stats = session.engine.stats()
@@ -48,26 +54,38 @@ def status(request: Request, hub: HubDep) -> dict[str, Any]:
     return stats
 
 
-@router.get("/profile", summary="Per-node cook times of the running program (µs, sampled ticks)")
+@router.get(
+    "/profile",
+    response_model=Profile,
+    summary="Per-node cook times of the running program (µs, sampled ticks)",
+)
 def profile(hub: HubDep) -> dict[str, Any]:
     return hub.session.engine.profile()
 
 
-@router.delete("/profile", summary="Start a new measurement window (cook times, tick cost, period, jitter)")
+@router.delete(
+    "/profile",
+    response_model=Profile,
+    summary="Start a new measurement window (cook times, tick cost, period, jitter)",
+)
 def reset_profile(hub: HubDep) -> dict[str, Any]:
     engine = hub.session.engine
     engine.call(engine.reset_stats)
     return engine.profile()
 
 
-@router.get("/previz", summary="Where the 3D Pre-Viz is served (the URL a client should open)")
+@router.get(
+    "/previz",
+    response_model=PrevizInfo,
+    summary="Where the 3D Pre-Viz is served (the URL a client should open)",
+)
 def previz_info(request: Request, hub: HubDep) -> dict[str, Any]:
     if hub.previz is None:
         return {"url": None, "direct": None, "token_required": hub.token is not None, "ghost": None}
     return {**_previz_urls(hub, request), "ghost": hub.previz.ghost_visible}
 
 
-@router.put("/previz/ghost", summary="Show or hide the ghost (stage-1 pose)")
+@router.put("/previz/ghost", response_model=GhostSet, summary="Show or hide the ghost (stage-1 pose)")
 async def previz_ghost(body: GhostToggle, hub: HubDep) -> dict[str, Any]:
     if hub.previz is None:
         raise _no_previz()
@@ -85,7 +103,7 @@ def previz_redirect(request: Request) -> Response:
 async def previz_page(path: str, request: Request, hub: HubDep) -> Response:
     if hub.previz is None:
         raise _no_previz()
-    from backend.previz import embed_page, fetch_page
+    from backend.previz import embed_page, fetch_page  # a server without a Pre-Viz never loads it
 
     # `?embed=1` (the editor's pane): the page without viser's control panel and notifications
     embed = path in ("", "index.html") and request.query_params.get("embed") not in (None, "", "0")
@@ -115,7 +133,7 @@ async def previz_socket(ws: WebSocket, hub: HubDep) -> None:
     if hub.previz is None:
         await ws.close(code=4404, reason="this server runs without a Pre-Viz")
         return
-    from backend.previz import relay_socket
+    from backend.previz import relay_socket  # a server without a Pre-Viz never loads it
 
     hub.clients["previz"] += 1
     try:

@@ -22,6 +22,7 @@ import numpy as np
 
 from backend import security
 from backend.engine.frames import AnimationFrame, PartialFrame
+from backend.errors import DomainError
 from backend.hub import jsonable
 
 TELEMETRY_MAX_HZ = 60.0
@@ -131,12 +132,11 @@ def frame_json(emb: Any, frame: AnimationFrame) -> dict[str, Any]:
     }
 
 
-class SubscriptionError(ValueError):
-    """A subscribe message that cannot be followed; `field` names the culprit."""
+class SubscriptionError(DomainError):
+    """A subscribe message that cannot be followed (`invalid_message`); `field` names the culprit."""
 
     def __init__(self, message: str, field: str | None = None):
-        super().__init__(message)
-        self.field = field
+        super().__init__(message, code="invalid_message", field=field)
 
 
 class Subscription:

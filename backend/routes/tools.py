@@ -13,6 +13,7 @@ from typing import Any, Literal
 
 from fastapi import APIRouter, Query
 
+from backend.api_types import ToolAnswer, Tools
 from backend.routes.bodies import ToolArguments
 from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
@@ -23,7 +24,11 @@ from backend.tools.call import call_tool
 router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["tools"])
 
 
-@router.get("/tools", summary="Tool definitions for AIs, generated from the commands and the running robot")
+@router.get(
+    "/tools",
+    response_model=Tools,
+    summary="Tool definitions for AIs, generated from the commands and the running robot",
+)
 async def get_tools(
     hub: HubDep,
     format: Literal["plain", "openai", "anthropic"] = Query(
@@ -36,7 +41,9 @@ async def get_tools(
     return render(toolset, format)
 
 
-@router.post("/tools/{name}", summary="Carry out one tool call (its arguments as the body)")
+@router.post(
+    "/tools/{name}", response_model=ToolAnswer, summary="Carry out one tool call (its arguments as the body)"
+)
 async def post_tool(name: str, arguments: ToolArguments, hub: HubDep) -> dict[str, Any]:
     try:
         return await call_tool(hub, name, arguments)

@@ -18,6 +18,7 @@ import struct
 from dataclasses import dataclass
 from typing import Any
 
+import msgpack
 import numpy as np
 
 from backend.engine.dofs import DofType
@@ -49,20 +50,19 @@ def decode_json(payload: bytes, max_bytes: int = MAX_MESSAGE) -> Any:
 
 
 def encode_frame(frame: AnimationFrame, embodiment: Embodiment) -> bytes:
-    import msgpack
-
-    return msgpack.packb(frame.to_dict(embodiment))
+    packed = msgpack.packb(frame.to_dict(embodiment))
+    if packed is None:  # only with a stream to write to, which is never given here
+        raise ValueError("msgpack returned no bytes")
+    return packed
 
 
 def decode_frame(payload: bytes) -> dict[str, Any]:
     """A frame document; ValueError when the message is not one (too large, not msgpack, not a map)."""
-    import msgpack
-
     if len(payload) > MAX_FRAME:
         raise ValueError(f"frame message over {MAX_FRAME} bytes")
     try:
         doc = msgpack.unpackb(payload, raw=False, strict_map_key=True)
-    except Exception as exc:  # msgpack raises several unrelated types for bad input
+    except (ValueError, TypeError, msgpack.UnpackException) as exc:  # msgpack's errors for bad input
         raise ValueError(f"not a msgpack frame: {type(exc).__name__}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("dofs"), dict):
         raise ValueError("not a frame: expected a map with 'dofs'")
@@ -127,7 +127,9 @@ class FrameDoc:
         if doc.get("embodiment") != emb.name:
             raise ValueError(f"frame of robot '{doc.get('embodiment')}', expected '{emb.name}'")
         seq, t, dt = doc.get("seq"), doc.get("t"), doc.get("dt")
-        if not isinstance(seq, int) or not all(isinstance(x, (int, float)) for x in (t, dt)) or not dt > 0:
+        if not isinstance(seq, int) or not isinstance(t, (int, float)) or not isinstance(dt, (int, float)):
+            raise ValueError("frame without a valid seq, t and dt")
+        if not dt > 0:
             raise ValueError("frame without a valid seq, t and dt")
         pos = np.array(base, dtype=float)
         dofs = doc["dofs"]

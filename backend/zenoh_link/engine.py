@@ -13,6 +13,8 @@ declares the robot's keys (backend/zenoh_link/keys.py) around the server's `Hub`
 - every event the Hub broadcasts to /ws/control clients is published on `events`;
 - a liveliness token on `alive`, declared last and withdrawn first, tells others the engine is there.
 
+A refused command (the core's `DomainError`) is answered with the HTTP status REST would have used
+(`backend.routes.errors.http_status`, the one table from error code to status) and its error object.
 While the server shuts down (`closing` set) commands are refused with `shutting_down`, as the HTTP
 API refuses them; the frames of the park still go out, so a bridge follows the robot to rest.
 Who may publish commands is Zenoh's business: access control and TLS in the Zenoh configuration
@@ -21,7 +23,7 @@ Who may publish commands is Zenoh's business: access control and TLS in the Zeno
 
 from __future__ import annotations
 
-import contextlib
+import logging
 import queue
 import secrets
 import threading
@@ -30,6 +32,10 @@ from typing import Any
 
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
+from backend.errors import DomainError
+from backend.routes.errors import error_detail, http_status
+from backend.routes.program import get_program
+from backend.routes.robot import robot
 from backend.safe_json import JsonSafetyError
 from backend.zenoh_link import keys
 from backend.zenoh_link.codec import (
@@ -45,9 +51,10 @@ from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, settle
 STATUS_PERIOD = 1.0  # s between status publications
 COMMAND_QUEUE = 64  # commands waiting for the worker; more are refused with `busy`
 SHUTTING_DOWN = "the server is shutting down: the robot is going to rest"
+log = logging.getLogger(__name__)
 
 
-class FramePublisher(Sink):
+class FramePublisher(Sink[Any]):  # offered frames, queued as (frame, stamp) pairs
     """Every frame on `nutty/<id>/frames` (msgpack, as /ws/frames), with its emission time attached.
 
     The time is taken when the engine offers the frame (in the tick), so a receiver's latency counts
@@ -59,10 +66,10 @@ class FramePublisher(Sink):
         super().__init__("zenoh-frames", max_queue=max_queue)
 
     def offer(self, frame: AnimationFrame) -> None:
-        super().offer((frame, time.time()))  # type: ignore[arg-type]  # the queue holds (frame, stamp)
+        super().offer((frame, time.time()))  # the queue holds (frame, wall time when offered) pairs
 
-    def consume(self, item: Any) -> None:
-        frame, sent = item
+    def consume(self, frame: Any) -> None:
+        frame, sent = frame
         self.publisher.put(encode_frame(frame, self.emb), attachment=stamp(sent, self.session))
 
 
@@ -136,7 +143,7 @@ class EngineLink:
 
     def start(self, hub: Any, closing: threading.Event | None = None) -> EngineLink:
         """Declare everything around the server's Hub; the liveliness token last."""
-        import zenoh
+        import zenoh  # Zenoh's native library loads only when an engine goes on Zenoh
 
         self.hub, self.closing = hub, closing
         s, k = self.session, self.key
@@ -207,13 +214,12 @@ class EngineLink:
             try:
                 reply = self.run(payload)
             except Exception:  # never let one message stop the worker
+                log.exception("Zenoh command worker: a message failed")
                 reply = error_reply(500, "internal_error", "the server could not handle this message")
             self._answer(query, reply)
 
     def run(self, payload: bytes) -> dict[str, Any]:
         """Carry out one command message; the ack or error answer (the /ws/control shapes)."""
-        from fastapi import HTTPException
-
         self.counts["commands"] += 1
         if self.closing is not None and self.closing.is_set():
             return self._failed(error_reply(503, "shutting_down", SHUTTING_DOWN))
@@ -225,12 +231,10 @@ class EngineLink:
         cid = data.get("id") if isinstance(data, dict) and isinstance(data.get("id"), str) else None
         try:
             ack = self.hub.run_command(data)
-        except HTTPException as exc:
-            detail = (
-                exc.detail if isinstance(exc.detail, dict) else {"code": "error", "message": str(exc.detail)}
-            )
-            return self._failed(error_reply(exc.status_code, **{"id": cid, **detail}))
-        except Exception:
+        except DomainError as exc:
+            return self._failed(error_reply(http_status(exc), **error_detail(exc, id=cid)))
+        except Exception:  # a fault of the server, not of the message: say so, keep the worker
+            log.exception("Zenoh command %r failed", cid)
             return self._failed(
                 error_reply(500, "internal_error", "the server could not carry out this command", id=cid)
             )
@@ -248,32 +252,29 @@ class EngineLink:
                 query.drop()
             elif self._events is not None:
                 self._events.offer(reply)
-        except Exception:  # the asker left, or the session is closing
-            pass
+        except Exception:  # the asker left, or the session is closing: nobody to tell
+            log.debug("Zenoh: answering a command failed", exc_info=True)
 
     # --- reads ------------------------------------------------------------------------------------
     def _on_read_query(self, query: Any, leaf: str) -> None:
         self.counts["queries"] += 1
         try:
             reply = self.read(leaf)
-        except Exception as exc:
+        except Exception as exc:  # the asker gets an error answer; the queryable stays
+            log.exception("Zenoh: reading %s failed", leaf)
             reply = error_reply(500, "internal_error", f"cannot read {leaf}: {type(exc).__name__}")
         try:
             query.reply(self.key[leaf], encode_json(reply))
             query.drop()  # the asker's get ends now, not when Python collects the query
-        except Exception:
-            pass
+        except Exception:  # the asker left, or the session is closing: nobody to tell
+            log.debug("Zenoh: answering a query on %s failed", leaf, exc_info=True)
 
     def read(self, leaf: str) -> Any:
         """The answer to a query on `robot`, `program` or `status` (as GET /api/<leaf> answers)."""
         session = self.hub.session
         if leaf == keys.ROBOT:
-            from backend.routes.robot import robot
-
             return robot(session)
         if leaf == keys.PROGRAM:
-            from backend.routes.program import get_program
-
             return get_program(session)
         if leaf == keys.STATUS:
             return self.status()
@@ -299,8 +300,8 @@ class EngineLink:
         while not self._stop.wait(self.status_period):
             try:
                 self._status_pub.put(encode_json(self.status()))
-            except Exception:  # the session is closing
-                pass
+            except Exception:  # the session may be closing; the next period tries again
+                log.debug("Zenoh: publishing the status failed", exc_info=True)
 
     # --- leaving ----------------------------------------------------------------------------------
     def close(self) -> None:
@@ -309,8 +310,10 @@ class EngineLink:
             return
         self._closed = True
         for step in (self._withdraw, self._stop_threads, self._detach):
-            with contextlib.suppress(Exception):
+            try:
                 step()
+            except Exception:  # each step is tried: a failed one must not keep the session open
+                log.warning("Zenoh link: %s failed while closing", step.__name__, exc_info=True)
         self.session.close()
 
     def _withdraw(self) -> None:

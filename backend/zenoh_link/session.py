@@ -141,7 +141,7 @@ class ZenohOptions:
         """The config file's own settings (JSON5), to tell what it asks for from Zenoh's defaults."""
         if self.config_file is None:
             return {}
-        import json5
+        import json5  # only a config file needs it
 
         try:
             doc = json5.loads(Path(self.config_file).read_text())
@@ -178,7 +178,7 @@ class ZenohOptions:
 
     def config(self):
         """The zenoh.Config these options describe; ZenohSetupError when the file or a value is wrong."""
-        import zenoh
+        import zenoh  # Zenoh's native library loads only when Zenoh is used
 
         if self.mode is not None and self.mode not in MODES:
             raise ZenohSetupError(f"--zenoh-mode must be one of {', '.join(MODES)}, got '{self.mode}'")
@@ -236,7 +236,7 @@ class ZenohOptions:
 
     def open(self):
         """An open zenoh.Session (close it!); ZenohSetupError when Zenoh refuses, e.g. nothing to connect to."""
-        import zenoh
+        import zenoh  # Zenoh's native library loads only when Zenoh is used
 
         zenoh.init_log_from_env_or("error")  # Zenoh's own warnings only with RUST_LOG set
         cfg = self.config()

@@ -24,6 +24,13 @@ export type Role = "source" | "operator" | "mixer" | "stage2" | "output" | "sign
  */
 export type ControlMessage = CommandAck | CommandEvent | SocketError;
 /**
+ * GET /api/schema/program and /api/schema/commands: a JSON Schema (draft 2020-12).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "JsonSchemaDocument".
+ */
+export type JsonSchemaDocument = JsonSchema;
+/**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
  * via the `definition` "Dimension".
  */
@@ -33,6 +40,13 @@ export type Dimension = "stationary" | "spatial" | "display" | "audible";
  * via the `definition` "DofType".
  */
 export type DofType = "continuous" | "enum" | "colour" | "event";
+/**
+ * GET /api/programs/{name}: a program document (nutty-program/1, see /api/schema/program).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "StoredProgram".
+ */
+export type StoredProgram = Program;
 /**
  * What /ws/telemetry sends.
  *
@@ -45,21 +59,40 @@ export type TelemetryMessage = Telemetry | Subscribed | SocketError;
  * via the `definition` "BlendMode".
  */
 export type BlendMode = "override" | "additive" | "average";
+/**
+ * POST /api/tools/{name}.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ToolAnswer".
+ */
+export type ToolAnswer = ToolCalled | RobotStatusAnswer;
+/**
+ * GET /api/tools: the tools in the dialect asked for.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "Tools".
+ */
+export type Tools = ToolSet | OpenAITool[] | AnthropicTool[];
 
 /**
- * Shapes of the Nutty API the editor reads (backend/api_types.py).
+ * Shapes of the Nutty API the editor reads (backend/api_types).
  */
 export interface NuttyApi {
   BlockEntry?: BlockEntry;
   BlockPorts?: BlockPorts;
   CommandAccepted?: CommandAccepted;
+  CommandCancelled?: CommandCancelled;
+  CommandEntry?: CommandEntry;
   ControlMessage?: ControlMessage;
+  Deleted?: Deleted;
   EditorRules?: EditorRules;
   ErrorBody?: ErrorBody;
   ExposedInputs?: ExposedInputs;
+  FilteredTracks?: FilteredTracks;
   GhostSet?: GhostSet;
   InputSet?: InputSet;
   Issue?: Issue;
+  JsonSchemaDocument?: JsonSchemaDocument;
   ParamsApplied?: ParamsApplied;
   PrevizInfo?: PrevizInfo;
   Profile?: Profile;
@@ -67,8 +100,16 @@ export interface NuttyApi {
   RobotDescription?: RobotDescription;
   RunningProgram?: RunningProgram;
   Saved?: Saved;
+  ServerStatus?: ServerStatus;
+  StoredClip?: StoredClip;
+  StoredPosture?: StoredPosture;
+  StoredProgram?: StoredProgram;
+  StoredSubgraph?: StoredSubgraph;
   TelemetryMessage?: TelemetryMessage;
   TelemetrySubscribe?: TelemetrySubscribe;
+  ToolAnswer?: ToolAnswer;
+  Tools?: Tools;
+  TrackAnalysis?: TrackAnalysis;
   ValidationReport?: ValidationReport;
 }
 /**
@@ -160,7 +201,39 @@ export interface BlockPorts {
 export interface CommandAccepted {
   id: string;
   result: unknown;
-  status: "accepted" | "started" | "completed" | "cancelled" | "failed";
+  status: "accepted" | "queued" | "started" | "completed" | "cancelled" | "failed";
+}
+/**
+ * DELETE /api/commands/{id}: the command's status after the cancel (a finished one keeps its own).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "CommandCancelled".
+ */
+export interface CommandCancelled {
+  id: string;
+  status: "accepted" | "queued" | "started" | "completed" | "cancelled" | "failed";
+}
+/**
+ * GET /api/commands/{id}: a command of the log.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "CommandEntry".
+ */
+export interface CommandEntry {
+  /**
+   * when it was accepted (Unix time, s)
+   */
+  created: number;
+  id: string;
+  /**
+   * what carrying it out returned; the error message if it failed
+   */
+  result: unknown;
+  status: "accepted" | "queued" | "started" | "completed" | "cancelled" | "failed";
+  /**
+   * the command's type, e.g. play_clip
+   */
+  type: string;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -169,7 +242,7 @@ export interface CommandAccepted {
 export interface CommandAck {
   id: string;
   result: unknown;
-  status: "accepted" | "started" | "completed" | "cancelled" | "failed";
+  status: "accepted" | "queued" | "started" | "completed" | "cancelled" | "failed";
   type: "ack";
 }
 /**
@@ -197,6 +270,15 @@ export interface SocketError {
   message: string;
   type: "error";
   [k: string]: unknown;
+}
+/**
+ * DELETE /api/programs/{name} (and clips, postures, subgraphs).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "Deleted".
+ */
+export interface Deleted {
+  deleted: string;
 }
 /**
  * generated/rules.json: the wiring rule and the palette's categories in order.
@@ -284,6 +366,34 @@ export interface ExposedInputs {
   declarations: ExposedInput[];
   values: {
     [k: string]: unknown;
+  };
+}
+/**
+ * POST /api/filter: posted tracks through the stage-2 motion filter.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "FilteredTracks".
+ */
+export interface FilteredTracks {
+  /**
+   * the filter's parameters (nmf_stage2's)
+   */
+  params: {
+    [k: string]: unknown;
+  };
+  /**
+   * the preset used (W, A, ..., E), or `program` for its own filter
+   */
+  preset: string;
+  /**
+   * samples per second (Hz)
+   */
+  rate: number;
+  /**
+   * DoF name -> filtered values (rad or m)
+   */
+  tracks: {
+    [k: string]: number[];
   };
 }
 /**
@@ -517,13 +627,197 @@ export interface RunningProgram {
   report: ValidationReport | null;
 }
 /**
- * PUT /api/programs/{name} (and clips, postures).
+ * PUT /api/programs/{name} (and clips, postures, subgraphs).
  *
  * This interface was referenced by `NuttyApi`'s JSON-Schema
  * via the `definition` "Saved".
  */
 export interface Saved {
   saved: string;
+  /**
+   * a valid posture or clip whose DoFs add up past a joint's range (only when some)
+   */
+  warnings?: string[];
+}
+/**
+ * GET /api/status: the engine's statistics (tick, APU level, safety net, sinks with drop counts),
+ * the clients and the Pre-Viz. Open: the engine's statistics are a diagnostic document that grows;
+ * the figures named here are the ones clients read.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ServerStatus".
+ */
+export interface ServerStatus {
+  clients: ClientCounts;
+  clock_priority: ClockPriority | null;
+  jitter: TimingSummary;
+  /**
+   * the running program's APU level (null: none runs)
+   */
+  level: number | null;
+  lost_ticks: number;
+  max_level: number;
+  overruns: number;
+  period: TimingSummary;
+  previz: PrevizStatus | null;
+  /**
+   * the running program's name
+   */
+  program: string | null;
+  /**
+   * ticks per second (Hz)
+   */
+  rate: number;
+  running: boolean;
+  safety: SafetyStats;
+  sinks: SinkStats[];
+  /**
+   * when the clock started (Unix time, s)
+   */
+  started_at: number | null;
+  swaps: number;
+  /**
+   * engine time (s)
+   */
+  t: number;
+  tick_cost: TimingSummary;
+  tick_cpu: TimingSummary;
+  ticks: number;
+  [k: string]: unknown;
+}
+/**
+ * Connected clients per socket.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ClientCounts".
+ */
+export interface ClientCounts {
+  control: number;
+  frames: number;
+  previz: number;
+  telemetry: number;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ClockPriority".
+ */
+export interface ClockPriority {
+  /**
+   * the clock thread's nice value (null: unchanged)
+   */
+  nice: number | null;
+  /**
+   * its SCHED_FIFO priority (null: not real-time)
+   */
+  realtime: number | null;
+  /**
+   * the interpreter's switch interval while the clock runs
+   */
+  switch_interval_ms: number;
+}
+/**
+ * Figures of a duration over the engine's recent ticks, in ms.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TimingSummary".
+ */
+export interface TimingSummary {
+  max_ms: number;
+  p50_ms: number;
+  p99_ms: number;
+  samples: number;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PrevizStatus".
+ */
+export interface PrevizStatus {
+  direct: string | null;
+  frames_shown: number;
+  ghost: boolean;
+  token_required: boolean;
+  url: string;
+}
+/**
+ * The engine's safety net: how often it corrected the program's output, and where. Open: the net
+ * may report more figures than these.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "SafetyStats".
+ */
+export interface SafetyStats {
+  corrected_ticks: number;
+  /**
+   * channels corrected on the last tick
+   */
+  correcting: string[];
+  /**
+   * channel -> ticks corrected
+   */
+  corrections: {
+    [k: string]: number;
+  };
+  enabled: boolean;
+  /**
+   * URDF joint -> ticks corrected
+   */
+  joint_corrections: {
+    [k: string]: number;
+  };
+  /**
+   * joints corrected on the last tick
+   */
+  joints_correcting: string[];
+  /**
+   * joints whose limits the net keeps
+   */
+  joints_governed: string[];
+  [k: string]: unknown;
+}
+/**
+ * One frame consumer of the engine (a driver, a socket, the Pre-Viz). Open: a driver adds its own
+ * figures (e.g. a simulated servo's tracking error).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "SinkStats".
+ */
+export interface SinkStats {
+  decimate: number;
+  delivered: number;
+  dropped: number;
+  errors: number;
+  last_error: string | null;
+  name: string;
+  offered: number;
+  [k: string]: unknown;
+}
+/**
+ * GET /api/clips/{name}: a keyframed clip (nutty-clip/1).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "StoredClip".
+ */
+export interface StoredClip {
+  [k: string]: unknown;
+}
+/**
+ * GET /api/postures/{name}: a posture (nutty-posture/1: name, values by DoF, `builtin` for the
+ * postures embodiment.yaml declares).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "StoredPosture".
+ */
+export interface StoredPosture {
+  [k: string]: unknown;
+}
+/**
+ * GET /api/subgraphs/{name}: a subgraph definition (nodes, edges, exposed ports).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "StoredSubgraph".
+ */
+export interface StoredSubgraph {
+  [k: string]: unknown;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -604,4 +898,222 @@ export interface TelemetrySubscribe {
 export interface SignalRef {
   node: string;
   port: string;
+}
+/**
+ * POST /api/tools/{name} for a tool that sends a command.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ToolCalled".
+ */
+export interface ToolCalled {
+  /**
+   * the command's type
+   */
+  command: string;
+  /**
+   * the command's id (GET /api/commands/{id})
+   */
+  id: string;
+  result: unknown;
+  status: "accepted" | "queued" | "started" | "completed" | "cancelled" | "failed";
+  timed_out: boolean;
+  tool: string;
+  /**
+   * the answer came when the action had ended (or timed out)
+   */
+  waited: boolean;
+}
+/**
+ * POST /api/tools/get_status: what the robot is doing (layers, clips, postures, gaze, mood,
+ * inputs, health). Open: the status document is written for a model to read, and grows with what
+ * the robot can do; `command` is the log entry of the command asked about.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "RobotStatusAnswer".
+ */
+export interface RobotStatusAnswer {
+  command: CommandEntry | null;
+  timed_out: boolean;
+  tool: "get_status";
+  [k: string]: unknown;
+}
+/**
+ * GET /api/tools (format=plain): the tools of the running robot and program (nutty-tools/1).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ToolSet".
+ */
+export interface ToolSet {
+  format: "nutty-tools/1";
+  library: ToolLibrary;
+  program: string | null;
+  /**
+   * changes exactly when a tool, an argument or a choice does
+   */
+  revision: string;
+  robot: string;
+  tools: ToolDefinition[];
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ToolLibrary".
+ */
+export interface ToolLibrary {
+  clips: ClipChoice[];
+  postures: PostureChoice[];
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ClipChoice".
+ */
+export interface ClipChoice {
+  description: string;
+  /**
+   * the clip's length (s)
+   */
+  duration: number | null;
+  name: string;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PostureChoice".
+ */
+export interface PostureChoice {
+  description: string;
+  name: string;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ToolDefinition".
+ */
+export interface ToolDefinition {
+  /**
+   * the command the tool sends (null: it only reads)
+   */
+  command: string | null;
+  description: string;
+  long_action: boolean;
+  name: string;
+  /**
+   * JSON Schema of the arguments (type: object)
+   */
+  parameters: {
+    [k: string]: unknown;
+  };
+}
+/**
+ * One tool of GET /api/tools?format=openai (Chat Completions `tools`).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "OpenAITool".
+ */
+export interface OpenAITool {
+  function: OpenAIFunction;
+  type: "function";
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "OpenAIFunction".
+ */
+export interface OpenAIFunction {
+  description: string;
+  name: string;
+  parameters: {
+    [k: string]: unknown;
+  };
+}
+/**
+ * One tool of GET /api/tools?format=anthropic (Messages API `tools`).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "AnthropicTool".
+ */
+export interface AnthropicTool {
+  description: string;
+  input_schema: {
+    [k: string]: unknown;
+  };
+  name: string;
+}
+/**
+ * POST /api/analyze: where posted tracks break the robot's limits.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TrackAnalysis".
+ */
+export interface TrackAnalysis {
+  /**
+   * class -> the editor's colour (#rrggbb)
+   */
+  colours: {
+    [k: string]: string;
+  };
+  dofs: {
+    [k: string]: TrackSummary;
+  };
+  /**
+   * no sample breaks a limit
+   */
+  ok: boolean;
+  /**
+   * by first sample, then DoF
+   */
+  ranges: LimitRange[];
+  /**
+   * samples per second (Hz)
+   */
+  rate: number;
+  samples: number;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TrackSummary".
+ */
+export interface TrackSummary {
+  /**
+   * class (ok, velocity, ...) -> samples
+   */
+  counts: {
+    [k: string]: number;
+  };
+  limits: TrackLimits;
+  max_acceleration: number;
+  max_jerk: number;
+  max_velocity: number;
+}
+/**
+ * A DoF's limits: position (rad or m), velocity (/s), acceleration (/s²), jerk (/s³).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TrackLimits".
+ */
+export interface TrackLimits {
+  acceleration: number;
+  jerk: number;
+  max: number;
+  min: number;
+  velocity: number;
+}
+/**
+ * A run of samples of one DoF over one limit.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "LimitRange".
+ */
+export interface LimitRange {
+  dof: string;
+  /**
+   * last sample of the run (inclusive)
+   */
+  end: number;
+  kind: "velocity" | "acceleration" | "jerk" | "position";
+  /**
+   * first sample of the run
+   */
+  start: number;
+  /**
+   * the worst sample's value over the limit
+   */
+  worst_ratio: number;
+  worst_sample: number;
 }

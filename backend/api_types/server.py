@@ -1,0 +1,241 @@
+"""Answers about the server and for other clients than the editor: status, the trajectory-helper and
+the ghost (DCC tools), and the tools for AIs."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field, RootModel
+
+from backend.api_types.base import OpenShape, Shape
+from backend.api_types.editor import CommandEntry, CommandStatus
+
+# --- how the server is doing ---------------------------------------------------------------------------
+
+
+class TimingSummary(Shape):
+    """Figures of a duration over the engine's recent ticks, in ms."""
+
+    p50_ms: float
+    p99_ms: float
+    max_ms: float
+    samples: int
+
+
+class ClockPriority(Shape):
+    switch_interval_ms: float = Field(
+        ..., description="the interpreter's switch interval while the clock runs"
+    )
+    nice: int | None = Field(..., description="the clock thread's nice value (null: unchanged)")
+    realtime: int | None = Field(..., description="its SCHED_FIFO priority (null: not real-time)")
+
+
+class SafetyStats(OpenShape):
+    """The engine's safety net: how often it corrected the program's output, and where. Open: the net
+    may report more figures than these."""
+
+    enabled: bool
+    corrected_ticks: int
+    corrections: dict[str, int] = Field(..., description="channel -> ticks corrected")
+    correcting: list[str] = Field(..., description="channels corrected on the last tick")
+    joint_corrections: dict[str, int] = Field(..., description="URDF joint -> ticks corrected")
+    joints_correcting: list[str] = Field(..., description="joints corrected on the last tick")
+    joints_governed: list[str] = Field(..., description="joints whose limits the net keeps")
+
+
+class SinkStats(OpenShape):
+    """One frame consumer of the engine (a driver, a socket, the Pre-Viz). Open: a driver adds its own
+    figures (e.g. a simulated servo's tracking error)."""
+
+    name: str
+    offered: int
+    delivered: int
+    dropped: int
+    errors: int
+    last_error: str | None
+    decimate: int
+
+
+class ClientCounts(Shape):
+    """Connected clients per socket."""
+
+    control: int
+    telemetry: int
+    frames: int
+    previz: int
+
+
+class PrevizStatus(Shape):
+    url: str
+    direct: str | None
+    token_required: bool
+    frames_shown: int
+    ghost: bool
+
+
+class ServerStatus(OpenShape):
+    """GET /api/status: the engine's statistics (tick, APU level, safety net, sinks with drop counts),
+    the clients and the Pre-Viz. Open: the engine's statistics are a diagnostic document that grows;
+    the figures named here are the ones clients read."""
+
+    rate: float = Field(..., description="ticks per second (Hz)")
+    ticks: int
+    t: float = Field(..., description="engine time (s)")
+    level: int | None = Field(..., description="the running program's APU level (null: none runs)")
+    max_level: int
+    running: bool
+    overruns: int
+    lost_ticks: int
+    swaps: int
+    safety: SafetyStats
+    tick_cost: TimingSummary
+    tick_cpu: TimingSummary
+    period: TimingSummary
+    jitter: TimingSummary
+    started_at: float | None = Field(..., description="when the clock started (Unix time, s)")
+    clock_priority: ClockPriority | None
+    sinks: list[SinkStats]
+    clients: ClientCounts
+    program: str | None = Field(..., description="the running program's name")
+    previz: PrevizStatus | None
+
+
+# --- the trajectory-helper and the ghost -----------------------------------------------------------------
+
+
+class LimitRange(Shape):
+    """A run of samples of one DoF over one limit."""
+
+    dof: str
+    kind: Literal["velocity", "acceleration", "jerk", "position"]
+    start: int = Field(..., description="first sample of the run")
+    end: int = Field(..., description="last sample of the run (inclusive)")
+    worst_ratio: float = Field(..., description="the worst sample's value over the limit")
+    worst_sample: int
+
+
+class TrackLimits(Shape):
+    """A DoF's limits: position (rad or m), velocity (/s), acceleration (/s²), jerk (/s³)."""
+
+    min: float
+    max: float
+    velocity: float
+    acceleration: float
+    jerk: float
+
+
+class TrackSummary(Shape):
+    max_velocity: float
+    max_acceleration: float
+    max_jerk: float
+    counts: dict[str, int] = Field(..., description="class (ok, velocity, ...) -> samples")
+    limits: TrackLimits
+
+
+class TrackAnalysis(Shape):
+    """POST /api/analyze: where posted tracks break the robot's limits."""
+
+    rate: float = Field(..., description="samples per second (Hz)")
+    samples: int
+    ok: bool = Field(..., description="no sample breaks a limit")
+    ranges: list[LimitRange] = Field(..., description="by first sample, then DoF")
+    dofs: dict[str, TrackSummary]
+    colours: dict[str, str] = Field(..., description="class -> the editor's colour (#rrggbb)")
+
+
+class FilteredTracks(Shape):
+    """POST /api/filter: posted tracks through the stage-2 motion filter."""
+
+    rate: float = Field(..., description="samples per second (Hz)")
+    preset: str = Field(..., description="the preset used (W, A, ..., E), or `program` for its own filter")
+    params: dict[str, Any] = Field(..., description="the filter's parameters (nmf_stage2's)")
+    tracks: dict[str, list[float]] = Field(..., description="DoF name -> filtered values (rad or m)")
+
+
+# --- tools for AIs -------------------------------------------------------------------------------------
+
+
+class ToolDefinition(Shape):
+    name: str
+    description: str
+    parameters: dict[str, Any] = Field(..., description="JSON Schema of the arguments (type: object)")
+    command: str | None = Field(..., description="the command the tool sends (null: it only reads)")
+    long_action: bool
+
+
+class ClipChoice(Shape):
+    name: str
+    description: str
+    duration: float | None = Field(..., description="the clip's length (s)")
+
+
+class PostureChoice(Shape):
+    name: str
+    description: str
+
+
+class ToolLibrary(Shape):
+    clips: list[ClipChoice]
+    postures: list[PostureChoice]
+
+
+class ToolSet(Shape):
+    """GET /api/tools (format=plain): the tools of the running robot and program (nutty-tools/1)."""
+
+    format: Literal["nutty-tools/1"]
+    robot: str
+    program: str | None
+    revision: str = Field(..., description="changes exactly when a tool, an argument or a choice does")
+    tools: list[ToolDefinition]
+    library: ToolLibrary
+
+
+class OpenAIFunction(Shape):
+    name: str
+    description: str
+    parameters: dict[str, Any]
+
+
+class OpenAITool(Shape):
+    """One tool of GET /api/tools?format=openai (Chat Completions `tools`)."""
+
+    type: Literal["function"]
+    function: OpenAIFunction
+
+
+class AnthropicTool(Shape):
+    """One tool of GET /api/tools?format=anthropic (Messages API `tools`)."""
+
+    name: str
+    description: str
+    input_schema: dict[str, Any]
+
+
+class Tools(RootModel[ToolSet | list[OpenAITool] | list[AnthropicTool]]):
+    """GET /api/tools: the tools in the dialect asked for."""
+
+
+class ToolCalled(Shape):
+    """POST /api/tools/{name} for a tool that sends a command."""
+
+    tool: str
+    command: str = Field(..., description="the command's type")
+    id: str = Field(..., description="the command's id (GET /api/commands/{id})")
+    status: CommandStatus
+    result: Any
+    waited: bool = Field(..., description="the answer came when the action had ended (or timed out)")
+    timed_out: bool
+
+
+class RobotStatusAnswer(OpenShape):
+    """POST /api/tools/get_status: what the robot is doing (layers, clips, postures, gaze, mood,
+    inputs, health). Open: the status document is written for a model to read, and grows with what
+    the robot can do; `command` is the log entry of the command asked about."""
+
+    tool: Literal["get_status"]
+    command: CommandEntry | None
+    timed_out: bool
+
+
+class ToolAnswer(RootModel[ToolCalled | RobotStatusAnswer]):
+    """POST /api/tools/{name}."""

@@ -1,0 +1,128 @@
+"""What the WebSockets send and take: telemetry (with the cook-time profile, also GET /api/profile)
+and /ws/control's acks, events and errors."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, RootModel
+
+from backend.api_types.base import OpenShape, Shape
+from backend.api_types.editor import CommandStatus
+from backend.engine.blend import BlendMode
+
+# --- WebSockets --------------------------------------------------------------------------------------
+
+
+class SignalRef(Shape):
+    node: str
+    port: str
+
+
+class TelemetrySubscribe(Shape):
+    """Sent to /ws/telemetry."""
+
+    type: Literal["subscribe"]
+    signals: list[SignalRef]
+    frames: bool
+    rate: float = Field(..., gt=0, le=60)
+
+
+class Subscribed(Shape):
+    type: Literal["subscribed"]
+    signals: int
+    rate: float
+
+
+class LayerState(Shape):
+    name: str
+    mode: BlendMode
+    weight: float
+    fade: float
+    effective: float
+    active: bool
+
+
+class CookTime(Shape):
+    """Cook time of one node (or of the whole APU tick) over the profile's window, in µs."""
+
+    mean_us: float
+    p50_us: float
+    p99_us: float
+    max_us: float
+
+
+class NodeCookTime(CookTime):
+    node: str
+    type: str
+    share: float = Field(..., description="this node's part of the mean APU tick (0..1)")
+
+
+class Profile(Shape):
+    """GET /api/profile (and `profile` in /ws/telemetry messages, about once a second): how long each
+    node of the running program takes per tick. One tick in `every` is timed; `samples` timed ticks
+    (at most `window`) are summarised. Nodes come in tick order."""
+
+    every: int
+    window: int
+    samples: int
+    apu: CookTime
+    nodes: list[NodeCookTime]
+
+
+class TelemetryFrame(Shape):
+    position: dict[str, float]
+    stage1: dict[str, float]
+    classes: dict[str, int] = Field(
+        ..., description="channel -> 1 velocity, 2 acceleration, 3 jerk (ok omitted)"
+    )
+    corrected: list[str]
+
+
+class Telemetry(Shape):
+    type: Literal["telemetry"]
+    t: float
+    seq: int
+    signals: dict[str, Any] | None = Field(
+        default=None, description="'node.port' -> value (frames as {mask, values})"
+    )
+    frame: TelemetryFrame | None = None
+    layers: dict[str, list[LayerState]] | None = None
+    profile: Profile | None = None
+
+
+class SocketError(OpenShape):
+    type: Literal["error"]
+    code: str
+    message: str
+    field: str | None = None
+    id: str | None = None
+
+
+class CommandAck(Shape):
+    type: Literal["ack"]
+    id: str
+    status: CommandStatus
+    result: Any
+
+
+class CommandEvent(OpenShape):
+    """A command's or a block's event; details (node, clip, text, …) vary with the block."""
+
+    type: Literal["event"]
+    event: str
+    id: str | None
+    command: str | None = None
+    node: str | None = None
+
+
+class TelemetryMessage(
+    RootModel[Annotated[Telemetry | Subscribed | SocketError, Field(discriminator="type")]]
+):
+    """What /ws/telemetry sends."""
+
+
+class ControlMessage(
+    RootModel[Annotated[CommandAck | CommandEvent | SocketError, Field(discriminator="type")]]
+):
+    """What /ws/control sends."""
