@@ -32,7 +32,7 @@ arrival (ms), and the longest silence.
 
 from __future__ import annotations
 
-import sys
+import logging
 import threading
 import time
 from collections.abc import Callable
@@ -54,6 +54,8 @@ MIN_GAP = 0.95
 GRACE = 0.005
 WAITING, LIVE, RESTING, AT_REST = "waiting", "live", "resting", "at rest"
 
+logger = logging.getLogger(__name__)
+
 
 class FrameRelay:
     """Engine frames in, limited frames out to `sinks` (see the module doc).
@@ -61,7 +63,8 @@ class FrameRelay:
     emb: the robot (from local files); rate: the engine's tick rate (Hz, 30..1000), which the net and the
     relay's clock run at; timeout: seconds of silence before resting (MIN_TIMEOUT..MAX_TIMEOUT, at least
     two ticks). `clock` (monotonic s) and `wall` (Unix s, compared with the engine's stamps) can be
-    replaced in tests.
+    replaced in tests. `log`: a callable given each message the relay has to say; by default they go
+    to this module's logger (INFO, or WARNING for refused frames and timeouts).
     """
 
     def __init__(
@@ -84,7 +87,7 @@ class FrameRelay:
             )
         self.emb, self.sinks, self.timeout = emb, list(sinks), float(timeout)
         self.clock, self.wall = clock, wall
-        self.log = log or (lambda m: print(m, file=sys.stderr, flush=True))
+        self.log = log  # None: through logging (see _note)
         self.mode = WAITING
         self.parking = False  # set by park(): frames are ignored, the robot goes to rest
         self._lock = threading.RLock()
@@ -101,7 +104,7 @@ class FrameRelay:
         self.last_seq: int | None = None
         self.last_rx: float | None = None
         self.latency = RingStats()
-        self.counts = dict.fromkeys(
+        self.counts: dict[str, int] = dict.fromkeys(
             (
                 "received",
                 "sent",
@@ -150,23 +153,25 @@ class FrameRelay:
             if session != self.session:
                 if self.session is not None:
                     self.counts["restarts"] += 1
-                    self.log(
-                        f"nutty bridge: a new engine session ({session}): following it from seq {frame.seq}"
+                    self._note(
+                        logging.INFO,
+                        f"a new engine session ({session}): following it from seq {frame.seq}",
                     )
                 self.session, self.last_seq = session, None
             if not self._plausible(frame.seq, now):
                 return
             if abs(frame.dt * self.rate - 1.0) > 0.01:
-                self.log(
-                    f"nutty bridge: the engine now ticks at {1.0 / frame.dt:g} Hz (was {self.rate:g}): "
-                    "following it"
+                self._note(
+                    logging.INFO,
+                    f"the engine now ticks at {1.0 / frame.dt:g} Hz (was {self.rate:g}): following it",
                 )
                 self._set_rate(1.0 / frame.dt, self._pos)
             if self.mode in (RESTING, AT_REST):
                 self.counts["resumes"] += 1
-                self.log(
-                    f"nutty bridge: frames again after {now - (self.last_rx or now):.2f} s: blending back "
-                    "within the robot's limits"
+                self._note(
+                    logging.INFO,
+                    f"frames again after {now - (self.last_rx or now):.2f} s: blending back within the "
+                    "robot's limits",
                 )
             if self.last_rx is not None:
                 self.longest_silence = max(self.longest_silence, now - self.last_rx)
@@ -198,9 +203,10 @@ class FrameRelay:
         if ahead > allowed:
             self.counts["implausible"] += 1
             if self.counts["implausible"] in (1, 10, 100, 1000):
-                self.log(
-                    f"nutty bridge: a frame {ahead} ahead of the last one ({self.last_seq}) cannot be this "
-                    f"engine's so soon: refused ({self.counts['implausible']} so far)"
+                self._note(
+                    logging.WARNING,
+                    f"a frame {ahead} ahead of the last one ({self.last_seq}) cannot be this engine's so "
+                    f"soon: refused ({self.counts['implausible']} so far)",
                 )
             return False
         if ahead > 1:
@@ -213,7 +219,14 @@ class FrameRelay:
         the running engine's); logged the 1st, 10th, 100th and 1000th time."""
         self.counts[kind] += 1
         if self.counts[kind] in (1, 10, 100, 1000):
-            self.log(f"nutty bridge: frame {kind} ({self.counts[kind]} so far): {why}")
+            self._note(logging.WARNING, f"frame {kind} ({self.counts[kind]} so far): {why}")
+
+    def _note(self, level: int, message: str) -> None:
+        """Say what the relay did: to the `log` callable when one was given, else to the logger."""
+        if self.log is not None:
+            self.log(message)
+        else:
+            logger.log(level, message)
 
     # --- the clock --------------------------------------------------------------------------------
     def tick(self, now: float | None = None) -> None:
@@ -225,9 +238,10 @@ class FrameRelay:
                 self.mode = RESTING
                 if not self.parking:
                     self.counts["timeouts"] += 1
-                    self.log(
-                        f"nutty bridge: no frame for {now - self.last_rx:.2f} s (timeout {self.timeout:g} s): "
-                        "taking the robot to rest within its limits"
+                    self._note(
+                        logging.WARNING,
+                        f"no frame for {now - (self.last_rx or now):.2f} s (timeout {self.timeout:g} s): taking the "
+                        "robot to rest within its limits",
                     )
             if self.mode == LIVE:
                 if now >= (self._last_sent or now) + self._live_step():
@@ -240,7 +254,7 @@ class FrameRelay:
                     self._deliver(now)
                 if self.mode == RESTING and self.at_rest():
                     self.mode = AT_REST
-                    self.log("nutty bridge: the robot is at rest; holding it there")
+                    self._note(logging.INFO, "the robot is at rest; holding it there")
 
     def _live_step(self) -> float:
         """Seconds after the last delivery that the next one is due while live: a waiting frame at the
@@ -359,7 +373,7 @@ def report_line(robot_id: str, s: dict[str, Any]) -> str:
     """One log line of a summary."""
     lat = s["latency_ms"]
     return (
-        f"nutty bridge: {robot_id} {s['mode']}: {s['received']} frames in ({s['rate_in']:.1f}/s), "
+        f"{robot_id} {s['mode']}: {s['received']} frames in ({s['rate_in']:.1f}/s), "
         f"{s['sent']} out; latency p50 {lat['p50_ms']:.2f} ms p99 {lat['p99_ms']:.2f} ms max {lat['max_ms']:.2f} ms; "
         f"gaps {s['gaps']} ({s['missed']} frames missed, {s['held']} ticks held), longest silence "
         f"{s['longest_silence_s'] * 1e3:.0f} ms; stale {s['stale']}, implausible {s['implausible']}, foreign "

@@ -122,7 +122,7 @@ class Fleet:
     ) -> dict[str, Any]:
         """Query `nutty/<target>/<leaf>`: {robot id: its JSON answer}. Robots that are live but did not
         answer within the timeout get a `no_reply` error; an exact id that is not live, `not_found`."""
-        import zenoh
+        import zenoh  # native: loaded where Zenoh is used
 
         timeout = timeout or self.timeout
         answers: dict[str, Any] = {}
@@ -131,7 +131,7 @@ class Fleet:
             payload=payload,
             timeout=timeout,
             target=zenoh.QueryTarget.ALL,
-            consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE),
+            consolidation=zenoh.ConsolidationMode.NONE,  # every robot's reply, none merged
         )
         for reply in replies:
             sample = reply.ok
@@ -183,7 +183,7 @@ class Fleet:
             rid = keys.robot_of(sample.key_expr)
             try:
                 doc, sent = frame_of(sample)
-            except ValueError:
+            except ValueError:  # not a frame document: nothing a frame callback could use
                 return
             if rid is not None:
                 callback(rid, doc, sent)
@@ -309,15 +309,13 @@ class Watch:
             )
 
     def _put(self, item: dict[str, Any]) -> None:
-        try:
+        with contextlib.suppress(queue.Full):  # nobody reads: drop rather than grow
             self._queue.put_nowait(item)
-        except queue.Full:  # nobody reads: drop rather than grow
-            pass
 
     def _on_message(self, sample: Any, kind: str | None = None) -> None:
         try:
             message = json_of(sample)
-        except ValueError:
+        except ValueError:  # not JSON: a watcher reads JSON objects only
             return
         if isinstance(message, dict):
             head = {"type": kind} if kind else {}
@@ -327,7 +325,7 @@ class Watch:
         self._on_message(sample, "status")
 
     def _on_presence(self, sample: Any) -> None:
-        import zenoh
+        import zenoh  # native: loaded where Zenoh is used
 
         event = "appeared" if sample.kind == zenoh.SampleKind.PUT else "vanished"
         self._put({"type": "robot", "event": event, "robot": keys.robot_of(sample.key_expr)})
@@ -354,7 +352,7 @@ class Watch:
         if not self._closed:
             self._closed = True
             for sub in self._subs:
-                with contextlib.suppress(Exception):
+                with contextlib.suppress(Exception):  # a session closing under us undeclared it already
                     sub.undeclare()
 
     def __enter__(self) -> Watch:

@@ -11,11 +11,11 @@
   (`backend.previz_pose.UrdfPoser`, ~5x cheaper than re-posing the whole URDF each frame).
 
 Safety: viser itself has no authentication and its gaze gizmo moves the robot, so it only ever
-listens on 127.0.0.1. Browsers reach it through the API port (`/previz/`, see `fetch_page` and
-`relay_socket`), behind the API's Origin/Host checks and token. Its own loopback port refuses
-WebSocket clients whose Origin or Host is foreign (a web page the user happens to visit could
-otherwise connect to ws://127.0.0.1:8080 and drag the gaze), and gaze drags count only from
-clients that passed that check or came through the proxy. When the server has a token
+listens on 127.0.0.1. Browsers reach it through the API port (`/previz/`: `fetch_page` and
+`relay_socket` in backend/previz_proxy.py), behind the API's Origin/Host checks and token. Its own
+loopback port refuses WebSocket clients whose Origin or Host is foreign (a web page the user happens
+to visit could otherwise connect to ws://127.0.0.1:8080 and drag the gaze), and gaze drags count only
+from clients that passed that check or came through the proxy. When the server has a token
 (`proxy_only`), the loopback port serves nobody but the proxy: every other WebSocket is closed, so
 the token cannot be walked around through this port. A drag travels the server's command path
 (`set_gaze`, via `run_command`): authorised and logged like REST.
@@ -23,7 +23,6 @@ the token cannot be walked around through this port. A drag travels the server's
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import logging
 import math
@@ -31,30 +30,29 @@ import secrets
 import threading
 import time
 from typing import Any
-from urllib.parse import quote
 
 import numpy as np
 
 from backend.engine.embodiment import DofType
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
+from backend.errors import DomainError
 from backend.previz_pose import UrdfPoser
+
+# The API's /previz/ proxy lives in backend.previz_proxy; its names stay importable from here.
+from backend.previz_proxy import (  # noqa: F401 (re-exported: callers import them from here)
+    EMBED_STYLE,
+    MAX_PAGE,
+    MAX_PREVIZ_MESSAGE,
+    PROXY_HEADER,
+    embed_page,
+    fetch_page,
+    relay_socket,
+)
 from backend.security import LOOPBACK_NAMES, AccessPolicy
-from backend.security import cancel_all as _cancel_all
 
 log = logging.getLogger(__name__)
 
-PROXY_HEADER = "X-Nutty-Previz-Proxy"
-MAX_PAGE = 64 * 1024 * 1024  # bytes of one proxied file (viser's page is about 1 MB)
-MAX_PREVIZ_MESSAGE = 64 * 1024 * 1024
-
-# The page embedded in the editor (`/previz/?embed=1`) hides viser's own control panel (a floating dock
-# window: the editor has the ghost toggle) and its notifications (e.g. "Software WebGL rendering
-# detected"), which would cover the robot in a small pane. The popped-out page keeps them.
-EMBED_STYLE = (
-    b'<style id="nutty-embed">[data-floating-window], .mantine-Notifications-root '
-    b"{ display: none !important; }</style>"
-)
 
 # The camera looks at the robot from its front-left, a little above (a three-quarter view).
 CAMERA_DIRECTION = (0.62, 0.42, 0.21)
@@ -78,12 +76,6 @@ def _yaw_pitch_roll_to_wxyz(yaw: float, pitch: float, roll: float) -> tuple[floa
     )
 
 
-def embed_page(html: bytes) -> bytes:
-    """viser's index page with EMBED_STYLE in its head (unchanged when it has no </head>)."""
-    head = html.find(b"</head>")
-    return html if head < 0 else html[:head] + EMBED_STYLE + html[head:]
-
-
 def framing(
     bounds: Any,
     direction: tuple[float, float, float] = CAMERA_DIRECTION,
@@ -99,7 +91,9 @@ def framing(
     d /= np.linalg.norm(d)
     distance = margin * radius / math.sin(fov / 2)
     position = centre + d * distance
-    return (tuple(round(float(v), 4) for v in position), tuple(round(float(v), 4) for v in centre))  # type: ignore[return-value]
+    px, py, pz = (round(float(v), 4) for v in position)
+    cx, cy, cz = (round(float(v), 4) for v in centre)
+    return (px, py, pz), (cx, cy, cz)
 
 
 def check_loopback(host: str) -> None:
@@ -126,8 +120,11 @@ def gaze_from_drag(session: Any, run_command: Any, target: list[float]) -> bool:
         return set_gaze_input(session, target)
     try:
         run_command({"type": "set_gaze", "target": [float(v) for v in target]})
-    except Exception as exc:  # the command path refused it (no gaze input, out of reach): nothing moved
-        log.info("Pre-Viz gaze drag refused: %s", getattr(exc, "detail", exc))
+    except Exception as exc:  # nothing moved, and the Pre-Viz's link to the server must go on
+        if isinstance(exc, DomainError):  # the command path refused it: no gaze input, out of reach
+            log.info("Pre-Viz gaze drag refused: %s", exc.detail)
+        else:
+            log.warning("Pre-Viz gaze drag failed: %s", exc, exc_info=True)
         return False
     return True
 
@@ -178,9 +175,9 @@ class PreViz:
         proxy_secret: str | None = None,
         proxy_only: bool = False,
     ):
-        import viser
-        import yourdfpy
-        from viser.extras import ViserUrdf
+        import viser  # heavy: only where used
+        import yourdfpy  # heavy: only where used
+        from viser.extras import ViserUrdf  # heavy: only where used
 
         check_loopback(host)
         self.session = session
@@ -255,7 +252,7 @@ class PreViz:
         async def check(conn: Any) -> None:
             connection = getattr(ws_server, "_live_connections", {}).get(conn.client_id)
             request = getattr(connection, "request", None)
-            if request is None:
+            if connection is None or request is None:
                 return
             headers = request.headers
             proxied = headers.get(PROXY_HEADER)
@@ -275,7 +272,7 @@ class PreViz:
             if problem is None:
                 self._trusted.add(conn.client_id)
                 return
-            with contextlib.suppress(Exception):
+            with contextlib.suppress(Exception):  # refused either way: a client that left needs no close
                 await connection.close(4403, "forbidden: " + problem[:100])
 
         async def forget(conn: Any) -> None:
@@ -335,7 +332,8 @@ class PreViz:
         # a three-quarter view that frames the robot (its bounding box at the rest configuration)
         try:
             bounds = self._urdf.scene.bounds if self._urdf.scene is not None else None
-        except Exception:  # a URDF without meshes has no bounds
+        except Exception:  # a URDF without meshes has no bounds: the default framing will do
+            log.debug("no bounds for the robot's scene", exc_info=True)
             bounds = None
         position, look_at = framing(bounds) if bounds is not None else ((0.62, 0.42, 0.48), (0.0, 0.0, 0.27))
         self.camera = {"position": position, "look_at": look_at}
@@ -376,7 +374,7 @@ class PreViz:
             return None
         target = [float(v) for v in position]
         if not np.allclose(self.gaze.position, target):  # a client's own drag is already there
-            self.gaze.position = tuple(target)
+            self.gaze.position = (target[0], target[1], target[2])
         return target
 
     def _on_gaze_drag(self, event: Any) -> None:
@@ -458,105 +456,3 @@ class PreViz:
             self.session.engine.remove_sink(self._sink)
             self._sink = None
         self.server.stop()
-
-
-# --------------------------------------------------------------------------------------------------
-# The proxy the API serves at /previz/ (viser's page builds its WebSocket URL from the page's own
-# URL without the query: /previz/?token=T connects to ws://host/previz, which carries the cookie
-# the page response set; see backend.security.previz_cookie_value)
-# --------------------------------------------------------------------------------------------------
-
-
-async def fetch_page(
-    port: int, path: str, accept_encoding: str = "", timeout: float = 20.0
-) -> tuple[int, dict[str, str], bytes]:
-    """GET one file of viser's client from its loopback port: (status, headers to pass on, body)."""
-    target = "/" + quote(path.lstrip("/"), safe="/._-~")
-    reader, writer = await asyncio.wait_for(asyncio.open_connection("127.0.0.1", port), timeout)
-    try:
-        encoding = "gzip" if "gzip" in accept_encoding.lower() else "identity"
-        writer.write(
-            (
-                f"GET {target} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nAccept-Encoding: {encoding}\r\n"
-                f"Connection: close\r\n\r\n"
-            ).encode("latin-1")
-        )
-        await writer.drain()
-        head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), timeout)
-        lines = head.decode("latin-1").split("\r\n")
-        parts = lines[0].split(" ", 2)
-        if len(parts) < 2 or not parts[1].isdigit():
-            raise ValueError("malformed response from the Pre-Viz")
-        status = int(parts[1])
-        headers: dict[str, str] = {}
-        for line in lines[1:]:
-            name, sep, value = line.partition(":")
-            if sep:
-                headers[name.strip().lower()] = value.strip()
-        length = headers.get("content-length")
-        if length is not None and length.isdigit():
-            if int(length) > MAX_PAGE:
-                raise ValueError("response too large")
-            body = await asyncio.wait_for(reader.readexactly(int(length)), timeout)
-        else:
-            body = await asyncio.wait_for(reader.read(MAX_PAGE), timeout)
-    finally:
-        writer.close()
-        with contextlib.suppress(Exception):
-            await writer.wait_closed()
-    keep = {k: headers[k] for k in ("content-type", "content-encoding") if k in headers}
-    keep["cache-control"] = "no-store"
-    return status, keep, body
-
-
-async def relay_socket(ws: Any, previz: PreViz, stopping: asyncio.Event | None) -> None:
-    """Relay a browser's Pre-Viz WebSocket (a Starlette WebSocket, already past the API's guard) to
-    viser on loopback, both ways, until either side leaves or the app shuts down."""
-    from websockets.asyncio.client import connect
-    from websockets.typing import Subprotocol
-
-    offered = [p for p in (ws.scope.get("subprotocols") or []) if p.startswith("viser-")]
-    try:
-        upstream = await connect(
-            f"ws://127.0.0.1:{previz.port}",
-            subprotocols=[Subprotocol(p) for p in offered] or None,
-            additional_headers={PROXY_HEADER: previz.proxy_secret},
-            max_size=MAX_PREVIZ_MESSAGE,
-            compression=None,
-            open_timeout=10,
-            ping_interval=None,
-        )
-    except Exception:
-        await ws.accept(subprotocol=offered[0] if offered else None)
-        await ws.close(code=1011, reason="the Pre-Viz is not available")
-        return
-    try:
-        await ws.accept(subprotocol=upstream.subprotocol)
-
-        async def to_upstream() -> None:
-            while True:
-                message = await ws.receive()
-                if message["type"] == "websocket.disconnect":
-                    return
-                data = message.get("bytes")
-                await upstream.send(data if data is not None else message.get("text") or "")
-
-        async def to_client() -> None:
-            async for data in upstream:
-                if isinstance(data, bytes):
-                    await ws.send_bytes(data)
-                else:
-                    await ws.send_text(data)
-
-        tasks = [asyncio.ensure_future(to_upstream()), asyncio.ensure_future(to_client())]
-        if stopping is not None:
-            tasks.append(asyncio.ensure_future(stopping.wait()))
-        try:
-            await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
-        finally:
-            await _cancel_all(tasks)
-    finally:
-        with contextlib.suppress(Exception):
-            await upstream.close()
-        with contextlib.suppress(Exception):
-            await ws.close()

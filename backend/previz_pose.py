@@ -112,11 +112,12 @@ class UrdfPoser:
     def update(self, cfg: np.ndarray) -> int:
         """Send the frames whose joint moved since they were last sent; returns how many were sent."""
         value, wxyz, position = self.poses(cfg)
-        first = self._last is None
-        changed = np.ones(len(value), dtype=bool) if first else np.abs(value - self._last) > EPSILON
+        last = self._last
+        first = last is None
+        changed = np.ones(len(value), dtype=bool) if last is None else np.abs(value - last) > EPSILON
         if not changed.any():
             return 0
-        self._last = value if first else np.where(changed, value, self._last)
+        self._last = value if last is None else np.where(changed, value, last)
         quats, points = wxyz.tolist(), position.tolist()
         for k in np.flatnonzero(changed).tolist():
             handle = self.handles[k]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import logging
 import multiprocessing
 import os
 import secrets
@@ -30,13 +31,16 @@ import threading
 import time
 from concurrent.futures import Future
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from backend.engine.frames import AnimationFrame, FrameEvent
 from backend.engine.runtime import Sink
+from backend.logs import configure_logging, settings
 from backend.previz import attach_previz_sink, check_loopback, gaze_from_drag
+
+log = logging.getLogger(__name__)
 
 STATE_PERIOD = 0.25  # s between two frame-count reports of the child
 START_TIMEOUT = 120.0  # s for the child to import viser and load the URDF (twice) on a busy machine
@@ -85,9 +89,13 @@ def _child_main(
     allowed_origins: list[str],
     proxy_secret: str,
     proxy_only: bool = False,
+    log_settings: tuple[str | int, bool] | None = None,
 ) -> None:
-    """The Pre-Viz process: a PreViz fed from `conn` until the server says stop or goes away."""
+    """The Pre-Viz process: a PreViz fed from `conn` until the server says stop or goes away.
+    `log_settings`: the server's (level, json_lines), so the child logs as the server does."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C reaches the whole group: the server decides
+    if log_settings is not None:  # a spawned process starts with logging unconfigured
+        configure_logging(*log_settings)
     with contextlib.suppress(AttributeError, OSError):
         os.nice(CHILD_NICE)  # on a busy machine the preview lags, never the robot's clock
     lock = threading.Lock()
@@ -97,7 +105,7 @@ def _child_main(
             conn.send(message)
 
     try:
-        from backend.previz import PreViz
+        from backend.previz import PreViz  # viser loads in the child process only
 
         pv = PreViz(
             _Remote(embodiment, send),
@@ -108,6 +116,7 @@ def _child_main(
             proxy_only=proxy_only,
         )
     except Exception as exc:  # reported to the server, which raises it where the port is asked for
+        log.debug("the Pre-Viz could not start", exc_info=True)  # the traceback stays here, for a bug report
         send(("error", f"{type(exc).__name__}: {exc}"))
         return
     calls = {"shown": pv.shown, "set_ghost": pv.set_ghost, "move_gaze": pv.move_gaze}
@@ -127,14 +136,18 @@ def _child_main(
                     _, call_id, name, args = message
                     try:
                         send(("reply", call_id, True, calls[name](*args)))
-                    except Exception as exc:
+                    except Exception as exc:  # raised to the server's caller; the loop goes on
+                        log.debug("Pre-Viz call %s failed", name, exc_info=True)
                         send(("reply", call_id, False, f"{type(exc).__name__}: {exc}"))
                 elif kind == "stop":
                     return
                 ready = conn.poll()
             if latest is not None:
                 _, position, stage1, events, joints = latest
-                pv.show(_Shown(position, stage1, [FrameEvent(*e) for e in events], joints))
+                # duck-typed: show() reads only the position, stage1, events and joints of a frame
+                pv.show(
+                    cast(AnimationFrame, _Shown(position, stage1, [FrameEvent(*e) for e in events], joints))
+                )
             state = (pv.frames_shown, pv.ghost_visible, tuple(sorted(pv.trusted_clients)))
             now = time.monotonic()
             if state != reported and (state[1:] != reported[1:] or now - reported_at >= STATE_PERIOD):
@@ -192,6 +205,7 @@ class PreVizProcess:
                 list(allowed_origins or []),
                 self.proxy_secret,
                 self.proxy_only,
+                settings(),
             ),
         )
         self._proc.start()
@@ -265,7 +279,10 @@ class PreVizProcess:
     def port(self) -> int:
         """viser's loopback port (it moves to the next free one when the one asked for is taken)."""
         self.wait_ready()
-        return self._port  # type: ignore[return-value]
+        port = self._port
+        if port is None:  # wait_ready() raised already; this tells the type checker so
+            raise PreVizUnavailable(self._failure or "the Pre-Viz process did not start")
+        return port
 
     def url(self, host: str | None = None) -> str:
         return f"http://{host or self.host}:{self.port}"
@@ -300,10 +317,9 @@ class PreVizProcess:
         """Send one frame to the child (on the Pre-Viz sink's thread)."""
         events = [(e.dof, e.kind, dict(e.payload)) for e in frame.events]
         stage1 = frame.stage1 if self._ghost else None
-        try:
+        # a Pre-Viz that has gone shows nothing; the engine and the API go on
+        with contextlib.suppress(PreVizUnavailable):
             self._send(("frame", frame.position, stage1, events, frame.joints), CALL_TIMEOUT)
-        except PreVizUnavailable:
-            pass  # a Pre-Viz that has gone shows nothing; the engine and the API go on
 
     def start(self) -> PreVizProcess:
         self._sink = attach_previz_sink(self.session, self.show)

@@ -10,10 +10,17 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import os
 import signal
 import threading
 import time
+
+import numpy as np
+
+from backend.logs import direct_line
+
+log = logging.getLogger(__name__)
 
 # Shutdown budget (seconds; see `Shutdown`): the robot gets --shutdown-timeout to reach rest, the
 # HTTP server HTTP_GRACE more for open requests and WebSockets, and a watchdog ends the process
@@ -57,10 +64,14 @@ COMMAND_SOCKETS = ("/ws/control",)  # WebSockets whose messages steer the robot
 SHUTTING_DOWN = "the server is shutting down: the robot is going to rest"
 
 
-def _say(message: str) -> None:
-    """Write a line to stderr without Python's buffered streams (safe from a signal handler)."""
-    with contextlib.suppress(OSError):
-        os.write(2, (message.rstrip("\n") + "\n").encode(errors="replace"))
+def _say(message: str, level: int = logging.WARNING) -> None:
+    """Log a line from a signal handler or the watchdog: formatted as the configured logging would
+    (backend.logs.direct_line) but written straight to fd 2, because the logging module's handlers
+    take locks and a buffered stream that the interrupted (or a hung) thread may hold."""
+    if log.getEffectiveLevel() > level:
+        return
+    with contextlib.suppress(OSError):  # nowhere left to say it
+        os.write(2, direct_line(log.name, level, message.rstrip("\n")))
 
 
 def park_robot(session, timeout: float = DEFAULT_SHUTDOWN_TIMEOUT) -> dict:
@@ -78,7 +89,6 @@ def park_robot(session, timeout: float = DEFAULT_SHUTDOWN_TIMEOUT) -> dict:
 
 def rest_error(session) -> tuple[float, float]:
     """(max |position - rest|, max |velocity|) over the continuous channels of the last frame."""
-    import numpy as np
 
     emb, frame = session.embodiment, session.engine.last_frame
     if frame is None:
@@ -97,8 +107,8 @@ def _reset_and_settle(session, timeout: float) -> dict:
     fade = min(1.0, timeout / 2)
     try:
         session.execute({"type": "reset", "fade": fade})
-    except Exception:  # a program without layers or clips: nothing to fade
-        pass
+    except Exception as exc:  # a program without layers or clips: nothing to fade; settle as it is
+        log.debug("no faded reset before settling: %s", exc, exc_info=True)
     engine, still = session.engine, 0
     while time.monotonic() - t0 < timeout:
         if engine.running:
@@ -168,7 +178,7 @@ class ShutdownGate:
 def uvicorn_server(config, shutdown: Shutdown):
     """A uvicorn Server that leaves the signals to `shutdown` (uvicorn's own handlers re-raise the signal
     after serving, which killed the process before the robot reached rest)."""
-    import uvicorn
+    import uvicorn  # lazy: a fast `nutty --help`
 
     class NuttyServer(uvicorn.Server):
         @contextlib.contextmanager
@@ -226,8 +236,8 @@ class Shutdown:
                     if sig not in (signal.SIGINT, signal.SIGTERM) and signal.getsignal(sig) is signal.SIG_IGN:
                         continue  # nohup: a hang-up is not a request to stop
                     previous[sig] = signal.signal(sig, self._on_signal)
-                except (OSError, ValueError):
-                    pass
+                except (OSError, ValueError) as exc:  # a signal this platform will not let us take
+                    log.debug("cannot handle %s: %s", signal.Signals(sig).name, exc)
 
         def restore() -> None:
             for sig, handler in previous.items():
@@ -252,19 +262,17 @@ class Shutdown:
                     server.force_exit = True
         if n == 2:
             _say(
-                f"nutty: {reason} again: hurrying; the robot still finishes going to rest "
+                f"{reason} again: hurrying; the robot still finishes going to rest "
                 f"(at most {self.timeout:g} s), then clients get {HURRIED_GRACE:g} s"
             )
         elif n > 2:
             _say(
-                f"nutty: {reason}: already stopping; the process exits within {self.timeout + EXIT_BOUND:g} s "
+                f"{reason}: already stopping; the process exits within {self.timeout + EXIT_BOUND:g} s "
                 "of the first signal (SIGKILL stops it at once, without rest)"
             )
         if self._wfd >= 0:
-            try:
+            with contextlib.suppress(OSError):  # a full pipe: the worker is awake already
                 os.write(self._wfd, b"!")
-            except OSError:  # a full pipe: the worker is awake already
-                pass
 
     def before_server_stops(self, fn) -> None:
         """Call `fn()` once the robot is at rest and the drivers drained, just before the HTTP server is
@@ -290,22 +298,23 @@ class Shutdown:
         self.closing.set()
         if self._watchdog:
             threading.Thread(target=self._watch, name="nutty-shutdown-watchdog", daemon=True).start()
-        _say(
-            f"nutty: {self.reasons[0] if self.reasons else 'stop'}: taking the robot to rest "
-            f"(at most {self.timeout:g} s), then closing"
+        log.info(
+            "%s: taking the robot to rest (at most %g s), then closing",
+            self.reasons[0] if self.reasons else "stop",
+            self.timeout,
         )
         self.result = self._park()
         time.sleep(0.05 if self.hurried else HOLD_SECONDS)  # park() left the engine emitting the rest pose
         try:
             self.session.engine.stop()  # the last frame is the rest pose
-        except Exception:
-            pass
+        except Exception:  # the shutdown goes on: close() in finish() stops the clock too
+            log.warning("stopping the engine clock during shutdown failed", exc_info=True)
         self._drain(0.1 if self.hurried else DRAIN_SECONDS)
         for fn in self._hooks:
             try:
                 fn()
-            except Exception as exc:
-                _say(f"nutty: during shutdown: {type(exc).__name__}: {exc}")
+            except Exception:  # one hook's failure must not keep the server from being released
+                log.warning("a before-server-stops hook (%r) failed during shutdown", fn, exc_info=True)
         self.parked.set()
         self.released = True
         server = self._server
@@ -319,7 +328,8 @@ class Shutdown:
         def work() -> None:
             try:
                 box["result"] = park_robot(self.session, self.timeout)
-            except BaseException as exc:  # reported, never fatal: the shutdown goes on
+            except BaseException as exc:  # reported (finish() says the robot did not reach rest), never fatal
+                log.exception("parking the robot failed")
                 box["error"] = f"{type(exc).__name__}: {exc}"
 
         worker = threading.Thread(target=work, name="nutty-park", daemon=True)
@@ -348,7 +358,8 @@ class Shutdown:
         deadline = self.started_at + self.timeout + EXIT_BOUND
         while (left := deadline - time.monotonic()) > 0:
             time.sleep(min(left, 0.25))
-        _say(f"nutty: shutdown did not finish within {self.timeout + EXIT_BOUND:g} s; exiting now")
+        # straight to fd 2 (_say): whatever hangs may hold the logging handler's lock
+        _say(f"shutdown did not finish within {self.timeout + EXIT_BOUND:g} s; exiting now", logging.ERROR)
         self._exit(self.exit_code if self.exit_code is not None else 1)
 
     def finish(self, previz=None) -> int:
@@ -359,27 +370,30 @@ class Shutdown:
         self.parked.wait(self.timeout + PARK_SLACK + DRAIN_SECONDS + 1.0)
         try:
             self.session.engine.close()  # sinks deliver what they hold, files close
-        except Exception as exc:
-            _say(f"nutty: closing the drivers: {type(exc).__name__}: {exc}")
+        except Exception:  # reported; the Pre-Viz still stops and the status is still returned
+            log.exception("closing the drivers failed")
         if previz is not None:
             try:
                 previz.stop()
-            except Exception as exc:
-                _say(f"nutty: stopping the Pre-Viz: {type(exc).__name__}: {exc}")
+            except Exception:  # reported; the exit status is the robot's, not the preview's
+                log.exception("stopping the Pre-Viz failed")
         result = self.result or {"reached_rest": False}
         took = time.monotonic() - self.started_at if self.started_at is not None else 0.0
         if result.get("reached_rest"):
             self.exit_code = 0
-            _say(
-                f"nutty: robot at rest after {float(result.get('seconds', 0.0)):.2f} s; drivers closed; "
-                f"stopped in {took:.2f} s"
+            log.info(
+                "robot at rest after %.2f s; drivers closed; stopped in %.2f s",
+                float(result.get("seconds", 0.0)),
+                took,
             )
         else:
             self.exit_code = 1
             why = result.get("error") or f"max error {float(result.get('max_error', float('nan'))):.3g}"
-            _say(
-                f"nutty: warning: the robot did not reach rest within {self.timeout:g} s ({why}); "
-                f"drivers closed; stopped in {took:.2f} s"
+            log.warning(
+                "the robot did not reach rest within %g s (%s); drivers closed; stopped in %.2f s",
+                self.timeout,
+                why,
+                took,
             )
         wfd, self._wfd = self._wfd, -1  # a late signal must not write into a reused descriptor
         for fd in (self._rfd, wfd):

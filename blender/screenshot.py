@@ -28,9 +28,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "blender"), str(ROOT)]
 
-import bpy  # noqa: E402
-import nutty_blender  # noqa: E402
-from mathutils import Matrix, Vector  # noqa: E402
+import bpy  # noqa: E402 (after sys.path is set up for Blender)
+import nutty_blender  # noqa: E402 (after sys.path is set up for Blender)
+from mathutils import Matrix, Vector  # noqa: E402 (after sys.path is set up for Blender)
 
 WIDTH, VIEW_HEIGHT, GRAPH_HEIGHT = 1280, 720, 300
 FRAME = 14  # the frame shown: the head whips right while the ghost still lags behind

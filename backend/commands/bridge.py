@@ -5,19 +5,22 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import signal
-import sys
 import threading
 
 from backend.bridge import DEFAULT_TIMEOUT, MAX_TIMEOUT, MIN_TIMEOUT
 from backend.commands._common import fail
 from backend.drivers import DRIVER_OPTIONS, add_driver_options
+from backend.logs import add_logging_options
 from backend.shutdown import DEFAULT_SHUTDOWN_TIMEOUT, SHUTDOWN_SIGNALS
 from backend.zenoh_link.keys import robot_id_arg
 from backend.zenoh_link.session import add_zenoh_options
 
 REPORT_SECONDS = 5.0  # s between log lines of latency and gaps (0: only the final summary)
 WAIT_SECONDS = 60.0  # s to wait at start for the engine to answer
+
+log = logging.getLogger("backend.bridge")  # the relay's own logger: one name for everything the bridge says
 
 
 def register(sub) -> None:
@@ -80,6 +83,7 @@ def register(sub) -> None:
         help=f"on SIGTERM/SIGINT, give the robot this long to reach rest (default {DEFAULT_SHUTDOWN_TIMEOUT:g})",
     )
     add_zenoh_options(p)
+    add_logging_options(p)  # --log-level, --log-json (backend/logs.py)
     p.set_defaults(func=run)
 
 
@@ -116,8 +120,8 @@ def _check(args: argparse.Namespace) -> str | None:
 
 
 def run(args) -> int:
-    from backend.engine.embodiment import EmbodimentError, load_embodiment
-    from backend.zenoh_link.session import ZenohOptions, ZenohSetupError
+    from backend.engine.embodiment import EmbodimentError, load_embodiment  # lazy: a fast `nutty --help`
+    from backend.zenoh_link.session import ZenohOptions, ZenohSetupError  # lazy: a fast `nutty --help`
 
     problem = _check(args)
     if problem:
@@ -135,11 +139,11 @@ def run(args) -> int:
 
 
 def _follow(session, args, drivers, robot) -> int:
-    from backend.bridge import FrameRelay, report_line
-    from backend.zenoh_link.follow import follow_frames, wait_for_engine
+    from backend.bridge import FrameRelay, report_line  # lazy: a fast `nutty --help`
+    from backend.zenoh_link.follow import follow_frames, wait_for_engine  # lazy: a fast `nutty --help`
 
-    def log(message: str) -> None:
-        print(message, file=sys.stderr, flush=True)
+    def waiting(message: str) -> None:
+        log.info(message.removeprefix("nutty bridge: "))  # the logger's name says who speaks
 
     signals = _Signals()
     restore = signals.install()
@@ -148,12 +152,12 @@ def _follow(session, args, drivers, robot) -> int:
     try:
         try:
             rate = wait_for_engine(
-                session, args.robot_id, rate=args.rate, wait=args.wait, log=log, stop=signals.first
+                session, args.robot_id, rate=args.rate, wait=args.wait, log=waiting, stop=signals.first
             )
             if signals.first.is_set():  # stopped while waiting: nothing was ever sent
                 return 0
             sinks = [DRIVER_OPTIONS[name].build(robot, value) for name, value in drivers]
-            relay = FrameRelay(robot, rate, sinks, timeout=args.timeout, log=log)
+            relay = FrameRelay(robot, rate, sinks, timeout=args.timeout)
         except (TimeoutError, ValueError, OSError) as exc:
             return fail(str(exc), 1)
         relay.start()
@@ -164,13 +168,14 @@ def _follow(session, args, drivers, robot) -> int:
             flush=True,
         )
         while not signals.first.wait(args.report or 3600.0):
-            log(report_line(args.robot_id, relay.summary()))
+            log.info(report_line(args.robot_id, relay.summary()))
         subscriber.undeclare()
         subscriber = None
         at_rest = True if signals.second.is_set() else relay.park(args.shutdown_timeout)
-        log(
-            f"nutty bridge: {'robot at rest' if at_rest else 'warning: the robot did not reach rest'}; closing"
-        )
+        if at_rest:
+            log.info("robot at rest; closing")
+        else:
+            log.warning("the robot did not reach rest; closing")
         return 0 if at_rest else 1
     finally:
         if subscriber is not None:
@@ -178,7 +183,7 @@ def _follow(session, args, drivers, robot) -> int:
         if relay is not None:
             relay.stop()
             summary = relay.summary()
-            log(report_line(args.robot_id, summary))
+            log.info(report_line(args.robot_id, summary))
             print("nutty bridge: summary " + json.dumps(summary), flush=True)
         for sink in sinks:
             sink.close()

@@ -19,7 +19,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from backend.engine.nmf_figures import draw_all
+    from backend.engine.nmf_figures import draw_all  # lazy: a fast `nutty --help`
 
     out = Path(args.out_dir)
     try:

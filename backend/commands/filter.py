@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -125,7 +126,7 @@ def resample_latest(t: np.ndarray, values: np.ndarray, rate: float) -> tuple[np.
 
 
 def run(args) -> int:
-    from backend.engine.nmf import RATE_MAX, RATE_MIN, MotionFilter, preset
+    from backend.engine.nmf import RATE_MAX, RATE_MIN, MotionFilter, preset  # lazy: a fast `nutty --help`
 
     if not RATE_MIN <= args.rate <= RATE_MAX:
         return fail(f"--rate must be a number of Hz in [{RATE_MIN:g}, {RATE_MAX:g}], got {args.rate}")
@@ -148,7 +149,7 @@ def run(args) -> int:
         return fail(str(exc))
     # σ or ρ given explicitly means "shape with H": it would otherwise be silently ignored under W.
     wants_h = args.sigma is not None or args.rho is not None
-    kw = dict(
+    kw: dict[str, Any] = dict(
         sigma=base.sigma,
         rho=base.rho,
         vel_limit=base.vel_limit,

@@ -10,6 +10,7 @@ Zenoh router for setups that want one (backend/fleet.py, docs/fleet.md).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 import threading
@@ -79,7 +80,7 @@ def register(sub) -> None:
 
 
 def _open(args, **overrides):
-    from backend.fleet import Fleet
+    from backend.fleet import Fleet  # lazy: a fast `nutty --help`
 
     options = ZenohOptions.from_args(args)
     for name, value in overrides.items():
@@ -107,10 +108,8 @@ def _with_fleet(args, body) -> int:
 def run_list(args) -> int:
     def body(fleet) -> int:
         if args.wait > 0:
-            try:
+            with contextlib.suppress(TimeoutError):  # fewer came than waited for: list whoever is there
                 fleet.wait_for(args.wait, args.pattern, timeout=args.timeout)
-            except TimeoutError:
-                pass  # list whoever is there
         ids = fleet.robots(args.pattern)
         print(json.dumps(ids) if args.json else "\n".join(ids), flush=True)
         return 0
@@ -119,7 +118,7 @@ def run_list(args) -> int:
 
 
 def run_status(args) -> int:
-    from backend.fleet import is_error
+    from backend.fleet import is_error  # lazy: a fast `nutty --help`
 
     def body(fleet) -> int:
         answers = fleet.status(args.pattern)
@@ -130,7 +129,7 @@ def run_status(args) -> int:
 
 
 def run_send(args) -> int:
-    from backend.fleet import is_error
+    from backend.fleet import is_error  # lazy: a fast `nutty --help`
 
     try:
         command = loads(args.command)
@@ -167,7 +166,7 @@ def run_watch(args) -> int:
 
 
 def run_router(args) -> int:
-    from backend.zenoh_link.session import ZenohOptions
+    from backend.zenoh_link.session import ZenohOptions  # lazy: a fast `nutty --help`
 
     options = ZenohOptions.from_args(args)
     options.mode = "router"

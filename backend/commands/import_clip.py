@@ -70,9 +70,21 @@ def register(sub) -> None:
         '{"joints": {"Src": "dof" | {"dof": ..., "axis": [x, y, z], "scale": 1, "offset": 0} | '
         '[{"dof": "head_yaw"}, {"dof": "head_pitch"}] | null}}',
     )
+    _add_source_options(p)
+    _add_sampling_options(p)
+    _add_check_options(p)
+    p.set_defaults(func=run)
+
+
+def _add_source_options(p) -> None:
+    """How the source is read: which animation, its format, its keys (tolerance, interpolation), its axes
+    and its rest frame."""
     p.add_argument("--animation", help="glTF: animation name or index (default the first)")
     p.add_argument(
-        "--format", dest="fmt", choices=("gltf", "bvh", "csv"), help="override the file-extension guess"
+        "--format",
+        dest="fmt",
+        metavar="NAME",
+        help="override the file-extension guess: an importer's name (gltf, bvh, csv, or one a plugin adds)",
     )
     p.add_argument(
         "--tolerance",
@@ -105,6 +117,10 @@ def register(sub) -> None:
         metavar="N",
         help="BVH: frame N is the rest pose (default: the pose the OFFSETs define)",
     )
+
+
+def _add_sampling_options(p) -> None:
+    """Which source samples are kept, and how gaps of bad samples are repaired."""
     p.add_argument(
         "--skip-frames",
         type=_whole(0),
@@ -124,6 +140,10 @@ def register(sub) -> None:
         metavar="N",
         help="--fill repairs gaps of at most N samples (default 10)",
     )
+
+
+def _add_check_options(p) -> None:
+    """What is reported, and against which limits; --strict and --json."""
     p.add_argument(
         "--swing-warn",
         type=_finite,
@@ -146,11 +166,10 @@ def register(sub) -> None:
         "acceleration and jerk limits",
     )
     p.add_argument("--json", action="store_true", help="print the whole report as JSON")
-    p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from backend.importers import ClipImportError, format_report, import_clip
+    from backend.importers import ClipImportError, format_report, import_clip  # lazy: a fast `nutty --help`
 
     path = Path(args.file)
     try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 from backend.commands._common import fail
+from backend.logs import add_logging_options
 
 DEFAULT_URL = "http://127.0.0.1:8000"
 
@@ -17,7 +18,7 @@ def register(sub) -> None:
         "set_posture, look_at, ... generated from the robot, program and library), and "
         "its robot, program, library and status as resources. Over stdio by default "
         "(for an MCP client that starts it); with --http PORT over streamable HTTP at "
-        "http://127.0.0.1:PORT/mcp. Logs go to stderr.",
+        "http://127.0.0.1:PORT/mcp. Logs go to stderr (stdout carries the protocol).",
     )
     p.add_argument("--url", default=DEFAULT_URL, help=f"the Nutty server (default {DEFAULT_URL})")
     p.add_argument(
@@ -32,23 +33,21 @@ def register(sub) -> None:
         metavar="PORT",
         help="serve streamable HTTP on 127.0.0.1:PORT (path /mcp) instead of stdio",
     )
+    add_logging_options(p)  # --log-level, --log-json (backend/logs.py): always to stderr
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    import asyncio
-    import logging
-    import sys
+    import asyncio  # lazy: a fast `nutty --help`
 
-    from backend.security import parse_origin
+    from backend.security import parse_origin  # lazy: a fast `nutty --help`
 
     if parse_origin(args.url.rstrip("/")) is None or not args.url.startswith(("http://", "https://")):
         return fail(f"--url must be http(s)://host[:port], got {args.url!r}")
     if args.http is not None and not 1 <= args.http <= 65535:
         return fail(f"--http must be a port within 1..65535, got {args.http}")
-    logging.basicConfig(stream=sys.stderr, level=logging.WARNING, format="nutty mcp: %(message)s")
-    from backend.mcp_bridge import Remote
-    from backend.mcp_bridge import run as serve
+    from backend.mcp_bridge import Remote  # lazy: a fast `nutty --help`
+    from backend.mcp_bridge import run as serve  # lazy: a fast `nutty --help`
 
     try:
         asyncio.run(serve(Remote(args.url, args.token), http=args.http))

@@ -52,15 +52,6 @@ def _edge(src: str, dst: str, port: str = "in", src_port: str = "out") -> dict[s
 
 def starter_program(emb, template: str = "idle", name: str = "starter") -> dict[str, Any]:
     """The starter document for `emb` (valid for it by construction; `nutty new` checks it anyway)."""
-    movable = [
-        d
-        for d in emb.dofs
-        if d.type is DofType.continuous
-        and d.dimension.value == "stationary"
-        and d.max > d.min
-        and not d.drives
-    ]
-    breathe_on = ["stationary:*"] if movable else ["*"]
     doc: dict[str, Any] = {
         "format": "nutty-program/1",
         "name": name,
@@ -71,19 +62,46 @@ def starter_program(emb, template: str = "idle", name: str = "starter") -> dict[
         "nodes": [],
         "edges": [],
     }
-    nodes, edges, inputs = doc["nodes"], doc["edges"], doc["inputs"]
     if template == "blank":
         doc["description"] = "The robot's rest pose. Add sources and operators between 'rest' and 'output'."
         doc["max_level"] = 0
-        nodes += [_node("rest", "rest_pose", 0, 0, dofs=["*"]), _node("output", "output", 1, 0)]
-        edges.append(_edge("rest", "output"))
+        doc["nodes"] += [_node("rest", "rest_pose", 0, 0, dofs=["*"]), _node("output", "output", 1, 0)]
+        doc["edges"].append(_edge("rest", "output"))
         return doc
+    movable = _movable(emb)
+    breathe_on = ["stationary:*"] if movable else ["*"]
+    layers = _add_breathing(doc, breathe_on)
+    if template == "layers":
+        _add_look_layer(doc, layers, movable, breathe_on)
+    doc["nodes"] += [
+        _node("mixer", "layer_mixer", 3, 1, layers=layers),
+        _node("limit", "safety_limiter", 4, 1, velocity_scale=1.0, margin=0.02),
+        _node("output", "output", 5, 1),
+    ]
+    doc["edges"] += [_edge("mixer", "limit"), _edge("limit", "output")]
+    return doc
 
+
+def _movable(emb) -> list:
+    """The DoFs a starter may move: continuous, stationary, with a range, driving no others."""
+    return [
+        d
+        for d in emb.dofs
+        if d.type is DofType.continuous
+        and d.dimension.value == "stationary"
+        and d.max > d.min
+        and not d.drives
+    ]
+
+
+def _add_breathing(doc: dict[str, Any], breathe_on: list[str]) -> list[dict[str, Any]]:
+    """The idle template's part: breathing (paced by the 'breath_rate' input) added over the rest pose;
+    returns the mixer's layers (the mixer itself comes last)."""
     doc["description"] = (
         "Breathing over the rest pose; set 'breath_rate' to change its pace. A safety "
         "limiter keeps every DoF within its limits."
     )
-    inputs.append(
+    doc["inputs"].append(
         {
             "name": "breath_rate",
             "type": "float",
@@ -93,66 +111,66 @@ def starter_program(emb, template: str = "idle", name: str = "starter") -> dict[
             "description": "breaths per second",
         }
     )
-    layers: list[dict[str, Any]] = [
-        {"name": "base", "mode": "override"},
-        {"name": "breathing", "mode": "additive", "mask": breathe_on},
-    ]
-    nodes += [
+    doc["nodes"] += [
         _node("rest", "rest_pose", 1, 0, dofs=["*"]),
         _node("in_breath_rate", "input", 0, 1, name="breath_rate", type="float"),
         _node("breath", "sine", 1, 1, dofs=breathe_on, amplitude=0.02, frequency=0.25, phase_spread=0.4),
     ]
-    edges += [
+    doc["edges"] += [
         _edge("rest", "mixer", "base"),
         _edge("in_breath_rate", "breath", "frequency", "value"),
         _edge("breath", "mixer", "breathing"),
     ]
-    if template == "layers":
-        doc["description"] = (
-            "Breathing over the rest pose, plus a 'look' layer (a pose) that starts off: "
-            'send {"type": "set_layer", "layer": "look", "active": true} to fade it '
-            "in. 'energy' scales the breathing depth."
-        )
-        inputs.append(
-            {
-                "name": "energy",
-                "type": "float",
-                "default": 1.0,
-                "min": 0.0,
-                "max": 3.0,
-                "description": "how deep the breathing is (1 = normal)",
-            }
-        )
-        look = {
-            d.name: round(d.rest + 0.3 * ((d.max if d.max - d.rest >= d.rest - d.min else d.min) - d.rest), 4)
-            for d in movable[:2]
-        }
-        nodes += [
-            _node("in_energy", "input", 1, 2, name="energy", type="float"),
-            _node("depth", "gain_offset", 2, 1, dofs=breathe_on, gain=1.0),
-            _node("look", "pose", 1, 3, values=look),
-        ]
-        edges[-1:] = [
-            _edge("breath", "depth"),
-            _edge("in_energy", "depth", "gain", "value"),
-            _edge("depth", "mixer", "breathing"),
-            _edge("look", "mixer", "look"),
-        ]
-        layers.append(
-            {"name": "look", "mode": "override", "fade": 0.6, "mask": list(look) or ["*"], "active": False}
-        )
-    nodes += [
-        _node("mixer", "layer_mixer", 3, 1, layers=layers),
-        _node("limit", "safety_limiter", 4, 1, velocity_scale=1.0, margin=0.02),
-        _node("output", "output", 5, 1),
+    return [
+        {"name": "base", "mode": "override"},
+        {"name": "breathing", "mode": "additive", "mask": breathe_on},
     ]
-    edges += [_edge("mixer", "limit"), _edge("limit", "output")]
-    return doc
+
+
+def _add_look_layer(
+    doc: dict[str, Any], layers: list[dict[str, Any]], movable: list, breathe_on: list[str]
+) -> None:
+    """The layers template's part: an 'energy' input scaling the breathing, and a 'look' pose layer
+    that starts off (the breathing's edge into the mixer is rerouted through the gain)."""
+    doc["description"] = (
+        "Breathing over the rest pose, plus a 'look' layer (a pose) that starts off: "
+        'send {"type": "set_layer", "layer": "look", "active": true} to fade it '
+        "in. 'energy' scales the breathing depth."
+    )
+    doc["inputs"].append(
+        {
+            "name": "energy",
+            "type": "float",
+            "default": 1.0,
+            "min": 0.0,
+            "max": 3.0,
+            "description": "how deep the breathing is (1 = normal)",
+        }
+    )
+    # 30 % of the way from rest toward the farther limit of the first two movable DoFs (rad or m)
+    look = {
+        d.name: round(d.rest + 0.3 * ((d.max if d.max - d.rest >= d.rest - d.min else d.min) - d.rest), 4)
+        for d in movable[:2]
+    }
+    doc["nodes"] += [
+        _node("in_energy", "input", 1, 2, name="energy", type="float"),
+        _node("depth", "gain_offset", 2, 1, dofs=breathe_on, gain=1.0),
+        _node("look", "pose", 1, 3, values=look),
+    ]
+    doc["edges"][-1:] = [
+        _edge("breath", "depth"),
+        _edge("in_energy", "depth", "gain", "value"),
+        _edge("depth", "mixer", "breathing"),
+        _edge("look", "mixer", "look"),
+    ]
+    layers.append(
+        {"name": "look", "mode": "override", "fade": 0.6, "mask": list(look) or ["*"], "active": False}
+    )
 
 
 def run(args) -> int:
-    from backend.graph.compiler import compile_program
-    from backend.graph.roundtrip import format_json
+    from backend.graph.compiler import compile_program  # lazy: a fast `nutty --help`
+    from backend.graph.roundtrip import format_json  # lazy: a fast `nutty --help`
 
     out = Path(args.program)
     if out.exists() and not args.force:

@@ -72,7 +72,7 @@ def parse_assignment(text: str) -> tuple[str, object]:
 
 
 def run(args) -> int:
-    from backend.session import EngineSession, SessionError
+    from backend.session import EngineSession, SessionError  # lazy: a fast `nutty --help`
 
     if not (args.seconds > 0 and math.isfinite(args.seconds)):
         return fail(f"--seconds must be a positive number, got {args.seconds}")
@@ -129,7 +129,7 @@ def run(args) -> int:
             print(f"nutty: warning: {note.get('message')}", file=sys.stderr)
     print(f"wrote {frames_written} frames ({args.seconds:g} s at {rate:g} Hz) to {out}", file=sys.stderr)
     if args.profile:
-        from backend.engine.profile import format_table
+        from backend.engine.profile import format_table  # lazy: a fast `nutty --help`
 
         print(format_table(session.engine.profile()))
     return 0

@@ -21,10 +21,10 @@ def register(sub) -> None:
 
 
 def schemas() -> dict[str, object]:
-    from backend.api_types import api_json_schema
-    from backend.control import command_json_schema
-    from backend.engine.blocks import block_catalog, editor_rules
-    from backend.graph.schema import program_json_schema
+    from backend.api_types import api_json_schema  # lazy: a fast `nutty --help`
+    from backend.control import command_json_schema  # lazy: a fast `nutty --help`
+    from backend.engine.blocks import block_catalog, editor_rules  # lazy: a fast `nutty --help`
+    from backend.graph.schema import program_json_schema  # lazy: a fast `nutty --help`
 
     return {
         "program.schema.json": program_json_schema(),

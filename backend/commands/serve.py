@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import sys
 from pathlib import Path
 
@@ -9,9 +10,10 @@ from backend.commands._common import fail, warn_unsafe
 from backend.drivers import add_driver_options, build_drivers
 from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embodiment, resolve_robot_path
 from backend.engine.gil import collector_paused, settle_heap
+from backend.logs import add_logging_options
 
 # The shutdown machinery lives in backend.shutdown; its public names stay importable from here.
-from backend.shutdown import (  # noqa: F401
+from backend.shutdown import (  # noqa: F401 (re-exported: callers import them from here)
     COMMAND_SOCKETS,
     DEFAULT_SHUTDOWN_TIMEOUT,
     DRAIN_SECONDS,
@@ -34,6 +36,8 @@ from backend.shutdown import (  # noqa: F401
 from backend.zenoh_link.serve import add_serve_options as add_zenoh_options
 from backend.zenoh_link.serve import banner as zenoh_banner
 from backend.zenoh_link.serve import open_for_serve
+
+log = logging.getLogger(__name__)
 
 LOCAL_HOSTS = {"127.0.0.1", "localhost", "::1"}
 
@@ -89,14 +93,15 @@ def register(sub) -> None:
         f"{EXIT_BOUND:g} s)",
     )
     add_zenoh_options(p)  # --zenoh, --robot-id, --zenoh-connect/-listen/-mode/-config (backend/zenoh_link)
+    add_logging_options(p)  # --log-level, --log-json (backend/logs.py)
     p.set_defaults(func=run)
 
 
 def _origin(value: str) -> str:
     """argparse type of --allowed-origin: scheme://host[:port], nothing else."""
-    import argparse
+    import argparse  # lazy: a fast `nutty --help`
 
-    from backend.security import parse_origin
+    from backend.security import parse_origin  # lazy: a fast `nutty --help`
 
     if parse_origin(value) is None:
         raise argparse.ArgumentTypeError(
@@ -117,7 +122,7 @@ def default_program_path(robot_folder: Path | None) -> Path | None:
 
 def builtin_idle(robot_name: str) -> dict:
     """A small idle program any robot can run: breathing over the rest pose or a posture, filtered."""
-    from backend.graph.builder import ProgramBuilder
+    from backend.graph.builder import ProgramBuilder  # lazy: a fast `nutty --help`
 
     b = ProgramBuilder(
         "built-in idle",
@@ -157,15 +162,80 @@ def builtin_idle(robot_name: str) -> dict:
 
 
 def run(args) -> int:
-    from backend.session import EngineSession, SessionError
+    """`nutty serve`: check the options, load the robot and program, start the clock, then serve until
+    a signal or the server stops (the robot parks first: backend/shutdown.py); the exit status."""
+    problem = check_options(args)
+    if problem:
+        return fail(problem)
+    loaded = load_session(args)
+    if isinstance(loaded, int):
+        return loaded
+    emb, session, label = loaded
+    try:
+        attach_drivers(session, args)
+        zenoh = open_for_serve(args, emb)  # joins Zenoh before the clock starts: a taken id changes nothing
+    except ValueError as exc:
+        session.engine.close()
+        return fail(str(exc))
+    settle_heap()  # before the clock starts: the robot's program, kernels and imports never walked again
+    session.engine.start()
+    previz = spawn_previz(session, args)
+    # The server's own imports come after the first frame: the robot need not wait for them, and the
+    # collector waits for them (its full collections would hold the clock up for tens of milliseconds).
+    with collector_paused():
+        import uvicorn  # after the first frame, collector paused (above)
 
+        from backend.api import create_app  # after the first frame, collector paused (above)
+    # From here on SIGTERM/SIGINT/SIGHUP park the robot and close the drivers (see Shutdown).
+    shutdown = Shutdown(session, args.shutdown_timeout)
+    restore_signals = shutdown.install()
+    previz = ready_previz(previz)
+    with collector_paused():
+        app = create_app(
+            session,
+            token=args.token,
+            previz=previz,
+            allowed_origins=args.allowed_origin,
+            host=args.host,
+            port=args.port,
+        )
+    print_banner(args, emb, session, label, previz)
+    hub = getattr(app.state, "hub", None)
+    close_sockets = getattr(hub, "shutdown", None)
+    if callable(close_sockets):  # WebSocket handlers close (1001) once the robot is at rest
+        shutdown.before_server_stops(close_sockets)
+    server = shutdown.attach(uvicorn_server(server_config(uvicorn, app, args, shutdown), shutdown))
+    try:
+        if zenoh is not None:
+            # Zenoh commands are refused from the first signal on, as REST's
+            zenoh.start(hub, shutdown.closing)
+            print(zenoh_banner(zenoh), flush=True)
+        server.run()
+    finally:
+        code = shutdown.finish(previz)  # the park's frames went out on Zenoh too
+        if zenoh is not None:
+            zenoh.close()  # a Zenoh session left open keeps the process from exiting
+        restore_signals()
+    return code
+
+
+def check_options(args) -> str | None:
+    """What is wrong with the options no argparse type can check alone, or None."""
     if args.host not in LOCAL_HOSTS and not args.token:
-        return fail(f"binding to {args.host} exposes the robot to the network: pass --token TOKEN")
+        return f"binding to {args.host} exposes the robot to the network: pass --token TOKEN"
     if not (0 < args.shutdown_timeout <= MAX_SHUTDOWN_TIMEOUT):  # also refuses NaN
-        return fail(
+        return (
             f"--shutdown-timeout must be within (0, {MAX_SHUTDOWN_TIMEOUT:g}] seconds, "
             f"got {args.shutdown_timeout:g}"
         )
+    return None
+
+
+def load_session(args):
+    """(embodiment, EngineSession with its program loaded, the program's label), or the exit status
+    after saying why not (the clock is not started)."""
+    from backend.session import EngineSession, SessionError  # lazy: a fast `nutty --help`
+
     try:
         emb = load_embodiment(args.robot)
     except EmbodimentError as exc:
@@ -189,56 +259,46 @@ def run(args) -> int:
     except SessionError as exc:
         print(exc.render(), file=sys.stderr)
         return 1
+    return emb, session, label
+
+
+def spawn_previz(session, args):
+    """The Pre-Viz child process, starting (it imports viser while the server imports), or None with
+    --no-previz."""
+    if args.no_previz:
+        return None
+    from backend.previz_process import PreVizProcess  # lazy: a fast `nutty --help`
+
+    # Loopback only, always: the network reaches it through the API's /previz/ proxy and token. In its
+    # own process: viser never holds the clock's interpreter lock (backend/previz_process.py).
+    return PreVizProcess(
+        session,
+        port=args.previz_port,
+        allowed_origins=args.allowed_origin,
+        proxy_only=args.token is not None,
+    )
+
+
+def ready_previz(previz):
+    """The Pre-Viz once it listens and is fed frames, or None when it could not start (the robot and
+    the API go on without it)."""
+    if previz is None:
+        return None
+    from backend.previz_process import PreVizUnavailable  # lazy: a fast `nutty --help`
+
     try:
-        attach_drivers(session, args)
-        zenoh = open_for_serve(args, emb)  # joins Zenoh before the clock starts: a taken id changes nothing
-    except ValueError as exc:
-        session.engine.close()
-        return fail(str(exc))
-    settle_heap()  # before the clock starts: the robot's program, kernels and imports never walked again
-    session.engine.start()
-    previz = None
-    if not args.no_previz:
-        from backend.previz_process import PreVizProcess, PreVizUnavailable
+        previz.wait_ready()
+        previz.start()
+    except PreVizUnavailable as exc:
+        log.warning("the Pre-Viz did not start (%s); serving without it", exc)
+        previz.stop()
+        return None
+    return previz
 
-        # Loopback only, always: the network reaches it through the API's /previz/ proxy and token. In
-        # its own process: viser never holds the clock's interpreter lock (backend/previz_process.py);
-        # it starts while the server imports.
-        previz = PreVizProcess(
-            session,
-            port=args.previz_port,
-            allowed_origins=args.allowed_origin,
-            proxy_only=args.token is not None,
-        )
-    # The server's own imports come after the first frame: the robot need not wait for them, and the
-    # collector waits for them (its full collections would hold the clock up for tens of milliseconds).
-    with collector_paused():
-        import uvicorn
 
-        from backend.api import create_app
-    # From here on SIGTERM/SIGINT/SIGHUP park the robot and close the drivers (see Shutdown).
-    shutdown = Shutdown(session, args.shutdown_timeout)
-    restore_signals = shutdown.install()
-    if previz is not None:
-        try:
-            previz.wait_ready()
-            previz.start()
-        except PreVizUnavailable as exc:  # the robot and the API go on without it
-            print(
-                f"nutty: the Pre-Viz did not start ({exc}); serving without it", file=sys.stderr, flush=True
-            )
-            previz.stop()
-            previz = None
+def print_banner(args, emb, session, label: str, previz) -> None:
+    """Where the editor, the API and the Pre-Viz are (stdout: what a person or a script reads)."""
     shown = "localhost" if args.host in LOCAL_HOSTS else args.host
-    with collector_paused():
-        app = create_app(
-            session,
-            token=args.token,
-            previz=previz,
-            allowed_origins=args.allowed_origin,
-            host=args.host,
-            port=args.port,
-        )
     print(
         f"Nutty: robot '{emb.name}', program '{session.program.name}' ({label}), level {session.engine.apu.level}, "
         f"{session.engine.rate:g} Hz",
@@ -249,37 +309,23 @@ def run(args) -> int:
     if previz:
         direct = "" if args.token is not None else f" (locally also http://127.0.0.1:{previz.port}/)"
         print(f"  Pre-Viz  http://{shown}:{args.port}/previz/{direct}", flush=True)
-    hub = getattr(app.state, "hub", None)
-    if callable(getattr(hub, "shutdown", None)):
-        shutdown.before_server_stops(
-            hub.shutdown
-        )  # WebSocket handlers close (1001) once the robot is at rest
-    server = shutdown.attach(
-        uvicorn_server(
-            uvicorn.Config(
-                ShutdownGate(app, shutdown.closing),
-                host=args.host,
-                port=args.port,
-                log_level="warning",
-                timeout_graceful_shutdown=HTTP_GRACE,
-                ws_per_message_deflate=False,
-            ),
-            shutdown,
-        )
+
+
+def server_config(uvicorn, app, args, shutdown):
+    """uvicorn's Config for the API behind the shutdown gate. Its loggers follow --log-level through
+    the root logger (backend/logs.py; log_config=None: uvicorn installs no handlers of its own), and
+    its per-request access lines appear at debug only."""
+    level = getattr(args, "log_level", "warning")
+    return uvicorn.Config(
+        ShutdownGate(app, shutdown.closing),
+        host=args.host,
+        port=args.port,
+        log_config=None,
+        log_level=level,
+        access_log=level == "debug",
+        timeout_graceful_shutdown=HTTP_GRACE,
+        ws_per_message_deflate=False,
     )
-    try:
-        if zenoh is not None:
-            zenoh.start(
-                hub, shutdown.closing
-            )  # Zenoh commands are refused from the first signal on, as REST's
-            print(zenoh_banner(zenoh), flush=True)
-        server.run()
-    finally:
-        code = shutdown.finish(previz)  # the park's frames went out on Zenoh too
-        if zenoh is not None:
-            zenoh.close()  # a Zenoh session left open keeps the process from exiting
-        restore_signals()
-    return code
 
 
 def attach_drivers(session, args) -> None:

@@ -40,7 +40,7 @@ def _count(n: int, word: str) -> str:
 
 
 def run(args) -> int:
-    from backend.graph.compiler import compile_program
+    from backend.graph.compiler import compile_program  # lazy: a fast `nutty --help`
 
     path = Path(args.program)
     try:

@@ -19,7 +19,7 @@ CHANGE_EVENTS = ("tools_changed", "reconnected")  # /ws/control events after whi
 async def run(remote: Remote, http: int | None = None, host: str = "127.0.0.1") -> None:
     """Serve MCP for `remote` until stdin closes (stdio) or the process is interrupted (`http` PORT),
     while /ws/control is watched for tool changes."""
-    import anyio
+    import anyio  # on demand: only the transport in use
 
     server, announcer = create_server(remote)
 
@@ -31,15 +31,18 @@ async def run(remote: Remote, http: int | None = None, host: str = "127.0.0.1") 
         async with anyio.create_task_group() as tg:
             tg.start_soon(remote.watch, on_event)
             if http is None:
-                from backend.mcp_bridge.stdio import safe_stdio_server
+                from backend.mcp_bridge.stdio import safe_stdio_server  # only over stdio
 
                 async with safe_stdio_server() as (read, write):
                     await server.run(read, write, initialization_options(server))
             else:
-                import uvicorn
+                import uvicorn  # only with --http
 
                 app = server.streamable_http_app(streamable_http_path=MCP_PATH, host=host)
-                await uvicorn.Server(uvicorn.Config(app, host=host, port=http, log_level="warning")).serve()
+                # log_config=None: uvicorn's records go through the root logger, to stderr at the level
+                # `nutty mcp --log-level` set (backend/logs.py), never to stdout
+                config = uvicorn.Config(app, host=host, port=http, log_config=None)
+                await uvicorn.Server(config).serve()
             tg.cancel_scope.cancel()
     finally:
         await remote.close()

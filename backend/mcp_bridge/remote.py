@@ -13,7 +13,7 @@ from typing import Any
 
 import httpx
 
-log = logging.getLogger("nutty.mcp")
+log = logging.getLogger(__name__)
 HTTP_TIMEOUT = 10.0  # s, for every request that does not wait for an action
 WAIT_MARGIN = 10.0  # s added to a waiting tool call's own timeout
 RECONNECT = (0.5, 5.0)  # s: first and longest pause before /ws/control is dialled again
@@ -78,7 +78,8 @@ class Remote:
     async def watch(self, on_event: Callable[[dict[str, Any]], Awaitable[None]]) -> None:
         """Hand every /ws/control event to `on_event`, for ever: a lost connection is dialled again
         (with a growing pause), and each reconnection counts as a possible change (`reconnected`)."""
-        from websockets.asyncio.client import connect
+        from websockets.asyncio.client import connect  # the watcher's alone
+        from websockets.exceptions import WebSocketException  # the watcher's alone
 
         ws_url = "ws" + self.url[len("http") :] + "/ws/control" if self.url.startswith("http") else self.url
         headers = {"Authorization": f"Bearer {self.token}"} if self.token else {}
@@ -97,7 +98,14 @@ class Remote:
                             await on_event(message)
             except asyncio.CancelledError:
                 raise
-            except Exception as exc:  # refused, closed, malformed: the watcher keeps trying
+            except (
+                OSError,
+                TimeoutError,
+                ValueError,
+                WebSocketException,
+            ) as exc:  # refused, closed, malformed
                 log.info("/ws/control of %s: %s; retrying in %.1f s", self.url, exc, pause)
+            except Exception:  # a bug must not end the watch: the tools would never be refreshed again
+                log.exception("watching /ws/control of %s failed; retrying in %.1f s", self.url, pause)
             await asyncio.sleep(pause)
             pause = min(pause * 2, RECONNECT[1])

@@ -26,7 +26,7 @@ from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 from backend import __version__
 from backend.mcp_bridge.remote import Remote
 
-log = logging.getLogger("nutty.mcp")
+log = logging.getLogger(__name__)
 MAX_SESSIONS = 64  # handshake-era connections remembered for list-changed notifications
 
 INSTRUCTIONS = """You drive a Nutty robot (an expressive animated robot). Its tools come from the robot \
@@ -86,7 +86,8 @@ class Announcer:
         for key, (_, session) in list(self._sessions.items()):
             try:
                 await session.send_tool_list_changed()
-            except Exception:  # that client is gone
+            except Exception as exc:  # that client is gone (its stream closed, whichever way)
+                log.debug("tools-changed not delivered; forgetting that session: %s", exc, exc_info=True)
                 self._sessions.pop(key, None)
 
 

@@ -23,16 +23,17 @@ import sys
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from io import TextIOWrapper
-from typing import Any
+from typing import Any, cast
 
 import anyio
 import mcp_types as types
 from mcp.server.stdio import stdio_server
 from mcp.shared.message import SessionMessage
+from pydantic import ValidationError
 
 from backend.safe_json import JsonSafetyError, check_json, loads, safe_text
 
-log = logging.getLogger("nutty.mcp")
+log = logging.getLogger(__name__)
 _ID = re.compile(r'"id"\s*:\s*(-?\d{1,18}|"(?:[^"\\]|\\.){0,200}")')
 
 
@@ -89,7 +90,7 @@ def check_line(line: str) -> tuple[dict[str, Any] | None, types.JSONRPCError | N
         )
     try:
         types.jsonrpc_message_adapter.validate_python(doc, by_name=False)
-    except Exception as exc:  # pydantic's ValidationError: name what is wrong in one line
+    except ValidationError as exc:  # name what is wrong in one line
         rid = _lenient_id(line, doc)
         first = str(exc).splitlines()
         why = first[1].strip() if len(first) > 1 else str(exc)
@@ -130,6 +131,7 @@ async def safe_stdio_server(stdin: Any = None) -> AsyncIterator[tuple[Any, Any]]
             elif error is not None and writer:
                 await writer[0].send(SessionMessage(error))
 
-    async with stdio_server(stdin=good_lines(), stdout=None) as (read_stream, write_stream):
+    # stdio_server only iterates its stdin: the checked lines stand in for the file it expects
+    async with stdio_server(stdin=cast(Any, good_lines()), stdout=None) as (read_stream, write_stream):
         writer.append(write_stream)
         yield read_stream, write_stream

@@ -17,7 +17,7 @@ SEVERITY = ("velocity", "acceleration", "jerk", "position")  # the most severe l
 
 def hex_colour(value: str) -> tuple[float, float, float]:
     value = value.lstrip("#")
-    return tuple(int(value[i : i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
+    return (int(value[0:2], 16) / 255.0, int(value[2:4], 16) / 255.0, int(value[4:6], 16) / 255.0)
 
 
 def clear(scene: Any, rig_ob: Any | None) -> None:

@@ -1,13 +1,13 @@
 """The Nutty menu's operators: thin wrappers over load, clip, limits, ghost and live, which report every
 expected failure (server down, robot the add-on cannot rig, an action without keys, ...) as one
 clear line in Blender's report. An unexpected error is reported in one line too, its traceback only
-printed to the console for a bug report.
+logged (Blender's system console) for a bug report.
 """
 
 # (no `from __future__ import annotations`: Blender reads the property annotations as objects)
 import json
+import logging
 import re
-import traceback
 from typing import Any
 
 import bpy
@@ -17,6 +17,8 @@ from . import clip, ghost, limits, live, load, rig
 from .client import Client, NuttyError
 from .robot import RigError
 from .settings import PRESETS
+
+log = logging.getLogger(__name__)
 
 EXPECTED = (NuttyError, RigError, clip.ExportError)
 CLIP_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-.]{0,79}$")  # as backend/engine/library.py names assets
@@ -56,7 +58,7 @@ class _NuttyOperator(bpy.types.Operator):
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         except Exception as exc:  # a bug: say so in one line, keep the traceback for the console
-            traceback.print_exc()
+            log.exception("Nutty operator %s failed", self.bl_idname)
             self.report(
                 {"ERROR"}, f"Nutty: unexpected {type(exc).__name__}: {exc} (details in the system console)"
             )
