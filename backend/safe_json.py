@@ -6,9 +6,10 @@ with an error that names the field; `check_json` applies the same rules to an al
 WebSockets, in-process commands); `dumps` never fails (a value that cannot be serialised is
 sanitised rather than turned into a 500 or a dead socket).
 
-`dumps` writes with orjson (~6x faster than the standard library on telemetry: the event loop holds
-the interpreter lock, which the engine's clock waits for, that much less) and falls back to the
-standard library's encoder on anything orjson refuses, so both give the same values.
+`dumps` writes with orjson (several times faster than the standard library on telemetry; figures in
+benchmarks/RESULTS.md: the event loop holds the interpreter lock, which the engine's clock waits for,
+that much less) and falls back to the standard library's encoder on anything orjson refuses, so both
+give the same values.
 """
 
 from __future__ import annotations

@@ -28,6 +28,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench_engine import three_layer_program
+from results import recorded
 
 from backend.engine.embodiment import load_embodiment
 from backend.engine.runtime import Sink
@@ -145,4 +146,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with recorded("bench_clock", "Real-time clock: steadiness, slow sink, hot swaps"):
+        main()

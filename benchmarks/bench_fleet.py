@@ -35,6 +35,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from results import recorded
+
 from backend.fleet import Fleet
 
 SECONDS = 10.0
@@ -332,4 +334,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with recorded("bench_fleet", "Fleet on Zenoh: latency, publishing cost, engines per machine"):
+        main()

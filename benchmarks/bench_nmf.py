@@ -20,6 +20,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from results import recorded
+
 from backend.engine import nmf_examples as ex
 from backend.engine.nmf import PRESETS, MotionFilter
 from backend.engine.trajectory import analyze, step_metrics
@@ -148,4 +150,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with recorded("bench_nmf", "Nutty Motion Filter against Ruckig"):
+        main()

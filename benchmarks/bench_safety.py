@@ -25,6 +25,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from results import recorded
+
 from backend.engine.embodiment import load_embodiment
 from backend.engine.safety import SafetyNet
 from backend.session import EngineSession
@@ -155,4 +157,5 @@ def joint_stage(desk) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    with recorded("bench_safety", "Safety net: swap jumps, re-lock, cost per tick"):
+        main()

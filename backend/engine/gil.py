@@ -18,21 +18,21 @@ thread starts get the normal policy (`SCHED_RESET_ON_FORK`). `NUTTY_CLOCK_REALTI
 environment keeps the clock off the real-time policy. The interval is process-wide: the last clock to
 stop (`restore()`) puts back the one found before the first started.
 
-Measured (issue 15; `nutty serve` at 500 Hz under the full served load, 8 s windows, 2 cores): with
-the nice value alone, lateness p99 1.9-2.0 ms and 60-76 overruns; with SCHED_FIFO 0.9-1.2 ms and
-7-17 overruns. Then the other threads' long calls into C (the Pre-Viz posing, encoding telemetry
-with the standard library's json) kept the clock waiting whatever the interval. Once those went
-(backend/previz_process.py, backend/safe_json.py), the interval is what bounds the clock's wait: full
-load, three interleaved 8 s runs each, lateness p99 0.55-0.93 ms at 0.5 ms, 0.24-0.37 ms at 0.2 ms
-(0.1 ms: ~0.17 ms, but other threads then cut into ticks often enough to lengthen the tick's p99 to
-1.1-1.4 ms).
+Why both (issue 15; `nutty serve` at 500 Hz under the full served load): SCHED_FIFO left the clock
+far less late, with far fewer overruns, than the nice value alone. Then the other threads' long calls
+into C (the Pre-Viz posing, encoding telemetry with the standard library's json) kept the clock
+waiting whatever the interval. Once those went (backend/previz_process.py, backend/safe_json.py), the
+interval is what bounds the clock's wait: a shorter one left the clock less late down to
+`SWITCH_INTERVAL`; a shorter one still lets other threads cut into ticks often enough to lengthen the
+tick itself. The figures: benchmarks/RESULTS.md.
 
 The cyclic garbage collector is the other long holder of the lock: a full collection walks every
-tracked object (about 190 000 once the server has imported FastAPI, pydantic, numba and the blocks)
-and took 40-140 ms on the server's event-loop thread, 20-70 lost ticks at 500 Hz, most of them in the
-first seconds while the server imports what it needs after the first frame. `settle_heap()` collects
-once and then moves everything alive out of the collector's sight (`gc.freeze`): later full
-collections walk only what was made since (measured: 82 ms -> 12 ms). `collector_paused()` keeps the
+tracked object (hundreds of thousands once the server has imported FastAPI, pydantic, numba and the
+blocks), on the server's event-loop thread, for many clock periods at 500 Hz; the ticks lost came
+mostly in the first seconds, while the server imports what it needs after the first frame.
+`settle_heap()` collects once and then moves everything alive out of the collector's sight
+(`gc.freeze`): later full collections walk only what was made since (benchmarks/bench_design.py
+measures both). `collector_paused()` keeps the
 collector off while a block of imports runs beside a live clock and settles the heap after it.
 
 What this cannot do: a thread that holds the lock while the OS has preempted it (a machine with more
@@ -42,6 +42,7 @@ reports the clock's waits next to its own CPU time (`tick_cost` against `tick_cp
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import os
 import sys
@@ -114,10 +115,10 @@ class ClockPriority:
             return
         self.applied = False
         if self.realtime is not None and self._tid is not None:
-            try:  # back to the normal policy (its nice value stays: the thread is about to end)
+            # back to the normal policy (its nice value stays: the thread is about to end); OSError: not
+            # permitted any more, or the thread has gone, and its policy with it
+            with contextlib.suppress(OSError):
                 os.sched_setscheduler(self._tid, os.SCHED_OTHER, os.sched_param(0))
-            except OSError:
-                pass
             self.realtime = None
         with ClockPriority._lock:
             ClockPriority._running -= 1

@@ -31,6 +31,7 @@ from numba import njit
 
 from backend.engine.dofs import ACC_PER_VEL, JERK_PER_ACC, Dimension, DofType
 from backend.engine.embodiment import Embodiment
+from backend.engine.net_rows import limit_rows
 
 
 @njit(cache=True)
@@ -114,11 +115,10 @@ class JointLimits:
         )
 
     def rows(self) -> np.ndarray:
-        """Limit rows lo, hi, V, A, J of the governed joints, as the net's kernel takes them."""
+        """The limits array of the governed joints, by row (`net_rows.LIM_LO` … `LIM_J`), as the net's
+        kernel takes them."""
         g = self.governed
-        return np.ascontiguousarray(
-            np.stack([self.lower[g], self.upper[g], self.velocity[g], self.acceleration[g], self.jerk[g]])
-        )
+        return limit_rows(self.lower[g], self.upper[g], self.velocity[g], self.acceleration[g], self.jerk[g])
 
     def compose(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Joint values (rad or m) of a channel vector, unclipped: what the motors would get."""

@@ -17,21 +17,24 @@
 
 from __future__ import annotations
 
-import contextlib
+import logging
 import math
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
 from queue import Empty, SimpleQueue
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
+from backend.engine import parking
 from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
+
+# The clock and the sinks live in their own modules; they are re-exported here, where callers import them.
+from backend.engine.clock import Clock, RingStats, WallClock
 from backend.engine.compiled import default_compiled, entry_point
 from backend.engine.compiled.frames import DERIVATIVES_SIG, derivatives
 from backend.engine.embodiment import Embodiment
@@ -39,156 +42,16 @@ from backend.engine.frames import AnimationFrame
 from backend.engine.gil import ClockPriority
 from backend.engine.profile import SAMPLE_EVERY, WINDOW, CookTimes
 from backend.engine.safety import SafetyNet
+from backend.engine.sinks import Sink
 from backend.engine.transition import Transition
+from backend.logs import Throttle
 
 MIN_RATE, MAX_RATE = 30.0, 1000.0
 
+log = logging.getLogger(__name__)
+_faults = Throttle(every=10.0)  # a faulty block or listener fails on every tick: logged once per 10 s
 
-class RingStats:
-    """The last `size` samples of a quantity (seconds), summarised as p50/p99/max in ms."""
-
-    def __init__(self, size: int = 4096):
-        self._buf = np.zeros(size)
-        self._n = 0
-
-    def add(self, x: float) -> None:
-        self._buf[self._n % len(self._buf)] = x
-        self._n += 1
-
-    def reset(self) -> None:
-        self._n = 0
-
-    def summary(self) -> dict[str, float]:
-        n = min(self._n, len(self._buf))
-        if n == 0:
-            return {"p50_ms": 0.0, "p99_ms": 0.0, "max_ms": 0.0, "samples": 0}
-        a = self._buf[:n] * 1e3
-        p50, p99 = np.percentile(a, [50, 99])
-        return {"p50_ms": float(p50), "p99_ms": float(p99), "max_ms": float(a.max()), "samples": int(n)}
-
-
-class Sink:
-    """A consumer of Animation Frames (a driver, a recorder, a WebSocket hub).
-
-    `offer` never blocks: frames go through a bounded queue to the sink's own thread; when the queue
-    is full the oldest frame is dropped and counted. Subclass and override `consume`, or pass a callable.
-    `decimate = k` forwards every k-th frame only.
-
-    The hand-over shares no lock with the sink's thread: the clock appends to the queue (atomic) and
-    releases a "frames waiting" signal (releasing a lock never blocks), so a busy sink can never make
-    the clock wait for it, not even for the interpreter lock a blocked lock acquisition gives away.
-    """
-
-    def __init__(
-        self,
-        name: str,
-        consume: Callable[[AnimationFrame], None] | None = None,
-        max_queue: int = 8,
-        decimate: int = 1,
-        batch: float = 0.0,
-    ):
-        self.name = name
-        self._consume = consume
-        self.decimate = max(1, int(decimate))
-        self.batch = max(0.0, float(batch))
-        self._queue: deque[AnimationFrame] = deque(maxlen=max_queue)
-        self._signal = threading.Lock()  # locked: nothing new since the sink last looked
-        self._signal.acquire()
-        self._closed = False
-        self.offered = self.delivered = self.errors = 0
-        self._enqueued = self._taken = 0  # frames put in the queue (clock) / taken out of it (sink thread)
-        self.last_error: str | None = None
-        self._thread = threading.Thread(target=self._loop, name=f"sink-{name}", daemon=True)
-        self._thread.start()
-
-    @property
-    def dropped(self) -> int:
-        """Frames the queue dropped (oldest first) because the sink was behind."""
-        return max(0, self._enqueued - self._taken - len(self._queue))
-
-    def consume(self, frame: AnimationFrame) -> None:
-        if self._consume is not None:
-            self._consume(frame)
-
-    def offer(self, frame: AnimationFrame) -> None:
-        self.offered += 1
-        if (self.offered - 1) % self.decimate:
-            return
-        self._queue.append(frame)  # deque(maxlen) drops the oldest for us
-        self._enqueued += 1
-        self._wake()
-
-    def _wake(self) -> None:
-        try:
-            self._signal.release()
-        except RuntimeError:  # already signalled: the sink will look anyway
-            pass
-
-    def _loop(self) -> None:
-        while True:
-            self._signal.acquire()
-            while True:
-                try:
-                    frame = self._queue.popleft()
-                except IndexError:
-                    break
-                self._taken += 1
-                try:
-                    self.consume(frame)
-                    self.delivered += 1
-                except Exception as exc:  # a broken driver must not take the engine down
-                    self.errors += 1
-                    self.last_error = f"{type(exc).__name__}: {exc}"
-            if self._closed and not self._queue:
-                return
-            if self.batch and not self._closed:
-                time.sleep(self.batch)
-
-    def close(self, timeout: float = 2.0) -> None:
-        """Deliver what is queued, then stop the sink's thread."""
-        self._closed = True
-        self._wake()
-        self._thread.join(timeout)
-
-    def stats(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "offered": self.offered,
-            "delivered": self.delivered,
-            "dropped": self.dropped,
-            "errors": self.errors,
-            "last_error": self.last_error,
-            "decimate": self.decimate,
-        }
-
-
-class Clock(Protocol):
-    """What the engine's clock loop needs from time: a reading and a wait."""
-
-    def now(self) -> float:
-        """Seconds on a monotonic scale (any origin)."""
-
-    def wait_until(self, deadline: float, stop: threading.Event) -> bool:
-        """Return at `deadline` (a `now()` reading) with True, or with False once `stop` is set."""
-
-
-class WallClock:
-    """The real clock: `time.perf_counter`; a wait sleeps, then spins the last `spin` seconds
-    (sleep alone is too coarse for a 1 kHz loop)."""
-
-    def __init__(self, spin: float = 0.0003):
-        self.spin = spin
-
-    def now(self) -> float:
-        return time.perf_counter()
-
-    def wait_until(self, deadline: float, stop: threading.Event) -> bool:
-        wait = deadline - time.perf_counter()
-        if wait > self.spin and stop.wait(wait - self.spin):
-            return False
-        while time.perf_counter() < deadline:
-            pass
-        return not stop.is_set()
+__all__ = ["MAX_RATE", "MIN_RATE", "Clock", "Engine", "RingStats", "Sink", "WallClock"]
 
 
 @dataclass
@@ -294,11 +157,10 @@ class Engine:
         self,
         apu: APU | None,
         *,
-        wait: bool = True,
         adopt: bool = True,
         transition: float | None = None,
         also: Callable[[], Any] | None = None,
-    ) -> Future | list[str]:
+    ) -> list[str]:
         """Swap in a compiled program at a tick boundary (the only way a program is swapped).
 
         adopt: blocks keeping id and type keep their state. transition: seconds over which the jump
@@ -307,8 +169,25 @@ class Engine:
         the robot goes to its rest pose. `also` runs in the same tick boundary (e.g. installing the
         program's inputs), so no tick runs the new program without it.
         Raises LevelError (changing nothing) if the program needs a level above `max_level`.
-        Returns the ids of the blocks that kept their state (or a Future of them).
+        Returns the ids of the blocks that kept their state, once the swap is done.
         """
+        return self.call(self._swap(apu, adopt, transition, also))
+
+    def load_soon(
+        self,
+        apu: APU | None,
+        *,
+        adopt: bool = True,
+        transition: float | None = None,
+        also: Callable[[], Any] | None = None,
+    ) -> Future:
+        """`load` without waiting: the swap happens at the next tick boundary; a Future of the kept ids."""
+        return self.call_soon(self._swap(apu, adopt, transition, also))
+
+    def _swap(
+        self, apu: APU | None, adopt: bool, transition: float | None, also: Callable[[], Any] | None
+    ) -> Callable[[], list[str]]:
+        """The checked swap, to run at a tick boundary (LevelError/ValueError at once, changing nothing)."""
         if apu is not None:
             if apu.level > self.max_level:
                 raise LevelError(
@@ -338,49 +217,27 @@ class Engine:
                 )
             return kept
 
-        return self.call(swap) if wait else self.call_soon(swap)
+        return swap
 
     def park(self, timeout: float = 3.0) -> dict[str, Any]:
-        """Bring the robot to its exact rest pose (no program, no display overrides) within its limits.
-
-        Returns once every channel is at rest with zero velocity and acceleration, or at `timeout`
-        (s): {"reached_rest", "seconds", "max_error"}. Ticks the engine itself when the clock is not
-        running. The program is dropped; load one again to resume.
-        """
-        t0 = time.perf_counter()
-        self.load(None, wait=self.running, adopt=False, also=self.clear_overrides)
-        deadline = t0 + max(0.0, timeout)
-        ticks_allowed = math.ceil(max(0.0, timeout) * self.rate)
-        n = 0
-        while not self.at_rest():
-            if self.running:
-                if time.perf_counter() >= deadline:
-                    break
-                time.sleep(min(0.01, self.dt))
-            else:
-                if n >= ticks_allowed:
-                    break
-                self.tick()
-                n += 1
-        seconds = (time.perf_counter() - t0) if self.running else n * self.dt
-        error = np.abs(self._pos - self.embodiment.rest)
-        return {
-            "reached_rest": self.at_rest(),
-            "seconds": seconds,
-            "max_error": float(error[self.embodiment.continuous_mask].max(initial=0.0)),
-        }
+        """Bring the robot to its exact rest pose within its limits (`backend.engine.parking.park`)."""
+        return parking.park(self, timeout)
 
     def at_rest(self) -> bool:
         """Whether the last frame is the rest pose exactly, standing still, with no program running."""
-        emb = self.embodiment
         return (
             self.apu is None
             and self._transition is None
             and self.seq > 2
-            and bool(np.array_equal(self._pos, emb.rest))
+            and bool(np.array_equal(self._pos, self.embodiment.rest))
             and not np.any(self._vel)
             and not np.any(self._acc)
         )
+
+    @property
+    def position(self) -> np.ndarray:
+        """The last frame's channel values (what the robot was last sent; a copy)."""
+        return self._pos.copy()
 
     def set_input(self, name: str, value: Any) -> Future:
         """Set an exposed input at the next tick boundary."""
@@ -432,7 +289,7 @@ class Engine:
                 continue
             try:
                 item.future.set_result(item.fn())
-            except BaseException as exc:  # reported to the caller, never to the clock
+            except BaseException as exc:  # noqa: BLE001 (not swallowed: the caller's future re-raises it)
                 item.future.set_exception(exc)
 
     def tick(self) -> AnimationFrame:
@@ -445,7 +302,12 @@ class Engine:
                 try:
                     final, stage1, events = self.apu.tick(dt)
                 except Exception as exc:  # a faulty block holds the last pose rather than killing the clock
-                    self._notify({"event": "error", "message": f"{type(exc).__name__}: {exc}"})
+                    message = f"{type(exc).__name__}: {exc}"
+                    self._notify({"event": "error", "message": message})
+                    skipped = _faults.due(type(exc).__name__)
+                    if skipped is not None:
+                        again = f" ({skipped} more of its kind since the last report)" if skipped else ""
+                        log.error("a block failed; holding the last pose: %s%s", message, again, exc_info=exc)
                     final, stage1, events = self._pos, self._pos, []
             else:
                 final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
@@ -499,8 +361,12 @@ class Engine:
 
     def _notify(self, note: dict[str, Any]) -> None:
         for fn in self._listeners:
-            with contextlib.suppress(Exception):
+            try:
                 fn(note)
+            except Exception as exc:  # a listener's bug must not stop the clock or the other listeners
+                skipped = _faults.due(f"listener {fn!r}: {type(exc).__name__}")
+                if skipped is not None:
+                    log.error("an engine listener failed on a %r note", note.get("event"), exc_info=exc)
 
     def run_ticks(self, n: int) -> list[AnimationFrame]:
         """Headless: run `n` ticks as fast as possible (no sleeping) and return the frames."""

@@ -41,17 +41,28 @@ from numba import njit
 from backend.engine.embodiment import Embodiment
 from backend.engine.joint_net import JointLimits, compose_joints
 
+# The rows of the state and limits arrays, by name.
+from backend.engine.net_rows import (
+    LIM_A,
+    LIM_HI,
+    LIM_J,
+    LIM_LO,
+    LIM_V,
+    ROW_A,
+    ROW_P,
+    ROW_TA,
+    ROW_TV,
+    ROW_TX,
+    ROW_V,
+    limit_rows,
+    rest_state,
+)
+
 #: Relative slack on the limit tests, for floating-point rounding only (not a tolerance on the limits).
 EPS = 1e-12
 #: Longest receding-horizon plan (s) the net tries before it falls back to the braking approach.
 PLAN_SECONDS = 0.4
 _BISECT = 40
-
-# Rows of the net's state (per governed channel or joint): the output's finite-difference state, then
-# the program's (clipped to the limits, for prediction).
-ROW_P, ROW_V, ROW_A, ROW_TX, ROW_TV, ROW_TA = range(6)
-# Rows of the limits array: position range, velocity, acceleration and jerk limits.
-LIM_LO, LIM_HI, LIM_V, LIM_A, LIM_J = range(5)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -343,11 +354,9 @@ class SafetyNet:
         self.mask = cont & finite
         self.idx = np.flatnonzero(self.mask).astype(np.int64)
         i = self.idx
-        #: rows lo, hi, V, A, J of the governed channels
-        self.limits = np.ascontiguousarray(
-            np.stack([emb.min[i], emb.max[i], emb.vel_limit[i], emb.acc_limit[i], emb.jerk_limit[i]]).astype(
-                float
-            )
+        #: The limits of the governed channels, by row (`LIM_LO` … `LIM_J`).
+        self.limits = limit_rows(
+            emb.min[i], emb.max[i], emb.vel_limit[i], emb.acc_limit[i], emb.jerk_limit[i]
         )
         self._gains, self._starts = plan_gains(plan_horizons(rate))
         self.corrections = np.zeros(emb.n_channels, dtype=np.int64)
@@ -390,14 +399,14 @@ class SafetyNet:
     def reset(self, position: np.ndarray) -> None:
         """Start from `position` at rest (zero velocity and acceleration)."""
         position = np.asarray(position, dtype=float)
-        self.state = _rest_state(position[self.idx], self.lo, self.hi)
+        self.state = rest_state(position[self.idx], self.lo, self.hi)
         self._locked = np.ones(len(self.idx), dtype=bool)
         self.corrected[:] = False
         start = np.array(position)
         start[self.idx] = self.state[ROW_P]
         q = self.joints.compose(start)
         jl = self._jlimits
-        self._jstate = _rest_state(q[self._jidx], jl[LIM_LO], jl[LIM_HI])
+        self._jstate = rest_state(q[self._jidx], jl[LIM_LO], jl[LIM_HI])
         self._jlocked = np.ones(len(self._jidx), dtype=bool)
         self.joint_corrected[:] = False
         self.joint_out = q
@@ -489,11 +498,3 @@ class SafetyNet:
             "joints_correcting": [joints[i] for i in np.flatnonzero(self.joint_corrected)],
             "joints_governed": [joints[i] for i in self._jidx],
         }
-
-
-def _rest_state(position: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """A net's state standing still at `position` (clipped to [lo, hi]): rows ROW_P..ROW_TA (see the top)."""
-    state = np.zeros((6, len(position)))
-    state[ROW_P] = np.clip(position, lo, hi)
-    state[ROW_TX] = state[ROW_P]
-    return state

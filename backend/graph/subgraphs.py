@@ -28,7 +28,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from backend.graph.issues import Issue
-from backend.graph.schema import SUBGRAPH_PARAM, SUBGRAPH_TYPE, Edge, Endpoint, Node, Program, Subgraph
+from backend.graph.schema import (
+    SUBGRAPH_PARAM,
+    SUBGRAPH_TYPE,
+    Edge,
+    Endpoint,
+    ExposedPort,
+    Node,
+    Program,
+    Subgraph,
+)
 
 VIRTUAL = 1_000_000  # flat nodes/edges from inside subgraphs get document indices from here on
 _PLACE = re.compile(r"\b(nodes|edges)\[(\d+)\]")
@@ -81,25 +90,42 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
     `node_index` / `edge_index`: the document index of each node / edge of `program` (malformed ones
     are left out by the reader). Problems are appended to `errors`, each reported once.
     """
-    defs = program.subgraphs or {}
-    flat = Flat(program=program, node_index=[], edge_index=[])
-    nodes: list[Node] = []
-    edges: list[Edge] = []
-    seen: set[tuple[str, str]] = set()
-    counter = [VIRTUAL]
+    flattener = _Flattener(program, errors)
+    flattener.expand("", program.nodes, program.edges, node_index, edge_index, "", ())
+    flat = flattener.flat
+    flat.program = program.model_copy(
+        update={"nodes": flattener.nodes, "edges": flattener.edges, "subgraphs": None}
+    )
+    return flat
 
-    def report(issue: Issue) -> None:
+
+class _Flattener:
+    """One `flatten` under way: the definitions, the flat nodes and edges gathered so far, and the issues
+    reported (each once)."""
+
+    def __init__(self, program: Program, errors: list[Issue]):
+        self.defs = program.subgraphs or {}
+        self.flat = Flat(program=program, node_index=[], edge_index=[])
+        self.nodes: list[Node] = []
+        self.edges: list[Edge] = []
+        self.errors = errors
+        self.seen: set[tuple[str, str]] = set()
+        self.counter = VIRTUAL
+
+    def report(self, issue: Issue) -> None:
         key = (issue.code, issue.path or issue.message)
-        if key not in seen:
-            seen.add(key)
-            errors.append(issue)
+        if key not in self.seen:
+            self.seen.add(key)
+            self.errors.append(issue)
 
-    def virtual(kind: str, place: str) -> int:
-        counter[0] += 1
-        flat.places[(kind, counter[0])] = place
-        return counter[0]
+    def virtual(self, kind: str, place: str) -> int:
+        """A new virtual document index for an inner node or edge, at `place` in the document."""
+        self.counter += 1
+        self.flat.places[(kind, self.counter)] = place
+        return self.counter
 
     def expand(
+        self,
         where: str,
         parts_nodes: list[Node],
         parts_edges: list[Edge],
@@ -113,88 +139,109 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
         local = {n.id for n in parts_nodes}
         for k, node in enumerate(parts_nodes):
             here = f"{where}nodes[{k}]"
-            idx = n_index[k] if n_index is not None else virtual("nodes", here)
-            fid = prefix + node.id
-            if "/" in node.id and (stack or node.type == SUBGRAPH_TYPE):
-                report(
-                    Issue(
-                        code="schema",
-                        node=fid,
-                        path=f"{here}.id",
-                        message=f"'{node.id}': the id of a subgraph node or of a block inside a subgraph "
-                        f"cannot contain '/' (it separates the parts of inner ids)",
-                    )
-                )
-                flat.broken[fid] = idx
-                continue
-            if stack:
-                flat.inner_of[fid] = (stack[-1], node.id)
-            if node.type != SUBGRAPH_TYPE:
-                nodes.append(node.model_copy(update={"id": fid}) if prefix else node)
-                flat.node_index.append(idx)
-                continue
-            name = node.params.get(SUBGRAPH_PARAM)
-            extra = sorted(set(node.params) - {SUBGRAPH_PARAM})
-            if extra:
-                report(
-                    Issue(
-                        code="unknown_param",
-                        node=fid,
-                        port=extra[0],
-                        path=f"{here}.params.{extra[0]}",
-                        message=f"subgraph node '{fid}' has parameter '{extra[0]}'; a subgraph node has "
-                        f"only '{SUBGRAPH_PARAM}' (its inner blocks carry their own parameters)",
-                    )
-                )
-            if not isinstance(name, str) or name not in defs:
-                known = sorted(defs)
-                hint = difflib.get_close_matches(name, known, n=1) if isinstance(name, str) else []
-                what = f"'{name}', which is not defined" if isinstance(name, str) else "no subgraph"
-                extra_hint = (
-                    f"; did you mean '{hint[0]}'?" if hint else f" (defined: {', '.join(known) or 'none'})"
-                )
-                report(
-                    Issue(
-                        code="unknown_subgraph",
-                        node=fid,
-                        port=SUBGRAPH_PARAM,
-                        path=f"{here}.params.{SUBGRAPH_PARAM}",
-                        message=f"subgraph node '{fid}' names {what} in the program's subgraphs{extra_hint}",
-                    )
-                )
-                flat.broken[fid] = idx
-                continue
-            if name in stack:
-                cycle = " → ".join((*stack[stack.index(name) :], name))
-                report(
-                    Issue(
-                        code="subgraph_cycle",
-                        node=fid,
-                        port=SUBGRAPH_PARAM,
-                        path=f"{here}.params.{SUBGRAPH_PARAM}",
-                        message=f"subgraph '{name}' contains itself: {cycle}",
-                    )
-                )
-                flat.broken[fid] = idx
-                continue
-            ports[node.id] = _instance(name, defs[name], fid, stack)
-            flat.instances[fid] = (name, ports[node.id])
+            idx = n_index[k] if n_index is not None else self.virtual("nodes", here)
+            self.add_node(node, prefix + node.id, here, idx, prefix, stack, ports)
         for k, edge in enumerate(parts_edges):
             here = f"{where}edges[{k}]"
-            src = _end(edge.from_, "outputs", ports, local, prefix, here + ".from", report)
-            dst = _end(edge.to, "inputs", ports, local, prefix, here + ".to", report)
+            src = _end(edge.from_, "outputs", ports, local, prefix, here + ".from", self.report)
+            dst = _end(edge.to, "inputs", ports, local, prefix, here + ".to", self.report)
             if src is None or dst is None:
                 continue
-            idx = e_index[k] if e_index is not None else virtual("edges", here)
+            idx = e_index[k] if e_index is not None else self.virtual("edges", here)
             if prefix or src != edge.from_ or dst != edge.to:
                 edge = Edge(**{"from": src, "to": dst})
-            edges.append(edge)
-            flat.edge_index.append(idx)
+            self.edges.append(edge)
+            self.flat.edge_index.append(idx)
         return ports
 
-    def _instance(name: str, sub: Subgraph, fid: str, stack: tuple[str, ...]) -> Exposed:
-        where = f"subgraphs.{name}."
-        inner = expand(where, sub.nodes, sub.edges, None, None, fid + "/", (*stack, name))
+    def add_node(
+        self,
+        node: Node,
+        fid: str,
+        here: str,
+        idx: int,
+        prefix: str,
+        stack: tuple[str, ...],
+        ports: dict[str, Exposed],
+    ) -> None:
+        """Add one node of a level under its flat id `fid`: a block as it is, a subgraph node as its
+        definition's blocks (its port map goes to `ports`); a broken one is reported and left out."""
+        flat = self.flat
+        if "/" in node.id and (stack or node.type == SUBGRAPH_TYPE):
+            self.report(
+                Issue(
+                    code="schema",
+                    node=fid,
+                    path=f"{here}.id",
+                    message=f"'{node.id}': the id of a subgraph node or of a block inside a subgraph "
+                    f"cannot contain '/' (it separates the parts of inner ids)",
+                )
+            )
+            flat.broken[fid] = idx
+            return
+        if stack:
+            flat.inner_of[fid] = (stack[-1], node.id)
+        if node.type != SUBGRAPH_TYPE:
+            self.nodes.append(node.model_copy(update={"id": fid}) if prefix else node)
+            flat.node_index.append(idx)
+            return
+        name = self.definition_of(node, fid, here, stack)
+        if name is None:
+            flat.broken[fid] = idx
+            return
+        ports[node.id] = self.instance(name, self.defs[name], fid, stack)
+        flat.instances[fid] = (name, ports[node.id])
+
+    def definition_of(self, node: Node, fid: str, here: str, stack: tuple[str, ...]) -> str | None:
+        """The name of the definition a subgraph node uses, or None (reported) when it names none or one
+        that contains itself; a parameter other than the name is reported too."""
+        name = node.params.get(SUBGRAPH_PARAM)
+        extra = sorted(set(node.params) - {SUBGRAPH_PARAM})
+        if extra:
+            self.report(
+                Issue(
+                    code="unknown_param",
+                    node=fid,
+                    port=extra[0],
+                    path=f"{here}.params.{extra[0]}",
+                    message=f"subgraph node '{fid}' has parameter '{extra[0]}'; a subgraph node has "
+                    f"only '{SUBGRAPH_PARAM}' (its inner blocks carry their own parameters)",
+                )
+            )
+        if not isinstance(name, str) or name not in self.defs:
+            known = sorted(self.defs)
+            hint = difflib.get_close_matches(name, known, n=1) if isinstance(name, str) else []
+            what = f"'{name}', which is not defined" if isinstance(name, str) else "no subgraph"
+            extra_hint = (
+                f"; did you mean '{hint[0]}'?" if hint else f" (defined: {', '.join(known) or 'none'})"
+            )
+            self.report(
+                Issue(
+                    code="unknown_subgraph",
+                    node=fid,
+                    port=SUBGRAPH_PARAM,
+                    path=f"{here}.params.{SUBGRAPH_PARAM}",
+                    message=f"subgraph node '{fid}' names {what} in the program's subgraphs{extra_hint}",
+                )
+            )
+            return None
+        if name in stack:
+            cycle = " → ".join((*stack[stack.index(name) :], name))
+            self.report(
+                Issue(
+                    code="subgraph_cycle",
+                    node=fid,
+                    port=SUBGRAPH_PARAM,
+                    path=f"{here}.params.{SUBGRAPH_PARAM}",
+                    message=f"subgraph '{name}' contains itself: {cycle}",
+                )
+            )
+            return None
+        return name
+
+    def instance(self, name: str, sub: Subgraph, fid: str, stack: tuple[str, ...]) -> Exposed:
+        """Add the blocks of one instance `fid` of definition `name`; returns where its ports lead."""
+        inner = self.expand(f"subgraphs.{name}.", sub.nodes, sub.edges, None, None, fid + "/", (*stack, name))
         ids = {n.id for n in sub.nodes}
         out = Exposed()
         for kind, listed, target in (
@@ -202,48 +249,59 @@ def flatten(program: Program, node_index: list[int], edge_index: list[int], erro
             ("outputs", sub.outputs, out.outputs),
         ):
             for k, p in enumerate(listed):
-                here = f"{where}{kind}[{k}]"
-                if p.node not in ids:
-                    hint = difflib.get_close_matches(p.node, sorted(ids), n=1)
-                    more = f"; did you mean '{hint[0]}'?" if hint else ""
-                    report(
-                        Issue(
-                            code="unknown_exposed_port",
-                            node=fid,
-                            port=p.name,
-                            path=f"{here}.node",
-                            message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as '{p.node}.{p.port}', "
-                            f"but it has no node '{p.node}'{more}",
-                        )
-                    )
-                    continue
-                if p.node in inner:  # a nested subgraph node: follow its own exposed port
-                    deeper = getattr(inner[p.node], kind).get(p.port)
-                    if deeper is None:
-                        have = sorted(getattr(inner[p.node], kind))
-                        report(
-                            Issue(
-                                code="unknown_exposed_port",
-                                node=f"{fid}/{p.node}",
-                                port=p.port,
-                                path=f"{here}.port",
-                                message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as "
-                                f"'{p.node}.{p.port}', but subgraph node '{p.node}' has no {kind[:-1]} "
-                                f"'{p.port}' (it has: {', '.join(have) or 'none'})",
-                            )
-                        )
-                        continue
-                    target[p.name] = deeper
-                elif f"{fid}/{p.node}" in flat.broken:
-                    continue
-                else:
-                    target[p.name] = (f"{fid}/{p.node}", p.port)
-                    flat.exposed.append((name, kind, k, f"{fid}/{p.node}", p.port))
+                lead = self.exposed_lead(name, kind, k, p, fid, ids, inner)
+                if lead is not None:
+                    target[p.name] = lead
         return out
 
-    expand("", program.nodes, program.edges, node_index, edge_index, "", ())
-    flat.program = program.model_copy(update={"nodes": nodes, "edges": edges, "subgraphs": None})
-    return flat
+    def exposed_lead(
+        self,
+        name: str,
+        kind: str,
+        k: int,
+        p: ExposedPort,
+        fid: str,
+        ids: set[str],
+        inner: dict[str, Exposed],
+    ) -> tuple[str, str] | None:
+        """Where exposed port `p` (the k-th of `kind` of definition `name`) leads in instance `fid`: an
+        inner block's port, or a nested instance's lead; None when it is broken (reported, or its inner
+        node is)."""
+        here = f"subgraphs.{name}.{kind}[{k}]"
+        if p.node not in ids:
+            hint = difflib.get_close_matches(p.node, sorted(ids), n=1)
+            more = f"; did you mean '{hint[0]}'?" if hint else ""
+            self.report(
+                Issue(
+                    code="unknown_exposed_port",
+                    node=fid,
+                    port=p.name,
+                    path=f"{here}.node",
+                    message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as '{p.node}.{p.port}', "
+                    f"but it has no node '{p.node}'{more}",
+                )
+            )
+            return None
+        if p.node in inner:  # a nested subgraph node: follow its own exposed port
+            deeper = getattr(inner[p.node], kind).get(p.port)
+            if deeper is None:
+                have = sorted(getattr(inner[p.node], kind))
+                self.report(
+                    Issue(
+                        code="unknown_exposed_port",
+                        node=f"{fid}/{p.node}",
+                        port=p.port,
+                        path=f"{here}.port",
+                        message=f"subgraph '{name}' exposes {kind[:-1]} '{p.name}' as "
+                        f"'{p.node}.{p.port}', but subgraph node '{p.node}' has no {kind[:-1]} "
+                        f"'{p.port}' (it has: {', '.join(have) or 'none'})",
+                    )
+                )
+            return deeper
+        if f"{fid}/{p.node}" in self.flat.broken:
+            return None
+        self.flat.exposed.append((name, kind, k, f"{fid}/{p.node}", p.port))
+        return (f"{fid}/{p.node}", p.port)
 
 
 def _end(
@@ -269,100 +327,6 @@ def _end(
     return Endpoint(node=lead[0], port=lead[1])
 
 
-def check_exposed(state: Any) -> None:
-    """After the nodes pass: every exposed port names a port its inner block has (`unknown_port`), and
-    edges through a bad exposed port are left out (one broken thing gives one error)."""
-    flat: Flat | None = getattr(state, "flat", None)
-    if flat is None or not flat.exposed:
-        return
-    bad: set[tuple[str, str, str]] = set()
-    seen: set[str] = set()
-    for name, kind, k, fid, port in flat.exposed:
-        known = state.ports.get(fid)
-        if known is None:
-            continue  # the inner node is broken and reported already
-        have = known[0] if kind == "inputs" else known[1]
-        if port in have:
-            continue
-        bad.add((kind, fid, port))
-        path = f"subgraphs.{name}.{kind}[{k}].port"
-        if path in seen:
-            continue
-        seen.add(path)
-        node = state.node_by_id[fid]
-        hint = difflib.get_close_matches(port, list(have), n=1)
-        more = f"; did you mean '{hint[0]}'?" if hint else f" (it has: {', '.join(have) or 'none'})"
-        state.errors.append(
-            Issue(
-                code="unknown_port",
-                node=fid,
-                port=port,
-                path=path,
-                message=f"subgraph '{name}' exposes '{fid.rsplit('/', 1)[1]}.{port}', but block "
-                f"'{node.type}' has no {kind[:-1]} '{port}'{more}",
-            )
-        )
-    if not bad:
-        return
-    keep = [
-        (e, i)
-        for e, i in zip(state.program.edges, state.doc_index["edges"])
-        if ("outputs", e.from_.node, e.from_.port) not in bad and ("inputs", e.to.node, e.to.port) not in bad
-    ]
-    state.program = state.program.model_copy(update={"edges": [e for e, _ in keep]})
-    state.doc_index["edges"] = [i for _, i in keep]
-
-
-def standalone_issues(
-    name: str, definition: Any, embodiment: Any, ctx: Any
-) -> tuple[Subgraph | None, list[Issue]]:
-    """Check a subgraph definition on its own (a library entry): its shape, then its blocks and inner
-    wiring as the program checks see them in a program of one instance. Missing inputs at exposed
-    ports and the lack of an `output` node are not errors here."""
-    from pydantic import ValidationError
-
-    from backend.graph.checks import run_checks
-
-    try:
-        sub = Subgraph.model_validate(definition)
-    except ValidationError as exc:
-        return None, [
-            Issue(
-                code="schema",
-                path=".".join(str(x) for x in e["loc"]) or None,
-                message=f"{'.'.join(str(x) for x in e['loc']) or 'the definition'}: {e['msg']}",
-            )
-            for e in exc.errors()
-        ]
-    doc = {
-        "format": "nutty-program/1",
-        "name": name,
-        "subgraphs": {name: sub.model_dump(mode="json", by_alias=True)},
-        "nodes": [{"id": name, "type": SUBGRAPH_TYPE, "params": {SUBGRAPH_PARAM: name}}],
-    }
-    nested = [n.id for n in sub.nodes if n.type == SUBGRAPH_TYPE]
-    if nested:
-        return sub, [
-            Issue(
-                code="unknown_subgraph",
-                node=f"{name}/{nested[0]}",
-                port=SUBGRAPH_PARAM,
-                path=f"nodes[{[n.id for n in sub.nodes].index(nested[0])}].params.{SUBGRAPH_PARAM}",
-                message=f"a subgraph in the library is self-contained: it cannot use other subgraphs "
-                f"(node '{nested[0]}' does); save the inner one separately",
-            )
-        ]
-    state = run_checks(doc, embodiment, max_level=3, ctx=ctx)
-    exposed_in = {(f"{name}/{p.node}", p.port) for p in sub.inputs}
-    issues = [
-        i
-        for i in state.errors
-        if i.code not in ("no_output", "level_too_high")
-        and not (i.code == "missing_input" and (i.node, i.port) in exposed_in)
-    ]
-    return sub, issues
-
-
 def inner_definition_node(program: Program, flat_id: str) -> Node | None:
     """The definition's node behind a flat id `a/b/c` (None if there is no such inner node)."""
     parts = flat_id.split("/")
@@ -374,7 +338,8 @@ def inner_definition_node(program: Program, flat_id: str) -> Node | None:
             return None
         if depth == len(parts) - 1:
             return node
-        sub = defs.get(node.params.get(SUBGRAPH_PARAM)) if node.type == SUBGRAPH_TYPE else None
+        name = node.params.get(SUBGRAPH_PARAM) if node.type == SUBGRAPH_TYPE else None
+        sub = defs.get(name) if isinstance(name, str) else None
         if sub is None:
             return None
         nodes = sub.nodes

@@ -1,8 +1,9 @@
 """Compiled evaluation of a `CurveSet` (backend/engine/curves.py): every curve of a clip at one time.
 
 The numpy reference is `CurveSet.evaluate` with `ease` and the bracketed Newton solve of `_bezier`;
-this kernel walks the curves one by one with the same formulas (the Bezier's 12 Newton steps took a
-playing clip ~1 ms a tick as numpy operations on a handful of curves). Interpolation codes are the
+this kernel walks the curves one by one with the same formulas (as numpy operations on a handful of
+curves, the Bezier's 12 Newton steps are mostly numpy's per-call overhead, many times the compiled
+walk; figures in benchmarks/RESULTS.md). Interpolation codes are the
 indices of `curves.INTERPS`; easing modes 0 in, 1 out, 2 in_out.
 """
 

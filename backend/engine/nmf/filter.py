@@ -150,7 +150,7 @@ class MotionFilter:
     ) -> MotionFilter:
         """A filter with one of the paper's presets W (or "regular"), A, B, C, D, E; overrides win."""
         p = preset(name)
-        kw = dict(
+        kw: dict[str, Any] = dict(  # the overrides may be arrays, as the constructor takes them
             sigma=p.sigma,
             rho=p.rho,
             vel_limit=p.vel_limit,
@@ -309,15 +309,20 @@ class MotionFilter:
         f64 = np.dtype(np.float64)
         ndarray = np.ndarray
 
-        def fast(sp: Any) -> np.ndarray:
+        def fast(setpoints: Any) -> np.ndarray:
             # The common case costs two attribute checks and the compiled call.
-            if type(sp) is ndarray and sp.dtype is f64 and sp.shape == shape and sp.flags.c_contiguous:
-                kernel(sp, buf, cfg)
+            if (
+                type(setpoints) is ndarray
+                and setpoints.dtype is f64
+                and setpoints.shape == shape
+                and setpoints.flags.c_contiguous
+            ):
+                kernel(setpoints, buf, cfg)
                 return x
             try:
-                arr = np.ascontiguousarray(sp, dtype=float)
+                arr = np.ascontiguousarray(setpoints, dtype=float)
             except (TypeError, ValueError):
-                raise ValueError(f"setpoints must be numbers (NaN = hold), got {sp!r}") from None
+                raise ValueError(f"setpoints must be numbers (NaN = hold), got {setpoints!r}") from None
             if arr.ndim == 0:
                 arr = np.full(n, float(arr))
             if arr.shape != shape:
@@ -328,7 +333,7 @@ class MotionFilter:
             return x
 
         self._step = fast
-        self.step = fast  # type: ignore[method-assign]  # instance attribute: skips the method lookup
+        self.step = fast  # instance attribute (the method's signature): skips the method lookup
 
     def run(self, setpoint_matrix: Any) -> FilterResult:
         """Filter a whole trajectory (T, n) of set-points (NaN = hold) from the current state.

@@ -1,0 +1,67 @@
+"""The engine's clock: where the clock loop reads time and waits (`Clock`, the real `WallClock`), and
+the rolling statistics of its timing (`RingStats`: tick cost, period, lateness).
+
+A clock other than `WallClock`, e.g. a simulated one in tests, drives the same loop without real sleeps.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Protocol
+
+import numpy as np
+
+
+class RingStats:
+    """The last `size` samples of a quantity (seconds), summarised as p50/p99/max in ms."""
+
+    def __init__(self, size: int = 4096):
+        self._buf = np.zeros(size)
+        self._n = 0
+
+    def add(self, x: float) -> None:
+        self._buf[self._n % len(self._buf)] = x
+        self._n += 1
+
+    def reset(self) -> None:
+        self._n = 0
+
+    def summary(self) -> dict[str, float]:
+        n = min(self._n, len(self._buf))
+        if n == 0:
+            return {"p50_ms": 0.0, "p99_ms": 0.0, "max_ms": 0.0, "samples": 0}
+        a = self._buf[:n] * 1e3
+        p50, p99 = np.percentile(a, [50, 99])
+        return {"p50_ms": float(p50), "p99_ms": float(p99), "max_ms": float(a.max()), "samples": int(n)}
+
+
+class Clock(Protocol):
+    """What the engine's clock loop needs from time: a reading and a wait."""
+
+    def now(self) -> float:
+        """Seconds on a monotonic scale (any origin)."""
+        ...
+
+    def wait_until(self, deadline: float, stop: threading.Event) -> bool:
+        """Return at `deadline` (a `now()` reading) with True, or with False once `stop` is set."""
+        ...
+
+
+class WallClock:
+    """The real clock: `time.perf_counter`; a wait sleeps, then spins the last `spin` seconds
+    (sleep alone is too coarse for a 1 kHz loop)."""
+
+    def __init__(self, spin: float = 0.0003):
+        self.spin = spin
+
+    def now(self) -> float:
+        return time.perf_counter()
+
+    def wait_until(self, deadline: float, stop: threading.Event) -> bool:
+        wait = deadline - time.perf_counter()
+        if wait > self.spin and stop.wait(wait - self.spin):
+            return False
+        while time.perf_counter() < deadline:
+            pass
+        return not stop.is_set()
