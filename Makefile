@@ -1,6 +1,8 @@
 # Nutty — one Makefile for a fresh Debian machine (Python 3.11, Node 20, root).
 #   make run   install everything, build the editor, serve the default robot and program
-#   make test  install everything and run every test (Python, front-end unit, browser end-to-end)
+#   make test  install everything, lint, and run every test (Python, front-end unit, browser end-to-end)
+#   make test-fast  the inner loop: Python tests without a browser, Blender or spawned servers (< 90 s)
+#   make lint  ruff (lint + format check), basedpyright on backend/, the editor's eslint + tsc --noEmit
 #   make bench engine and NMF benchmarks; make bench-long adds 60 s served at 500 Hz;
 #              make soak: a served robot under churning clients (optional)
 #   make blender-addon  the Blender add-on as an installable extension: dist/nutty_blender-<version>.zip
@@ -10,16 +12,29 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
 FRONTEND := frontend
+# pytest-xdist workers: one per core (CI's machine has two).
+JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: run test deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench bench-long \
+.PHONY: run test test-fast lint deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench bench-long \
 	soak figures blender-addon clean
 
 run: deps frontend-build
 	$(VENV)/bin/nutty serve
 
 test: deps frontend-build
+	$(MAKE) lint
 	$(MAKE) test-python
 	$(MAKE) test-frontend
+
+# No browser, no Blender, no spawned servers: what a change to the engine, graph or API needs first.
+test-fast: deps-python
+	$(PY) -m pytest -q -n $(JOBS) -m "not browser and not blender and not server"
+
+lint: deps-python deps-frontend
+	$(VENV)/bin/ruff check backend tests benchmarks blender
+	$(VENV)/bin/ruff format --check backend tests benchmarks blender
+	$(VENV)/bin/basedpyright
+	cd $(FRONTEND) && npm run --silent lint
 
 deps: deps-system deps-python deps-frontend
 
@@ -48,17 +63,20 @@ frontend-build:
 	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm run build --silent; fi
 
 test-python:
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(JOBS)
 
 test-frontend:
 	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm test --silent; fi
 
+# Each benchmark prints its figures and writes them, with the date and machine, as its section of
+# benchmarks/RESULTS.md (benchmarks/results.py), so a full run regenerates the whole file.
 bench: deps-python
 	$(PY) benchmarks/bench_engine.py
 	$(PY) benchmarks/bench_nmf.py
 	$(PY) benchmarks/bench_safety.py
 	$(PY) benchmarks/bench_clock.py
 	$(PY) benchmarks/bench_fleet.py
+	$(PY) benchmarks/bench_design.py
 
 # The served steadiness target: bench_engine's runs plus `nutty serve` at 500 Hz for 60 s.
 bench-long: deps-python

@@ -22,6 +22,7 @@ backend.safe_json):
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import hmac
 import ipaddress
@@ -32,7 +33,7 @@ from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 # The JSON rules every entry point shares live in backend.safe_json; importable from here as well.
-from backend.safe_json import (  # noqa: F401
+from backend.safe_json import (  # noqa: F401 (re-exported: the names were importable from here before the split)
     MAX_BODY,
     MAX_DEPTH,
     MAX_INT,
@@ -162,8 +163,8 @@ class AccessPolicy:
             if parsed is None:
                 raise ValueError(f"invalid origin {o!r}: expected scheme://host[:port]")
             self._origins.add(parsed)
-        for o in self.allowed_origins:
-            self._extra_names.add(parse_origin(o)[1])  # type: ignore[index]
+            if o in self.allowed_origins:  # named by the operator, beyond this server's own
+                self._extra_names.add(parsed[1])
         bound = _norm_host(self.bind_host)
         self._wildcard = bound in WILDCARD_HOSTS
         self._names: set[str] = set(LOOPBACK_NAMES)
@@ -397,7 +398,6 @@ async def cancel_all(tasks: list[Any]) -> None:
     (`asyncio.wait`, not `gather`: a gather cancelled from outside re-raises a child's
     CancelledError, which an enclosing anyio cancel scope does not recognise as its own.)
     """
-    import asyncio
 
     for t in tasks:
         t.cancel()

@@ -76,7 +76,7 @@ class Blender:
     def close(self) -> None:
         if self.proc.poll() is None:
             try:
-                self.proc.stdin.close()  # type: ignore[union-attr]
+                self.proc.stdin.close()  # type: ignore[union-attr]  # started with stdin=PIPE
                 self.proc.wait(15)
             except (OSError, subprocess.TimeoutExpired):
                 self.proc.kill()

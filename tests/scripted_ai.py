@@ -6,6 +6,7 @@ repeated. Used by the fast-path test (tests/test_compiled_blocks.py) and the eng
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Iterator
 from typing import Any
 
@@ -52,9 +53,8 @@ def run(session: Any, seconds: float) -> Iterator[Any]:
     k = 0
     for _ in range(round(seconds * engine.rate)):
         while k < len(pending) and pending[k][0] <= engine.t + 1e-9:
-            try:
+            # CommandError (a ValueError): a program without the command's target skips it
+            with contextlib.suppress(ValueError):
                 session.execute(pending[k][1])
-            except ValueError:  # CommandError: a program without the command's target skips it
-                pass
             k += 1
         yield engine.tick()

@@ -44,13 +44,13 @@ def test_the_plan_is_immutable(desk):
     _, plan = check_program(LEVEL3, desk)
     assert plan is not None
     with pytest.raises(dataclasses.FrozenInstanceError):
-        plan.level = 1  # type: ignore[misc]
+        plan.level = 1  # type: ignore[misc]  # the point: a frozen plan refuses it
     with pytest.raises(dataclasses.FrozenInstanceError):
-        plan.steps[0].params = plan.steps[1].params  # type: ignore[misc]
+        plan.steps[0].params = plan.steps[1].params  # type: ignore[misc]  # the point: a frozen plan refuses it
     assert isinstance(plan.steps, tuple) and all(isinstance(s, PlannedStep) for s in plan.steps)
     assert all(isinstance(s.wires, tuple) for s in plan.steps)
     with pytest.raises(TypeError):
-        plan.params["breath"] = plan.params["wiggle"]  # type: ignore[index]
+        plan.params["breath"] = plan.params["wiggle"]  # type: ignore[index]  # the point: a read-only mapping refuses it
 
 
 def test_instantiate_twice_gives_independent_apus_with_fresh_state(desk):
@@ -90,7 +90,7 @@ def test_instantiate_fills_in_input_defaults_and_refuses_another_robot(desk):
     plan.instantiate(desk, ctx)
     assert ctx.inputs == {"arousal": 0.3}
     with pytest.raises(ValueError, match="other_robot"):
-        plan.instantiate(SimpleNamespace(name="other_robot"))  # type: ignore[arg-type]
+        plan.instantiate(SimpleNamespace(name="other_robot"))  # type: ignore[arg-type]  # a stand-in robot of another name
 
 
 def _sine_program() -> dict:

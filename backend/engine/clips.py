@@ -22,6 +22,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from backend.engine.asset_errors import LibraryError
 from backend.engine.curves import CurveSet, EasingMode, HandleType, Interp, Key
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import FrameEvent
@@ -42,12 +43,12 @@ class Keyframe(_Model):
 
     t: float = Field(..., ge=0.0, le=3600.0, description="time in the clip (s)")
     v: float | str | list[float] = Field(..., description="value: rad/m, option name, or [r, g, b]")
-    interp: Interp = Field("bezier", description="constant, linear, bezier or an easing preset")
-    easing: EasingMode = Field("in_out", description="for easing presets: in, out or in_out")
-    left_type: HandleType = Field("auto_clamped", description="type of the handle before the key")
-    right_type: HandleType = Field("auto_clamped", description="type of the handle after the key")
-    left: tuple[float, float] | None = Field(None, description="left handle offset [dt <= 0 s, dv]")
-    right: tuple[float, float] | None = Field(None, description="right handle offset [dt >= 0 s, dv]")
+    interp: Interp = Field(default="bezier", description="constant, linear, bezier or an easing preset")
+    easing: EasingMode = Field(default="in_out", description="for easing presets: in, out or in_out")
+    left_type: HandleType = Field(default="auto_clamped", description="type of the handle before the key")
+    right_type: HandleType = Field(default="auto_clamped", description="type of the handle after the key")
+    left: tuple[float, float] | None = Field(default=None, description="left handle offset [dt <= 0 s, dv]")
+    right: tuple[float, float] | None = Field(default=None, description="right handle offset [dt >= 0 s, dv]")
 
     @field_validator("v")
     @classmethod
@@ -76,11 +77,13 @@ class Clip(_Model):
     """A keyframed clip (`nutty-clip/1`)."""
 
     format: Literal["nutty-clip/1"] = CLIP_FORMAT
-    name: str = Field("", max_length=80)
+    name: str = Field(default="", max_length=80)
     description: str = ""
-    robot: str | None = Field(None, description="robot the clip was authored for (informative)")
-    duration: float | None = Field(None, gt=0.0, le=3600.0, description="length (s); default: the last key")
-    relative: bool = Field(False, description="continuous values are offsets from the rest pose")
+    robot: str | None = Field(default=None, description="robot the clip was authored for (informative)")
+    duration: float | None = Field(
+        default=None, gt=0.0, le=3600.0, description="length (s); default: the last key"
+    )
+    relative: bool = Field(default=False, description="continuous values are offsets from the rest pose")
     tracks: dict[str, list[Keyframe]] = Field(..., description="DoF name -> keys in increasing time")
     anchors: dict[str, float] = Field(default_factory=dict, description="anchor name -> clip time (s)")
     events: list[ClipEvent] = Field(default_factory=list)
@@ -111,8 +114,6 @@ class Clip(_Model):
 
 def validate_clip_doc(doc: dict[str, Any]) -> dict[str, Any]:
     """The library's validator: a normalised clip document, or ValueError naming the field."""
-    from backend.engine.library import LibraryError
-
     try:
         return Clip.model_validate(doc).model_dump(mode="json", exclude_none=True)
     except ValidationError as exc:
@@ -184,8 +185,8 @@ def compile_clip(clip: Clip | dict[str, Any], emb: Embodiment) -> CompiledClip:
                         k.easing,
                         k.left_type,
                         k.right_type,
-                        tuple(k.left) if k.left else None,
-                        tuple(k.right) if k.right else None,
+                        k.left,  # validated: a (dt, dv) tuple or None
+                        k.right,
                     )
                 )
         for c in range(width):
@@ -263,12 +264,3 @@ def time_map(
     pts.append((max(play_end, pts[-1][0]), duration))
     play, clip = np.array([p[0] for p in pts]), np.array([p[1] for p in pts])
     return play, clip
-
-
-def _register() -> None:
-    from backend.engine.library import RobotLibrary
-
-    RobotLibrary.validators.setdefault("clips", validate_clip_doc)
-
-
-_register()

@@ -28,7 +28,7 @@ import numpy as np
 import yaml
 from pydantic import ValidationError
 
-from backend.engine.dofs import (  # noqa: F401
+from backend.engine.dofs import (  # noqa: F401 (re-exported: the names were importable from here before the split)
     ACC_PER_VEL,
     COLOUR_ACCELERATION,
     COLOUR_JERK,
@@ -43,7 +43,8 @@ from backend.engine.dofs import (  # noqa: F401
     EmbodimentError,
     UrdfJoint,
 )
-from backend.engine.kinematronics import (  # noqa: F401
+from backend.engine.joint_frames import joint_frames, root_links
+from backend.engine.kinematronics import (  # noqa: F401 (re-exported: the names were importable from here before the split)
     AudibleDofConfig,
     DisplayDofConfig,
     DofLimits,
@@ -182,8 +183,8 @@ class Embodiment:
         # Joints no DoF drives sit at 0, or at the limit nearest to it.
         rest = np.array([min(max(0.0, j.lower), j.upper) for j in self.joints])
         for d in self.dofs:
-            if d.joint and not d.drives and d.joint in self.joint_names:
-                rest[self.joint_names.index(d.joint)] = float(d.rest)  # type: ignore[arg-type]
+            if d.joint and not d.drives and d.joint in self.joint_names and not isinstance(d.rest, tuple):
+                rest[self.joint_names.index(d.joint)] = float(d.rest)  # a joint DoF's rest is one number
         return rest
 
     def joint_positions(self, values: np.ndarray) -> np.ndarray:
@@ -207,13 +208,13 @@ class Embodiment:
 
     def base_pose(self, values: np.ndarray) -> dict[str, float]:
         """The base's spatial axes (x, y, z in m; yaw, pitch, roll in rad); absent axes are 0."""
-        pose = dict.fromkeys(SPATIAL_AXES, 0.0)
+        pose: dict[str, float] = dict.fromkeys(SPATIAL_AXES, 0.0)
         for d in self.dofs_in(Dimension.spatial):
-            pose[d.axis] = float(values[d.channels.start])  # type: ignore[index]
+            if d.axis is not None:  # every spatial DoF names its axis
+                pose[d.axis] = float(values[d.channels.start])
         return pose
 
     def to_dict(self) -> dict[str, Any]:
-        from backend.engine.joint_frames import joint_frames, root_links
 
         frames = joint_frames(self)  # a rig's bones: each moving joint's frame and axis at zero
         return {

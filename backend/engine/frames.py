@@ -103,6 +103,8 @@ class AnimationFrame:
                 self.acceleration.tolist(),
                 self.jerk.tolist(),
             )
+        else:
+            velocity = acceleration = jerk = []  # not read without derivatives
         for d in embodiment.dofs:
             sl = d.channels
             if d.type is DofType.continuous:

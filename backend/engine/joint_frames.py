@@ -19,11 +19,14 @@ zero configuration, not the robot's rest pose):
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from backend.engine.kinematics import _model  # the parsed URDF, cached per file
+
+if TYPE_CHECKING:
+    from backend.engine.embodiment import Embodiment
 
 
 def _finite(x: float) -> float | None:
@@ -55,10 +58,10 @@ def _moving_joint_above(model: Any, link: str) -> str | None:
     return None
 
 
-def joint_frames(emb: Any) -> dict[str, dict[str, Any]]:
+def joint_frames(emb: Embodiment) -> dict[str, dict[str, Any]]:
     """Frame, axis, parent joint, rigid links and limits of every non-fixed joint (see the module doc),
     by joint name, parents before children. Empty for a robot without a URDF."""
-    if getattr(emb, "urdf_path", None) is None:
+    if emb.urdf_path is None:
         return {}
     model = _model(emb)
     frames = _zero_pose(model)
@@ -86,9 +89,9 @@ def joint_frames(emb: Any) -> dict[str, dict[str, Any]]:
     return out
 
 
-def root_links(emb: Any) -> list[str]:
+def root_links(emb: Embodiment) -> list[str]:
     """Links that no joint moves (the base and what is fixed to it)."""
-    if getattr(emb, "urdf_path", None) is None:
+    if emb.urdf_path is None:
         return []
     model = _model(emb)
     return [name for name in _zero_pose(model) if _moving_joint_above(model, name) is None]

@@ -20,9 +20,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from backend.engine.embodiment import Embodiment
 
 _REVOLUTE = ("revolute", "continuous")
 
@@ -213,14 +216,18 @@ class Chain:
         src, mult, off = [], [], []
         for j in moving:
             if j.mimic is None:
-                src.append(index[j.name]), mult.append(1.0), off.append(0.0)
+                src.append(index[j.name])
+                mult.append(1.0)
+                off.append(0.0)
             else:
                 leader, k, o = j.mimic
                 if leader not in index:
                     raise KinematicsError(
                         f"mimic joint '{j.name}' follows '{leader}', which is not in the chain"
                     )
-                src.append(index[leader]), mult.append(k), off.append(o)
+                src.append(index[leader])
+                mult.append(k)
+                off.append(o)
         self._src = np.array(src, dtype=np.intp)
         self._mult, self._off = np.array(mult), np.array(off)
         self._identity_map = bool(m == self.n and np.array_equal(self._src, np.arange(m)))
@@ -345,6 +352,6 @@ class Chain:
 
 
 @lru_cache(maxsize=64)
-def chain_for(emb: Any, base_link: str | None, tip_link: str) -> Chain:
+def chain_for(emb: Embodiment, base_link: str | None, tip_link: str) -> Chain:
     """A cached `Chain` of an Embodiment (embodiments hash by identity)."""
     return Chain(emb, base_link, tip_link)

@@ -39,9 +39,9 @@ class DofLimits(_Model):
 
     min: float | None = None
     max: float | None = None
-    velocity: float | None = Field(None, gt=0)
-    acceleration: float | None = Field(None, gt=0)
-    jerk: float | None = Field(None, gt=0)
+    velocity: float | None = Field(default=None, gt=0)
+    acceleration: float | None = Field(default=None, gt=0)
+    jerk: float | None = Field(default=None, gt=0)
     rest: float | None = None
 
 
@@ -51,7 +51,8 @@ class StationaryDofConfig(DofLimits):
     name: str
     joint: str | None = None
     drives: dict[str, float] | None = Field(
-        None, description="symbolic DoF: URDF joint name -> coefficient (joint += coefficient * value)"
+        default=None,
+        description="symbolic DoF: URDF joint name -> coefficient (joint += coefficient * value)",
     )
     group: str | None = None
     description: str = ""
@@ -62,7 +63,9 @@ class SpatialDofConfig(DofLimits):
 
     name: str
     axis: Literal["x", "y", "z", "yaw", "pitch", "roll"]
-    group: str | None = Field(None, description="DoFs sharing a group are limited by their vector norm")
+    group: str | None = Field(
+        default=None, description="DoFs sharing a group are limited by their vector norm"
+    )
     description: str = ""
 
 
@@ -321,7 +324,8 @@ def _joint_dof(
     d = _stationary_from_joint(joint_by_name[joint], s, start)
     if not d.min < d.max:
         raise EmbodimentError(f"{where}: min {d.min} must be below max {d.max}")
-    if not d.min <= d.rest <= d.max:  # type: ignore[operator]
+    rest = d.rest  # a joint DoF's rest is one number
+    if isinstance(rest, tuple) or not d.min <= rest <= d.max:
         raise EmbodimentError(f"{where}: rest {d.rest} is outside [{d.min}, {d.max}]")
     return d
 

@@ -21,21 +21,26 @@ import tempfile
 import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from backend.engine.asset_errors import LibraryError, NotFound  # re-exported: the library's errors
+from backend.engine.clips import compile_clip, validate_clip_doc
+from backend.engine.embodiment import DofType, Embodiment
 
 KINDS = ("clips", "postures", "programs", "subgraphs")
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-\.]{0,79}$")
 POSTURE_FORMAT = "nutty-posture/1"
 
 
-class LibraryError(ValueError):
-    """A bad name, a missing asset, or an asset that fails validation; the message says which."""
+class Resources(Protocol):
+    """What blocks read of a robot's library (`BlockContext.resources`; a `RobotLibrary`)."""
 
-
-class NotFound(LibraryError):
-    pass
+    def get(self, kind: str, name: str) -> dict[str, Any]:
+        """The document `name` of `kind` ("clips", "postures", ...); NotFound, or LibraryError when it
+        cannot be read."""
+        ...
 
 
 class Posture(BaseModel):
@@ -45,8 +50,8 @@ class Posture(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     format: Literal["nutty-posture/1"] = POSTURE_FORMAT
-    name: str = Field("", max_length=80)
-    description: str = Field("", max_length=2000)
+    name: str = Field(default="", max_length=80)
+    description: str = Field(default="", max_length=2000)
     values: dict[str, float | str | list[float]] = Field(
         ...,
         min_length=1,
@@ -62,11 +67,9 @@ def _first_error(exc: ValidationError) -> str:
     return f"{where}: {first['msg']}" if where else first["msg"]
 
 
-def check_posture_values(values: dict[str, Any], embodiment: Any) -> None:
+def check_posture_values(values: dict[str, Any], embodiment: Embodiment) -> None:
     """Every DoF is the robot's and every value is within its limits; LibraryError names the first
     that is not."""
-    from backend.engine.embodiment import DofType
-
     for name, value in values.items():
         if not embodiment.has_dof(name):
             raise LibraryError(
@@ -108,7 +111,7 @@ def check_posture_values(values: dict[str, Any], embodiment: Any) -> None:
             raise LibraryError(f"{where}: '{name}' is an event DoF and has no pose value")
 
 
-def validate_posture_doc(doc: Any, embodiment: Any = None, name: str = "") -> dict[str, Any]:
+def validate_posture_doc(doc: Any, embodiment: Embodiment | None = None, name: str = "") -> dict[str, Any]:
     """A normalised posture document, or LibraryError naming the field."""
     if not isinstance(doc, dict):
         raise LibraryError('invalid posture: a posture is a JSON object {"name", "values": {dof: value}}')
@@ -137,19 +140,13 @@ def _validate_with(model: Any, what: str, doc: Any) -> dict[str, Any]:
     return doc
 
 
-def validate_program_doc(doc: Any) -> dict[str, Any]:
-    """The program format (`nutty-program/1`); the API also compiles it against the robot."""
-    from backend.graph.schema import Program
-
-    return _validate_with(Program, "program", doc)
+DocValidator = Callable[[dict[str, Any]], dict[str, Any]]
 
 
-def validate_subgraph_doc(doc: Any) -> dict[str, Any]:
-    """A standalone subgraph definition (what `Program.subgraphs` holds by name); the API also checks
-    its blocks and wiring against the robot."""
-    from backend.graph.schema import Subgraph
-
-    return _validate_with(Subgraph, "subgraph", doc)
+def model_validator_for(model: type[BaseModel], what: str) -> DocValidator:
+    """A document validator from a pydantic model: the normalised document, or LibraryError naming the
+    first bad field (`what` is the kind's singular, e.g. "program")."""
+    return lambda doc: _validate_with(model, what, doc)
 
 
 class RobotLibrary:
@@ -159,11 +156,17 @@ class RobotLibrary:
     read; block modules register the clip validator, the graph package the program validator.
     """
 
-    validators: dict[str, Callable[[dict[str, Any]], dict[str, Any]]] = {}
-
-    def __init__(self, folder: str | Path | None, embodiment: Any = None):
+    def __init__(
+        self,
+        folder: str | Path | None,
+        embodiment: Embodiment | None = None,
+        validators: dict[str, DocValidator] | None = None,
+    ):
         self.folder = Path(folder) if folder is not None else None
         self.embodiment = embodiment
+        # Clips are an engine format; programs and subgraphs are the graph's, which gives their
+        # validators (`backend.graph.library_docs.library_validators`) so this layer never imports it.
+        self.validators: dict[str, DocValidator] = {"clips": validate_clip_doc, **(validators or {})}
         self._lock = threading.Lock()
         self._cache: dict[tuple[str, str], tuple[float, dict[str, Any]]] = {}
 
@@ -237,25 +240,19 @@ class RobotLibrary:
             raise LibraryError(f"invalid {kind[:-1]}: a {kind[:-1]} is a JSON object")
         if kind == "postures":
             return validate_posture_doc(doc, self.embodiment, name)
-        if kind == "programs":
-            doc = validate_program_doc(doc)
-        if kind == "subgraphs":
-            doc = validate_subgraph_doc(doc)
         validate = self.validators.get(kind)
-        if validate is None and kind == "clips":
-            from backend.engine.clips import validate_clip_doc  # registers itself; import for the check
-
-            validate = validate_clip_doc
-        if validate is not None:
-            try:
-                doc = validate(doc)
-            except LibraryError:
-                raise
-            except ValueError as exc:
-                raise LibraryError(str(exc)) from exc
+        if validate is None:
+            raise LibraryError(
+                f"this library cannot check {kind}: it was made without their validator "
+                "(backend.graph.library_docs.library_validators)"
+            )
+        try:
+            doc = validate(doc)
+        except LibraryError:
+            raise
+        except ValueError as exc:
+            raise LibraryError(str(exc)) from exc
         if kind == "clips" and self.embodiment is not None:
-            from backend.engine.clips import compile_clip
-
             try:
                 compile_clip(doc, self.embodiment)
             except ValueError as exc:
@@ -267,12 +264,10 @@ class RobotLibrary:
         and the amount; `backend.engine.joint_range`); none for other kinds or without a robot."""
         if self.embodiment is None or kind not in ("postures", "clips"):
             return []
-        from backend.engine import joint_range
+        from backend.engine import joint_range  # it reads blocks.core, whose posture block reads this module
 
         if kind == "postures":
             return joint_range.posture_warnings(doc.get("values", {}), self.embodiment)
-        from backend.engine.clips import compile_clip
-
         return joint_range.clip_warnings(compile_clip(doc, self.embodiment), self.embodiment)
 
     def save(self, kind: str, name: str, doc: dict[str, Any]) -> dict[str, Any]:

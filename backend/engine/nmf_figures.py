@@ -14,10 +14,11 @@ COLOURS = {"W": "#1f77b4", "A": "#ff7f0e", "B": "#2ca02c", "C": "#d62728", "D": 
 
 
 def _plt():
+    # matplotlib loads only for `nutty figures`: a second of import the server never needs
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after use("Agg"): pyplot picks its backend on import
 
     plt.rcParams.update(
         {
@@ -197,7 +198,7 @@ def fig_overview(plt, out: Path) -> Path:
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path)
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # loaded by _plt() already; only the name is bound here
 
     plt.close(fig)
     return path

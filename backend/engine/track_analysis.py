@@ -14,12 +14,17 @@ first sample, at the tracks' rate.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from backend.engine import trajectory
+from backend.engine.blocks.base import BlockContext
+from backend.engine.blocks.motion_filter import MotionFilterStage2
 from backend.engine.embodiment import DofType, Embodiment
+
+if TYPE_CHECKING:
+    from backend.engine.blocks.motion_filter import FilterParams
 
 MAX_SAMPLES = 200_000  # per track (an hour at 50 Hz); a longer request is refused, not truncated
 
@@ -125,18 +130,18 @@ def analyze_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]])
 
 
 def filter_tracks(
-    emb: Embodiment, rate: float, tracks: dict[str, list[float]], params: Any
+    emb: Embodiment, rate: float, tracks: dict[str, list[float]], params: FilterParams
 ) -> dict[str, list[float]]:
     """The tracks after the stage-2 motion filter with `params` (an `nmf_stage2` block's FilterParams),
     started at rest on the first sample; DoFs not posted hold their rest values."""
-    from backend.engine.blocks.base import BlockContext
-    from backend.engine.blocks.motion_filter import MotionFilterStage2
 
     names, x, ch = _matrix(emb, tracks)
     stage2 = MotionFilterStage2(
         params, BlockContext(emb, rate)
     )  # the robot's limits, as the engine sets them
     mf = stage2.filter
+    if mf is None:  # nothing to filter (not so while a continuous DoF is posted): the tracks as given
+        return {name: x[:, i].tolist() for i, name in enumerate(names)}
     where = np.searchsorted(stage2.idx, ch)  # the posted channels among the filtered ones
     start = emb.rest[stage2.idx].copy()
     start[where] = x[0]

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from backend.engine.nmf import MotionFilter
+from backend.engine.nmf import PRESETS, MotionFilter
 
 OK, VELOCITY, ACCELERATION, JERK, POSITION = 0, 1, 2, 3, 4
 CLASS_NAMES = {
@@ -67,9 +67,7 @@ class Analysis:
         return {name: int((self.classes == code).sum()) for code, name in CLASS_NAMES.items()}
 
 
-def _limit(name: str, value: Any, n: int, allow_none: bool = False) -> np.ndarray | None:
-    if value is None and allow_none:
-        return None
+def _limit(name: str, value: Any, n: int) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
@@ -210,7 +208,7 @@ def step_metrics(
     bounds = np.r_[starts, sp.size]
     over, settle = [], []
     for k0, k1 in zip(bounds[:-1], bounds[1:]):
-        before, target = sp[k0 - 1], sp[k0]
+        before, target = float(sp[k0 - 1]), float(sp[k0])
         seg = y[k0:k1]
         over.append(overshoot(seg, before, target))
         settle.append(settle_time(seg, target, rate, tolerance * abs(target - before)))
@@ -310,7 +308,6 @@ def preset_fit(
     limits (as the stage-2 filter applies them: the tanh limiter gets 2 x the velocity bound), best
     first: {"preset", "rms", "max" (deviation of the filtered ghost from the trajectory, over all
     samples and DoFs), "ghost_ok" (the ghost itself is within the limits)}."""
-    from backend.engine.nmf import PRESETS
 
     x = np.asarray(positions, dtype=float)
     if x.ndim == 1:
@@ -319,7 +316,7 @@ def preset_fit(
     vel = _limit("vel_limit", vel_limit, n)
     acc = _limit("acc_limit", acc_limit, n)
     jerk = _limit("jerk_limit", jerk_limit, n)
-    pos = {} if pmin is None else {"pmin": _limit("pmin", pmin, n), "pmax": _limit("pmax", pmax, n)}
+    lo, hi = (None, None) if pmin is None else (_limit("pmin", pmin, n), _limit("pmax", pmax, n))
     out = []
     for name in presets or list(PRESETS):
         p = PRESETS[name]
@@ -335,7 +332,8 @@ def preset_fit(
             acc_limit=acc,
             jerk_limit=jerk,
             x0=x[0],
-            **pos,
+            pmin=lo,
+            pmax=hi,
         )
         g = f.run(x).position
         err = np.abs(g - x)

@@ -14,9 +14,12 @@ from __future__ import annotations
 
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from backend.engine.embodiment import Embodiment
 
 # robot frame (+Z up) -> glTF frame (+Y up)
 Z_UP_TO_Y_UP = np.array(
@@ -34,19 +37,22 @@ class NoVisuals(ValueError):
 def _material(mesh: Any) -> None:
     """Give a mesh coloured by the URDF (face colours) one PBR material of that colour instead, which
     every glTF reader shows (vertex colours are often ignored)."""
-    import trimesh
+    # trimesh is heavy, imported only to build a GLB; its submodules by name (the package does not declare them)
+    from trimesh.visual import TextureVisuals
+    from trimesh.visual.material import PBRMaterial  # (the same)
 
     visual = mesh.visual
     if getattr(visual, "kind", None) in ("face", "vertex"):
         rgba = np.asarray(visual.main_color, dtype=float) / 255.0
-        mesh.visual = trimesh.visual.TextureVisuals(
-            material=trimesh.visual.material.PBRMaterial(
+        mesh.visual = TextureVisuals(
+            material=PBRMaterial(
                 baseColorFactor=[float(x) for x in rgba], metallicFactor=0.0, roughnessFactor=0.6
             )
         )
 
 
 def _build(urdf_path: Path) -> bytes:
+    # trimesh and yourdfpy load only when a client first asks for the robot's scene
     import trimesh
     import yourdfpy
 
@@ -78,16 +84,18 @@ def _build(urdf_path: Path) -> bytes:
         )
     if not counts:
         raise NoVisuals(f"the URDF '{urdf_path.name}' has no visual geometry")
-    return out.export(file_type="glb")
+    glb = out.export(file_type="glb")
+    if not isinstance(glb, bytes):  # trimesh gives bytes for a binary format
+        raise TypeError(f"trimesh exported {type(glb).__name__}, not bytes, as GLB")
+    return glb
 
 
-def scene_glb(emb: Any) -> bytes:
+def scene_glb(emb: Embodiment) -> bytes:
     """The GLB of `emb`'s visuals (see the module doc), cached per URDF file and modification time.
     Raises NoVisuals when there is nothing to show."""
-    path = getattr(emb, "urdf_path", None)
-    if path is None:
+    if emb.urdf_path is None:
         raise NoVisuals(f"robot '{emb.name}' has no URDF")
-    path = Path(path).resolve()
+    path = Path(emb.urdf_path).resolve()
     key = (str(path), path.stat().st_mtime)
     with _lock:
         if key not in _cache:

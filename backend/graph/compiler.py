@@ -58,6 +58,24 @@ class CompileResult:
     def ok(self) -> bool:
         return self.apu is not None
 
+    def compiled(self) -> Compiled | None:
+        """The same result with every part present (None when the program did not compile)."""
+        if self.apu is None or self.program is None or self.flat is None:
+            return None
+        return Compiled(self.report, self.apu, self.program, self.params, self.flat)
+
+
+@dataclass(frozen=True)
+class Compiled:
+    """A program that compiled: its report (warnings), the APU, the document as sent, the parameters
+    by flat node id and the flattened document."""
+
+    report: ValidationReport
+    apu: APU
+    program: Program
+    params: dict[str, BlockParams]
+    flat: Program
+
 
 class ProgramError(ValueError):
     """A program failed validation; `report` holds every error."""

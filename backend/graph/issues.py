@@ -58,7 +58,9 @@ class Issue(BaseModel):
     node: str | None = None
     port: str | None = None
     message: str
-    path: str | None = Field(None, description="JSON path in the document, e.g. nodes[2].params.amplitude")
+    path: str | None = Field(
+        default=None, description="JSON path in the document, e.g. nodes[2].params.amplitude"
+    )
     line: int | None = None
     column: int | None = None
 

@@ -11,6 +11,7 @@ engine ignores but preserves, so graph -> compiled program -> graph is lossless.
 from __future__ import annotations
 
 import math
+import re
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -65,7 +66,7 @@ class ExposedInput(_Strict):
     default: Any = None
     min: float | None = None
     max: float | None = None
-    options: list[str] | None = Field(None, description="allowed values of a string input")
+    options: list[str] | None = Field(default=None, description="allowed values of a string input")
     description: str = ""
 
     @model_validator(mode="after")
@@ -179,17 +180,17 @@ class Subgraph(_Strict):
 class Program(_Strict):
     """An Animation Program document."""
 
-    format: str = Field(FORMAT, description=f"format and version; this engine reads '{FORMAT}'")
-    name: str = Field("untitled", min_length=1, max_length=120)
+    format: str = Field(default=FORMAT, description=f"format and version; this engine reads '{FORMAT}'")
+    name: str = Field(default="untitled", min_length=1, max_length=120)
     description: str = ""
-    robot: str | None = Field(None, description="the robot it was written for (informative)")
-    rate: float | None = Field(None, ge=30, le=1000, description="preferred tick rate (Hz)")
-    max_level: int = Field(3, ge=0, le=3, description="highest APU level the program may use")
+    robot: str | None = Field(default=None, description="the robot it was written for (informative)")
+    rate: float | None = Field(default=None, ge=30, le=1000, description="preferred tick rate (Hz)")
+    max_level: int = Field(default=3, ge=0, le=3, description="highest APU level the program may use")
     inputs: list[ExposedInput] = Field(default_factory=list, description="exposed inputs")
     nodes: list[Node] = Field(default_factory=list)
     edges: list[Edge] = Field(default_factory=list)
     subgraphs: dict[str, Subgraph] | None = Field(
-        None, description="subgraph definitions by name, used by nodes of type 'subgraph'"
+        default=None, description="subgraph definitions by name, used by nodes of type 'subgraph'"
     )
     ui: dict[str, Any] = Field(
         default_factory=dict, description="editor view data (viewport, comments, reroutes, …)"
@@ -198,7 +199,6 @@ class Program(_Strict):
     @field_validator("subgraphs")
     @classmethod
     def _subgraph_names(cls, v: dict[str, Subgraph] | None) -> dict[str, Subgraph] | None:
-        import re
 
         for name in v or {}:
             if not re.match(ID_PATTERN, name):

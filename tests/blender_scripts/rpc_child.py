@@ -20,9 +20,9 @@ sys.stdout = sys.stderr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "blender"))
 
-import bpy  # noqa: E402
-import nutty_blender  # noqa: E402
-from mathutils import Matrix  # noqa: E402
+import bpy  # noqa: E402 (after sys.path is set up for Blender)
+import nutty_blender  # noqa: E402 (after sys.path is set up for Blender)
+from mathutils import Matrix  # noqa: E402 (after sys.path is set up for Blender)
 
 nutty_blender.register()
 

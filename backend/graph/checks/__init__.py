@@ -35,9 +35,9 @@ from backend.engine.blocks.base import BlockContext
 from backend.engine.embodiment import Embodiment
 from backend.graph.checks import edges, graph, inputs, nodes
 from backend.graph.checks.document import read_document
+from backend.graph.checks.exposed import check_exposed
 from backend.graph.checks.hooks import NodeCheck
 from backend.graph.checks.state import CheckState
-from backend.graph.subgraphs import check_exposed
 
 Pass = Callable[[CheckState], None]
 

@@ -10,6 +10,7 @@ import json
 from typing import Any
 
 from pydantic import ValidationError
+from pydantic_core import ErrorDetails
 
 from backend.graph.checks.state import CheckState
 from backend.graph.checks.text import loc, phrase, short
@@ -53,7 +54,7 @@ def parse_document(source: Any, errors: list[Issue]) -> dict[str, Any] | None:
     return source
 
 
-def _schema_message(path: str, err: dict[str, Any]) -> str:
+def _schema_message(path: str, err: ErrorDetails) -> str:
     kind = err.get("type", "")
     if kind == "missing":
         return f"{path} is required but missing"
@@ -133,8 +134,9 @@ def parse_program(
             for err in exc.errors():
                 path = loc(tuple(err["loc"]))
                 errors.append(Issue(code="schema", path=path, message=_schema_message(path, err)))
-                if err["loc"]:
-                    rest.pop(err["loc"][0], None)
+                field = err["loc"][0] if err["loc"] else None
+                if isinstance(field, str):  # a top-level field (an index only inside a list)
+                    rest.pop(field, None)
     return None, broken, where
 
 

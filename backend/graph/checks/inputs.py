@@ -35,7 +35,9 @@ def check_declarations(state: CheckState) -> None:
         state.declared[inp.name] = inp
     # Inputs whose declaration is malformed were reported as schema errors; nodes reading them
     # should not add unknown_exposed_input on top.
-    raw = state.doc.get("inputs") if isinstance(state.doc.get("inputs"), list) else []
+    raw = state.doc.get("inputs")
+    if not isinstance(raw, list):
+        raw = []
     named = {item["name"] for item in raw if isinstance(item, dict) and isinstance(item.get("name"), str)}
     state.malformed_inputs = named - set(state.declared)
 

@@ -65,7 +65,7 @@ def _check_node(state: CheckState, node: Node, i: int) -> None:
     state.params[node.id] = params
     try:
         state.ports[node.id] = cls.ports(params)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 (any fault of a block's port rules becomes an issue on its node)
         state.errors.append(
             Issue(
                 code="block_config",
@@ -92,7 +92,7 @@ def _params(state: CheckState, node: Node, i: int, cls: type[Block]) -> BlockPar
         return cls.Params.from_json_value(node.params)
     except ValidationError as exc:
         state.errors.extend(params_errors(node, i, cls, exc))
-    except Exception as exc:  # a block's own validator misbehaving must not crash validation
+    except Exception as exc:  # noqa: BLE001 (a block's own validator misbehaving is reported on its node)
         state.errors.append(
             Issue(
                 code="block_config",
@@ -125,7 +125,7 @@ def _probe(state: CheckState, node: Node, i: int, cls: type[Block], params: Bloc
                 message=f"node '{node.id}' ({node.type}): {exc}",
             )
         )
-    except Exception as exc:  # configure() says the parameters do not fit this robot
+    except Exception as exc:  # noqa: BLE001 (configure() says the parameters do not fit this robot: reported)
         state.errors.append(
             Issue(
                 code="block_config",

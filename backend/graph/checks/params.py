@@ -8,6 +8,7 @@ import typing
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
 
 from backend.engine.blocks.base import Block
 from backend.graph.checks.text import loc as _loc
@@ -57,7 +58,7 @@ def walk_loc(model: type[BaseModel], loc: tuple[Any, ...]) -> tuple[list[Any], t
 def params_errors(node: Node, index: int, cls: type[Block], exc: ValidationError) -> list[Issue]:
     """The issues of a node whose parameters its block's model rejected (one per value)."""
     out: list[Issue] = []
-    grouped: dict[str, list[dict[str, Any]]] = {}
+    grouped: dict[str, list[ErrorDetails]] = {}
     for err in exc.errors():
         loc = tuple(err["loc"])
         parts, model, used = walk_loc(cls.Params, loc)

@@ -9,13 +9,16 @@ from __future__ import annotations
 
 from collections import defaultdict
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from backend.engine.blocks import BLOCKS
 from backend.engine.blocks.base import Block, BlockContext, BlockParams, Port
 from backend.engine.embodiment import Embodiment
 from backend.graph.issues import Issue, ValidationReport
 from backend.graph.schema import Edge, ExposedInput, Node, Program
+
+if TYPE_CHECKING:
+    from backend.graph.subgraphs import Flat
 
 Ports = tuple[dict[str, Port], dict[str, Port]]
 
@@ -32,7 +35,7 @@ class CheckState:
     doc: dict[str, Any] | None = None
     program: Program | None = None  # what the passes check: the document with its subgraphs flattened
     document: Program | None = None  # the document as written (with its subgraphs)
-    flat: Any = None  # backend.graph.subgraphs.Flat when the document uses subgraphs
+    flat: Flat | None = None  # when the document uses subgraphs
     broken: dict[str, int] = field(default_factory=dict)  # ids of nodes left out as malformed -> index
     doc_index: dict[str, list[int]] = field(default_factory=dict)  # nodes/edges/inputs kept -> doc index
     # --- exposed inputs (checks.inputs) ---

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from pydantic_core import ErrorDetails
+
 
 def loc(parts: tuple[Any, ...] | list[Any]) -> str:
     """A document path from its parts: ("nodes", 3, "params", "dofs", 1) -> nodes[3].params.dofs[1]."""
@@ -13,7 +15,7 @@ def loc(parts: tuple[Any, ...] | list[Any]) -> str:
     return out
 
 
-def phrase(err: dict[str, Any]) -> str:
+def phrase(err: ErrorDetails) -> str:
     """What is wrong with a value, from one pydantic error ("must be at most 10.0")."""
     kind, ctx = err.get("type", ""), err.get("ctx") or {}
     if kind == "less_than_equal":
