@@ -50,6 +50,7 @@ from backend.previz_proxy import (  # noqa: F401 (re-exported: callers import th
     relay_socket,
 )
 from backend.security import LOOPBACK_NAMES, AccessPolicy
+from backend.session import EngineSession
 
 log = logging.getLogger(__name__)
 
@@ -105,14 +106,14 @@ def check_loopback(host: str) -> None:
         )
 
 
-def attach_previz_sink(session: Any, show: Any) -> Sink:
+def attach_previz_sink(session: EngineSession, show: Any) -> Sink:
     """The Pre-Viz sink: `show(frame)` on its own thread, at most MAX_RATE frames per second, a stale
     frame dropped (never queued)."""
     decimate = max(1, math.ceil(session.engine.rate / MAX_RATE))
     return session.engine.add_sink(Sink("previz", show, max_queue=1, decimate=decimate))
 
 
-def gaze_from_drag(session: Any, run_command: Any, target: list[float]) -> bool:
+def gaze_from_drag(session: EngineSession, run_command: Any, target: list[float]) -> bool:
     """A gizmo drag's target, as a `set_gaze` command through `run_command` (the server's command path:
     validated, logged, evented like REST) when there is one, else straight to the input. Whether the
     gaze was set (a refused command is logged by the command path, and changes nothing)."""
@@ -129,7 +130,7 @@ def gaze_from_drag(session: Any, run_command: Any, target: list[float]) -> bool:
     return True
 
 
-def set_gaze_input(session: Any, target: list[float]) -> bool:
+def set_gaze_input(session: EngineSession, target: list[float]) -> bool:
     """Set `session`'s `gaze_target` input to a dragged target; False when its program has none or
     refuses the value."""
     prog = session.program
@@ -168,7 +169,7 @@ class PreViz:
 
     def __init__(
         self,
-        session: Any,
+        session: Any,  # an EngineSession, or the child process's stand-in for one
         host: str = "127.0.0.1",
         port: int = 8080,
         allowed_origins: list[str] | None = None,

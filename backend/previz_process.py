@@ -35,10 +35,12 @@ from typing import Any, cast
 
 import numpy as np
 
+from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, FrameEvent
 from backend.engine.runtime import Sink
 from backend.logs import configure_logging, settings
 from backend.previz import attach_previz_sink, check_loopback, gaze_from_drag
+from backend.session import EngineSession
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +68,7 @@ class _Remote:
     """The child's stand-in for the engine session: the embodiment, and a program that takes a gaze
     target, which is sent to the server (the server checks the real program and sets the input)."""
 
-    def __init__(self, embodiment: Any, send: Any):
+    def __init__(self, embodiment: Embodiment, send: Any):
         self.embodiment = embodiment
         self._send = send
 
@@ -83,7 +85,7 @@ class _Remote:
 
 def _child_main(
     conn: Any,
-    embodiment: Any,
+    embodiment: Embodiment,
     host: str,
     port: int,
     allowed_origins: list[str],
@@ -165,7 +167,7 @@ class PreVizProcess:
 
     def __init__(
         self,
-        session: Any,
+        session: EngineSession,
         host: str = "127.0.0.1",
         port: int = 8080,
         allowed_origins: list[str] | None = None,

@@ -19,7 +19,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from backend.control.ai import AiTool
 from backend.control.errors import CommandError
+from backend.control.session_view import CommandSession
 from backend.control.targets import blocks_of, find_block, tell
+from backend.engine.blocks.base import Block
 from backend.plugins import load
 
 
@@ -43,7 +45,7 @@ class CommandContext:
     """What a running command may use: the EngineSession, the id its events carry, and the server's
     cancellation of a logged command by id (None in process, where no command log exists)."""
 
-    session: Any
+    session: CommandSession
     command_id: str | None = None
     cancel: Callable[[str], dict[str, Any]] | None = None
 
@@ -133,7 +135,7 @@ class BaseCommand(BaseModel):
         raise CommandError(f"unsupported command type '{getattr(self, 'type', '?')}'", field="type")
 
     @classmethod
-    def cancel(cls, session: Any, command_id: str) -> None:
+    def cancel(cls, session: CommandSession, command_id: str) -> None:
         """Stop what command `command_id` of this type started (long actions); others go on."""
 
 
@@ -144,24 +146,24 @@ class BlockCommand(BaseCommand):
     node: str | None = Field(default=None, description="node id of the target block (optional)")
     layer: str | None = Field(default=None, description="layer whose chain holds the target block (optional)")
 
-    def block(self, session: Any) -> Any:
+    def block(self, session: CommandSession) -> Any:
         return find_block(session, self.acts_on.blocks, self.acts_on.what, self.node, self.layer)
 
     def args(self, *exclude: str) -> dict[str, Any]:
         """The command's own fields as block arguments (those set, without routing fields)."""
         return self.model_dump(exclude={"type", "node", "layer", "id", *exclude}, exclude_none=True)
 
-    def tell(self, ctx: CommandContext, block: Any, command: str, args: dict[str, Any]) -> Any:
+    def tell(self, ctx: CommandContext, block: Block, command: str, args: dict[str, Any]) -> Any:
         """Hand `command` to `block`, tagged with this command's id (which its events will carry)."""
         return tell(ctx.session, block, command, {**args, "command_id": ctx.command_id})
 
     @classmethod
-    def cancel(cls, session: Any, command_id: str) -> None:
+    def cancel(cls, session: CommandSession, command_id: str) -> None:
         for block in blocks_of(session, cls.acts_on.blocks):
             # A block that cannot stop: the command is reported cancelled regardless.
             with contextlib.suppress(Exception):
                 session.engine.call(lambda b=block: cls.stop_owned(b, command_id))
 
     @classmethod
-    def stop_owned(cls, block: Any, command_id: str) -> None:
+    def stop_owned(cls, block: Block, command_id: str) -> None:
         """Stop what `block` does for command `command_id` only (clock thread); long actions override."""

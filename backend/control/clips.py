@@ -10,6 +10,7 @@ from backend.control.ai import AiTool
 from backend.control.base import BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
 from backend.control.targets import layers_of
+from backend.engine.blocks.base import Block
 
 CLIP_PLAYER = Target(blocks=("clip_player",), what="clip player")
 
@@ -68,7 +69,7 @@ class PlayClip(BlockCommand):
             raise CommandError(f"{where} is busy: {exc}", field="if_busy", code="busy") from exc
 
     @classmethod
-    def stop_owned(cls, block: Any, command_id: str) -> None:
+    def stop_owned(cls, block: Block, command_id: str) -> None:
         block.handle("stop", {"command_id": command_id})  # the player stops this play only, playing or queued
 
 

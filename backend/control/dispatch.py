@@ -13,6 +13,7 @@ from pydantic import Field, TypeAdapter, ValidationError
 
 from backend.control.base import REGISTRY, BaseCommand, CommandContext
 from backend.control.errors import CommandError
+from backend.control.session_view import CommandSession
 from backend.safe_json import validation_bytes
 from backend.security import JsonSafetyError, check_json
 
@@ -116,7 +117,7 @@ def plain_error(err: Any, cls: Any, loc: list[str]) -> str:
 
 
 def execute(
-    session: Any,
+    session: CommandSession,
     command: BaseCommand,
     command_id: str | None = None,
     *,
@@ -139,7 +140,7 @@ def is_long_action(command_type: Any) -> bool:
     return cls is not None and cls.long_action
 
 
-def cancel_command(session: Any, command_type: Any, command_id: str) -> None:
+def cancel_command(session: CommandSession, command_type: Any, command_id: str) -> None:
     """Stop what the long action `command_id` (of `command_type`) started; anything else is left alone."""
     cls = REGISTRY.get(command_type)
     if cls is not None and cls.long_action:

@@ -15,8 +15,11 @@ from backend.control.ai import AiTool
 from backend.control.base import BaseCommand, BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
 from backend.control.postures import Vec3
+from backend.control.session_view import CommandSession
 from backend.control.targets import blocks_of, tell
+from backend.engine.blocks.base import Block
 from backend.engine.blocks.core import pose_vector
+from backend.engine.embodiment import Dof, Embodiment
 from backend.engine.frames import FrameEvent
 
 
@@ -71,7 +74,7 @@ class Say(_Audible):
         return {"text": self.text}
 
     @classmethod
-    def stop_owned(cls, block: Any, command_id: str) -> None:
+    def stop_owned(cls, block: Block, command_id: str) -> None:
         s = block.state
         pending, current = s.pending, s.current
         if isinstance(pending, dict) and pending.get("command_id") == command_id:
@@ -107,7 +110,7 @@ class PlaySound(_Audible):
         return {"clip": self.sound}
 
     @classmethod
-    def stop_owned(cls, block: Any, command_id: str) -> None:
+    def stop_owned(cls, block: Block, command_id: str) -> None:
         # A sound that started cannot be taken back; what is left is not to start it, or not to wait for it.
         s = block.state
         s.pending = [c for c in s.pending if c.get("command_id") != command_id]
@@ -138,7 +141,7 @@ class _Display(BaseCommand):
     def value(self) -> Any:
         raise NotImplementedError
 
-    def override(self, session: Any) -> dict[str, Any]:
+    def override(self, session: CommandSession) -> dict[str, Any]:
 
         dof = self.display_dof(session.embodiment)
         value = self.value()
@@ -149,7 +152,7 @@ class _Display(BaseCommand):
         session.engine.call(lambda: session.engine.set_override(mask, vec))
         return {"dof": dof.name, "value": value}
 
-    def display_dof(self, emb: Any) -> Any:
+    def display_dof(self, emb: Embodiment) -> Dof:
         """The DoF named by `dof` (which must be of `dof_type`), else the robot's first of that type."""
         if not self.dof:
             dof = next((d for d in emb.dofs if d.type.value == self.dof_type), None)

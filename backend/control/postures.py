@@ -10,6 +10,7 @@ from backend.control.ai import AiTool, Choice
 from backend.control.base import BaseCommand, BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
 from backend.control.targets import declares_input, set_inputs
+from backend.engine.blocks.base import Block
 
 Vec3 = tuple[float, float, float]
 #: How far (m, along each axis of the robot's base frame) a gaze target may lie: beyond a few metres a
@@ -67,7 +68,7 @@ class GoPosture(BlockCommand):
         return self.tell(ctx, self.block(ctx.session), "go", self.args())
 
     @classmethod
-    def stop_owned(cls, block: Any, command_id: str) -> None:
+    def stop_owned(cls, block: Block, command_id: str) -> None:
         s = block.state
         if s.command_id == command_id and s.move is not None:
             block.handle("stop", {"command_id": command_id})

@@ -8,23 +8,24 @@ from __future__ import annotations
 from typing import Any
 
 from backend.control.errors import CommandError
-from backend.engine.blocks.base import BlockCommandError, Role
+from backend.control.session_view import CommandSession
+from backend.engine.blocks.base import Block, BlockCommandError, Role
+from backend.engine.blocks.mixer import LayerMixer
 
 
-def blocks_of(session: Any, type_names: tuple[str, ...]) -> list[Any]:
+def blocks_of(session: CommandSession, type_names: tuple[str, ...]) -> list[Block]:
     """The running program's blocks of these types, in program order ([] without a program)."""
     apu = session.engine.apu
     return [s.block for s in apu.steps if s.block.type_name in type_names] if apu else []
 
 
-def mixers(session: Any) -> list[Any]:
+def mixers(session: CommandSession) -> list[LayerMixer]:
     """The running program's layer mixers (blocks with the mixer role)."""
-
     apu = session.engine.apu
-    return apu.blocks_of(Role.mixer) if apu else []
+    return [b for b in apu.blocks_of(Role.mixer) if isinstance(b, LayerMixer)] if apu else []
 
 
-def upstream_of_layer(session: Any, layer: str) -> set[str]:
+def upstream_of_layer(session: CommandSession, layer: str) -> set[str]:
     """Node ids whose output reaches the mixer input named `layer`."""
     apu = session.engine.apu
     if apu is None:
@@ -47,7 +48,7 @@ def upstream_of_layer(session: Any, layer: str) -> set[str]:
     return seen
 
 
-def layer_members(session: Any) -> dict[str, set[str]]:
+def layer_members(session: CommandSession) -> dict[str, set[str]]:
     """Every mixer layer's name -> the node ids whose output reaches it."""
     apu = session.engine.apu
     if apu is None:
@@ -56,7 +57,7 @@ def layer_members(session: Any) -> dict[str, set[str]]:
     return {name: upstream_of_layer(session, name) for name in names}
 
 
-def layers_of(session: Any, node_id: str, members: dict[str, set[str]] | None = None) -> list[str]:
+def layers_of(session: CommandSession, node_id: str, members: dict[str, set[str]] | None = None) -> list[str]:
     """Names of the mixer layers whose chain holds node `node_id` (e.g. ['gesture']); `members`:
     `layer_members(session)` when it is at hand."""
     members = layer_members(session) if members is None else members
@@ -64,8 +65,12 @@ def layers_of(session: Any, node_id: str, members: dict[str, set[str]] | None = 
 
 
 def find_block(
-    session: Any, type_names: tuple[str, ...], what: str, node: str | None = None, layer: str | None = None
-) -> Any:
+    session: CommandSession,
+    type_names: tuple[str, ...],
+    what: str,
+    node: str | None = None,
+    layer: str | None = None,
+) -> Block:
     """The block named by `node`, else the one on `layer`, else the only one of these types.
 
     Raises CommandError `no_target` when there is none, `ambiguous_target` when several could be
@@ -99,7 +104,7 @@ def find_block(
     )
 
 
-def tell(session: Any, block: Any, command: str, args: dict[str, Any]) -> Any:
+def tell(session: CommandSession, block: Block, command: str, args: dict[str, Any]) -> Any:
     """Hand `command` to a block in the clock thread; its refusal becomes a CommandError `rejected` (or
     the refusal's own `code`, e.g. `busy`)."""
 
@@ -109,12 +114,12 @@ def tell(session: Any, block: Any, command: str, args: dict[str, Any]) -> Any:
         raise CommandError(str(exc), code=getattr(exc, "code", "rejected")) from exc
 
 
-def declares_input(session: Any, name: str) -> bool:
+def declares_input(session: CommandSession, name: str) -> bool:
     """Whether the running program exposes an input called `name`."""
     return session.program is not None and session.program.input(name) is not None
 
 
-def set_inputs(session: Any, values: dict[str, Any]) -> dict[str, Any]:
+def set_inputs(session: CommandSession, values: dict[str, Any]) -> dict[str, Any]:
     """Check every value first, then set them all at one tick: a rejected command changes nothing.
 
     Returns the values as set (coerced to each input's type); CommandError `invalid_input` names the

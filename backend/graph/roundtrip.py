@@ -14,6 +14,7 @@ from typing import Any
 
 from backend.engine.apu import APU
 from backend.engine.blocks import BLOCKS
+from backend.engine.blocks.base import Block
 from backend.graph.schema import SUBGRAPH_TYPE, Edge, Endpoint, Node, Program
 from backend.graph.subgraphs import flatten, uses_subgraphs
 
@@ -22,7 +23,7 @@ class RoundTripError(ValueError):
     """The APU carries no source document (it was not built by `compile_program`)."""
 
 
-def _live_params(node: Node, block: Any) -> dict[str, Any]:
+def _live_params(node: Node, block: Block | None) -> dict[str, Any]:
     cls = BLOCKS.get(node.type)
     if cls is None or block is None:
         return dict(node.params)

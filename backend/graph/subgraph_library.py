@@ -7,6 +7,8 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from backend.engine.blocks.base import BlockContext
+from backend.engine.embodiment import Embodiment
 from backend.graph.checks import run_checks
 from backend.graph.issues import Issue
 from backend.graph.schema import Subgraph
@@ -14,7 +16,7 @@ from backend.graph.subgraphs import SUBGRAPH_PARAM, SUBGRAPH_TYPE
 
 
 def standalone_issues(
-    name: str, definition: Any, embodiment: Any, ctx: Any
+    name: str, definition: Any, embodiment: Embodiment, ctx: BlockContext
 ) -> tuple[Subgraph | None, list[Issue]]:
     """Check a subgraph definition on its own (a library entry): its shape, then its blocks and inner
     wiring as the program checks see them in a program of one instance. Missing inputs at exposed

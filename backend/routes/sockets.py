@@ -15,6 +15,7 @@ from typing import Any
 import msgpack
 from fastapi import APIRouter, WebSocket
 
+from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 from backend.errors import DomainError
@@ -150,7 +151,7 @@ async def ws_frames(ws: WebSocket, hub: HubDep) -> None:
         await asyncio.to_thread(engine.remove_sink, sink)
 
 
-async def _send_frames(sock: ClientSocket, queue: asyncio.Queue, emb: Any, fmt: str) -> None:
+async def _send_frames(sock: ClientSocket, queue: asyncio.Queue, emb: Embodiment, fmt: str) -> None:
     while True:
         frame: AnimationFrame = await queue.get()
         doc = frame.to_dict(emb)

@@ -21,16 +21,19 @@ from typing import Any
 import numpy as np
 
 from backend import security
+from backend.engine.blocks.mixer import LayerMixer
+from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, PartialFrame
 from backend.errors import DomainError
 from backend.hub import jsonable
+from backend.session import EngineSession
 
 TELEMETRY_MAX_HZ = 60.0
 MAX_SIGNALS = 200
 PROFILE_PERIOD = 1.0  # s between two messages with cook times, per client
 
 
-def signal_json(emb: Any, value: Any) -> Any:
+def signal_json(emb: Embodiment, value: Any) -> Any:
     """A node output as JSON: frames as their set channels, arrays as lists."""
     if isinstance(value, PartialFrame):
         idx = np.asarray(value.mask).ravel().nonzero()[0]
@@ -48,7 +51,7 @@ def signal_json(emb: Any, value: Any) -> Any:
     return value if jsonable(value) else str(value)
 
 
-def signals_json(emb: Any, values: list[Any]) -> list[Any]:
+def signals_json(emb: Embodiment, values: list[Any]) -> list[Any]:
     """`signal_json` of each value, the same JSON, with the frames among them (most of a program's
     outputs) selected and rounded together: a few numpy calls for all of them instead of several each
     (the interactive program's 42 signals ~320 -> ~136 µs, time the clock's interpreter lock waits)."""
@@ -88,7 +91,7 @@ def signals_json(emb: Any, values: list[Any]) -> list[Any]:
 _NAME_ARRAYS: weakref.WeakKeyDictionary[Any, np.ndarray] = weakref.WeakKeyDictionary()
 
 
-def _channel_name_array(emb: Any) -> np.ndarray:
+def _channel_name_array(emb: Embodiment) -> np.ndarray:
     """The embodiment's channel names as a numpy object array (for fancy indexing), made once each."""
     names = _NAME_ARRAYS.get(emb)
     if names is None or len(names) != len(emb.channel_names):
@@ -96,7 +99,7 @@ def _channel_name_array(emb: Any) -> np.ndarray:
     return names
 
 
-def limit_classes(emb: Any, frame: AnimationFrame) -> dict[str, int]:
+def limit_classes(emb: Embodiment, frame: AnimationFrame) -> dict[str, int]:
     """The trajectory-helper's class of this frame per continuous channel that breaks a limit
     (1 velocity, 2 acceleration, 3 jerk), from the frame's exact finite differences; ok omitted."""
     slack = 1.0 + 1e-9
@@ -114,11 +117,11 @@ def _rounded(values: np.ndarray) -> list[float]:
     return np.asarray(values, dtype=float).round(5).tolist()
 
 
-def frame_channels(emb: Any, values: np.ndarray) -> dict[str, float]:
+def frame_channels(emb: Embodiment, values: np.ndarray) -> dict[str, float]:
     return dict(zip(emb.channel_names, _rounded(values)))
 
 
-def frame_json(emb: Any, frame: AnimationFrame) -> dict[str, Any]:
+def frame_json(emb: Embodiment, frame: AnimationFrame) -> dict[str, Any]:
     """A frame as telemetry shows it: positions, the stage-1 pose, limit classes, corrected channels."""
     return {
         "position": frame_channels(emb, frame.position),
@@ -178,7 +181,7 @@ class Subscription:
         self.frames, self.rate = frames, float(rate)
         self.changed.set()
 
-    def message(self, session: Any, frame: AnimationFrame) -> dict[str, Any]:
+    def message(self, session: EngineSession, frame: AnimationFrame) -> dict[str, Any]:
         """The telemetry message for `frame`: subscribed signals, the frame, the mixers' layers."""
         apu, emb = session.engine.apu, session.embodiment
         msg: dict[str, Any] = {"type": "telemetry", "t": frame.t, "seq": frame.seq}
@@ -189,11 +192,11 @@ class Subscription:
             msg["frame"] = frame_json(emb, frame)
         if apu is not None:
             msg["layers"] = {
-                s.node_id: s.block.layer_states() for s in apu.steps if hasattr(s.block, "layer_states")
+                s.node_id: s.block.layer_states() for s in apu.steps if isinstance(s.block, LayerMixer)
             }
         return msg
 
-    def text(self, session: Any, frame: AnimationFrame, slot: Any = None) -> tuple[int, str]:
+    def text(self, session: EngineSession, frame: AnimationFrame, slot: Any = None) -> tuple[int, str]:
         """(seq, JSON text) of this client's message for `frame`: the same text as a client subscribed
         alike was sent in the same `slot` (any hashable: a period of a shared schedule; None: never
         shared), built once; with the cook times about once every PROFILE_PERIOD seconds."""
@@ -218,20 +221,22 @@ class SharedTexts:
         self._profile: tuple[float, Any, str] | None = None  # (when, apu, JSON text)
 
     @classmethod
-    def of(cls, session: Any) -> SharedTexts:
+    def of(cls, session: EngineSession) -> SharedTexts:
         shared = cls._of.get(session)
         if shared is None:
             shared = cls._of[session] = cls()
         return shared
 
-    def text(self, sub: Subscription, session: Any, frame: AnimationFrame, slot: Any) -> tuple[int, str]:
+    def text(
+        self, sub: Subscription, session: EngineSession, frame: AnimationFrame, slot: Any
+    ) -> tuple[int, str]:
         key = sub.key
         built = self.texts.get(key)
         if built is None or slot is None or built[0] != slot:
             built = self.texts[key] = (slot, frame.seq, security.dumps(sub.message(session, frame)))
         return built[1], built[2]
 
-    def profile(self, session: Any, now: float) -> str | None:
+    def profile(self, session: EngineSession, now: float) -> str | None:
         """The running program's cook times as JSON (summarised at most once per PROFILE_PERIOD)."""
         apu = session.engine.apu
         if apu is None:

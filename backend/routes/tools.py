@@ -14,6 +14,7 @@ from typing import Any, Literal
 from fastapi import APIRouter, Query
 
 from backend.api_types import ToolAnswer, Tools
+from backend.hub import Hub
 from backend.routes.bodies import ToolArguments
 from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
@@ -53,7 +54,7 @@ async def post_tool(name: str, arguments: ToolArguments, hub: HubDep) -> dict[st
         ) from exc
 
 
-async def tools_changed(hub: Any) -> None:
+async def tools_changed(hub: Hub) -> None:
     """Announce the tools on /ws/control if they changed since they were last announced or read."""
     toolset = await asyncio.to_thread(build_tools, hub.session)
     if toolset.revision == hub.tools_revision:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from backend.control.base import BlockCommand
+from backend.control.session_view import CommandSession
 from backend.tools.live import Live, read_live
 from backend.tools.schema import model_arguments, with_choices
 from backend.tools.table import ToolSpec, WaitOptions, tool_specs
@@ -62,7 +63,7 @@ class ToolSet:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def build_tools(session: Any) -> ToolSet:
+def build_tools(session: CommandSession) -> ToolSet:
     """The tools `session` (an EngineSession) offers now."""
     live = read_live(session)
     return ToolSet(tuple(_tool(spec, live) for spec in tool_specs() if spec.available(live)), live)

@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from backend.control.ai import ToolArgumentError
-from backend.hub import TERMINAL
+from backend.hub import TERMINAL, Hub
 from backend.tools.build import Tool, build_tools
 from backend.tools.errors import ToolError
 from backend.tools.status import robot_status
@@ -26,7 +26,7 @@ from backend.tools.table import StatusArguments, WaitOptions
 OPEN = ("accepted", "queued", "started")  # a command that has not ended yet
 
 
-async def call_tool(hub: Any, name: str, arguments: Any) -> dict[str, Any]:
+async def call_tool(hub: Hub, name: str, arguments: Any) -> dict[str, Any]:
     """Carry out tool `name` with `arguments` on the Hub's session. Raises ToolError naming the field,
     or the HTTPException of `Hub.run_command` (the command's own error, naming its field)."""
     toolset = await asyncio.to_thread(build_tools, hub.session)
@@ -99,7 +99,7 @@ def _validated(model: type[BaseModel], data: dict[str, Any]) -> Any:
 
 
 @contextlib.contextmanager
-def listening(hub: Any) -> Iterator[asyncio.Queue]:
+def listening(hub: Hub) -> Iterator[asyncio.Queue]:
     """The Hub's command events, as a /ws/control client gets them, for as long as the block runs."""
     queue: asyncio.Queue = asyncio.Queue(maxsize=256)
     hub.control_queues.add(queue)
@@ -109,7 +109,7 @@ def listening(hub: Any) -> Iterator[asyncio.Queue]:
         hub.control_queues.discard(queue)
 
 
-async def wait_until_ended(hub: Any, events: asyncio.Queue, cid: str, timeout: float) -> tuple[Any, bool]:
+async def wait_until_ended(hub: Hub, events: asyncio.Queue, cid: str, timeout: float) -> tuple[Any, bool]:
     """Wait (at most `timeout` s) until command `cid` has ended; its log entry, and whether time ran out.
     The log is the truth; each event only says it is worth looking again (so a dropped one costs nothing)."""
     loop = asyncio.get_running_loop()
@@ -125,7 +125,7 @@ async def wait_until_ended(hub: Any, events: asyncio.Queue, cid: str, timeout: f
             await asyncio.wait_for(events.get(), min(remaining, 1.0))
 
 
-async def _status(hub: Any, args: StatusArguments) -> dict[str, Any]:
+async def _status(hub: Hub, args: StatusArguments) -> dict[str, Any]:
     entry, timed_out = None, False
     if args.id is not None:
         entry = hub.commands.get(args.id)

@@ -11,11 +11,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-# A command's tool declaration lists its values as Choices, so the class lives beside the declaration.
 from backend.control.ai import Choice
+
+# A command's tool declaration lists its values as Choices, so the class lives beside the declaration.
+from backend.control.session_view import CommandSession
 from backend.control.targets import layer_members, layers_of, mixers
 from backend.engine.clips import Clip
-from backend.engine.embodiment import DofType
+from backend.engine.embodiment import DofType, Embodiment
 
 __all__ = ["Choice", "Live", "read_live"]
 
@@ -47,7 +49,7 @@ class Live:
         return next((i for i in self.inputs if i.name == name), None)
 
 
-def read_live(session: Any) -> Live:
+def read_live(session: CommandSession) -> Live:
     """The snapshot of `session` (an EngineSession) that tools are generated from."""
     emb = session.embodiment
     program = session.program
@@ -82,14 +84,15 @@ def read_live(session: Any) -> Live:
                 if o not in {c.name for c in live.expressions}
             ]
     for dof in emb.event_dofs:
-        live.channels.add(dof.kind)
+        if dof.kind is not None:
+            live.channels.add(dof.kind)
         if dof.kind == "sound":
             live.sounds += [Choice(s) for s in dof.sounds or ()]
     live.gaze_range = _gaze_range(emb)
     return live
 
 
-def _clips(session: Any) -> list[Choice]:
+def _clips(session: CommandSession) -> list[Choice]:
 
     out = []
     for name in _names(session, "clips"):
@@ -101,7 +104,7 @@ def _clips(session: Any) -> list[Choice]:
     return out
 
 
-def _postures(session: Any) -> list[Choice]:
+def _postures(session: CommandSession) -> list[Choice]:
     out = []
     for name in _names(session, "postures"):
         try:
@@ -112,14 +115,14 @@ def _postures(session: Any) -> list[Choice]:
     return out
 
 
-def _names(session: Any, kind: str) -> list[str]:
+def _names(session: CommandSession, kind: str) -> list[str]:
     try:
         return session.library.list(kind)
     except ValueError:  # a robot without a library folder
         return []
 
 
-def _gaze_range(emb: Any) -> dict[str, tuple[float, float]]:
+def _gaze_range(emb: Embodiment) -> dict[str, tuple[float, float]]:
     """Yaw and pitch (rad) the gaze joints can turn through together: the sums of their limits."""
     out = {}
     for axis in ("yaw", "pitch"):

@@ -10,12 +10,15 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from backend.control.session_view import CommandSession
 from backend.control.targets import blocks_of, layer_members, layers_of, mixers
+from backend.engine.blocks.clip_player import ClipPlayer
+from backend.engine.blocks.posture import Posture as PostureBlock
 
 GAZE_FRAME = "m, robot base frame: x forward, y left, z up"
 
 
-def robot_status(session: Any) -> dict[str, Any]:
+def robot_status(session: CommandSession) -> dict[str, Any]:
     """The status document (JSON) of `session`, an EngineSession."""
 
     def read() -> tuple[list, list, dict, dict]:
@@ -27,10 +30,12 @@ def robot_status(session: Any) -> dict[str, Any]:
                 **(b.playing() or {"clip": None}),
             }
             for b in blocks_of(session, ("clip_player",))
+            if isinstance(b, ClipPlayer)
         ]
         moves = [
             {"node": b.node_id, "layers": layers_of(session, b.node_id, members), "move": b.move_status()}
             for b in blocks_of(session, ("posture",))
+            if isinstance(b, PostureBlock)
         ]
         layers = {
             m.node_id: [

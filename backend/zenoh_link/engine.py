@@ -30,6 +30,7 @@ import threading
 import time
 from typing import Any
 
+from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 from backend.errors import DomainError
@@ -61,7 +62,9 @@ class FramePublisher(Sink[Any]):  # offered frames, queued as (frame, stamp) pai
     this sink's queue too, as a /ws/frames client's does.
     """
 
-    def __init__(self, publisher: Any, embodiment: Any, max_queue: int = 64, session: bytes | None = None):
+    def __init__(
+        self, publisher: Any, embodiment: Embodiment, max_queue: int = 64, session: bytes | None = None
+    ):
         self.publisher, self.emb, self.session = publisher, embodiment, session
         super().__init__("zenoh-frames", max_queue=max_queue)
 
@@ -83,7 +86,7 @@ class EngineLink:
 
     def __init__(
         self,
-        session: Any,
+        session: Any,  # a zenoh.Session (zenoh is imported only where a link is made)
         robot_id: str,
         options: ZenohOptions | None = None,
         status_period: float = STATUS_PERIOD,
@@ -92,7 +95,7 @@ class EngineLink:
         self.robot_id = keys.check_robot_id(robot_id)
         self.options = options or ZenohOptions()
         self.status_period = status_period
-        self.hub: Any = None
+        self.hub: Any = None  # the server Hub, from start()
         self.closing: threading.Event | None = None
         self.key = {
             leaf: keys.key(robot_id, leaf)
