@@ -209,7 +209,7 @@ def prepare_channels(
 def source_axes(
     kind: str, up: str | None, forward: str, notes: list[str]
 ) -> tuple[np.ndarray, dict[str, str] | None]:
-    """(quaternion (w, x, y, z) turning source axes into the robot's, {"up", "forward"} or None for a
+    """(quaternion (x, y, z, w), as in `rotations`, turning source axes into the robot's, {"up", "forward"} or None for a
     format without axes (CSV))."""
     if not IMPORTERS[kind].axes:
         if up not in (None, "z") or forward != "x":
