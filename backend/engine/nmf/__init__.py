@@ -52,8 +52,8 @@ per s³; `rate` in Hz (samples per second).
 
 from __future__ import annotations
 
+from backend.engine.nmf.fast_math import HAVE_NUMBA
 from backend.engine.nmf.filter import FilterResult, MotionFilter, filter_trajectory
-from backend.engine.nmf.kernels import HAVE_NUMBA
 from backend.engine.nmf.params import (
     H_BASE_MAX,
     LIMIT_MAX,

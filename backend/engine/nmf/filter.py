@@ -11,7 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from backend.engine.nmf.kernels import HAVE_NUMBA, _entry_points, _run_compiled
+from backend.engine.nmf.fast_math import HAVE_NUMBA
+from backend.engine.nmf.kernels import _entry_points, _run_compiled
 from backend.engine.nmf.params import (
     _ACC,
     _BETA,

@@ -19,45 +19,8 @@ from typing import Any
 
 from numba import types as nt
 
-# The numba import, tanh and pow live in `fast_math`; re-exported here, where the filter and the numpy
-# reference import them.
-from backend.engine.nmf.fast_math import (  # noqa: F401 (re-exported: the names were importable from here before the split)
-    _C2,
-    _C3,
-    _C4,
-    _C5,
-    _C6,
-    _C7,
-    _C8,
-    _C9,
-    _C10,
-    _C11,
-    _C12,
-    _C13,
-    _EXP_HI,
-    _EXP_LO,
-    _INV_LN2,
-    _L3,
-    _L5,
-    _L7,
-    _L9,
-    _L11,
-    _L13,
-    _L15,
-    _L17,
-    _L19,
-    _L21,
-    _L23,
-    _LN2_HI,
-    _LN2_LO,
-    _ROUND,
-    _SQRT2,
-    _TANH_CAP,
-    HAVE_NUMBA,
-    _pow,
-    _tanh,
-    njit,
-)
+# The numba import and the branch-free tanh and pow live in `fast_math`.
+from backend.engine.nmf.fast_math import _pow, _tanh, njit
 from backend.engine.nmf.params import (  # the buffer's rows and the overflow caps
     _ACC,
     _BYPASS,

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from backend.engine.nmf.kernels import (  # the constants the compiled tanh/pow use, so the twins match
+from backend.engine.nmf.fast_math import (  # the constants the compiled tanh/pow use, so the twins match
     _C2,
     _C3,
     _C4,
