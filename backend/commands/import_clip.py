@@ -79,7 +79,11 @@ def register(sub) -> None:
 def _add_source_options(p) -> None:
     """How the source is read: which animation, its format, its keys (tolerance, interpolation), its axes
     and its rest frame."""
-    p.add_argument("--animation", help="glTF: animation name or index (default the first)")
+    p.add_argument(
+        "--animation",
+        help="glTF: animation name or index (default the first; a channel the mapping file names that "
+        "only one other animation has comes from that one)",
+    )
     p.add_argument(
         "--format",
         dest="fmt",

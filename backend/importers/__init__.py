@@ -17,6 +17,11 @@ child-link name, then the same ignoring case and separators). A rotation channel
 The rotation about other axes that this drops (the *swing*) is reported per channel, max and RMS;
 above `swing_warn` degrees it is a warning suggesting the channel's principal axis.
 
+Time: the clip's t = 0 is the animation's first frame. BVH frames start at 0; a glTF file names no
+start frame (Blender writes frame / fps), so its first key becomes t = 0 and the report gives the
+shift (`gltf_animations`). Channels the mapping file names that the imported glTF animation lacks
+come from the one other animation that has them (Blender exports each action, e.g. shape keys, apart).
+
 Keys: glTF STEP -> constant keys; sparse LINEAR keys -> linear keys (segments whose slerp is not
 linear in the angle are sampled densely); *samples* (BVH frames, LINEAR keys at >= 20 Hz as exporters
 write them) -> smooth bezier keys through them (`hermite_keys`: the cubic Hermite with the samples'
@@ -32,8 +37,8 @@ After clamping, the trajectory-helper (`limits.analyse_clip`) counts per DoF the
 velocity, acceleration and jerk limits and says what the clip would need (`fit_limits` applies the
 slow-down factor). The clip is validated and compiled against the robot before it is returned.
 
-Modules: `sources` (the importers' interface and registry, reading files), `bad_data` (checks and
-repairs), `tracks` with `convert` and `keys` (channels -> DoF keys), `clip_warnings`, `report`, and
+Modules: `sources` (the importers' interface and registry, reading files), `gltf_animations` (glTF
+time zero, channels of other animations), `bad_data` (checks and repairs), `tracks` with `convert` and `keys` (channels -> DoF keys), `clip_warnings`, `report`, and
 `pipeline` (the steps in order).
 
 The file formats are importers (`sources.Importer`: name, suffixes, `read`), picked by the file's

@@ -57,7 +57,9 @@ def check_values(ch: SourceChannel, where: str, fill: str | None, max_gap: int) 
         n = int((bad | tan_bad).sum())
         more = f" ({n} {ch.unit}s have such values)" if n > 1 else ""
         hint = (
-            "" if fill is not None else f"\n  --fill hold|linear repairs gaps of up to {max_gap} {ch.unit}s"
+            ""
+            if fill is not None
+            else f"\n  --fill hold or --fill linear repairs gaps of up to {max_gap} {ch.unit}s"
         )
         raise ClipImportError(
             f"{where}: {ch.unit} {k} (t = {t[k]:g} s): {ch.label}: {part} "

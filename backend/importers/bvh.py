@@ -316,7 +316,7 @@ def _repair(
         raise ClipImportError(
             f"{where}: frame {f} (t = {f * dt:.4f} s): {columns[c]} is {float(data[f, c])}, "
             f"not a finite number{more}\n"
-            f"  --fill hold|linear repairs gaps of up to {max_gap} frames"
+            f"  --fill hold or --fill linear repairs gaps of up to {max_gap} frames"
         )
     filled: dict[str, int] = {}
     for c in np.flatnonzero(bad.any(axis=0)):

@@ -5,6 +5,7 @@ channel to its DoF axes (the *swing*), and a first frame that jumps like a T-pos
 from __future__ import annotations
 
 import math
+import shlex
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,14 @@ from backend.importers.rotations import (
     quat_mul,
     quat_to_matrix,
 )
+
+
+def option_text(option: str, value: str) -> str:
+    """An option as a hint writes it, so that it parses when typed into a shell: `--forward z`, or
+    `--forward=-z` for a value starting with '-' (which argparse would read as an option of its own);
+    the value quoted where a shell needs it (`--animation 'walk cycle'`)."""
+    text = shlex.quote(value)
+    return f"{option}={text}" if value.startswith("-") else f"{option} {text}"
 
 
 def _fmt_axis(a: np.ndarray) -> str:
@@ -44,7 +53,7 @@ def _other_conversions(axis: np.ndarray, target: np.ndarray, conversion: dict[st
                 continue
             if abs(float((c @ src) @ target)) > 0.9:
                 parts = ([f"--up {u}"] if u != up else []) + (
-                    [f"--forward {f}"] if f != "x" or u == up else []
+                    [option_text("--forward", f)] if f != "x" or u == up else []
                 )
                 out.append(" ".join(parts))
         if out:

@@ -82,7 +82,7 @@ def read_csv(path: str | Path, fill: str | None = None) -> tuple[list[SourceChan
                 if fill is None:
                     raise ClipImportError(
                         f"CSV '{path.name}' line {line} (t = {t:g} s): {header[c + 1]} is "
-                        f"'{cell}', not a finite number\n  --fill hold|linear skips such "
+                        f"'{cell}', not a finite number\n  --fill hold or --fill linear skips such "
                         "cells (the keys around them interpolate)"
                     )
                 filled[header[c + 1]] = filled.get(header[c + 1], 0) + 1

@@ -24,6 +24,8 @@ from urllib.parse import unquote
 import numpy as np
 from pygltflib import GLTF2
 
+from backend.importers.clip_warnings import option_text
+from backend.importers.gltf_animations import align_start, channels_named_elsewhere
 from backend.importers.mapping import ClipImportError, SourceChannel
 from backend.importers.rotations import IDENTITY, quat_conj, quat_from_matrix, quat_mul, quat_normalise
 from backend.importers.sources import Importer, ReadOptions
@@ -157,9 +159,10 @@ class _Scene:
 
 
 def read_gltf(
-    path: str | Path, animation: str | int | None = None
+    path: str | Path, animation: str | int | None = None, wanted: frozenset[str] = frozenset()
 ) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
-    """Channels of one animation of a glTF/GLB file; plus (source info, notes)."""
+    """Channels of one animation of a glTF/GLB file, plus those the mapping file names (`wanted`) that
+    only one other animation of the file animates; plus (source info, notes). The first key is t = 0."""
     path = Path(path)
     gltf = _load(path)
     anims = list(gltf.animations or [])
@@ -171,7 +174,7 @@ def read_gltf(
     if len(anims) > 1:
         notes.append(
             f"file has {len(anims)} animations {names}; imported #{index} '{names[index]}' "
-            "(choose with --animation)"
+            f"(choose another with {_animation_hint(names, index)})"
         )
     anim = anims[index]
     reader = _Reader(gltf, path.parent)
@@ -184,11 +187,27 @@ def read_gltf(
         notes.append(
             "rest pose: the skin's inverse bind matrices (joints), the nodes' rest transforms (others)"
         )
+    channels = _animation_channels(gltf, reader, anim, scene, notes)
+    if wanted and len(anims) > 1:
+        others = {
+            i: _animation_channels(gltf, reader, a, scene, []) for i, a in enumerate(anims) if i != index
+        }
+        channels += channels_named_elsewhere(wanted, channels, others, names, index, notes)
+    info: dict[str, Any] = {"animation": names[index], "animation_index": index}
+    shift = align_start(channels, notes)
+    if shift:
+        info["time_shift"] = shift
+    return channels, info, notes
+
+
+def _animation_channels(
+    gltf: Any, reader: _Reader, anim: Any, scene: _Scene, notes: list[str]
+) -> list[SourceChannel]:
+    """The source channels of one animation."""
     channels: list[SourceChannel] = []
     for ci, ch in enumerate(anim.channels or []):
         channels.extend(_read_channel(gltf, reader, anim, ci, ch, scene, notes))
-    info = {"animation": names[index], "animation_index": index}
-    return channels, info, notes
+    return channels
 
 
 class GltfImporter(Importer):
@@ -201,7 +220,13 @@ class GltfImporter(Importer):
 
     @classmethod
     def read(cls, path: Path, options: ReadOptions) -> tuple[list[SourceChannel], dict[str, Any], list[str]]:
-        return read_gltf(path, options.animation)
+        return read_gltf(path, options.animation, options.wanted)
+
+
+def _animation_hint(names: list[str], index: int) -> str:
+    """`--animation 1 or --animation walk` for an animation other than `index` (quoted for a shell)."""
+    other = 1 if index == 0 else 0
+    return f"{option_text('--animation', str(other))} or {option_text('--animation', names[other])}"
 
 
 def _animation_index(path: Path, names: list[str], animation: str | int | None) -> int:

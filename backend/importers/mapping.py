@@ -224,9 +224,25 @@ def check_mapping(spec: MappingSpec, channels: list[SourceChannel], emb: Embodim
                     f"({closest(e['dof'], emb.dof_names)})"
                 )
         if items and len(items) > 1:
-            chs = [ch for ch in channels if ch.name == key or ch.label == key]
-            if any(ch.kind != "rotation" for ch in chs):
-                raise ClipImportError(f"{spec.path}: joints.{key}: only a rotation can drive several DoFs")
+            _check_split(spec, key, channels)
+
+
+def _by_bare_name(ch: SourceChannel) -> bool:
+    """A bare source name (`Head`) maps the source's rotation, or a scalar column; never its
+    translation, scale or morph weights (those are named `Head.translation`, ...)."""
+    return ch.kind == "rotation" or (ch.kind == "scalar" and not ch.path.startswith("weights"))
+
+
+def _check_split(spec: MappingSpec, key: str, channels: list[SourceChannel]) -> None:
+    """Entry `key` lists several DoFs: it must name a rotation (which is split between their axes)."""
+    chs = [ch for ch in channels if ch.label == key or (ch.name == key and _by_bare_name(ch))]
+    other = [ch for ch in chs if ch.kind != "rotation"]
+    if other or not chs:
+        what = f"'{other[0].label}' is a {other[0].kind} channel" if other else f"'{key}' has no rotation"
+        raise ClipImportError(
+            f"{spec.path}: joints.{key}: {what}; only a rotation can drive several DoFs "
+            "(it is split between their axes)"
+        )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -266,13 +282,13 @@ def resolve_channel(
         return _finish(ch, emb, [(e["dof"], e.get("axis"), e["scale"], e["offset"]) for e in items], how, key)
     if ch.kind == "translation":
         return None, (
-            f"translation channel (map '{ch.name}.translation' to a linear DoF with --map to use it)"
+            f"translation channel (map '{ch.name}.translation' to a linear DoF in a --map FILE to use it)"
         )
     name = ch.name
     if ch.path.startswith("weights"):  # a morph target matches by its own name (mesh extras.targetNames)
         name = ch.path[len("weights[") : -1]
         if name.isdigit():
-            return None, "morph-target weight with no target name (map it with --map)"
+            return None, "morph-target weight with no target name (map it in a --map FILE)"
     if emb.has_dof(name):
         return _finish(ch, emb, [(name, None, 1.0, 0.0)], "exact name")
     joint_dofs = _joint_dofs(emb)
@@ -293,8 +309,8 @@ def resolve_channel(
     if len(matches) == 1:
         return _finish(ch, emb, [(matches[0], None, 1.0, 0.0)], "name ignoring case and separators")
     if len(matches) > 1:
-        return None, f"ambiguous name: matches DoFs {matches} (use --map)"
-    return None, f"no DoF of that name on robot '{emb.name}' (use --map)"
+        return None, f"ambiguous name: matches DoFs {matches} (choose one in a --map FILE)"
+    return None, f"no DoF of that name on robot '{emb.name}' (map it in a --map FILE)"
 
 
 def _finish(

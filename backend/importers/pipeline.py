@@ -84,8 +84,9 @@ def run_import(
     )
     spec = mapping_spec(mapping)
     path = Path(path)
+    wanted = frozenset(spec.joints) if spec is not None else frozenset()
     kind, channels, info, notes = read_channels(
-        path, fmt, animation, rest_frame=rest_frame, fill=fill, max_gap=max_gap
+        path, fmt, animation, rest_frame=rest_frame, fill=fill, max_gap=max_gap, wanted=wanted
     )
     if not channels:
         raise ClipImportError(f"'{path}' has no animated channels")

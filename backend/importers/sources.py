@@ -31,6 +31,9 @@ class ReadOptions:
     rest_frame: int | None = None  # the frame that is the rest pose (default: the file's own rest pose)
     fill: str | None = None  # "hold" or "linear": repair gaps of non-finite samples (default: error)
     max_gap: int = 10  # samples: the longest gap `fill` repairs
+    # the source names the mapping file names: an importer of files holding several animations may take
+    # those channels from another animation when the chosen one lacks them (glTF does)
+    wanted: frozenset[str] = frozenset()
 
 
 class Importer:
@@ -128,6 +131,7 @@ def read_channels(
     rest_frame: int | None = None,
     fill: str | None = None,
     max_gap: int = 10,
+    wanted: frozenset[str] = frozenset(),
 ) -> tuple[str, list[SourceChannel], dict[str, Any], list[str]]:
     """(format, channels, source info, notes) of a file, read by the importer for its suffix (or `fmt`)."""
     path = Path(path)
@@ -135,7 +139,9 @@ def read_channels(
     if not path.is_file():
         raise ClipImportError(f"no such file: '{path}'")
     importer = IMPORTERS[kind]
-    options = ReadOptions(animation=animation, rest_frame=rest_frame, fill=fill, max_gap=max_gap)
+    options = ReadOptions(
+        animation=animation, rest_frame=rest_frame, fill=fill, max_gap=max_gap, wanted=wanted
+    )
     try:
         channels, info, notes = importer.read(path, options)
     except ClipImportError:
