@@ -82,3 +82,35 @@ class Blender:
                 self.proc.kill()
                 self.proc.wait(10)
         self.log.close()
+
+
+# --- helpers the Blender test modules share ---------------------------------------------------------
+
+
+def load_rig(blender: Blender, url: str) -> dict[str, Any]:
+    """A fresh scene with the robot loaded from `url`; the rig's name, bones and joint map."""
+    return blender.run(
+        """
+        reset_scene()
+        bpy.context.scene.nutty.server_url = args["url"]
+        bpy.ops.nutty.load_robot()
+        rig = bpy.context.view_layer.objects.active
+        plan = nutty_blender.rig.plan_of(rig)
+        result = {"name": rig.name, "joint_bones": plan.joint_bones, "dof_bones": plan.dof_bones,
+                  "bones": [b.name for b in rig.data.bones], "meshes": sorted(c.name for c in rig.children)}
+    """,
+        url=url,
+    )
+
+
+def joint_map(robot: dict[str, Any], rig: dict[str, Any]) -> dict[str, Any]:
+    """joint -> its bone, its parent joint's bone and its axis: what `joint_angles` reads in Blender."""
+    frames = robot["joint_frames"]
+    return {
+        j: {
+            "bone": b,
+            "axis": frames[j]["axis"],
+            "parent": rig["joint_bones"][frames[j]["parent_joint"]] if frames[j]["parent_joint"] else None,
+        }
+        for j, b in rig["joint_bones"].items()
+    }

@@ -24,10 +24,9 @@ import bpy_paths
 import httpx
 import numpy as np
 import pytest
-from blender_rpc import Blender, BlenderError
+from blender_rpc import Blender, BlenderError, joint_map, load_rig
 from server_process import free_port, running_app, server_process
 
-from backend.engine import trajectory
 from backend.engine.embodiment import load_embodiment
 
 pytestmark = pytest.mark.skipif(
@@ -63,35 +62,6 @@ def server(robot_dir, blender):
 @pytest.fixture(scope="module")
 def emb(robot_dir):
     return load_embodiment(robot_dir)
-
-
-def load_rig(blender, url: str) -> dict:
-    """A fresh scene with the robot loaded from `url`; the rig's name, bones and joint map."""
-    return blender.run(
-        """
-        reset_scene()
-        bpy.context.scene.nutty.server_url = args["url"]
-        bpy.ops.nutty.load_robot()
-        rig = bpy.context.view_layer.objects.active
-        plan = nutty_blender.rig.plan_of(rig)
-        result = {"name": rig.name, "joint_bones": plan.joint_bones, "dof_bones": plan.dof_bones,
-                  "bones": [b.name for b in rig.data.bones], "meshes": sorted(c.name for c in rig.children)}
-    """,
-        url=url,
-    )
-
-
-def joint_map(robot: dict, rig: dict) -> dict:
-    """joint -> its bone, its parent joint's bone and its axis: what `joint_angles` reads in Blender."""
-    frames = robot["joint_frames"]
-    return {
-        j: {
-            "bone": b,
-            "axis": frames[j]["axis"],
-            "parent": rig["joint_bones"][frames[j]["parent_joint"]] if frames[j]["parent_joint"] else None,
-        }
-        for j, b in rig["joint_bones"].items()
-    }
 
 
 # --- 1. the rig ---------------------------------------------------------------------------------------
@@ -303,22 +273,16 @@ def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(
 # --- 3. check limits ----------------------------------------------------------------------------------
 
 
-def runs(codes: np.ndarray) -> list[tuple[int, int, int]]:
-    out, k = [], 0
-    while k < len(codes):
-        j = k
-        while j + 1 < len(codes) and codes[j + 1] == codes[k]:
-            j += 1
-        if codes[k]:
-            out.append((k, j, int(codes[k])))
-        k = j + 1
-    return out
-
-
-def test_check_limits_marks_the_frames_where_the_action_is_too_fast(blender, server, emb):
-    robot = server.client.robot()
-    rig = load_rig(blender, server.url)
-    got = blender.run("""
+def test_check_limits_marks_the_frames_where_the_clip_breaks_a_limit_at_the_engines_rate(
+    blender, server, tmp_path
+):
+    """Check limits posts the exported clip; the server judges it at the engine's rate and answers at
+    the scene's frames. The add-on shows exactly that answer: a marker per range (the limit that
+    breaks), the list with every limit broken, the bone and curve colours, the suggestion."""
+    load_rig(blender, server.url)
+    path = tmp_path / "whip.json"
+    got = blender.run(
+        """
         rig = bpy.data.objects["nutty_desk"]
         scene = bpy.context.scene
         scene.frame_start, scene.frame_end = 1, 48
@@ -327,48 +291,53 @@ def test_check_limits_marks_the_frames_where_the_action_is_too_fast(blender, ser
         fc = nutty_blender.rig.fcurves(rig)[0]
         sorted(fc.keyframe_points, key=lambda k: k.co[0])[3].interpolation = "LINEAR"
         key(rig, "ear_left", [(1, 0.0), (48, 0.1)])
+        bpy.ops.nutty.export_clip(target="FILE", filepath=args["path"])
         bpy.ops.nutty.check_limits()
         s = scene.nutty
         curves = {fc.data_path: (fc.color_mode, list(fc.color)) for fc in nutty_blender.rig.fcurves(rig)}
-        result = {"ranges": [[r.dof, r.bone, r.kind, r.frame_start, r.frame_end, r.worst_ratio] for r in s.ranges],
+        result = {"ranges": [[r.dof, r.bone, r.kind, r.frame_start, r.frame_end, r.worst_ratio, r.limits]
+                             for r in s.ranges],
                   "markers": sorted([m.name, m.frame] for m in scene.timeline_markers),
-                  "summary": s.check_summary, "curves": curves,
+                  "summary": s.check_summary, "suggestion": s.suggestion, "curves": curves,
                   "colours": {b.name: [b.color.palette, list(b.color.custom.normal)] for b in rig.pose.bones}}
-    """)
-    # the reference: Blender's evaluated bone angles at every frame, through the trajectory-helper's rule
-    angles = blender.run(
-        """
-        result = joint_angles(bpy.data.objects["nutty_desk"], args["joints"], list(range(1, 49)))
     """,
-        joints={j: v for j, v in joint_map(robot, rig).items() if j in ("head_yaw", "ear_left")},
+        path=str(path),
     )
-    expected = set()
-    for dof in ("head_yaw", "ear_left"):
-        d = emb.dof(dof)
-        classes = trajectory.analyze(
-            np.array(angles[dof]), FPS, d.velocity, d.acceleration, d.jerk, d.min, d.max, tolerance=1e-6
-        ).classes[:, 0]
-        expected |= {(dof, trajectory.CLASS_NAMES[c], 1 + a, 1 + b) for a, b, c in runs(classes)}
-    reported = {(r[0], r[2], r[3], r[4]) for r in got["ranges"]}
-    assert reported == expected and expected
-    assert all(r[1] == "head_yaw" for r in got["ranges"])  # only the whip, on the head_yaw bone
-    assert min(r[3] for r in got["ranges"]) == 11  # the first frame of the whip
-    assert {"jerk", "velocity"} <= {r[2] for r in got["ranges"]}  # the sweep's middle is only too fast
+    clip = json.loads(path.read_text())
+    answer = httpx.post(f"{server.url}/api/analyze", json={"rate": FPS, "clip": clip}).json()
+    assert answer["engine_rate"] == RATE and answer["rate"] == FPS  # judged at the engine's rate
+    expected = [
+        [r["dof"], r["kind"], 1 + r["start"], 1 + r["end"], pytest.approx(r["worst_ratio"], rel=1e-6)]
+        for r in answer["ranges"]
+    ]
+    assert [[r[0], r[2], r[3], r[4], r[5]] for r in got["ranges"]] == expected and expected
+    for shown, r in zip(got["ranges"], answer["ranges"]):  # every limit broken: "velocity 2.1x, jerk 5x"
+        assert shown[6] == ", ".join(f"{k} {v:.1f}x" for k, v in r["limits"].items())
+        assert r["kind"] in r["limits"]
+    assert all(r[0] == r[1] == "head_yaw" for r in got["ranges"])  # only the whip, on the head_yaw bone
+    assert min(r[3] for r in got["ranges"]) in (10, 11)  # where the whip starts
+    assert {"velocity"} <= {r[2] for r in got["ranges"]}  # the sweep is too fast
     markers = [m for m in got["markers"] if m[0].startswith("nutty:")]
     assert sorted(m[1] for m in markers) == sorted(r[3] for r in got["ranges"])
-    assert got["colours"]["head_yaw"] == [
-        "CUSTOM",
-        pytest.approx([0xE5 / 255, 0x38 / 255, 0x3B / 255], abs=1e-3),
-    ]
+    assert all(m[0].split()[0] in ("nutty:velocity", "nutty:acceleration", "nutty:jerk") for m in markers)
+    severity = ("velocity", "acceleration", "jerk", "position")
+    worst = severity[max(severity.index(r[2]) for r in got["ranges"])]
+    hex_colour = answer["colours"][worst].lstrip("#")  # the bone in its worst range's colour
+    rgb = [int(hex_colour[k : k + 2], 16) / 255 for k in (0, 2, 4)]
+    assert got["colours"]["head_yaw"] == ["CUSTOM", pytest.approx(rgb, abs=1e-3)]
     assert got["colours"]["ear_left"][0] == "DEFAULT"
     assert got["curves"]['pose.bones["head_yaw"].rotation_euler'][0] == "CUSTOM"
     assert got["summary"].startswith(f"{len(got['ranges'])} ranges over the limits on 1 DoF")
+    # the linear sweep jumps in velocity (an acceleration step at any speed): no slow-down fits, and
+    # the panel says so in the server's words
+    assert got["suggestion"] == answer["suggestion"] and got["suggestion"]
+    assert answer["fit_scale"] is None
 
 
 # --- 4. the ghost -------------------------------------------------------------------------------------
 
 
-def test_ghost_keys_equal_the_servers_filter_output(blender, server):
+def test_ghost_keys_equal_the_servers_filter_of_the_exported_clip(blender, server, tmp_path):
     load_rig(blender, server.url)
     got = blender.run("""
         rig = bpy.data.objects["nutty_desk"]
@@ -397,17 +366,25 @@ def test_ghost_keys_equal_the_servers_filter_output(blender, server):
     assert (
         got["placed"] < 1e-6 and got["beside"][0] == 0 and 0.2 < got["beside"][1] < 0.4
     )  # one robot width left
-    # the reference: Blender's evaluated angles per frame, posted to the server by this test
-    angles = blender.run("""
+    # the reference: the exported clip, posted to the server by this test (filtered at the engine's rate)
+    path = tmp_path / "ghost.json"
+    angles = blender.run(
+        """
         rig = bpy.data.objects["nutty_desk"]
+        bpy.ops.nutty.export_clip(target="FILE", filepath=args["path"])
         values = {"head_yaw": [], "gaze_pitch": []}
         for f in range(1, 37):
             bpy.context.scene.frame_set(f)
             values["head_yaw"].append(rig.pose.bones["head_yaw"].rotation_euler[1])
             values["gaze_pitch"].append(rig["gaze_pitch"])
         result = values
-    """)
-    filtered = httpx.post(f"{server.url}/api/filter", json={"rate": FPS, "tracks": angles}).json()["tracks"]
+    """,
+        path=str(path),
+    )
+    clip = json.loads(path.read_text())
+    answer = httpx.post(f"{server.url}/api/filter", json={"rate": FPS, "clip": clip}).json()
+    assert answer["engine_rate"] == RATE and answer["rate"] == FPS
+    filtered = answer["tracks"]
     head = np.array(got["keys"]['pose.bones["head_yaw"].rotation_euler'])
     gaze = np.array(got["keys"]['["gaze_pitch"]'])
     assert np.array_equal(head[:, 0], np.arange(1, 37)) and np.array_equal(gaze[:, 0], np.arange(1, 37))
@@ -668,7 +645,7 @@ def test_make_blender_addon_zip_installs_and_enables_in_blender(tmp_path):
 import bpy
 bpy.ops.extensions.package_install_files(filepath={str(zip_path)!r}, repo="user_default", enable_on_install=True)
 print("ENABLED", [k for k in bpy.context.preferences.addons.keys() if k.endswith("nutty_blender")])
-names = ("load_robot", "export_clip", "check_limits", "ghost", "live_link")
+names = ("load_robot", "export_clip", "import_clip", "check_limits", "ghost", "live_link")
 print("OPERATORS", all(hasattr(bpy.ops.nutty, n) for n in names))
 print("MENU", bpy.types.NUTTY_MT_menu.bl_label)
 """

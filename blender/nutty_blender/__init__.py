@@ -3,8 +3,9 @@ motion filter's ghost, export clips to the engine, and puppeteer the live robot 
 
 Talks to a running `nutty serve` over HTTP and WebSocket with the standard library; uses nothing from
 the Nutty backend. Modules: client (HTTP, WebSocket), robot (the rig plan, plain Python), rig (the
-armature), load, clip (export and sampling), limits, ghost, live (the live link), settings, operators,
-ui (the Nutty menu and panel).
+armature), display (the display DoFs' drivers), load, clip (export and sampling), bake (the evaluated
+pose as smooth keys), clip_import and curve_math (Import clip), preview (what Check limits and Ghost
+post), limits, ghost, live (the live link), settings, operators, ui (the Nutty menu and panel).
 """
 
 import bpy

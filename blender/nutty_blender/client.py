@@ -24,7 +24,12 @@ _WS_GUID = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11"
 
 
 class NuttyError(Exception):
-    """A request to the server failed; the message is meant for Blender's report."""
+    """A request to the server failed; the message is meant for Blender's report. `status`: the HTTP
+    status of a refused request (else None), `field`: the request field the server named (else None)."""
+
+    def __init__(self, message: str, status: int | None = None, field: str | None = None):
+        super().__init__(message)
+        self.status, self.field = status, field
 
 
 def _detail(body: bytes) -> tuple[str, str | None]:
@@ -75,7 +80,9 @@ class Client:
                     f"the server at {self.url} needs its token: set it in the Nutty panel ({message})"
                 ) from None
             where = f" ({field})" if field else ""
-            raise NuttyError(f"the server refused {method} {path}: {message}{where}") from None
+            raise NuttyError(
+                f"the server refused {method} {path}: {message}{where}", status=exc.code, field=field
+            ) from None
         except urllib.error.URLError as exc:
             reason = getattr(exc, "reason", exc)
             raise NuttyError(

@@ -9,6 +9,9 @@ computes exactly like Blender (sine, quad, cubic, quart, quint, circ, bounce, ba
 presets. The rest (expo, elastic, back in-out, a changed back/amplitude/period, and Bezier segments
 whose handles overlap so that the curve doubles back in time) are baked into one Bezier piece per frame
 from Blender's own evaluation (cubic Hermite: far below 0.01 deg), with a note.
+F-curves map to DoFs through the bones as they are (each control bone's `nutty_dof`), so a renamed bone
+keeps its DoF. When the motion is not only the active action's keys (NLA strips, constraints, IK,
+other drivers, F-curve modifiers), the continuous DoFs are baked from the evaluated pose (bake.py).
 Timeline markers `anchor:<name>` become anchors, `say:<text>` and `sound:<name>` events; colour
 properties become colour tracks (linear between keys), enum properties option names, the sound
 property `sound` events.
@@ -20,6 +23,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from . import bake
 from .robot import RigPlan
 
 EXACT_EASINGS = {"SINE", "QUAD", "CUBIC", "QUART", "QUINT", "CIRC", "BOUNCE", "BACK"}
@@ -245,25 +249,49 @@ def _marker_items(scene: Any, plan: RigPlan, timing: Timing) -> tuple[dict[str, 
     return anchors, events
 
 
-def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict[str, Any], list[str]]:
-    """The rig's action as a nutty-clip/1 document, and notes for the report. ExportError says why not."""
-    from .rig import dof_paths, fcurves
+def _discrete_keys(
+    prop: Any, fc: Any, timing: Timing, tracks: dict[str, Any], events: list[dict[str, Any]], notes: list[str]
+) -> None:
+    """An enum property's keys as option names (constant), a sound property's keys as sound events.
+    Their keys are made constant in Blender too: an integer property between Bezier or linear keys
+    shows the options in between, which the engine never plays."""
+    if any(kp.interpolation != "CONSTANT" for kp in fc.keyframe_points):
+        for kp in fc.keyframe_points:
+            kp.interpolation = "CONSTANT"
+        fc.update()
+        notes.append(f"'{prop.name}': its keys now hold (constant), as the engine plays them")
+    for kp in sorted(fc.keyframe_points, key=lambda k: k.co[0]):
+        if kp.co[0] < timing.start - 1e-6:
+            raise ExportError(f"'{prop.name}': a key at frame {kp.co[0]:g} is before the start frame")
+        index = min(max(round(kp.co[1]), 0), len(prop.options) - 1)
+        t = timing.t(kp.co[0])
+        if prop.kind == "enum":
+            tracks.setdefault(prop.name, []).append({"t": t, "v": prop.options[index], "interp": "constant"})
+        elif index > 0:  # a key on a sound plays it
+            events.append(
+                {"t": t, "dof": prop.name, "kind": "sound", "payload": {"clip": prop.options[index]}}
+            )
 
-    timing = Timing.of(scene)
-    if timing.end <= timing.start:
-        raise ExportError(f"the scene's frame range {timing.start:g}-{timing.end:g} is empty")
-    curves = [fc for fc in fcurves(rig_ob) if len(fc.keyframe_points)]
-    if not curves:
-        raise ExportError(f"'{rig_ob.name}' has no keys to export: pose its bones and key them (I) first")
-    paths = dof_paths(plan)
+
+def _curve_tracks(
+    rig_ob: Any, plan: RigPlan, curves: list[Any], timing: Timing, notes: list[str], baking: bool
+) -> tuple[dict[str, list[dict[str, Any]]], list[dict[str, Any]]]:
+    """Tracks and sound events from the active action's F-curves (see the module doc). `baking`: the
+    continuous DoFs are baked from the evaluated pose instead, so their curves are skipped here."""
+    from .rig import dof_paths  # (rig imports bpy: only in Blender)
+
+    paths = dof_paths(rig_ob, plan)
     props = {p.name: p for p in plan.props}
-    notes: list[str] = []
     tracks: dict[str, list[dict[str, Any]]] = {}
     events: list[dict[str, Any]] = []
     colours: dict[str, dict[int, Any]] = {}
     ignored: list[str] = []
     for fc in curves:
         where = f"'{fc.data_path}[{fc.array_index}]'"
+        dof = paths.get((fc.data_path, fc.array_index))
+        prop = props.get(_prop_name(fc.data_path) or "")
+        if baking and dof is not None:
+            continue
         if fc.mute:
             notes.append(f"{where} is muted: not exported")
             continue
@@ -274,36 +302,59 @@ def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict
                 f"{where}: the engine holds the first and last values (no {fc.extrapolation.lower()} "
                 f"extrapolation)"
             )
-        dof = paths.get((fc.data_path, fc.array_index))
-        prop = props.get(_prop_name(fc.data_path) or "")
         if dof is not None:
             tracks[dof] = curve_keys(fc, timing, f"'{dof}'", notes)
         elif prop is not None and prop.kind == "colour":
             colours.setdefault(prop.name, {})[fc.array_index] = fc
         elif prop is not None and prop.kind in ("enum", "sound"):
-            for kp in sorted(fc.keyframe_points, key=lambda k: k.co[0]):
-                if kp.co[0] < timing.start - 1e-6:
-                    raise ExportError(f"'{prop.name}': a key at frame {kp.co[0]:g} is before the start frame")
-                index = min(max(round(kp.co[1]), 0), len(prop.options) - 1)
-                if prop.kind == "enum":
-                    tracks.setdefault(prop.name, []).append(
-                        {"t": timing.t(kp.co[0]), "v": prop.options[index], "interp": "constant"}
-                    )
-                elif index > 0:  # a key on a sound plays it
-                    events.append(
-                        {
-                            "t": timing.t(kp.co[0]),
-                            "dof": prop.name,
-                            "kind": "sound",
-                            "payload": {"clip": prop.options[index]},
-                        }
-                    )
+            _discrete_keys(prop, fc, timing, tracks, events, notes)
         else:
             ignored.append(where)
     for cname, rgb in colours.items():
         tracks[cname] = _colour_keys(cname, rgb, timing, notes)
     if ignored:
         notes.append(f"not DoFs of the robot, not exported: {', '.join(ignored)}")
+    return tracks, events
+
+
+def _evaluated_tracks(
+    rig_ob: Any, plan: RigPlan, scene: Any, reasons: list[str], notes: list[str], keyed: set[str]
+) -> dict[str, Any]:
+    """The continuous DoFs baked from the evaluated pose (bake.py), with a note saying why."""
+    import bpy  # (Blender's module: the export runs in Blender)
+
+    from . import rig  # (rig imports bpy: only in Blender)
+
+    for dof in rig.missing_dofs(rig_ob, plan):
+        notes.append(f"DoF '{dof}' has no bone in '{rig_ob.name}' (deleted?): not baked; Load robot again")
+    timing = Timing.of(scene)
+    bones = rig.control_bones(rig_ob, plan)
+    tracks = bake.baked_tracks(rig_ob, plan, bones, scene, bpy.context, timing.fps, keyed)
+    notes.append(
+        f"the motion comes from {', '.join(reasons)}, not only keys: {len(tracks)} DoF"
+        f"{'s' if len(tracks) != 1 else ''} baked from the evaluated pose, one smooth (Hermite) Bezier "
+        f"piece per frame"
+    )
+    return tracks
+
+
+def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict[str, Any], list[str]]:
+    """The rig's animation as a nutty-clip/1 document, and notes for the report: the active action's
+    keys converted, or (NLA strips, constraints, IK, other drivers) the evaluated pose baked
+    (bake.py). ExportError says why not."""
+    from .rig import fcurves  # (rig imports bpy: only in Blender)
+
+    timing = Timing.of(scene)
+    if timing.end <= timing.start:
+        raise ExportError(f"the scene's frame range {timing.start:g}-{timing.end:g} is empty")
+    curves = [fc for fc in fcurves(rig_ob) if len(fc.keyframe_points)]
+    reasons = bake.bake_reasons(rig_ob, curves)
+    if not curves and not reasons:
+        raise ExportError(f"'{rig_ob.name}' has no keys to export: pose its bones and key them (I) first")
+    notes: list[str] = []
+    tracks, events = _curve_tracks(rig_ob, plan, curves, timing, notes, baking=bool(reasons))
+    if reasons:
+        tracks.update(_evaluated_tracks(rig_ob, plan, scene, reasons, notes, set(tracks)))
     if not tracks:
         raise ExportError(
             f"'{rig_ob.name}' has no keys on the robot's DoFs (bones' Y rotation, or its DoF "
@@ -313,36 +364,48 @@ def export_clip(rig_ob: Any, plan: RigPlan, scene: Any, name: str) -> tuple[dict
     last = max(k["t"] for keys in tracks.values() for k in keys)
     if last > timing.duration + 1e-9:
         notes.append(f"keys after the end frame {timing.end:g}: the clip ends there ({timing.duration:g} s)")
-    import bpy
+    return _document(rig_ob, plan, name, timing, tracks, anchors, events + marker_events), notes
 
-    doc = {
+
+def _document(
+    rig_ob: Any,
+    plan: RigPlan,
+    name: str,
+    timing: Timing,
+    tracks: dict[str, Any],
+    anchors: dict[str, float],
+    events: list[dict[str, Any]],
+) -> dict[str, Any]:
+    import bpy  # (Blender's module: the export runs in Blender)
+
+    action = rig_ob.animation_data.action if rig_ob.animation_data else None
+    return {
         "format": "nutty-clip/1",
         "name": name,
         "robot": plan.robot,
-        "duration": _r(timing.duration),
+        "duration": round(timing.duration, 12),  # (a whole number of frames at any fps)
         "tracks": tracks,
         "anchors": anchors,
-        "events": sorted(events + marker_events, key=lambda e: e["t"]),
+        "events": sorted(events, key=lambda e: e["t"]),
         "source": {
             "tool": "blender",
             "blender": bpy.app.version_string,
             "file": bpy.path.basename(bpy.data.filepath),
             "object": rig_ob.name,
-            "action": rig_ob.animation_data.action.name,
+            "action": action.name if action is not None else "",
             "fps": timing.fps,
             "frame_start": timing.start,
             "frame_end": timing.end,
         },
     }
-    return doc, notes
 
 
 def sample_tracks(rig_ob: Any, plan: RigPlan, timing: Timing) -> dict[str, list[float]]:
     """Every keyed continuous DoF's F-curve evaluated at each frame of the scene's range (what the clip
-    holds there: the exported keys), {} when none is keyed."""
-    from .rig import dof_paths, fcurves
+    holds there: the exported keys), {} when none is keyed. (For a server older than the clip body.)"""
+    from .rig import dof_paths, fcurves  # (rig imports bpy: only in Blender)
 
-    paths = dof_paths(plan)
+    paths = dof_paths(rig_ob, plan)
     out: dict[str, list[float]] = {}
     for fc in fcurves(rig_ob):
         dof = paths.get((fc.data_path, fc.array_index))

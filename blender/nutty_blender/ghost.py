@@ -1,7 +1,7 @@
-"""Nutty > Ghost: the action through the motion filter (POST /api/filter, a named preset or the running
-program's stage 2), baked onto a translucent copy of the rig (`<rig>.ghost`: one linear key per frame,
-exactly the server's values) standing beside it (or on it), so the authored and the filtered motion
-can be scrubbed side by side.
+"""Nutty > Ghost: the exported clip through the motion filter (POST /api/filter, a named preset or the
+running program's stage 2, at the engine's rate: see preview.py), baked onto a translucent copy of the
+rig (`<rig>.ghost`: one linear key per frame, exactly the server's values) standing beside it (or on
+it), so the authored and the filtered motion can be scrubbed side by side.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import Any
 import bpy
 from mathutils import Matrix, Vector
 
-from . import clip, rig
+from . import clip, display, preview, rig
 from .client import Client
 from .load import COLLECTION, remove_rig
 
@@ -45,6 +45,7 @@ def _copy_meshes(rig_ob: Any, ghost: Any, collection: Any) -> None:
         if child.type != "MESH":
             continue
         c = child.copy()
+        display.clear_drivers(c)  # (the copy's drivers would read the rig's lights, not the ghost's)
         collection.objects.link(c)
         c.parent = (
             ghost  # (setting the parent resets how it hangs: restore it, so it sits where the child does)
@@ -60,11 +61,15 @@ def _copy_meshes(rig_ob: Any, ghost: Any, collection: Any) -> None:
 
 
 def bake(ghost: Any, plan: Any, timing: clip.Timing, tracks: dict[str, list[float]]) -> None:
-    """One linear key per frame of the scene's range for each DoF in `tracks` (values per frame)."""
-    paths = {dof: path for path, dof in rig.dof_paths(plan).items()}
-    frames = timing.frames
+    """One linear key per frame of the scene's range for each DoF in `tracks` (values per frame; DoFs
+    the ghost has no channel for are left out)."""
+    paths = {dof: path for path, dof in rig.dof_paths(ghost, plan).items()}
     for dof, values in tracks.items():
+        if dof not in paths or not values:
+            continue
         data_path, index = paths[dof]
+        frames = timing.frames[: len(values)]  # value k at the scene's start frame + k
+        values = list(values)[: len(frames)]
         scalar = data_path.startswith('["')  # a DoF property (index -1: the whole, one-value property)
         ghost.keyframe_insert(
             data_path, index=-1 if scalar else index, frame=frames[0]
@@ -96,16 +101,12 @@ def make_ghost(
     context: Any, client: Client, rig_ob: Any, preset: str | None, offset: float = -1.0
 ) -> tuple[Any, dict[str, Any]]:
     """Build (or rebuild) the ghost of `rig_ob` `offset` m beside it (see `beside`); `preset` None: the
-    running program's stage-2 filter. Returns the ghost and the server's answer."""
+    running program's stage-2 filter. Returns the ghost, the server's answer and the export's notes."""
     plan = rig.plan_of(rig_ob)
     timing = clip.Timing.of(context.scene)
-    tracks = clip.sample_tracks(rig_ob, plan, timing)
-    if not tracks:
-        raise clip.ExportError(f"'{rig_ob.name}' has no keyed DoFs to filter: key some bones (I) first")
-    body: dict[str, Any] = {"rate": timing.fps, "tracks": tracks}
-    if preset:
-        body["preset"] = preset
-    result = client.post("/api/filter", body)
+    result, notes = preview.post(
+        client, "/api/filter", context.scene, rig_ob, plan, {"preset": preset} if preset else None
+    )
     old = ghost_of(context.scene, rig_ob)
     if old is not None:
         remove_rig(old)
@@ -116,10 +117,10 @@ def make_ghost(
     ghost.data.display_type = "WIRE"
     ghost.show_in_front = False
     _copy_meshes(rig_ob, ghost, collection)
-    for bone in plan.dof_bones.values():  # DoFs without keys keep the authored rig's pose
-        ghost.pose.bones[bone].rotation_euler = rig_ob.pose.bones[bone].rotation_euler
+    for dof, bone in rig.control_bones(rig_ob, plan).items():  # DoFs without keys keep the rig's pose
+        ghost.pose.bones[plan.dof_bones[dof]].rotation_euler = rig_ob.pose.bones[bone].rotation_euler
     for p in plan.props:
-        ghost[p.name] = rig_ob[p.name]
-    ghost.animation_data_create().action = bpy.data.actions.new(f"{rig_ob.animation_data.action.name}.ghost")
+        ghost[p.name] = rig_ob.get(p.name, p.default)
+    ghost.animation_data_create().action = bpy.data.actions.new(f"{rig_ob.name}.ghost")
     bake(ghost, plan, timing, result["tracks"])
-    return ghost, result
+    return ghost, result, notes

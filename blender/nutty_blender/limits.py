@@ -1,14 +1,17 @@
-"""Nutty > Check limits: the trajectory-helper on the action (POST /api/analyze), shown where animators
-look — a timeline marker at the start of every offending range (`nutty:<kind> <dof> <ratio>x`), the
-offending bones and F-curves in the editor's colours (velocity orange, acceleration pink, jerk red,
-position purple), and the list in the Nutty panel (bone, kind, frames, worst ratio).
+"""Nutty > Check limits: the trajectory-helper on the exported clip (POST /api/analyze, judged at the
+engine's rate by the server, see preview.py), shown where animators look — a timeline marker at the
+start of every offending range (`nutty:<kind> <dof> <ratio>x`: the limit that breaks), the offending
+bones and F-curves in the editor's colours (velocity orange, acceleration pink, jerk red, position
+purple), the list in the Nutty panel (bone, kind, frames, worst ratio, every limit broken), and the
+server's suggestion (e.g. "play it 1.8x slower (2 s -> 3.6 s) to fit every limit"; an older server
+gives none).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from . import clip, rig
+from . import clip, preview, rig
 from .client import Client
 
 MARKER_PREFIX = "nutty:"
@@ -26,6 +29,7 @@ def clear(scene: Any, rig_ob: Any | None) -> None:
         scene.timeline_markers.remove(m)
     scene.nutty.ranges.clear()
     scene.nutty.check_summary = ""
+    scene.nutty.suggestion = ""
     if rig_ob is None:
         return
     for pb in rig_ob.pose.bones:
@@ -34,16 +38,20 @@ def clear(scene: Any, rig_ob: Any | None) -> None:
         fc.color_mode = "AUTO_RAINBOW"
 
 
-def check_limits(context: Any, client: Client, rig_ob: Any) -> dict[str, Any]:
-    """Post the action's sampled tracks, show the verdict, and return it (the server's JSON)."""
+def check_limits(context: Any, client: Client, rig_ob: Any) -> tuple[dict[str, Any], list[str]]:
+    """Post the exported clip, show the verdict, and return it (the server's JSON) with the export's
+    notes."""
     plan = rig.plan_of(rig_ob)
     timing = clip.Timing.of(context.scene)
-    tracks = clip.sample_tracks(rig_ob, plan, timing)
-    if not tracks:
-        raise clip.ExportError(f"'{rig_ob.name}' has no keyed DoFs to check: key some bones (I) first")
-    result = client.post("/api/analyze", {"rate": timing.fps, "tracks": tracks})
+    result, notes = preview.post(client, "/api/analyze", context.scene, rig_ob, plan)
     show(context.scene, rig_ob, plan, timing, result)
-    return result
+    return result, notes
+
+
+def _limits_text(r: dict[str, Any]) -> str:
+    """`velocity 2.1x, jerk 5.3x`: every limit the range breaks (an older server: its kind only)."""
+    broken = r.get("limits") or {r["kind"]: r["worst_ratio"]}
+    return ", ".join(f"{kind} {ratio:.1f}x" for kind, ratio in broken.items())
 
 
 def show(scene: Any, rig_ob: Any, plan: Any, timing: clip.Timing, result: dict[str, Any]) -> None:
@@ -51,23 +59,25 @@ def show(scene: Any, rig_ob: Any, plan: Any, timing: clip.Timing, result: dict[s
     colours = {k: hex_colour(v) for k, v in result.get("colours", {}).items()}
     start = int(timing.start)
     worst: dict[str, str] = {}  # DoF -> most severe kind
+    bones = rig.control_bones(rig_ob, plan)  # (by the bones' DoF: renamed bones too)
     for r in result["ranges"]:
         dof, kind = r["dof"], r["kind"]
         first, last = start + r["start"], start + r["end"]
         scene.timeline_markers.new(f"{MARKER_PREFIX}{kind} {dof} {r['worst_ratio']:.1f}x", frame=first)
         item = scene.nutty.ranges.add()
-        item.dof, item.bone, item.kind = dof, plan.dof_bones.get(dof, ""), kind
+        item.dof, item.bone, item.kind = dof, bones.get(dof, ""), kind
         item.frame_start, item.frame_end, item.worst_ratio = first, last, r["worst_ratio"]
+        item.limits = _limits_text(r)
         if SEVERITY.index(kind) > SEVERITY.index(worst.get(dof, kind)) or dof not in worst:
             worst[dof] = kind
     for dof, kind in worst.items():
         colour = colours.get(kind, (1.0, 0.0, 0.0))
-        bone = plan.dof_bones.get(dof)
+        bone = bones.get(dof)
         if bone is not None:
             c = rig_ob.pose.bones[bone].color
             c.palette = "CUSTOM"
             c.custom.normal, c.custom.select, c.custom.active = colour, colour, (1.0, 1.0, 1.0)
-    paths = {v: k for k, v in rig.dof_paths(plan).items()}
+    paths = {v: k for k, v in rig.dof_paths(rig_ob, plan).items()}
     for fc in rig.fcurves(rig_ob):
         for dof, kind in worst.items():
             if paths.get(dof) == (fc.data_path, fc.array_index):
@@ -79,3 +89,4 @@ def show(scene: Any, rig_ob: Any, plan: Any, timing: clip.Timing, result: dict[s
         else f"{n} range{'s' if n != 1 else ''} over the limits on "
         f"{len(worst)} DoF{'s' if len(worst) != 1 else ''}"
     )
+    scene.nutty.suggestion = str(result.get("suggestion") or "")  # (an older server suggests nothing)

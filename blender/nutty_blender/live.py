@@ -18,6 +18,7 @@ from typing import Any
 import bpy
 
 from . import rig
+from .bake import bake_reasons, local_y_angle
 from .client import Client, NuttyError
 
 KEEPALIVE = 0.2  # s between messages while nothing changes (the puppet block's watchdog is 0.5 s)
@@ -46,19 +47,32 @@ class LiveLink:
 
     # --- the pose -------------------------------------------------------------------------------
     def pose(self) -> dict[str, Any]:
-        """DoF -> target of the rig as it stands now (bones' Y rotation, properties), within limits."""
+        """DoF -> target of the rig as the viewport shows it now (each control bone's evaluated angle about
+        its joint axis, rad; the properties), within limits."""
         ob = bpy.data.objects.get(self.rig_name)
         if ob is None:
             raise NuttyError(f"the rig '{self.rig_name}' is gone")
         bones = {b.dof: b for b in self.plan.bones if b.dof}
+        names = rig.control_bones(ob, self.plan)  # by the bones' DoF: a renamed bone keeps its DoF
+        missing = [dof for dof in bones if dof not in names]
+        if missing:
+            raise NuttyError(
+                f"'{ob.name}' has no bone for DoF{'s' if len(missing) > 1 else ''} {', '.join(missing)} "
+                f"(deleted?): use Nutty > Load robot again"
+            )
+        # NLA, constraints, IK or other drivers: what the viewport shows, the evaluated pose (as Export
+        # clip bakes it); else the bones' channels, as the exported keys give them to the engine
+        evaluated = bool(bake_reasons(ob, rig.fcurves(ob)))
+        ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get()) if evaluated else ob
         out: dict[str, Any] = {}
         for dof, b in bones.items():
-            v = float(ob.pose.bones[b.name].rotation_euler[rig.DOF_INDEX])
+            pb = ev.pose.bones[names[dof]]
+            v = round(local_y_angle(pb), 6) if evaluated else float(pb.rotation_euler[rig.DOF_INDEX])
             if b.limits is not None:
                 v = min(max(v, b.limits[0]), b.limits[1])  # what Limit Rotation shows
             out[dof] = v
         for p in self.plan.props:
-            value = ob.get(p.name, p.default)
+            value = ev.get(p.name, ob.get(p.name, p.default))
             if p.kind == "float":
                 v = float(value)
                 out[p.name] = min(

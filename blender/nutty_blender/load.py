@@ -8,7 +8,7 @@ from typing import Any
 
 import bpy
 
-from . import rig
+from . import display, rig
 from .client import Client, NuttyError
 from .robot import plan_rig
 
@@ -63,25 +63,30 @@ def load_robot(context: Any, client: Client) -> tuple[Any, list[str]]:
     warnings = list(plan.warnings)
     name = plan.robot
     action = None
+    renamed: dict[str, str] = {}  # a bone of the old rig -> its DoF (its keys follow the DoF)
     for old in [o for o in context.scene.objects if rig.robot_of(o) is not None]:
         if old.name == name or old.get(rig.GHOST_KEY) == name:
             if old.get(rig.GHOST_KEY) is None and old.animation_data is not None:
                 action = old.animation_data.action
+                renamed = {pb.name: pb["nutty_dof"] for pb in old.pose.bones if "nutty_dof" in pb}
             remove_rig(old)
     collection = _collection(context)
     ob = rig.build(context, robot, plan, name, collection)
-    for mesh in _fetch_meshes(client, collection, warnings):
+    meshes = _fetch_meshes(client, collection, warnings)
+    for mesh in meshes:
         link = rig.link_of(mesh)
         if link not in plan.link_bones:
             warnings.append(
                 f"mesh '{mesh.name}' belongs to link '{link}', which no joint moves: it follows the base"
             )
         rig.parent_to_bone(mesh, ob, plan.link_bones.get(link))
+    display.drive_display(ob, robot, meshes)  # LED colours and the face show in the viewport
     if action is not None:
         ob.animation_data_create().action = action
         slots = getattr(action, "slots", None)
         if slots and getattr(ob.animation_data, "action_slot", None) is None:
             ob.animation_data.action_slot = slots[0]
+        warnings += rig.reconnect(ob, plan, renamed)
     for o in context.view_layer.objects:
         o.select_set(False)
     ob.select_set(True)

@@ -13,7 +13,7 @@ from typing import Any
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
-from . import clip, ghost, limits, live, load, rig
+from . import clip, clip_import, ghost, limits, live, load, rig
 from .client import Client, NuttyError
 from .robot import RigError
 from .settings import PRESETS
@@ -92,6 +92,7 @@ class NUTTY_OT_export_clip(_NuttyOperator):
 
     bl_idname = "nutty.export_clip"
     bl_label = "Export clip"
+    bl_options = {"REGISTER", "UNDO"}  # (a face or sound key is made constant, as the engine plays it)
 
     name: StringProperty(
         name="Clip name", description="default: the Nutty panel's clip name, else the action's"
@@ -106,8 +107,10 @@ class NUTTY_OT_export_clip(_NuttyOperator):
     def run(self, context: Any) -> str:
         settings = context.scene.nutty
         ob = rig_of(context)
-        action = ob.animation_data.action if ob.animation_data else None
-        name = (self.name or settings.clip_name or (action.name if action else "")).strip()
+        ad = ob.animation_data
+        strips = [s.action for t in ad.nla_tracks for s in t.strips if s.action] if ad else []
+        action = ad.action if ad and ad.action else next(iter(strips), None)  # (NLA only: its first)
+        name = (self.name or settings.clip_name or (action.name if action else ob.name)).strip()
         doc, notes = clip.export_clip(ob, rig.plan_of(ob), context.scene, name)  # (no keys: said first)
         if not CLIP_NAME.match(name):  # the server's library rule, checked here so the name is never a path
             raise clip.ExportError(
@@ -128,6 +131,27 @@ class NUTTY_OT_export_clip(_NuttyOperator):
         return f"saved clip '{name}' ({len(doc['tracks'])} tracks, {doc['duration']:g} s) on {settings.server_url}"
 
 
+class NUTTY_OT_import_clip(_NuttyOperator):
+    """Import a clip of the robot's library as a new action on the rig: keys, interpolations, easings and
+    handles as the engine plays them, anchors and events as timeline markers"""
+
+    bl_idname = "nutty.import_clip"
+    bl_label = "Import clip"
+    bl_options = {"REGISTER", "UNDO"}
+
+    name: StringProperty(name="Clip name", description="default: the Nutty panel's clip name")
+
+    def run(self, context: Any) -> str:
+        ob = rig_of(context)
+        name = (self.name or context.scene.nutty.clip_name).strip()
+        action, notes = clip_import.import_clip(context, client_of(context), ob, name)
+        self.warn(notes)
+        scene = context.scene
+        return (
+            f"imported clip '{name}' as action '{action.name}' (frames {scene.frame_start}-{scene.frame_end})"
+        )
+
+
 class NUTTY_OT_check_limits(_NuttyOperator):
     """Check the action against the robot's limits (the trajectory-helper): offending frame ranges as
     markers, coloured bones and curves, and a list in the Nutty panel"""
@@ -137,8 +161,17 @@ class NUTTY_OT_check_limits(_NuttyOperator):
     bl_options = {"REGISTER", "UNDO"}
 
     def run(self, context: Any) -> str:
-        limits.check_limits(context, client_of(context), rig_of(context))
-        return f"Nutty limits: {context.scene.nutty.check_summary}"
+        result, notes = limits.check_limits(context, client_of(context), rig_of(context))
+        self.warn(notes)
+        s = context.scene.nutty
+        kinds = sorted({r["kind"] for r in result["ranges"]})
+        rate = result.get("engine_rate")
+        where = f" at the engine's {rate:g} Hz" if rate else ""
+        return (
+            f"Nutty limits{where}: {s.check_summary}"
+            + (f" ({', '.join(kinds)})" if kinds else "")
+            + (f"; {s.suggestion}" if s.suggestion else "")
+        )
 
 
 class NUTTY_OT_clear_limits(_NuttyOperator):
@@ -164,13 +197,14 @@ class NUTTY_OT_ghost(_NuttyOperator):
     def run(self, context: Any) -> str:
         ob = rig_of(context)
         preset = context.scene.nutty.ghost_preset if self.preset == "PANEL" else self.preset
-        g, result = ghost.make_ghost(
+        g, result, notes = ghost.make_ghost(
             context,
             client_of(context),
             ob,
             None if preset == "PROGRAM" else preset,
             context.scene.nutty.ghost_offset,
         )
+        self.warn(notes)
         return f"ghost '{g.name}': {len(result['tracks'])} DoFs through filter {result['preset']}"
 
 
@@ -211,6 +245,7 @@ class NUTTY_OT_live_link(_NuttyOperator):
 CLASSES = (
     NUTTY_OT_load_robot,
     NUTTY_OT_export_clip,
+    NUTTY_OT_import_clip,
     NUTTY_OT_check_limits,
     NUTTY_OT_clear_limits,
     NUTTY_OT_ghost,

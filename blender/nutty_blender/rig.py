@@ -50,7 +50,7 @@ def fcurves(ob: Any) -> list[Any]:
         action, "is_action_layered", False
     ):  # Blender < 4.4 / legacy
         return list(action.fcurves)
-    from bpy_extras import anim_utils
+    from bpy_extras import anim_utils  # (Blender 4.4+ only: slotted actions)
 
     bag = anim_utils.animdata_get_channelbag_for_assigned_slot(ad)
     return list(bag.fcurves) if bag is not None else []
@@ -105,6 +105,11 @@ def _pose_bones(ob: Any, plan: RigPlan) -> None:
         pb.lock_location = pb.lock_scale = (True, True, True)
         pb.lock_rotation = (True, b.dof is None, True)  # only a control bone's Y turns by hand
         pb.lock_rotation_w = True
+        pb.lock_ik_x = pb.lock_ik_z = True  # IK turns a joint about its axis only, within its limits
+        pb.lock_ik_y = b.dof is None
+        if b.limits is not None:
+            pb.use_ik_limit_y = True
+            pb.ik_min_y, pb.ik_max_y = min(b.limits[0], 0.0), max(b.limits[1], 0.0)  # (IK's own ranges)
         (drivers if b.hidden else controls).assign(pb.bone)
         pb.bone.hide = b.hidden
         pb["nutty_joint"] = b.joint
@@ -204,10 +209,65 @@ def build(context: Any, robot: dict[str, Any], plan: RigPlan, name: str, collect
     return ob
 
 
-def dof_paths(plan: RigPlan) -> dict[tuple[str, int], str]:
-    """(F-curve data path, array index) -> continuous DoF, for the rig's keyable DoFs."""
-    out = {(f'pose.bones["{bone}"].{ROTATION}', DOF_INDEX): dof for dof, bone in plan.dof_bones.items()}
+def bone_path(bone: str) -> str:
+    """The F-curve data path of a bone's rotation (the name escaped as Blender writes it)."""
+    return f'pose.bones["{bpy.utils.escape_identifier(bone)}"].{ROTATION}'
+
+
+def control_bones(ob: Any, plan: RigPlan) -> dict[str, str]:
+    """DoF -> the name of its control bone in `ob` as it is now: found by the bone's `nutty_dof`
+    property, so a bone renamed in Blender keeps its DoF. NuttyError-free: a DoF whose bone is gone is
+    left out (`missing_dofs` names them)."""
+    out = {}
+    for pb in ob.pose.bones:
+        dof = pb.get("nutty_dof")
+        if isinstance(dof, str) and dof in plan.dof_bones and dof not in out:
+            out[dof] = pb.name
+    return out
+
+
+def missing_dofs(ob: Any, plan: RigPlan) -> list[str]:
+    """The DoFs of the plan without a control bone in `ob` (deleted, or their `nutty_dof` removed)."""
+    found = control_bones(ob, plan)
+    return [dof for dof in plan.dof_bones if dof not in found]
+
+
+def dof_paths(ob: Any, plan: RigPlan) -> dict[tuple[str, int], str]:
+    """(F-curve data path, array index) -> continuous DoF, for the rig's keyable DoFs: each control
+    bone's rotation by its actual name, and (orphaned F-curves, e.g. an action made before the bone was
+    renamed) the plan's original bone name of a DoF when no bone has that name any more."""
+    out = {}
+    names = {pb.name for pb in ob.pose.bones}
+    for dof, bone in plan.dof_bones.items():
+        if bone not in names:
+            out[(bone_path(bone), DOF_INDEX)] = dof
+    for dof, bone in control_bones(ob, plan).items():
+        out[(bone_path(bone), DOF_INDEX)] = dof
     for p in plan.props:
         if p.kind == "float":
             out[(f'["{p.name}"]', 0)] = p.name
     return out
+
+
+def reconnect(ob: Any, plan: RigPlan, renamed: dict[str, str]) -> list[str]:
+    """Point orphaned F-curves of `ob`'s action (their bone is gone) at the bone of their DoF: a path
+    naming a bone of an earlier rig (`renamed`: old bone name -> its DoF) or a DoF's original bone name.
+    Returns one note per F-curve reconnected."""
+    names = {pb.name for pb in ob.pose.bones}
+    bones = control_bones(ob, plan)
+    original = {bone: dof for dof, bone in plan.dof_bones.items()}
+    notes = []
+    for fc in fcurves(ob):
+        prefix, suffix = 'pose.bones["', f'"].{ROTATION}'
+        path = fc.data_path
+        if not (path.startswith(prefix) and path.endswith(suffix)) or fc.array_index != DOF_INDEX:
+            continue
+        old = bpy.utils.unescape_identifier(path[len(prefix) : -len(suffix)])
+        dof = renamed.get(old) or original.get(old)
+        if old in names or dof not in bones or bones[dof] == old:
+            continue
+        if any(f.data_path == bone_path(bones[dof]) and f.array_index == DOF_INDEX for f in fcurves(ob)):
+            continue  # the bone has its own curve: leave the orphan alone (the export notes it)
+        fc.data_path = bone_path(bones[dof])
+        notes.append(f"reconnected the keys of bone '{old}' to '{bones[dof]}' (DoF '{dof}')")
+    return notes

@@ -9,16 +9,22 @@ DoFs (e.g. gaze_yaw -> body_yaw 0.3, head_yaw 0.7) are custom properties; every 
 hidden *drive* bone under its control bone (or alone, for a joint no DoF drives 1:1) whose Y rotation
 is a driver computing what the engine computes (backend/engine/embodiment.py, `joint_positions`):
 
-    joint = clamp(dof + sum(coef * (symbolic - symbolic_rest)), joint_lower, joint_upper)
+    joint = clamp(clamp(dof, dof_limits) + sum(coef * (clamp(symbolic, its limits) - symbolic_rest)),
+                  joint_lower, joint_upper)
 
-(a joint without its own DoF: `clamp(rest + sum(...))`). The drive bone (else the control bone) is
-the joint's *link bone*: the meshes of the links the joint moves, and the joints below it, hang from it.
+(a joint without its own DoF: `clamp(rest + sum(...))`). Every value is clamped inside the expression
+(clamping is idempotent), so the drive bone is right whatever Blender's evaluation order: whether the
+control bone's angle the driver reads is taken before or after its Limit Rotation, and however far an
+F-curve overshoots a property's limits (Blender enforces a property's min/max only in its UI). The
+drive bone (else the control bone) is the joint's *link bone*: the meshes of the links the joint moves,
+and the joints below it, hang from it.
 
 Units: rad and m; positions in the robot's base frame (+X forward, +Z up) with every joint at zero.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -78,13 +84,27 @@ def _fmt(x: float) -> str:
     return repr(float(x))
 
 
-def _sum_terms(drives: list[tuple[str, float, float]]) -> tuple[str, dict[str, tuple[str, str]]]:
-    """`c1*(s1 - r1) + ...` over (symbolic DoF, coefficient, rest), with its driver variables."""
+@dataclass(frozen=True)
+class Drive:
+    """One symbolic DoF's term in a joint: coefficient x (value clamped to [lower, upper] - rest)."""
+
+    dof: str
+    coef: float
+    rest: float
+    lower: float | None  # the symbolic DoF's limits (its unit), None: unbounded
+    upper: float | None
+
+
+def _sum_terms(drives: list[Drive]) -> tuple[str, dict[str, tuple[str, str]]]:
+    """`c1*(clamp(s1) - r1) + ...` over the symbolic DoFs driving a joint, with its driver variables."""
     terms, variables = [], {}
-    for k, (name, coef, rest) in enumerate(drives):
+    for k, d in enumerate(drives):
         var = f"s{k}"
-        variables[var] = ("prop", name)
-        terms.append(f"{_fmt(coef)}*{var}" if rest == 0.0 else f"{_fmt(coef)}*({var} - {_fmt(rest)})")
+        variables[var] = ("prop", d.dof)
+        value = _clamp(var, d.lower, d.upper)  # the engine clamps a DoF to its limits before composing
+        terms.append(
+            f"{_fmt(d.coef)}*{value}" if d.rest == 0.0 else f"{_fmt(d.coef)}*({value} - {_fmt(d.rest)})"
+        )
     return " + ".join(terms), variables
 
 
@@ -113,12 +133,17 @@ def _refuse_unsupported(robot: dict[str, Any], frames: dict[str, Any], needed: s
         )
 
 
+def _within_half_turn(lower: float | None, upper: float | None) -> bool:
+    """Both limits given and within +-pi (rad): a range Limit Rotation holds without wrapping."""
+    return lower is not None and upper is not None and -math.pi <= float(lower) <= float(upper) <= math.pi
+
+
 def _joint_bones(
     name: str,
     f: dict[str, Any],
     parent: str | None,
     dof: dict[str, Any] | None,
-    drives: list[tuple[str, float, float]] | None,
+    drives: list[Drive] | None,
 ) -> list[BonePlan]:
     """The bones of one joint, its link bone last: the DoF's control bone, a drive bone for the symbolic
     DoFs that drive it (under the control bone, or alone), or a locked bone for a joint nothing drives."""
@@ -137,6 +162,8 @@ def _joint_bones(
                 max(float(dof["min"]), lower if lower is not None else float(dof["min"])),
                 min(float(dof["max"]), upper if upper is not None else float(dof["max"])),
             )
+        elif _within_half_turn(dof.get("min"), dof.get("max")):  # continuous: the DoF's own limits
+            limits = (float(dof["min"]), float(dof["max"]))
         bones.append(
             BonePlan(
                 name=name,
@@ -151,7 +178,10 @@ def _joint_bones(
         sums, variables = _sum_terms(drives)
         if dof is not None:  # the joint = its DoF (the control bone's angle) + the symbolic terms
             variables["d"] = ("bone", name)
-            expression = f"{_clamp(f'd + {sums}', lower, upper)} - d"
+            # `d` clamped to the control bone's Limit Rotation: what the parent shows, whether the driver
+            # reads the angle before or after that constraint
+            own = "d" if bones[0].limits is None else _clamp("d", *bones[0].limits)
+            expression = f"{_clamp(f'{own} + {sums}', lower, upper)} - {own}"
             bones.append(
                 BonePlan(
                     name=name + DRIVE_SUFFIX,
@@ -188,10 +218,19 @@ def plan_rig(robot: dict[str, Any]) -> RigPlan:
     real = {d["joint"]: d for d in stationary if d.get("joint") and not d.get("drives")}
     symbolic = [d for d in stationary if d.get("drives")]
     _refuse_unsupported(robot, frames, set(real) | {j for d in symbolic for j in d["drives"]})
-    drives_of: dict[str, list[tuple[str, float, float]]] = {}
+    drives_of: dict[str, list[Drive]] = {}
     for d in symbolic:
+        lo, hi = d.get("min"), d.get("max")
         for joint, coef in d["drives"].items():
-            drives_of.setdefault(joint, []).append((d["name"], float(coef), float(d.get("rest") or 0.0)))
+            drives_of.setdefault(joint, []).append(
+                Drive(
+                    d["name"],
+                    float(coef),
+                    float(d.get("rest") or 0.0),
+                    None if lo is None else float(lo),
+                    None if hi is None else float(hi),
+                )
+            )
     link_bone: dict[str, str | None] = {}  # joint -> the bone its links and child joints hang from
     bones: list[BonePlan] = []
     warnings: list[str] = []

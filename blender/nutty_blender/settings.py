@@ -35,6 +35,7 @@ class NuttyRange(bpy.types.PropertyGroup):
     worst_ratio: FloatProperty(
         name="Worst", description="the worst value over the limit, as a multiple of it"
     )
+    limits: StringProperty(name="Limits", description="every limit broken in the range, worst ratio each")
 
 
 class NuttySettings(bpy.types.PropertyGroup):
@@ -68,6 +69,9 @@ class NuttySettings(bpy.types.PropertyGroup):
     ranges: CollectionProperty(type=NuttyRange)
     ranges_index: IntProperty()
     check_summary: StringProperty(name="Limits")
+    suggestion: StringProperty(
+        name="Suggestion", description="the server's advice to fit every limit (e.g. play it slower)"
+    )
 
 
 CLASSES = (NuttyRange, NuttySettings)

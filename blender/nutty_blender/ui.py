@@ -23,6 +23,7 @@ class NUTTY_MT_menu(bpy.types.Menu):
         layout = self.layout
         layout.operator("nutty.load_robot", icon="ARMATURE_DATA")
         layout.operator("nutty.export_clip", icon="EXPORT")
+        layout.operator("nutty.import_clip", icon="IMPORT")
         layout.operator("nutty.check_limits", icon="ERROR")
         layout.operator("nutty.ghost", icon="GHOST_ENABLED")
         layout.operator(
@@ -49,7 +50,7 @@ class NUTTY_UL_ranges(bpy.types.UIList):
         row.label(text=item.bone or item.dof, icon=KIND_ICONS.get(item.kind, "ERROR"))
         row.label(text=item.kind)
         row.label(text=f"{item.frame_start}-{item.frame_end}")
-        row.label(text=f"{item.worst_ratio:.1f}x")
+        row.label(text=item.limits or f"{item.worst_ratio:.1f}x")
 
 
 class NUTTY_PT_panel(bpy.types.Panel):
@@ -77,13 +78,17 @@ class NUTTY_PT_panel(bpy.types.Panel):
         box.prop(s, "export_target", expand=True)
         if s.export_target == "FILE":
             box.prop(s, "export_path")
-        box.operator("nutty.export_clip", icon="EXPORT")
+        row = box.row(align=True)
+        row.operator("nutty.export_clip", icon="EXPORT")
+        row.operator("nutty.import_clip", icon="IMPORT")
         box = layout.box()
         row = box.row(align=True)
         row.operator("nutty.check_limits", icon="ERROR")
         row.operator("nutty.clear_limits", text="", icon="X")
         if s.check_summary:
             box.label(text=s.check_summary)
+        if s.suggestion:
+            box.label(text=s.suggestion, icon="TIME")
         if len(s.ranges):
             box.template_list("NUTTY_UL_ranges", "", s, "ranges", s, "ranges_index", rows=4)
         box = layout.box()
