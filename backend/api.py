@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,7 @@ from fastapi.responses import HTMLResponse
 from fastapi.staticfiles import StaticFiles
 
 from backend import __version__, security
+from backend.engine import clip_preview
 from backend.hub import Hub
 from backend.routes import analysis, commands, library, program, robot, sockets, status, tools
 from backend.routes.errors import SafeJSONResponse, install_error_handlers
@@ -37,6 +39,8 @@ from backend.security import MAX_BODY
 from backend.session import EngineSession
 
 FRONTEND_DIST = Path(__file__).resolve().parents[1] / "frontend" / "dist"
+log = logging.getLogger(__name__)
+
 ROUTERS = (
     robot.router,
     program.router,
@@ -78,10 +82,13 @@ def create_app(
     async def lifespan(_: FastAPI):
         hub.loop = asyncio.get_running_loop()
         hub.stopping = asyncio.Event()
+        # the first ghost / Check limits must not wait for the filter's kernels to compile
+        warming = hub.loop.run_in_executor(None, _warm_previews, session)
         try:
             yield
         finally:
             hub.stopping.set()
+            warming.cancel()
 
     app = FastAPI(
         title="Nutty",
@@ -102,6 +109,16 @@ def create_app(
         app.include_router(router)
     _serve_editor(app, hub, frontend_dir)
     return app
+
+
+def _warm_previews(session: EngineSession) -> None:
+    """Compile the ghost's and the check's kernels off the event loop; a failure is logged, not raised
+    (the routes then compile on their first request)."""
+    try:
+        took = clip_preview.warm_up(session.embodiment, session.engine.rate)
+        log.debug("ghost and Check limits ready in %.2f s", took)
+    except Exception:  # a warm-up must never stop the server (logged with its traceback)
+        log.exception("warming the ghost and Check limits failed; they compile on first use")
 
 
 def _serve_editor(app: FastAPI, hub: Hub, frontend_dir: Path | None) -> None:

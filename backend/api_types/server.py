@@ -104,14 +104,21 @@ class ServerStatus(OpenShape):
 
 
 class LimitRange(Shape):
-    """A run of samples of one DoF over one limit."""
+    """A run of samples of one DoF over a limit."""
 
     dof: str
-    kind: Literal["velocity", "acceleration", "jerk", "position"]
-    start: int = Field(..., description="first sample of the run")
+    kind: Literal["velocity", "acceleration", "jerk", "position"] = Field(
+        ...,
+        description="the limit that breaks: for posted tracks each sample's class; for a clip position, "
+        "else the lowest-order derivative over its limit",
+    )
+    start: int = Field(..., description="first sample (scene frame from the start frame) of the run")
     end: int = Field(..., description="last sample of the run (inclusive)")
-    worst_ratio: float = Field(..., description="the worst sample's value over the limit")
+    worst_ratio: float = Field(..., description="the worst sample's value over the `kind` limit")
     worst_sample: int
+    t_start: float = Field(..., description="clip time of the run's first sample (s)")
+    t_end: float = Field(..., description="clip time of the run's last sample (s)")
+    limits: dict[str, float] = Field(..., description="every limit broken in the run -> its worst ratio")
 
 
 class TrackLimits(Shape):
@@ -135,9 +142,15 @@ class TrackSummary(Shape):
 class TrackAnalysis(Shape):
     """POST /api/analyze: where posted tracks break the robot's limits."""
 
-    rate: float = Field(..., description="samples per second (Hz)")
+    rate: float = Field(..., description="samples per second (Hz) of `samples` and the ranges' indices")
+    engine_rate: float = Field(..., description="the rate the verdict was computed at (Hz)")
     samples: int
     ok: bool = Field(..., description="no sample breaks a limit")
+    fit_scale: float | None = Field(
+        default=None, description="clips: the uniform slow-down that fits every limit (null: none does)"
+    )
+    max_scale: float | None = Field(default=None, description="clips: the largest slow-down searched")
+    suggestion: str | None = Field(default=None, description="clips: what would fit, in one line")
     ranges: list[LimitRange] = Field(..., description="by first sample, then DoF")
     dofs: dict[str, TrackSummary]
     colours: dict[str, str] = Field(..., description="class -> the editor's colour (#rrggbb)")
@@ -147,6 +160,7 @@ class FilteredTracks(Shape):
     """POST /api/filter: posted tracks through the stage-2 motion filter."""
 
     rate: float = Field(..., description="samples per second (Hz)")
+    engine_rate: float = Field(..., description="the rate the filter ran at (Hz)")
     preset: str = Field(..., description="the preset used (W, A, ..., E), or `program` for its own filter")
     params: dict[str, Any] = Field(..., description="the filter's parameters (nmf_stage2's)")
     tracks: dict[str, list[float]] = Field(..., description="DoF name -> filtered values (rad or m)")

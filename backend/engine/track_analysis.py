@@ -77,35 +77,16 @@ def _runs(codes: np.ndarray) -> list[tuple[int, int, int]]:
     return [(int(a), int(b), int(codes[a])) for a, b in zip(starts, ends) if codes[a] != trajectory.OK]
 
 
-def analyze_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]]) -> dict[str, Any]:
-    """The trajectory-helper's verdict on posted tracks (see the module doc)."""
-    names, x, ch = _matrix(emb, tracks)
+def dof_summaries(
+    emb: Embodiment, names: list[str], x: np.ndarray, ch: np.ndarray, rate: float
+) -> tuple[trajectory.Analysis, dict[str, Any]]:
+    """The trajectory-helper's classes of samples `x` (T, n) of DoFs `names` (channels `ch`) at `rate`
+    Hz, and per DoF its peaks, its samples per class and its limits."""
     vel, acc, jerk = emb.vel_limit[ch], emb.acc_limit[ch], emb.jerk_limit[ch]
     lo, hi = emb.min[ch], emb.max[ch]
     result = trajectory.analyze(x, rate, vel, acc, jerk, lo, hi)
-    centre, half = (hi + lo) / 2.0, np.maximum((hi - lo) / 2.0, 1e-12)
-    ratios = {
-        trajectory.VELOCITY: np.abs(result.velocity) / vel,
-        trajectory.ACCELERATION: np.abs(result.acceleration) / acc,
-        trajectory.JERK: np.abs(result.jerk) / jerk,
-        trajectory.POSITION: np.abs(x - centre) / half,
-    }
-    ranges: list[dict[str, Any]] = []
     dofs: dict[str, Any] = {}
     for i, name in enumerate(names):
-        for first, last, code in _runs(result.classes[:, i]):
-            ratio = ratios[code][first : last + 1, i]
-            worst = int(np.argmax(ratio))
-            ranges.append(
-                {
-                    "dof": name,
-                    "kind": trajectory.CLASS_NAMES[code],
-                    "start": first,
-                    "end": last,
-                    "worst_ratio": float(ratio[worst]),
-                    "worst_sample": first + worst,
-                }
-            )
         summary = result.summary[i]
         dofs[name] = {
             **{k: summary[k] for k in ("max_velocity", "max_acceleration", "max_jerk")},
@@ -118,9 +99,44 @@ def analyze_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]])
                 "jerk": float(jerk[i]),
             },
         }
+    return result, dofs
+
+
+def analyze_tracks(emb: Embodiment, rate: float, tracks: dict[str, list[float]]) -> dict[str, Any]:
+    """The trajectory-helper's verdict on posted tracks (see the module doc)."""
+    names, x, ch = _matrix(emb, tracks)
+    result, dofs = dof_summaries(emb, names, x, ch, rate)
+    lo, hi = emb.min[ch], emb.max[ch]
+    centre, half = (hi + lo) / 2.0, np.maximum((hi - lo) / 2.0, 1e-12)
+    ratios = {
+        trajectory.VELOCITY: np.abs(result.velocity) / emb.vel_limit[ch],
+        trajectory.ACCELERATION: np.abs(result.acceleration) / emb.acc_limit[ch],
+        trajectory.JERK: np.abs(result.jerk) / emb.jerk_limit[ch],
+        trajectory.POSITION: np.abs(x - centre) / half,
+    }
+    ranges: list[dict[str, Any]] = []
+    for i, name in enumerate(names):
+        for first, last, code in _runs(result.classes[:, i]):
+            ratio = ratios[code][first : last + 1, i]
+            worst = int(np.argmax(ratio))
+            kind = trajectory.CLASS_NAMES[code]
+            ranges.append(
+                {
+                    "dof": name,
+                    "kind": kind,
+                    "start": first,
+                    "end": last,
+                    "worst_ratio": float(ratio[worst]),
+                    "worst_sample": first + worst,
+                    "t_start": first / rate,
+                    "t_end": last / rate,
+                    "limits": {kind: float(ratio[worst])},
+                }
+            )
     ranges.sort(key=lambda r: (r["start"], r["dof"]))
     return {
         "rate": rate,
+        "engine_rate": rate,
         "samples": int(x.shape[0]),
         "ok": result.ok,
         "ranges": ranges,
@@ -134,19 +150,36 @@ def filter_tracks(
 ) -> dict[str, list[float]]:
     """The tracks after the stage-2 motion filter with `params` (an `nmf_stage2` block's FilterParams),
     started at rest on the first sample; DoFs not posted hold their rest values."""
-
     names, x, ch = _matrix(emb, tracks)
+    out = filter_matrix(emb, rate, x, ch, params)
+    return {name: out[:, i].tolist() for i, name in enumerate(names)}
+
+
+def filter_matrix(
+    emb: Embodiment, rate: float, x: np.ndarray, ch: np.ndarray, params: FilterParams
+) -> np.ndarray:
+    """Samples `x` (T, n) of channels `ch` at `rate` Hz through the stage-2 motion filter (see
+    `filter_tracks`), as a (T, n) array."""
     stage2 = MotionFilterStage2(
         params, BlockContext(emb, rate)
     )  # the robot's limits, as the engine sets them
     mf = stage2.filter
-    if mf is None:  # nothing to filter (not so while a continuous DoF is posted): the tracks as given
-        return {name: x[:, i].tolist() for i, name in enumerate(names)}
-    where = np.searchsorted(stage2.idx, ch)  # the posted channels among the filtered ones
+    if mf is None:  # nothing to filter (not so while a continuous DoF is posted): the samples as given
+        return x.copy()
+    # the posted channels the engine's stage 2 filters (others pass as the engine passes them)
+    inside = np.isin(ch, stage2.idx)
+    where = np.searchsorted(stage2.idx, ch[inside])
     start = emb.rest[stage2.idx].copy()
-    start[where] = x[0]
+    start[where] = x[0, inside]
     mf.reset(start)
     setpoints = np.full((x.shape[0], stage2.idx.size), np.nan)  # NaN: the other channels hold
-    setpoints[:, where] = x
-    out = mf.run(setpoints).position[:, where]
-    return {name: out[:, i].tolist() for i, name in enumerate(names)}
+    setpoints[:, where] = x[:, inside]
+    out = x.copy()
+    # tick by tick through the engine's own step (already compiled by a running stage 2), not the
+    # whole-trajectory kernel, which would compile on a server's first ghost: same arithmetic
+    filtered = np.empty_like(setpoints)
+    step = mf.step
+    for k in range(setpoints.shape[0]):
+        filtered[k] = step(setpoints[k])
+    out[:, inside] = filtered[:, where]
+    return out

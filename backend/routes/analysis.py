@@ -1,6 +1,11 @@
-"""The trajectory-helper and the ghost for posted tracks: a DCC tool (the Blender add-on) sends its
-sampled animation and gets back where it breaks the robot's limits (POST /api/analyze) or what the
-motion filter makes of it (POST /api/filter). Nothing here changes the robot or the running program.
+"""The trajectory-helper and the ghost for a DCC tool (the Blender add-on): it sends its animation and
+gets back where it breaks the robot's limits (POST /api/analyze) or what the motion filter makes of it
+(POST /api/filter). Nothing here changes the robot or the running program.
+
+Two bodies: a `clip` (the nutty-clip/1 document the tool would export) is judged and filtered at the
+engine's rate by the playback code and answered at the scene's frames (backend/engine/clip_preview.py),
+so the ghost and the check agree with what the robot plays; `tracks` (values already sampled at
+`rate`) are judged and filtered at that rate, as older add-ons expect.
 """
 
 from __future__ import annotations
@@ -9,12 +14,17 @@ import asyncio
 from typing import Any, Literal
 
 from fastapi import APIRouter
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from backend.api_types import FilteredTracks, TrackAnalysis
 from backend.control.targets import blocks_of
+from backend.engine import clip_preview
 from backend.engine.blocks.motion_filter import FilterParams
-from backend.engine.track_analysis import TrackError, analyze_tracks, filter_tracks
+from backend.engine.track_analysis import (
+    TrackError,
+    analyze_tracks,
+    filter_tracks,
+)
 from backend.errors import DomainError
 from backend.routes.json_body import SafeJsonRoute
 from backend.routes.state import SessionDep
@@ -23,11 +33,28 @@ router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["analysis"])
 
 
 class TracksBody(BaseModel):
-    """Sampled tracks: continuous DoF -> values (rad or m) at `rate` Hz, all the same length."""
+    """A clip, or sampled tracks (continuous DoF -> values (rad or m) at `rate` Hz, all the same length):
+    exactly one of the two."""
 
     model_config = ConfigDict(extra="forbid")
-    rate: float = Field(..., ge=1.0, le=10000.0, description="samples per second (Hz), e.g. the scene's fps")
-    tracks: dict[str, list[float]] = Field(..., min_length=1, description="DoF name -> one value per sample")
+    rate: float = Field(
+        ...,
+        ge=1.0,
+        le=10000.0,
+        description="samples per second (Hz): the scene's fps; for a clip the rate of the answer's samples",
+    )
+    tracks: dict[str, list[float]] | None = Field(
+        default=None, min_length=1, description="DoF name -> one value per sample"
+    )
+    clip: dict[str, Any] | None = Field(
+        default=None, description="a nutty-clip/1 document (clip time 0 = the scene's first frame)"
+    )
+
+    @model_validator(mode="after")
+    def _one_source(self) -> TracksBody:
+        if (self.tracks is None) == (self.clip is None):
+            raise ValueError("send either `clip` (a nutty-clip/1 document) or `tracks`, not both or neither")
+        return self
 
 
 class FilterBody(TracksBody):
@@ -48,10 +75,14 @@ def _track_error(exc: TrackError) -> DomainError:
 )
 async def analyze(body: TracksBody, session: SessionDep) -> dict[str, Any]:
     """Per DoF, ranges of samples over the velocity (orange), acceleration (pink) or jerk (red) limit,
-    or outside the position limits, each with its worst ratio to the limit; see
-    backend/engine/track_analysis.py."""
+    or outside the position limits, each with its worst ratio to the limit; a clip also gets the
+    slow-down that fits. See backend/engine/clip_preview.py and track_analysis.py."""
     try:
-        return await asyncio.to_thread(analyze_tracks, session.embodiment, body.rate, body.tracks)
+        if body.clip is not None:
+            return await asyncio.to_thread(
+                clip_preview.analyze_clip, session.embodiment, session.engine.rate, body.clip, body.rate
+            )
+        return await asyncio.to_thread(analyze_tracks, session.embodiment, body.rate, body.tracks or {})
     except TrackError as exc:
         raise _track_error(exc) from exc
 
@@ -59,7 +90,7 @@ async def analyze(body: TracksBody, session: SessionDep) -> dict[str, Any]:
 @router.post(
     "/filter",
     response_model=FilteredTracks,
-    summary="Ghost: posted tracks through the motion filter (a preset or the program's stage 2)",
+    summary="Ghost: a clip or posted tracks through the motion filter (a preset or the program's stage 2)",
 )
 async def filter_route(body: FilterBody, session: SessionDep) -> dict[str, Any]:
     if body.preset is not None:
@@ -75,7 +106,26 @@ async def filter_route(body: FilterBody, session: SessionDep) -> dict[str, Any]:
             )
         params, used = stage2[0].params, "program"
     try:
-        tracks = await asyncio.to_thread(filter_tracks, session.embodiment, body.rate, body.tracks, params)
+        if body.clip is not None:
+            rate, tracks = await asyncio.to_thread(
+                clip_preview.filter_clip,
+                session.embodiment,
+                session.engine.rate,
+                body.clip,
+                body.rate,
+                params,
+            )
+        else:
+            rate = body.rate
+            tracks = await asyncio.to_thread(
+                filter_tracks, session.embodiment, body.rate, body.tracks or {}, params
+            )
     except TrackError as exc:
         raise _track_error(exc) from exc
-    return {"rate": body.rate, "preset": used, "params": params.model_dump(mode="json"), "tracks": tracks}
+    return {
+        "rate": body.rate,
+        "engine_rate": rate,
+        "preset": used,
+        "params": params.model_dump(mode="json"),
+        "tracks": tracks,
+    }
