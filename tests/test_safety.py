@@ -3,10 +3,15 @@
 Whatever the program sends (steps, noise, chirps, values far beyond the limits, NaN), every governed
 DoF stays within its position, velocity, acceleration and jerk limits at 30, 100 and 1000 Hz; a
 program that respects the limits passes through bit for bit; after a correction the net returns to
-exact pass-through (re-locks) within a bounded time.
+exact pass-through (re-locks) within a bounded time. Each frame says what the net was handed and, where
+it corrected, the joints that request composes to and which limit each correction enforced (what the
+editor's curve panel, top bar and safety node show), also in the telemetry message.
 """
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +19,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from joint_truth import joint_truth
 
+from backend.api_types import TelemetryFrame
+from backend.engine.frames import LIMIT_POSITION
 from backend.engine.safety import SafetyNet, plan_gains, plan_horizons
 from backend.engine.trajectory import analyze
+from backend.routes.telemetry import frame_json
+from backend.session import EngineSession
 
 RATES = (30.0, 100.0, 1000.0)
 # Finite differences of float positions at 1000 Hz amplify rounding by 1/dt^3 = 1e9: this is that
@@ -258,3 +267,86 @@ def test_the_trajectory_helper_agrees(desk):
         desk.max[idx],
     )
     assert res.ok, res.summary
+
+
+# --- What the frames say the net did (the editor's curve panel, top bar and safety node read it) ------
+
+
+def _breathing_frames(desk, amplitude: float, ticks: int = 700):
+    """Frames of the bundled idle program with its breathe amplitude at `amplitude`, at 100 Hz."""
+    program = json.loads((Path(__file__).parents[1] / "robots/nutty_desk/programs/idle.json").read_text())
+    for node in program["nodes"]:
+        if node["type"] == "breathe":
+            node["params"]["amplitude"] = amplitude
+    engine = EngineSession.create(desk, rate=100.0, program=program).engine
+    return engine, engine.run_ticks(ticks)
+
+
+def _own_class(x: np.ndarray, V: float, A: float, J: float, h: float) -> int:
+    """The trajectory-helper's class of the last sample of `x` (4 samples, oldest first), computed here."""
+    v, a, j = np.diff(x) / h, np.diff(x, 2) / h**2, np.diff(x, 3) / h**3
+    k = 1 + 1e-9
+    return 3 if abs(j[-1]) > J * k else 2 if abs(a[-1]) > A * k else 1 if abs(v[-1]) > V * k else 0
+
+
+def test_frames_carry_what_was_asked_and_which_limit_each_correction_enforced(desk):
+    engine, frames = _breathing_frames(desk, 0.38)
+    cont, h = desk.continuous_mask, 1.0 / 100.0
+    requested = np.array([f.requested for f in frames])
+    corrected = [k for k, f in enumerate(frames) if f.net is not None]
+    assert len(corrected) == engine.safety.corrected_ticks > 50
+    neck, seen = desk.channel_names.index("neck_pitch"), set()
+    for k, f in enumerate(frames):
+        changed = cont & (f.requested != f.position)
+        if f.net is None:  # passed through: the request is what the robot got, channels and joints
+            assert not changed.any() and f.corrected is None
+            continue
+        assert np.array_equal(np.flatnonzero(f.net.channel_limits), np.flatnonzero(changed))
+        np.testing.assert_allclose(f.net.requested_joints, desk.joint_positions(f.requested), atol=1e-12)
+        assert np.array_equal(f.net.joint_limits != 0, f.net.requested_joints != f.joints)
+        code = int(f.net.channel_limits[neck])
+        if code and k >= 3:
+            x = requested[k - 3 : k + 1, neck]
+            own = _own_class(x, desk.vel_limit[neck], desk.acc_limit[neck], desk.jerk_limit[neck], h)
+            if not desk.min[neck] <= x[-1] <= desk.max[neck]:
+                assert code == LIMIT_POSITION
+            elif own:  # the program's own motion breaks that limit (most severe wins)
+                assert code == own, (k, code, own)
+            seen.add(code)
+    assert seen  # neck_pitch was corrected after the start too
+    # telemetry: the request per corrected channel and joint, the limit by name, |requested - delivered|
+    f = frames[corrected[-1]]
+    msg = TelemetryFrame.model_validate(frame_json(desk, f, engine.safety))
+    assert msg.net is not None and set(msg.net.channels) == {
+        desk.channel_names[i] for i in np.flatnonzero(f.net.channel_limits)
+    }
+    for name, c in msg.net.channels.items():
+        i = desk.channel_names.index(name)
+        assert c.requested == pytest.approx(f.requested[i], abs=1e-6)
+        assert c.amount == pytest.approx(abs(f.requested[i] - f.position[i]), abs=1e-6)
+    assert msg.joints == pytest.approx(dict(zip(desk.joint_names, f.joints)), abs=1e-5)
+    assert msg.net_totals is not None and msg.net_totals.ticks == engine.safety.corrected_ticks
+    assert msg.net_totals.channels["neck_pitch"] == int(engine.safety.corrections[neck])
+    quiet = next(g for g in frames if g.net is None)
+    assert TelemetryFrame.model_validate(frame_json(desk, quiet)).net is None
+
+
+def test_a_posture_beyond_a_joints_range_is_a_position_correction(desk):
+    # neck_pitch 0.5 + 0.6 * gaze_pitch 0.45: the neck joint asked for 0.77 rad, its limit 0.5
+    pose = {
+        "format": "nutty-program/1",
+        "name": "too far",
+        "nodes": [
+            {"id": "far", "type": "pose", "params": {"values": {"neck_pitch": 0.5, "gaze_pitch": 0.45}}},
+            {"id": "output", "type": "output", "params": {}},
+        ],
+        "edges": [{"from": {"node": "far", "port": "out"}, "to": {"node": "output", "port": "in"}}],
+    }
+    frames = EngineSession.create(desk, rate=100.0, program=pose).engine.run_ticks(300)
+    neck = desk.channel_names.index("neck_pitch")
+    joint = list(desk.joint_names).index("neck_pitch")
+    last = frames[-1]  # held at the joint's limit, still asking for more
+    assert last.net is not None and last.joints[joint] == pytest.approx(0.5)
+    assert last.net.requested_joints[joint] == pytest.approx(0.77)
+    assert last.net.joint_limits[joint] == LIMIT_POSITION
+    assert last.net.channel_limits[neck] == LIMIT_POSITION  # the joint's correction, on its own channel

@@ -70,13 +70,49 @@ class Profile(Shape):
     nodes: list[NodeCookTime]
 
 
+class NetCorrection(Shape):
+    """One correction of the engine's safety net on one frame, of a channel or a joint."""
+
+    limit: Literal["velocity", "acceleration", "jerk", "position"] = Field(
+        ..., description="the limit the correction enforced (the one the request would have broken most)"
+    )
+    requested: float | None = Field(
+        ..., description="what was asked before the net (a joint: the request composed); null: not a number"
+    )
+    amount: float = Field(..., description="|requested - delivered| (rad or m)")
+
+
+class NetFrame(Shape):
+    """What the safety net changed on a frame: by channel, and by joint (joint space, what motors get)."""
+
+    channels: dict[str, NetCorrection]
+    joints: dict[str, NetCorrection]
+
+
+class NetTotals(Shape):
+    """The safety net's counts since the engine started (as `/api/status`'s `safety`)."""
+
+    ticks: int = Field(..., description="ticks on which the net corrected something")
+    channels: dict[str, int] = Field(..., description="channel -> ticks corrected (0 omitted)")
+    joints: dict[str, int] = Field(..., description="joint -> ticks corrected by the joint stage (0 omitted)")
+
+
 class TelemetryFrame(Shape):
-    position: dict[str, float]
+    position: dict[str, float] = Field(..., description="channel -> delivered value (after the net)")
     stage1: dict[str, float]
     classes: dict[str, int] = Field(
         ..., description="channel -> 1 velocity, 2 acceleration, 3 jerk (ok omitted)"
     )
     corrected: list[str]
+    joints: dict[str, float] = Field(
+        default_factory=dict, description="actuated joint -> delivered value (what the motors get)"
+    )
+    net: NetFrame | None = Field(
+        default=None,
+        description="what the safety net changed on this frame (null: it passed the request through, "
+        "so the request equals the delivered channels and joints)",
+    )
+    net_totals: NetTotals | None = None
 
 
 class Telemetry(Shape):

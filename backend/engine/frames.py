@@ -10,11 +10,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numba import njit
 
 from backend.engine.embodiment import DofType, Embodiment
+
+if TYPE_CHECKING:  # only named in annotations (the joint stage imports the embodiment, not frames)
+    from backend.engine.joint_net import JointLimits
 
 
 @dataclass(slots=True)
@@ -72,6 +76,8 @@ class AnimationFrame:
     channels the net had to change on this frame (None when it passed everything through).
     `joints` are the actuated URDF joints' positions (rad or m, `Embodiment.joint_names` order) the
     motors get: the channels composed (own DoF plus symbolic DoFs) and limited by the net's joint stage.
+    `requested` is what the net was handed (the program's frame after the swap transition), and `net`
+    says, on a frame the net corrected, what it changed and which limit each correction enforced.
     """
 
     embodiment: str
@@ -87,6 +93,8 @@ class AnimationFrame:
     corrected: np.ndarray | None = None  # (C,) bool: channels the safety net corrected (None: none)
     program: np.ndarray | None = None  # (C,) the program's frame before the safety net
     joints: np.ndarray | None = None  # (J,) the joints the motors get (None: compose `position`)
+    requested: np.ndarray | None = None  # (C,) the frame handed to the safety net (None: `program`)
+    net: NetCorrection | None = None  # what the net changed (None: it passed everything through)
 
     def joint_values(self, embodiment: Embodiment) -> np.ndarray:
         """The joints the motors get (rad or m): the net's `joints`, or the channels composed."""
@@ -135,6 +143,116 @@ class AnimationFrame:
         if embodiment.joint_names:
             out["joints"] = dict(zip(embodiment.joint_names, self.joint_values(embodiment).tolist()))
         return out
+
+
+#: Which limit a safety-net correction enforced (`NetCorrection`): the trajectory-helper's classes
+#: (1 velocity, 2 acceleration, 3 jerk), then position; 0: not corrected.
+LIMIT_NAMES = ("ok", "velocity", "acceleration", "jerk", "position")
+LIMIT_POSITION = 4
+
+
+@dataclass(slots=True)
+class NetCorrection:
+    """What the safety net changed on one frame it corrected: the joints the request composes to (rad or
+    m, `Embodiment.joint_names` order) and, per channel and per joint, the limit each correction enforced
+    (`LIMIT_NAMES` codes, 0 where the request was delivered as it was)."""
+
+    requested_joints: np.ndarray  # (J,)
+    channel_limits: np.ndarray  # (C,) int8
+    joint_limits: np.ndarray  # (J,) int8
+
+
+@njit(cache=True)
+def _limit_codes(x, x1, x2, x3, d, dv, da, dj, lo, hi, V, A, J, h, out):
+    """The kernel of `limits_enforced`, in place into `out` (one compiled pass over the entries)."""
+    slack = 1.0 + 1e-9
+    for i in range(x.shape[0]):
+        gap = x[i] - d[i]
+        if gap == 0.0:
+            out[i] = 0
+        elif not math.isfinite(x[i]) or x[i] < lo[i] or x[i] > hi[i]:
+            out[i] = LIMIT_POSITION
+        elif abs((x[i] - 3.0 * x1[i] + 3.0 * x2[i] - x3[i]) / h**3) > J[i] * slack:
+            out[i] = 3
+        elif abs((x[i] - 2.0 * x1[i] + x2[i]) / h**2) > A[i] * slack:
+            out[i] = 2
+        elif abs((x[i] - x1[i]) / h) > V[i] * slack:
+            out[i] = 1
+        else:  # the request's own motion is legal: what delivering it from the net's state would need
+            sv = abs(dv[i] + gap / h) / V[i]
+            sa = abs(da[i] + gap / h**2) / A[i]
+            sj = abs(dj[i] + gap / h**3) / J[i]
+            out[i] = -(3 if sj >= sa and sj >= sv else (2 if sa >= sv else 1))  # negative: by the state
+
+
+@njit(cache=True)
+def _differences(x, x1, x2, x3, h):
+    """Backward finite differences (v, a, j) of `x` after x1, x2, x3 (newest first), in one pass."""
+    v, a, j = np.empty_like(x), np.empty_like(x), np.empty_like(x)
+    for i in range(x.shape[0]):
+        v[i] = (x[i] - x1[i]) / h
+        a[i] = (x[i] - 2.0 * x1[i] + x2[i]) / h**2
+        j[i] = (x[i] - 3.0 * x1[i] + 3.0 * x2[i] - x3[i]) / h**3
+    return v, a, j
+
+
+def limits_enforced(
+    request: tuple[np.ndarray, ...],
+    delivered: np.ndarray,
+    moved: tuple[np.ndarray, ...],
+    limits: tuple[np.ndarray, ...],
+    h: float,
+) -> np.ndarray:
+    """Per entry (channel or joint), the limit a correction enforced: an int8 `LIMIT_NAMES` code, 0 where
+    the request was delivered as it was.
+
+    Position when the request lies outside [lo, hi] (or is not a number); otherwise the class of the
+    request's own motion (its finite differences over `request`: this tick's and the three before, newest
+    first; most severe wins, jerk > acceleration > velocity, as the trajectory-helper); when that motion
+    is within the limits (the net is catching up after a jump, or braking ahead of a limit), the one of
+    velocity, acceleration and jerk that delivering the request from the net's state needs most relative
+    to its limit (`moved`: the delivered finite differences (v, a, j); the request's from there add
+    gap/h, gap/h², gap/h³); those codes are negative (`net_correction` tells them apart). limits: (lo,
+    hi, V, A, J), positive V, A, J."""
+    out = np.zeros(len(delivered), dtype=np.int8)
+    x, x1, x2, x3 = request
+    dv, da, dj = moved
+    lo, hi, V, A, J = limits
+    _limit_codes(x, x1, x2, x3, delivered, dv, da, dj, lo, hi, V, A, J, float(h), out)
+    return out
+
+
+def net_correction(
+    frame: AnimationFrame,
+    emb: Embodiment,
+    joints: JointLimits,
+    requested: tuple[np.ndarray, ...],
+    delivered: tuple[np.ndarray, ...],
+) -> NetCorrection:
+    """What the net changed on `frame` (one it corrected): `requested` and `delivered` hold the channels
+    handed to the net and the joints delivered on the three ticks before (newest first). Compiled over
+    the entries; a few µs, paid only on corrected frames."""
+    request = frame.requested if frame.requested is not None else frame.position
+    h = frame.dt
+    channels = limits_enforced(
+        (request, *requested),
+        frame.position,
+        (frame.velocity, frame.acceleration, frame.jerk),
+        (emb.min, emb.max, emb.vel_limit, emb.acc_limit, emb.jerk_limit),
+        h,
+    )
+    q = frame.joint_values(emb)
+    q1, q2, q3 = delivered
+    moved = _differences(q, q1, q2, q3, h)
+    wanted = tuple(joints.compose(x) for x in (request, *requested))  # the requests' joints
+    limits = (joints.lower, joints.upper, joints.velocity, joints.acceleration, joints.jerk)
+    joint_codes = limits_enforced(wanted, q, moved, limits, h)
+    # A channel whose own request was legal, corrected because its joint was (the joint stage carries a
+    # joint's correction back onto its own channel): the joint's limit is the one enforced.
+    hit = np.flatnonzero((joint_codes != 0) & (joints.own >= 0))
+    carried = hit[channels[joints.own[hit]] < 0]
+    channels[joints.own[carried]] = joint_codes[carried]
+    return NetCorrection(wanted[0], np.abs(channels), np.abs(joint_codes))
 
 
 @dataclass

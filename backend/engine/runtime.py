@@ -38,7 +38,7 @@ from backend.engine.clock import Clock, RingStats, WallClock
 from backend.engine.compiled import default_compiled, entry_point
 from backend.engine.compiled.frames import DERIVATIVES_SIG, derivatives
 from backend.engine.embodiment import Embodiment
-from backend.engine.frames import AnimationFrame
+from backend.engine.frames import AnimationFrame, net_correction
 from backend.engine.gil import ClockPriority
 from backend.engine.profile import SAMPLE_EVERY, WINDOW, CookTimes
 from backend.engine.safety import SafetyNet
@@ -121,6 +121,8 @@ class Engine:
         self.swaps = 0
         #: The last step before every sink; `safety=False` only through an explicit, logged opt-out.
         self.safety = SafetyNet(embodiment, self.rate, enabled=safety)
+        # the requests handed to the net and the joints it delivered on the last 3 ticks (newest first)
+        self._past = ((embodiment.rest,) * 3, (self.safety.joint_out,) * 3)
         self._transition: Transition | None = None
         self._injected: list = []  # events added by commands for the next frame
         self._override_mask = np.zeros(embodiment.n_channels, dtype=bool)  # display values set by commands
@@ -344,7 +346,11 @@ class Engine:
                 corrected=self.safety.corrected.copy() if self.safety.corrected_any else None,
                 program=program,
                 joints=self.safety.joint_out,
+                requested=target,
             )
+            if frame.corrected is not None:  # what the net changed, and which limits it enforced
+                frame.net = net_correction(frame, self.embodiment, self.safety.joints, *self._past)
+            self._past = ((target, *self._past[0][:2]), (self.safety.joint_out, *self._past[1][:2]))
             self.last_frame = frame
             self.seq += 1
             self.t = self.seq * dt

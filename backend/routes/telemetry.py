@@ -23,7 +23,8 @@ import numpy as np
 from backend import security
 from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.embodiment import Embodiment
-from backend.engine.frames import AnimationFrame, PartialFrame
+from backend.engine.frames import LIMIT_NAMES, AnimationFrame, PartialFrame
+from backend.engine.safety import SafetyNet
 from backend.errors import DomainError
 from backend.hub import jsonable
 from backend.session import EngineSession
@@ -121,9 +122,10 @@ def frame_channels(emb: Embodiment, values: np.ndarray) -> dict[str, float]:
     return dict(zip(emb.channel_names, _rounded(values)))
 
 
-def frame_json(emb: Embodiment, frame: AnimationFrame) -> dict[str, Any]:
-    """A frame as telemetry shows it: positions, the stage-1 pose, limit classes, corrected channels."""
-    return {
+def frame_json(emb: Embodiment, frame: AnimationFrame, net: SafetyNet | None = None) -> dict[str, Any]:
+    """A frame as telemetry shows it: positions, the stage-1 pose, limit classes, corrected channels,
+    the joints the motors get, what the safety net changed (and, given the net, its totals)."""
+    out: dict[str, Any] = {
         "position": frame_channels(emb, frame.position),
         "stage1": frame_channels(emb, frame.stage1 if frame.stage1 is not None else frame.position),
         "classes": limit_classes(emb, frame),
@@ -132,6 +134,56 @@ def frame_json(emb: Embodiment, frame: AnimationFrame) -> dict[str, Any]:
         "corrected": [emb.channel_names[i] for i in np.flatnonzero(frame.corrected)]
         if frame.corrected is not None
         else [],
+        "joints": dict(zip(emb.joint_names, _rounded(frame.joint_values(emb)))),
+        "net": net_json(emb, frame),
+    }
+    if net is not None:
+        out["net_totals"] = net_totals(net)
+    return out
+
+
+def _corrections(names: list[str], requested: np.ndarray, delivered: np.ndarray, kinds: np.ndarray) -> dict:
+    """{name: {limit, requested, amount}} of the entries with a correction (kind > 0)."""
+    idx = np.flatnonzero(kinds)
+    asked = np.asarray(requested, dtype=float)[idx]
+    amount = np.abs(asked - np.asarray(delivered, dtype=float)[idx])
+    finite = np.isfinite(asked)  # a faulty block's NaN: the net held the last output
+    return {
+        names[i]: {"limit": LIMIT_NAMES[k], "requested": r if f else None, "amount": a if f else 0.0}
+        for i, k, r, a, f in zip(
+            idx.tolist(),
+            kinds[idx].tolist(),
+            np.where(finite, asked, 0.0).round(6).tolist(),
+            np.where(finite, amount, 0.0).round(6).tolist(),
+            finite.tolist(),
+        )
+    }
+
+
+def net_json(emb: Embodiment, frame: AnimationFrame) -> dict[str, Any] | None:
+    """What the safety net changed on `frame`, per channel and per joint: the limit it enforced, what
+    was requested (before the net; joints: the request composed) and |requested - delivered|. None
+    when the net passed the frame through."""
+    net = frame.net
+    if net is None:
+        return None
+    requested = frame.requested if frame.requested is not None else frame.position
+    return {
+        "channels": _corrections(emb.channel_names, requested, frame.position, net.channel_limits),
+        "joints": _corrections(
+            list(emb.joint_names), net.requested_joints, frame.joint_values(emb), net.joint_limits
+        ),
+    }
+
+
+def net_totals(net: SafetyNet) -> dict[str, Any]:
+    """The net's counts since the engine started: corrected ticks, and ticks per channel and per joint
+    (read while the clock runs: a count may be one tick ahead of another)."""
+    names, joints = net.emb.channel_names, net.joints.names
+    return {
+        "ticks": int(net.corrected_ticks),
+        "channels": {names[i]: int(net.corrections[i]) for i in np.flatnonzero(net.corrections)},
+        "joints": {joints[i]: int(net.joint_corrections[i]) for i in np.flatnonzero(net.joint_corrections)},
     }
 
 
@@ -189,7 +241,7 @@ class Subscription:
             values = [apu.signal_value(s["node"], s["port"]) for s in self.signals]
             msg["signals"] = dict(zip(self.signal_keys, signals_json(emb, values)))
         if self.frames:
-            msg["frame"] = frame_json(emb, frame)
+            msg["frame"] = frame_json(emb, frame, session.engine.safety)
         if apu is not None:
             msg["layers"] = {
                 s.node_id: s.block.layer_states() for s in apu.steps if isinstance(s.block, LayerMixer)

@@ -14,6 +14,7 @@ import { useProgramSync } from "./hooks/useProgramSync";
 import { useShortcuts } from "./hooks/useShortcuts";
 import { useSignals, useTelemetry } from "./hooks/useTelemetry";
 import { withWatched } from "./live/logic";
+import { emptyLive } from "./telemetry";
 import { useWatchedSignals } from "./live/WireProbes";
 import { Layout } from "./Layout";
 import { liveInside, signalsInside } from "./organise/liveInside";
@@ -40,12 +41,14 @@ function Telemetry({ children }: { children: ReactNode }) {
   // block does not resubscribe
   const aliasKey = useMemo(() => JSON.stringify(subgraphAliases(nodes, defs)), [nodes, defs]);
   const aliases = useMemo(() => JSON.parse(aliasKey) as ReturnType<typeof subgraphAliases>, [aliasKey]);
-  const wanted = useMemo(() => signalsInside(withAliasedSignals(withWatched(signals, watched), aliases), path),
-    [signals, watched, aliases, path]);
+  // a draft subscribes to nothing either: its probes' ids may be the running program's too
+  const wanted = useMemo(() => isLive ? signalsInside(withAliasedSignals(withWatched(signals, watched), aliases), path) : [],
+    [signals, watched, aliases, path, isLive]);
   const { live, samples } = useTelemetry(wanted);
   const value = useMemo(() => ({
-    // a draft is not running: the running program's cook times and layers are not its own
-    ...(isLive ? withAliasedValues(liveInside(live, path), aliases) : { ...live, layers: {}, profile: null }), setLayer: (mixer: string, layer: string, active: boolean) =>
+    // a draft is not running: the running program's values, sparklines, cook times, layers and safety
+    // net are not its own, even where its blocks' ids are the same
+    ...(isLive ? withAliasedValues(liveInside(live, path), aliases) : { ...emptyLive, t: live.t }), setLayer: (mixer: string, layer: string, active: boolean) =>
       sendCommand({ type: "set_layer", mixer: path ? `${path}/${mixer}` : mixer, layer, active }),
   }), [live, isLive, path, aliases, sendCommand]);
   return (

@@ -6,6 +6,7 @@ import type { NodeData } from "./graph";
 import { LiveContext, CatalogContext } from "./context";
 import { HANDLE_TOP, LIVE_ROW_HEIGHT, PORT_ROW_HEIGHT, PORT_ROWS_TOP } from "./layout/constants";
 import { CookBadge, WarningBadge, WarningLine } from "./live/NodeBadges";
+import { NetRows } from "./live/NetRows";
 import { useCompact } from "./viewport";
 
 /** Port row pitch (px) of a collapsed block, its rows' top (and room below them), and its least body height. */
@@ -103,6 +104,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         <span className="block-title">{entry?.title ?? data.type}</span>
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
         <WarningBadge id={id} />
+        <NetRows id={id} type={data.type} compact />
       </div>
       <div className="block-body" style={{ height: Math.max(rows * COMPACT_ROW + 2 * COMPACT_ROWS_TOP, COMPACT_BODY_MIN_HEIGHT) }}>
         <div className="compact-cook"><CookBadge id={id} /></div>
@@ -160,6 +162,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
       </div>
       {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
       <WarningLine id={id} hidden={data.errors.length > 0} />
+      <NetRows id={id} type={data.type} />
     </div>
   );
 });

@@ -1,4 +1,6 @@
-// The top bar: the program's name and status, live or draft, files, undo/redo (zoom and Fit are on the canvas).
+// The top bar: the program's name and status, live or draft, the safety net's corrections, files,
+// undo/redo (zoom and Fit are on the canvas).
+import { SafetyIndicator } from "./live/SafetyIndicator";
 import { useActions, useEditor } from "./store/EditorStore";
 import { statusText } from "./store/state";
 
@@ -31,6 +33,7 @@ export function Toolbar() {
         </>
       )}
       <span className={`status ${report?.valid ? "ok" : "bad"}`} data-testid="status">{statusText(report, syncing, live)}</span>
+      <SafetyIndicator />
       <span className="spacer" />
       <button onClick={newProgram}>New</button>
       <select aria-label="open program" value="" onChange={(e) => e.target.value && open(e.target.value)}>

@@ -173,8 +173,8 @@ describe("live values inside an open subgraph", () => {
   it("subscribes to the flat ids and shows them under the inner ids", () => {
     expect(signalsInside([{ node: "breathe", port: "out" }], "idle")).toEqual([{ node: "idle/breathe", port: "out" }]);
     expect(signalsInside([{ node: "breathe", port: "out" }], undefined)).toEqual([{ node: "breathe", port: "out" }]);
-    const live: Live = { values: { "idle/breathe.out": 1, "mix.out": 2 }, history: { "idle/breathe.out": [1] }, layers: { "idle/m": [] }, t: 0, profile: null };
-    expect(liveInside(live, "idle")).toEqual({ values: { "breathe.out": 1 }, history: { "breathe.out": [1] }, layers: { m: [] }, t: 0, profile: null });
+    const live: Live = { values: { "idle/breathe.out": 1, "mix.out": 2 }, history: { "idle/breathe.out": [1] }, layers: { "idle/m": [] }, t: 0, profile: null, net: null };
+    expect(liveInside(live, "idle")).toEqual({ values: { "breathe.out": 1 }, history: { "breathe.out": [1] }, layers: { m: [] }, t: 0, profile: null, net: null });
   });
 });
 

@@ -65,14 +65,15 @@ export type BlendMode = "override" | "additive" | "average";
  * This interface was referenced by `NuttyApi`'s JSON-Schema
  * via the `definition` "ToolAnswer".
  */
-export type ToolAnswer = ToolCalled | RobotStatusAnswer;
+export type ToolAnswer = ToolCalled | FrameAnswer | RobotStatusAnswer;
 /**
  * GET /api/tools: the tools in the dialect asked for.
  *
  * This interface was referenced by `NuttyApi`'s JSON-Schema
  * via the `definition` "Tools".
  */
-export type Tools = ToolSet | OpenAITool[] | AnthropicTool[];
+export type Tools =
+  ToolSet | OpenAITool[] | OpenAIFlatStrictTool[] | OpenAIFlatTool[] | AnthropicTool[] | GeminiTool[] | McpTool[];
 
 /**
  * Shapes of the Nutty API the editor reads (backend/api_types).
@@ -226,6 +227,10 @@ export interface CommandEntry {
   created: number;
   id: string;
   /**
+   * a long action that has ended: whether its motion settled, what the net did
+   */
+  outcome?: ActionOutcome | null;
+  /**
    * what carrying it out returned; the error message if it failed
    */
   result: unknown;
@@ -234,6 +239,53 @@ export interface CommandEntry {
    * the command's type, e.g. play_clip
    */
   type: string;
+}
+/**
+ * What became of a long action (backend/action_watch.py).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ActionOutcome".
+ */
+export interface ActionOutcome {
+  /**
+   * look_at: the gaze arrived on target (false: it stopped at its limit)
+   */
+  reached?: boolean | null;
+  safety: NetTally;
+  /**
+   * s from the block's end to the motion's end
+   */
+  settle_time: number | null;
+  /**
+   * its motion ended (the robot caught up) before the event; null: cancelled or failed
+   */
+  settled: boolean | null;
+}
+/**
+ * What the safety net did while an action ran.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "NetTally".
+ */
+export interface NetTally {
+  corrected_ticks: number;
+  dofs: {
+    [k: string]: DofCorrection;
+  };
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "DofCorrection".
+ */
+export interface DofCorrection {
+  /**
+   * largest |requested - delivered| (rad or m)
+   */
+  max_correction: number;
+  /**
+   * ticks the safety net corrected this DoF during the action
+   */
+  ticks: number;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -375,6 +427,10 @@ export interface ExposedInputs {
  * via the `definition` "FilteredTracks".
  */
 export interface FilteredTracks {
+  /**
+   * the rate the filter ran at (Hz)
+   */
+  engine_rate: number;
   /**
    * the filter's parameters (nmf_stage2's)
    */
@@ -851,12 +907,84 @@ export interface TelemetryFrame {
     [k: string]: number;
   };
   corrected: string[];
+  /**
+   * actuated joint -> delivered value (what the motors get)
+   */
+  joints?: {
+    [k: string]: number;
+  };
+  /**
+   * what the safety net changed on this frame (null: it passed the request through, so the request equals the delivered channels and joints)
+   */
+  net?: NetFrame | null;
+  net_totals?: NetTotals | null;
+  /**
+   * channel -> delivered value (after the net)
+   */
   position: {
     [k: string]: number;
   };
   stage1: {
     [k: string]: number;
   };
+}
+/**
+ * What the safety net changed on a frame: by channel, and by joint (joint space, what motors get).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "NetFrame".
+ */
+export interface NetFrame {
+  channels: {
+    [k: string]: NetCorrection;
+  };
+  joints: {
+    [k: string]: NetCorrection;
+  };
+}
+/**
+ * One correction of the engine's safety net on one frame, of a channel or a joint.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "NetCorrection".
+ */
+export interface NetCorrection {
+  /**
+   * |requested - delivered| (rad or m)
+   */
+  amount: number;
+  /**
+   * the limit the correction enforced (the one the request would have broken most)
+   */
+  limit: "velocity" | "acceleration" | "jerk" | "position";
+  /**
+   * what was asked before the net (a joint: the request composed); null: not a number
+   */
+  requested: number | null;
+}
+/**
+ * The safety net's counts since the engine started (as `/api/status`'s `safety`).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "NetTotals".
+ */
+export interface NetTotals {
+  /**
+   * channel -> ticks corrected (0 omitted)
+   */
+  channels: {
+    [k: string]: number;
+  };
+  /**
+   * joint -> ticks corrected by the joint stage (0 omitted)
+   */
+  joints: {
+    [k: string]: number;
+  };
+  /**
+   * ticks on which the net corrected something
+   */
+  ticks: number;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -914,6 +1042,20 @@ export interface ToolCalled {
    * the command's id (GET /api/commands/{id})
    */
   id: string;
+  /**
+   * once the action has ended: whether its motion settled, what the net did
+   */
+  outcome?: {
+    [k: string]: unknown;
+  } | null;
+  /**
+   * a repeat of an earlier call with this request_id: it did not act again
+   */
+  replayed?: boolean;
+  /**
+   * the caller's id for the call, when given
+   */
+  request_id?: string | null;
   result: unknown;
   status: "accepted" | "queued" | "started" | "completed" | "cancelled" | "failed";
   timed_out: boolean;
@@ -922,6 +1064,36 @@ export interface ToolCalled {
    * the answer came when the action had ended (or timed out)
    */
   waited: boolean;
+}
+/**
+ * POST /api/tools/get_frame: the last frame the robot got, compactly.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "FrameAnswer".
+ */
+export interface FrameAnswer {
+  /**
+   * channels the safety net corrected on this frame
+   */
+  corrected: string[];
+  /**
+   * DoF -> value: rad or m, an option name, or [r, g, b]
+   */
+  dofs: {
+    [k: string]: unknown;
+  };
+  /**
+   * URDF joint -> the position its motor gets (rad or m)
+   */
+  joints: {
+    [k: string]: number;
+  };
+  seq: number | null;
+  /**
+   * engine time of the frame (s); null before the first
+   */
+  t: number | null;
+  tool: "get_frame";
 }
 /**
  * POST /api/tools/get_status: what the robot is doing (layers, clips, postures, gaze, mood,
@@ -1008,8 +1180,23 @@ export interface ToolDefinition {
  * via the `definition` "OpenAITool".
  */
 export interface OpenAITool {
-  function: OpenAIFunction;
+  function: OpenAIStrictFunction | OpenAIFunction;
   type: "function";
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "OpenAIStrictFunction".
+ */
+export interface OpenAIStrictFunction {
+  description: string;
+  name: string;
+  parameters: {
+    [k: string]: unknown;
+  };
+  /**
+   * OpenAI's strict function calling (strict=true)
+   */
+  strict: true;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -1023,6 +1210,38 @@ export interface OpenAIFunction {
   };
 }
 /**
+ * One tool of format=openai&api=responses&strict=true.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "OpenAIFlatStrictTool".
+ */
+export interface OpenAIFlatStrictTool {
+  description: string;
+  name: string;
+  parameters: {
+    [k: string]: unknown;
+  };
+  /**
+   * OpenAI's strict function calling (strict=true)
+   */
+  strict: true;
+  type: "function";
+}
+/**
+ * One tool of format=openai&api=responses|realtime (the Responses / Realtime APIs' `tools`).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "OpenAIFlatTool".
+ */
+export interface OpenAIFlatTool {
+  description: string;
+  name: string;
+  parameters: {
+    [k: string]: unknown;
+  };
+  type: "function";
+}
+/**
  * One tool of GET /api/tools?format=anthropic (Messages API `tools`).
  *
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -1034,6 +1253,57 @@ export interface AnthropicTool {
     [k: string]: unknown;
   };
   name: string;
+}
+/**
+ * The one entry of GET /api/tools?format=gemini (a Gemini `tools` entry).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "GeminiTool".
+ */
+export interface GeminiTool {
+  functionDeclarations: GeminiFunction[];
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "GeminiFunction".
+ */
+export interface GeminiFunction {
+  description: string;
+  name: string;
+  /**
+   * Gemini's Schema (an OpenAPI 3.0 subset)
+   */
+  parameters: {
+    [k: string]: unknown;
+  };
+}
+/**
+ * One tool of GET /api/tools?format=mcp (MCP's `tools/list`).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "McpTool".
+ */
+export interface McpTool {
+  annotations: McpAnnotations;
+  description: string;
+  inputSchema: {
+    [k: string]: unknown;
+  };
+  name: string;
+  title: string;
+}
+/**
+ * MCP's tool annotations: hints for a client deciding how to treat a call.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "McpAnnotations".
+ */
+export interface McpAnnotations {
+  destructiveHint: boolean;
+  idempotentHint: boolean;
+  openWorldHint: boolean;
+  readOnlyHint: boolean;
+  title: string;
 }
 /**
  * POST /api/analyze: where posted tracks break the robot's limits.
@@ -1052,6 +1322,18 @@ export interface TrackAnalysis {
     [k: string]: TrackSummary;
   };
   /**
+   * the rate the verdict was computed at (Hz)
+   */
+  engine_rate: number;
+  /**
+   * clips: the uniform slow-down that fits every limit (null: none does)
+   */
+  fit_scale?: number | null;
+  /**
+   * clips: the largest slow-down searched
+   */
+  max_scale?: number | null;
+  /**
    * no sample breaks a limit
    */
   ok: boolean;
@@ -1060,10 +1342,14 @@ export interface TrackAnalysis {
    */
   ranges: LimitRange[];
   /**
-   * samples per second (Hz)
+   * samples per second (Hz) of `samples` and the ranges' indices
    */
   rate: number;
   samples: number;
+  /**
+   * clips: what would fit, in one line
+   */
+  suggestion?: string | null;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -1095,7 +1381,7 @@ export interface TrackLimits {
   velocity: number;
 }
 /**
- * A run of samples of one DoF over one limit.
+ * A run of samples of one DoF over a limit.
  *
  * This interface was referenced by `NuttyApi`'s JSON-Schema
  * via the `definition` "LimitRange".
@@ -1106,13 +1392,30 @@ export interface LimitRange {
    * last sample of the run (inclusive)
    */
   end: number;
+  /**
+   * the limit that breaks: for posted tracks each sample's class; for a clip position, else the lowest-order derivative over its limit
+   */
   kind: "velocity" | "acceleration" | "jerk" | "position";
   /**
-   * first sample of the run
+   * every limit broken in the run -> its worst ratio
+   */
+  limits: {
+    [k: string]: number;
+  };
+  /**
+   * first sample (scene frame from the start frame) of the run
    */
   start: number;
   /**
-   * the worst sample's value over the limit
+   * clip time of the run's last sample (s)
+   */
+  t_end: number;
+  /**
+   * clip time of the run's first sample (s)
+   */
+  t_start: number;
+  /**
+   * the worst sample's value over the `kind` limit
    */
   worst_ratio: number;
   worst_sample: number;

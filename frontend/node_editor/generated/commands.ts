@@ -391,7 +391,9 @@ export interface SetFace {
   type?: Type9;
 }
 /**
- * Look at a point (m, robot base frame): sets the program's `gaze_target` input.
+ * Look at a point (m, robot base frame): sets the program's `gaze_target` input. A long action: it
+ * answers whether the point is within the gaze's reach (and if not, where the gaze stops), and
+ * completes when the gaze has arrived, or stopped at its limit (`reached` says which).
  */
 export interface SetGaze {
   id?: Id10;

@@ -158,7 +158,7 @@ describe("telemetry", () => {
     expect(live.history["wave.out"].at(-1)).toBe(99);
     expect(live.values["in_level.value"]).toBe(0.5);
     expect(samples.t).toEqual([90, 91, 92, 93, 94, 95, 96, 97, 98, 99]);
-    expect(samples.final.a.at(-1)).toBe(99);
+    expect(samples.final["dof:a"].at(-1)).toBe(99);
   });
 });
 
