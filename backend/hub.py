@@ -21,6 +21,7 @@ from collections.abc import Callable
 from typing import Any
 
 from backend import control
+from backend.action_watch import ActionWatch
 from backend.errors import DomainError
 from backend.session import EngineSession
 
@@ -137,6 +138,10 @@ class Hub:
         # Called with every message broadcast to /ws/control clients, from the thread that emits it (the
         # clock thread, for block events): e.g. the Zenoh link (backend/zenoh_link). Keep them quick.
         self.listeners: list[Callable[[dict[str, Any]], None]] = []
+        # what became of each long action: its completion held until the motion has ended, and what
+        # the safety net did to it (backend/action_watch.py)
+        self.actions = ActionWatch(session.embodiment, self._completed)
+        session.engine.add_frame_observer(self.actions.observe)
         session.on_note(self._on_note)
 
     def shutdown(self) -> None:
@@ -146,14 +151,39 @@ class Hub:
             loop.call_soon_threadsafe(ev.set)
 
     def _on_note(self, note: dict[str, Any]) -> None:
-        """Block notifications arrive on the clock thread: record them and hand them to the event loop."""
+        """Block notifications arrive on the clock thread: record them and hand them to the event loop.
+        A long action's `completed` waits in `actions` until the robot's motion has ended."""
         cid = note.get("command_id")
         event = note.get("event")
+        entry = self.commands.get(cid)
+        if (
+            event == "completed"
+            and isinstance(cid, str)
+            and entry is not None
+            and entry["status"] not in TERMINAL
+        ):
+            self.actions.hold(cid, note)
+            return
+        self._note_out(cid, event, note)
+
+    def _completed(self, cid: str, note: dict[str, Any]) -> None:
+        """A held completion, its `outcome` filled in (on the action watch's thread)."""
+        self.commands.update(cid, outcome=note.get("outcome"))
+        self._note_out(cid, "completed", note)
+
+    def _note_out(self, cid: Any, event: Any, note: dict[str, Any]) -> None:
+        if event in ("cancelled", "failed") and cid is not None and "outcome" not in note:
+            note = {**note, "outcome": self.actions.closed(cid)}
+            self.commands.update(cid, outcome=note["outcome"])
         ok, ctype = self.commands.transition(cid, event)
         if not ok:
             return
-        details = {
-            k: v for k, v in note.items() if k not in ("command_id", "event", "id", "type") and jsonable(v)
+        if event == "started" and cid is not None:
+            self.actions.opened(cid)
+        details = {  # "_" keys are for the server (e.g. the channels an action moved)
+            k: v
+            for k, v in note.items()
+            if k not in ("command_id", "event", "id", "type") and not k.startswith("_") and jsonable(v)
         }
         message = {"type": "event", "event": event, "id": cid, **details}
         if ctype is not None:
@@ -161,6 +191,9 @@ class Hub:
         self.broadcast(message)
 
     def _emit(self, cid: str, event: str, **details: Any) -> None:
+        if event in ("cancelled", "failed"):
+            details["outcome"] = self.actions.closed(cid)
+            self.commands.update(cid, outcome=details["outcome"])
         ok, ctype = self.commands.transition(cid, event)
         if ok:
             self.broadcast({"type": "event", "event": event, "id": cid, "command": ctype, **details})

@@ -49,7 +49,7 @@ def test_the_union_schema_and_long_actions_come_from_the_registry():
     schema = control.command_json_schema()
     assert set(schema["discriminator"]["mapping"]) == types
     assert len(schema["oneOf"]) == len(types) == 17  # 16 + puppet (Blender's live link)
-    assert {"play_clip", "go_posture", "say", "play_sound"} == control.LONG_ACTIONS
+    assert {"play_clip", "go_posture", "say", "play_sound", "set_gaze"} == control.LONG_ACTIONS
     for cls in REGISTRY.classes():
         assert cls.acts_on.blocks or cls.acts_on.role != "block", cls  # every command says what it acts on
         assert not cls.long_action or cls.acts_on.blocks, cls  # a long action is carried out by a block

@@ -75,6 +75,7 @@ def test_tools_come_from_the_robot_program_and_library(client, robot):
         "stop",
         "cancel",
         "get_status",
+        "get_frame",
     ]
     clips = sorted(p.stem for p in (robot / "clips").glob("*.json"))
     clip = tools["play_clip"]["parameters"]["properties"]["clip"]
@@ -118,7 +119,7 @@ def test_every_dialect_is_valid_json_schema(client, fmt):
         schemas = {t["name"]: t["input_schema"] for t in body}
     else:
         schemas = {t["name"]: t["parameters"] for t in body["tools"]}
-    assert len(schemas) == 13
+    assert len(schemas) == 14
     for name, schema in schemas.items():
         assert schema["type"] == "object", name
         Draft202012Validator.check_schema(schema)
@@ -241,6 +242,7 @@ def test_tools_change_with_the_library_and_program(client, session):
             "stop",
             "cancel",
             "get_status",
+            "get_frame",
         ]
     assert (
         client.post("/api/tools/play_clip", json={"clip": "nod"}).json()["detail"]["code"] == "unknown_tool"

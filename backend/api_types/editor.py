@@ -220,6 +220,31 @@ class CommandAccepted(Shape):
     result: Any
 
 
+class DofCorrection(Shape):
+    ticks: int = Field(..., description="ticks the safety net corrected this DoF during the action")
+    max_correction: float = Field(..., description="largest |requested - delivered| (rad or m)")
+
+
+class NetTally(Shape):
+    """What the safety net did while an action ran."""
+
+    corrected_ticks: int
+    dofs: dict[str, DofCorrection]
+
+
+class ActionOutcome(Shape):
+    """What became of a long action (backend/action_watch.py)."""
+
+    reached: bool | None = Field(
+        default=None, description="look_at: the gaze arrived on target (false: it stopped at its limit)"
+    )
+    settled: bool | None = Field(
+        ..., description="its motion ended (the robot caught up) before the event; null: cancelled or failed"
+    )
+    settle_time: float | None = Field(..., description="s from the block's end to the motion's end")
+    safety: NetTally
+
+
 class CommandEntry(Shape):
     """GET /api/commands/{id}: a command of the log."""
 
@@ -228,6 +253,9 @@ class CommandEntry(Shape):
     status: CommandStatus
     created: float = Field(..., description="when it was accepted (Unix time, s)")
     result: Any = Field(..., description="what carrying it out returned; the error message if it failed")
+    outcome: ActionOutcome | None = Field(
+        default=None, description="a long action that has ended: whether its motion settled, what the net did"
+    )
 
 
 class CommandCancelled(Shape):

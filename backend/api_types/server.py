@@ -210,11 +210,27 @@ class OpenAIFunction(Shape):
     parameters: dict[str, Any]
 
 
+class OpenAIStrictFunction(OpenAIFunction):
+    strict: Literal[True] = Field(..., description="OpenAI's strict function calling (strict=true)")
+
+
 class OpenAITool(Shape):
     """One tool of GET /api/tools?format=openai (Chat Completions `tools`)."""
 
     type: Literal["function"]
-    function: OpenAIFunction
+    function: OpenAIStrictFunction | OpenAIFunction
+
+
+class OpenAIFlatTool(OpenAIFunction):
+    """One tool of format=openai&api=responses|realtime (the Responses / Realtime APIs' `tools`)."""
+
+    type: Literal["function"]
+
+
+class OpenAIFlatStrictTool(OpenAIStrictFunction):
+    """One tool of format=openai&api=responses&strict=true."""
+
+    type: Literal["function"]
 
 
 class AnthropicTool(Shape):
@@ -225,7 +241,49 @@ class AnthropicTool(Shape):
     input_schema: dict[str, Any]
 
 
-class Tools(RootModel[ToolSet | list[OpenAITool] | list[AnthropicTool]]):
+class GeminiFunction(Shape):
+    name: str
+    description: str
+    parameters: dict[str, Any] = Field(..., description="Gemini's Schema (an OpenAPI 3.0 subset)")
+
+
+class GeminiTool(Shape):
+    """The one entry of GET /api/tools?format=gemini (a Gemini `tools` entry)."""
+
+    functionDeclarations: list[GeminiFunction]  # Gemini spells its fields in camelCase
+
+
+class McpAnnotations(Shape):
+    """MCP's tool annotations: hints for a client deciding how to treat a call."""
+
+    title: str
+    readOnlyHint: bool  # MCP spells its fields in camelCase
+    destructiveHint: bool
+    idempotentHint: bool
+    openWorldHint: bool
+
+
+class McpTool(Shape):
+    """One tool of GET /api/tools?format=mcp (MCP's `tools/list`)."""
+
+    name: str
+    title: str
+    description: str
+    inputSchema: dict[str, Any]  # MCP spells its fields in camelCase
+    annotations: McpAnnotations
+
+
+class Tools(
+    RootModel[
+        ToolSet
+        | list[OpenAITool]
+        | list[OpenAIFlatStrictTool]
+        | list[OpenAIFlatTool]
+        | list[AnthropicTool]
+        | list[GeminiTool]
+        | list[McpTool]
+    ]
+):
     """GET /api/tools: the tools in the dialect asked for."""
 
 
@@ -239,6 +297,13 @@ class ToolCalled(Shape):
     result: Any
     waited: bool = Field(..., description="the answer came when the action had ended (or timed out)")
     timed_out: bool
+    request_id: str | None = Field(default=None, description="the caller's id for the call, when given")
+    outcome: dict[str, Any] | None = Field(
+        default=None, description="once the action has ended: whether its motion settled, what the net did"
+    )
+    replayed: bool = Field(
+        default=False, description="a repeat of an earlier call with this request_id: it did not act again"
+    )
 
 
 class RobotStatusAnswer(OpenShape):
@@ -251,5 +316,16 @@ class RobotStatusAnswer(OpenShape):
     timed_out: bool
 
 
-class ToolAnswer(RootModel[ToolCalled | RobotStatusAnswer]):
+class FrameAnswer(Shape):
+    """POST /api/tools/get_frame: the last frame the robot got, compactly."""
+
+    tool: Literal["get_frame"]
+    t: float | None = Field(..., description="engine time of the frame (s); null before the first")
+    seq: int | None
+    dofs: dict[str, Any] = Field(..., description="DoF -> value: rad or m, an option name, or [r, g, b]")
+    joints: dict[str, float] = Field(..., description="URDF joint -> the position its motor gets (rad or m)")
+    corrected: list[str] = Field(..., description="channels the safety net corrected on this frame")
+
+
+class ToolAnswer(RootModel[ToolCalled | FrameAnswer | RobotStatusAnswer]):
     """POST /api/tools/{name}."""

@@ -67,6 +67,10 @@ class AiTool:
       those fields); raises ToolArgumentError naming the argument at fault.
     order: position in the tool list (smaller first; equal ones in command-registry order). The bundled
       actions are 10..100, the default (a plugin's tool) is 500, stop, cancel and get_status 900..920.
+    idempotent: calling it again with the same arguments has no further effect (a posture, a gaze
+      target, a colour); a gesture or a sentence is not: it plays again. MCP's `idempotentHint`.
+    destructive: it ends or undoes what is going on (stop, cancel) rather than adding to it. MCP's
+      `destructiveHint`.
     """
 
     name: str
@@ -80,6 +84,8 @@ class AiTool:
     shape: Callable[[Any, dict[str, Any]], None] | None = None
     route: Callable[[dict[str, Any]], dict[str, Any]] | None = None
     order: float = 500.0
+    idempotent: bool = False
+    destructive: bool = False
 
 
 def input_value_schema(decl: Any) -> dict[str, Any]:

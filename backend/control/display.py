@@ -177,6 +177,7 @@ class SetLed(_Display):
         available=lambda live: bool(live.colour_dofs),
         choices={"dof": (lambda live: live.colour_dofs, "the robot's LEDs")},
         order=80,
+        idempotent=True,
     )
     dof_type = "colour"
     value_field = "colour"
@@ -208,6 +209,7 @@ class SetFace(_Display):
             "dof": (lambda live: live.enum_dofs, "the robot's face displays"),
         },
         order=90,
+        idempotent=True,
     )
     dof_type = "enum"
     value_field = "expression"

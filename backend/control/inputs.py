@@ -72,6 +72,7 @@ class SetInputs(BaseCommand):
         available=lambda live: bool(live.inputs),
         shape=_input_values,
         order=50,
+        idempotent=True,
     )
     type: Literal["set_inputs"] = "set_inputs"
     values: dict[str, Any]
@@ -90,6 +91,7 @@ class SetLayer(BaseCommand):
         available=lambda live: bool(live.layers),
         choices={"layer": (lambda live: live.layers, "the program's layers")},
         order=100,
+        idempotent=True,
     )
     type: Literal["set_layer"] = "set_layer"
     layer: str = Field(..., description="name of a layer of the program's layer mixer")
@@ -121,6 +123,7 @@ class SetEmotion(BaseCommand):
         notes=_emotion_notes,
         shape=_emotion_ranges,
         order=40,
+        idempotent=True,
     )
     type: Literal["set_emotion"] = "set_emotion"
     valence: float = Field(..., ge=-1.0, le=1.0)

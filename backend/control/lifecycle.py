@@ -60,6 +60,8 @@ class StopAll(BaseCommand):
         layer_choice=True,
         route=_stop_route,
         order=900,
+        idempotent=True,
+        destructive=True,
     )
     type: Literal["stop_all"] = "stop_all"
 
@@ -84,6 +86,8 @@ class Cancel(BaseCommand):
         "Cancel a long action (a clip, a posture move, speech) by the id a tool answered with; "
         "it ends as `cancelled`. Other actions go on.",
         order=910,
+        idempotent=True,
+        destructive=True,
     )
     type: Literal["cancel"] = "cancel"
     target: str = Field(..., description="id of the command to cancel")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from typing import Annotated, Any, Literal, get_args
 
 from pydantic import Field
@@ -9,7 +10,8 @@ from pydantic import Field
 from backend.control.ai import AiTool, Choice
 from backend.control.base import BaseCommand, BlockCommand, CommandContext, Target
 from backend.control.errors import CommandError
-from backend.control.targets import declares_input, set_inputs
+from backend.control.session_view import CommandSession
+from backend.control.targets import blocks_of, declares_input, set_inputs, tell
 from backend.engine.blocks.base import Block
 
 Vec3 = tuple[float, float, float]
@@ -56,6 +58,7 @@ class GoPosture(BlockCommand):
             "easing": (_easings, "the easing curves"),
         },
         order=20,
+        idempotent=True,
     )
     type: Literal["go_posture"] = "go_posture"
     posture: str = Field(..., min_length=1, max_length=80, description="name of a posture of the robot")
@@ -75,15 +78,19 @@ class GoPosture(BlockCommand):
 
 
 class SetGaze(BaseCommand):
-    """Look at a point (m, robot base frame): sets the program's `gaze_target` input."""
+    """Look at a point (m, robot base frame): sets the program's `gaze_target` input. A long action: it
+    answers whether the point is within the gaze's reach (and if not, where the gaze stops), and
+    completes when the gaze has arrived, or stopped at its limit (`reached` says which)."""
 
-    acts_on = Target(role="input", what="gaze_target input")
+    acts_on = Target(blocks=("gaze",), role="input", what="gaze_target input")
+    long_action = True
     ai_tool = AiTool(
         "look_at",
         "Look at a point in space (the gaze follows it smoothly, head first, body after).",
         available=lambda live: live.input("gaze_target") is not None,
         notes=_gaze_notes,
         order=30,
+        idempotent=True,
     )
     type: Literal["set_gaze"] = "set_gaze"
     target: GazePoint = Field(
@@ -95,4 +102,17 @@ class SetGaze(BaseCommand):
     def run(self, ctx: CommandContext) -> Any:
         if not declares_input(ctx.session, "gaze_target"):
             raise CommandError("the running program declares no 'gaze_target' input", code="no_target")
-        return set_inputs(ctx.session, {"gaze_target": list(self.target)})
+        result = set_inputs(ctx.session, {"gaze_target": list(self.target)})
+        gazes = blocks_of(ctx.session, self.acts_on.blocks)
+        if not gazes:  # no gaze block follows the input: nothing moves that could be waited for
+            return {**result, "done": True}
+        block: Any = gazes[0]  # a Gaze block (blocks_of types them as Block)
+        reach = ctx.session.engine.call(lambda: block.reach(self.target))
+        tell(ctx.session, block, "watch", {"command_id": ctx.command_id})
+        return {**result, **reach}
+
+    @classmethod
+    def cancel(cls, session: CommandSession, command_id: str) -> None:
+        for block in blocks_of(session, ("gaze",)):
+            with contextlib.suppress(Exception):  # a block that cannot stop: reported cancelled regardless
+                session.engine.call(lambda b=block: b.handle("unwatch", {"command_id": command_id}))

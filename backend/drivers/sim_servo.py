@@ -85,6 +85,7 @@ class SimulatedServos(Sink[AnimationFrame]):
         self.max_jerk = np.zeros(self.idx.size)
         self._sq_jerk = np.zeros(self.idx.size)
         self._last_t: float | None = None
+        self._commanded: np.ndarray | None = None  # the last frame's targets (DoF units)
         self._idx64 = self.idx.astype(np.int64)
         #: Step with the compiled kernel (False: the numpy reference, `consume_reference`).
         self.compiled = default_compiled()
@@ -100,6 +101,7 @@ class SimulatedServos(Sink[AnimationFrame]):
         # Integrate over the real time since the last frame this servo saw (frames may be dropped).
         dt = frame.dt if self._last_t is None else frame.t - self._last_t
         self._last_t = frame.t
+        self._commanded = frame.position[self.idx]  # a new array (fancy indexing): safe to keep
         if dt <= 0:
             return
         if (
@@ -150,6 +152,27 @@ class SimulatedServos(Sink[AnimationFrame]):
             self.max_error = np.maximum(self.max_error, err)
             self._sq_error += err**2
             self.samples += 1
+
+    def measured(self) -> dict[str, dict[str, float | bool | None]]:
+        """Per DoF where the servo is now: {commanded, measured, error (DoF units), effort (None: a
+        simulated servo has no torque), saturated (moving at its velocity limit)}. The shape every
+        driver that reads its motors reports (get_status `measured`)."""
+        with self._lock:
+            commanded = self._commanded
+            if commanded is None:
+                return {}
+            q, v = self.q.copy(), self.v.copy()
+        saturated = np.abs(v) >= self.vmax * (1 - 1e-9)
+        return {
+            self.emb.channel_names[c]: {
+                "commanded": round(float(commanded[k]), 6),
+                "measured": round(float(q[k]), 6),
+                "error": round(float(commanded[k] - q[k]), 6),
+                "effort": None,
+                "saturated": bool(saturated[k]),
+            }
+            for k, c in enumerate(self.idx)
+        }
 
     def report(self) -> dict[str, dict[str, float]]:
         """Per DoF: max and RMS tracking error (DoF units) and max jerk of the servo (units/s³)."""

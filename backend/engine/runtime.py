@@ -106,6 +106,7 @@ class Engine:
         self._sinks: list[Sink] = []
         self._sinks_lock = threading.Lock()
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
+        self._observers: list[Callable[[AnimationFrame], None]] = []  # see add_frame_observer
         self._pos = embodiment.rest.copy()
         self._vel = np.zeros(embodiment.n_channels)
         self._acc = np.zeros(embodiment.n_channels)
@@ -264,6 +265,10 @@ class Engine:
         """Receive block notifications (clip started/completed, …) from the clock thread; keep it quick."""
         self._listeners.append(fn)
 
+    def add_frame_observer(self, fn: Callable[[AnimationFrame], None]) -> None:
+        """Call `fn(frame)` on the clock thread after every frame's notes; it must be quick and not raise."""
+        self._observers.append(fn)
+
     # --- sinks ----------------------------------------------------------------------------------
     def add_sink(self, sink: Sink) -> Sink:
         with self._sinks_lock:
@@ -359,6 +364,8 @@ class Engine:
                 notes, self.ctx.events = self.ctx.events, []
                 for note in notes:
                     self._notify(note)
+            for fn in self._observers:
+                fn(frame)
             for sink in self._sinks:
                 sink.offer(frame)
             self.tick_cost.add(time.perf_counter() - t0)

@@ -10,7 +10,9 @@ from __future__ import annotations
 from typing import Any
 
 from backend.mcp_bridge.remote import Remote
+from backend.mcp_bridge.resources import updated_by
 from backend.mcp_bridge.server import create_server, initialization_options
+from backend.mcp_bridge.token import TokenGuard
 
 MCP_PATH = "/mcp"  # where the streamable HTTP transport answers
 CHANGE_EVENTS = ("tools_changed", "reconnected")  # /ws/control events after which the tools may differ
@@ -26,6 +28,7 @@ async def run(remote: Remote, http: int | None = None, host: str = "127.0.0.1") 
     async def on_event(message: dict[str, Any]) -> None:
         if message.get("event") in CHANGE_EVENTS:
             await announcer.tools_changed()
+        await announcer.resources_updated(updated_by(message))
 
     try:
         async with anyio.create_task_group() as tg:
@@ -39,6 +42,8 @@ async def run(remote: Remote, http: int | None = None, host: str = "127.0.0.1") 
                 import uvicorn  # only with --http
 
                 app = server.streamable_http_app(streamable_http_path=MCP_PATH, host=host)
+                if remote.token:  # the robot's token guards its MCP endpoint too
+                    app = TokenGuard(app, remote.token)
                 # log_config=None: uvicorn's records go through the root logger, to stderr at the level
                 # `nutty mcp --log-level` set (backend/logs.py), never to stdout
                 config = uvicorn.Config(app, host=host, port=http, log_config=None)

@@ -4,8 +4,11 @@ Nothing here is written per tool: `tools/list` is GET /api/tools (generated from
 and the running robot, program and library) and `tools/call` is POST /api/tools/{name}, so the tools,
 their enums and their validation are the server's. A tool call's result says what happened (the
 command's id and status, and with `wait` how it ended) as text and as structured content; a refusal
-is a tool error naming the field, never a protocol error. Resources: the robot's embodiment, the
-running program, the clip/posture library and the robot's status.
+is a tool error naming the field, never a protocol error. Each tool carries MCP annotations chosen by
+its declaration (GET /api/tools?format=mcp). A waited long action called with a progress token
+reports its progress (backend/mcp_bridge/progress.py). Resources (the robot's embodiment, the running
+program, the clip/posture library and the robot's status) can be subscribed to, and the prompt
+`robot_brief` describes the robot (backend/mcp_bridge/resources.py).
 
 When the server announces `tools_changed` on /ws/control (a clip saved, a program loaded), every
 connected client is told the tool list changed: handshake-era clients by
@@ -20,10 +23,12 @@ from typing import Any
 
 import mcp_types as types
 from mcp.server.lowlevel import NotificationOptions, Server
-from mcp.server.subscriptions import InMemorySubscriptionBus, ListenHandler, ToolsListChanged
+from mcp.server.subscriptions import InMemorySubscriptionBus, ListenHandler, ResourceUpdated, ToolsListChanged
 from mcp_types.version import MODERN_PROTOCOL_VERSIONS
 
 from backend import __version__
+from backend.mcp_bridge import resources
+from backend.mcp_bridge.progress import call_with_progress
 from backend.mcp_bridge.remote import Remote
 
 log = logging.getLogger(__name__)
@@ -34,40 +39,13 @@ itself: play_clip and set_posture offer exactly the moves it has, each described
 with an `id`: pass `wait: true` to answer when they end, poll with get_status(id), or stop them with cancel. \
 Several clips on one layer: choose if_busy (replace, queue or reject). The robot's safety limits always hold."""
 
-RESOURCES = (  # uri, name, description, server path (None: from the tools' library section)
-    (
-        "nutty://robot",
-        "robot",
-        "The robot's embodiment: DoFs with units, limits and descriptions, postures.",
-        "/api/robot",
-    ),
-    (
-        "nutty://program",
-        "program",
-        "The running Animation Program: blocks, wires, exposed inputs, level.",
-        "/api/program",
-    ),
-    (
-        "nutty://library",
-        "library",
-        "The robot's clips (description, duration in s) and postures (description).",
-        None,
-    ),
-    (
-        "nutty://status",
-        "status",
-        "What the robot is doing now: per-layer playback, posture move, gaze, mood, "
-        "layer weights and the engine's health.",
-        "/api/tools/get_status",
-    ),
-)
-
 
 class Announcer:
     """Tells every connected MCP client that the tool list changed."""
 
     def __init__(self) -> None:
         self.bus = InMemorySubscriptionBus()  # 2026-era clients: subscriptions/listen streams
+        self.subscribers = resources.Subscribers()  # handshake-era resource subscriptions
         self._sessions: dict[
             int, tuple[Any, Any]
         ] = {}  # handshake-era: id(client params) -> (params, session)
@@ -81,6 +59,11 @@ class Announcer:
         while len(self._sessions) > MAX_SESSIONS:
             self._sessions.pop(next(iter(self._sessions)))
 
+    async def resources_updated(self, uris: tuple[str, ...]) -> None:
+        for uri in uris:
+            await self.bus.publish(ResourceUpdated(uri=uri))
+            await self.subscribers.notify(uri)
+
     async def tools_changed(self) -> None:
         await self.bus.publish(ToolsListChanged())
         for key, (_, session) in list(self._sessions.items()):
@@ -91,30 +74,30 @@ class Announcer:
                 self._sessions.pop(key, None)
 
 
-def create_server(remote: Remote) -> tuple[Server, Announcer]:
-    """The MCP server for `remote`, and its Announcer (feed it the server's `tools_changed` events)."""
-    announcer = Announcer()
+def _tool_handlers(remote: Remote, announcer: Announcer) -> dict[str, Any]:
+    """tools/list and tools/call, answered by the Nutty server."""
 
     async def list_tools(ctx: Any, params: Any) -> types.ListToolsResult:
         announcer.remember(ctx.session)
-        answer = await remote.tools()
+        answer = await remote.request("GET", "/api/tools", params={"format": "mcp"})
         if not answer.ok:
             raise RuntimeError(_error_text(answer))
-        return types.ListToolsResult(
-            tools=[
-                types.Tool(
-                    name=t["name"],
-                    description=t["description"],
-                    input_schema=t["parameters"],
-                    annotations=types.ToolAnnotations(read_only_hint=t["command"] is None),
-                )
-                for t in answer.body["tools"]
-            ]
-        )
+        return types.ListToolsResult(tools=[types.Tool.model_validate(t) for t in answer.body])
 
     async def call_tool(ctx: Any, params: types.CallToolRequestParams) -> types.CallToolResult:
         announcer.remember(ctx.session)
-        answer = await remote.call(params.name, params.arguments or {})
+        arguments = params.arguments or {}
+        token = _progress_token(ctx)
+        if token is not None and arguments.get("wait") is True:
+
+            async def report(fraction: float, message: str) -> None:
+                await ctx.session.send_progress_notification(
+                    token, fraction, 1.0, message, related_request_id=ctx.request_id
+                )
+
+            answer = await call_with_progress(remote, params.name, arguments, report)
+        else:
+            answer = await remote.call(params.name, arguments)
         if not answer.ok:
             return types.CallToolResult(
                 content=[types.TextContent(text=_error_text(answer))],
@@ -125,45 +108,78 @@ def create_server(remote: Remote) -> tuple[Server, Announcer]:
             content=[types.TextContent(text=summary(answer.body))], structured_content=answer.body
         )
 
+    return {"on_list_tools": list_tools, "on_call_tool": call_tool}
+
+
+def _resource_handlers(remote: Remote, announcer: Announcer) -> dict[str, Any]:
+    """Resources (read, subscribe) and the robot_brief prompt (backend/mcp_bridge/resources.py)."""
+
     async def list_resources(ctx: Any, params: Any) -> types.ListResourcesResult:
         return types.ListResourcesResult(
             resources=[
                 types.Resource(uri=uri, name=name, description=text, mime_type="application/json")
-                for uri, name, text, _ in RESOURCES
+                for uri, name, text, _ in resources.RESOURCES
             ]
         )
 
     async def read_resource(ctx: Any, params: types.ReadResourceRequestParams) -> types.ReadResourceResult:
-        entry = next((r for r in RESOURCES if r[0] == str(params.uri)), None)
-        if entry is None:
-            raise ValueError(f"unknown resource {params.uri} (resources: {[r[0] for r in RESOURCES]})")
-        path = entry[3]
-        answer = await (
-            remote.request("POST", path, json={})
-            if path and path.startswith("/api/tools/")
-            else remote.request("GET", path or "/api/tools")
-        )
-        if not answer.ok:
-            raise RuntimeError(_error_text(answer))
-        body = answer.body["library"] if path is None else answer.body
+        body = await resources.read(remote, str(params.uri))
         return types.ReadResourceResult(
             contents=[
                 types.TextResourceContents(
-                    uri=entry[0], mime_type="application/json", text=json.dumps(body, indent=1)
+                    uri=str(params.uri), mime_type="application/json", text=json.dumps(body, indent=1)
                 )
             ]
         )
 
+    async def subscribe(ctx: Any, params: Any) -> types.EmptyResult:
+        uri = str(params.uri)
+        if uri not in {r[0] for r in resources.RESOURCES}:
+            raise ValueError(f"unknown resource {uri}")
+        announcer.subscribers.add(uri, ctx.session)
+        return types.EmptyResult()
+
+    async def unsubscribe(ctx: Any, params: Any) -> types.EmptyResult:
+        announcer.subscribers.remove(str(params.uri), ctx.session)
+        return types.EmptyResult()
+
+    async def list_prompts(ctx: Any, params: Any) -> types.ListPromptsResult:
+        return types.ListPromptsResult(
+            prompts=[types.Prompt(name=resources.PROMPT, description=resources.PROMPT_DESCRIPTION)]
+        )
+
+    async def get_prompt(ctx: Any, params: types.GetPromptRequestParams) -> types.GetPromptResult:
+        if params.name != resources.PROMPT:
+            raise ValueError(f"unknown prompt {params.name!r} (prompts: ['{resources.PROMPT}'])")
+        robot = await resources.read(remote, resources.ROBOT)
+        library = await resources.read(remote, resources.LIBRARY)
+        text = resources.brief(robot, library)
+        return types.GetPromptResult(
+            description=resources.PROMPT_DESCRIPTION,
+            messages=[types.PromptMessage(role="user", content=types.TextContent(text=text))],
+        )
+
+    return {
+        "on_list_resources": list_resources,
+        "on_read_resource": read_resource,
+        "on_subscribe_resource": subscribe,
+        "on_unsubscribe_resource": unsubscribe,
+        "on_list_prompts": list_prompts,
+        "on_get_prompt": get_prompt,
+    }
+
+
+def create_server(remote: Remote) -> tuple[Server, Announcer]:
+    """The MCP server for `remote`, and its Announcer (feed it the server's `tools_changed` events)."""
+    announcer = Announcer()
     server = Server(
         "nutty",
         version=__version__,
         title="Nutty robot",
         instructions=INSTRUCTIONS,
-        on_list_tools=list_tools,
-        on_call_tool=call_tool,
-        on_list_resources=list_resources,
-        on_read_resource=read_resource,
         on_subscriptions_listen=ListenHandler(announcer.bus),
+        **_tool_handlers(remote, announcer),
+        **_resource_handlers(remote, announcer),
     )
     return server, announcer
 
@@ -173,10 +189,18 @@ def initialization_options(server: Server) -> Any:
     return server.create_initialization_options(NotificationOptions(tools_changed=True))
 
 
+def _progress_token(ctx: Any) -> Any:
+    """The caller's progress token for this request, None when it asked for no progress."""
+    meta = getattr(ctx, "meta", None) or {}
+    return meta.get("progress_token", meta.get("progressToken")) if isinstance(meta, dict) else None
+
+
 def summary(body: dict[str, Any]) -> str:
     """One line saying what a tool call did, then its JSON (for a model reading text only)."""
     if body.get("tool") == "get_status":
         head = "status of the robot"
+    elif body.get("tool") == "get_frame":
+        head = f"the robot's last frame (t {body.get('t')} s)"
     else:
         status = body.get("status")
         head = f"{body.get('tool')}: {status} (command {body.get('command')}, id {body.get('id')})"

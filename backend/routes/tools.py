@@ -32,14 +32,27 @@ router = APIRouter(prefix="/api", route_class=SafeJsonRoute, tags=["tools"])
 )
 async def get_tools(
     hub: HubDep,
-    format: Literal["plain", "openai", "anthropic"] = Query(
+    format: Literal["plain", "openai", "anthropic", "gemini", "mcp"] = Query(
         "plain",
-        description="plain (nutty-tools/1), openai (Chat Completions `tools`) or anthropic (Messages `tools`)",
+        description="plain (nutty-tools/1), openai (function tools), anthropic (Messages `tools`), "
+        "gemini (a `tools` entry of function declarations) or mcp (MCP's `tools/list` tools)",
+    ),
+    strict: bool = Query(
+        False,
+        description="openai only: OpenAI's strict function calling (closed objects, every property "
+        "required, null for an argument not given)",
+    ),
+    api: Literal["chat", "responses", "realtime"] = Query(
+        "chat",
+        description="openai only: the tool shape of Chat Completions, the Responses or the Realtime API",
     ),
 ) -> Any:
     toolset = await asyncio.to_thread(build_tools, hub.session)
     hub.tools_revision = hub.tools_revision or toolset.revision  # what clients now know
-    return render(toolset, format)
+    try:
+        return render(toolset, format, strict=strict, api=api)
+    except ValueError as exc:
+        raise api_error(422, "invalid_query", str(exc), field="strict" if strict else "api") from exc
 
 
 @router.post(

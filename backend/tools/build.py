@@ -13,6 +13,7 @@ from typing import Any
 
 from backend.control.base import BlockCommand
 from backend.control.session_view import CommandSession
+from backend.tools.idempotency import REQUEST_ID_SCHEMA
 from backend.tools.live import Live, read_live
 from backend.tools.schema import model_arguments, with_choices
 from backend.tools.table import ToolSpec, WaitOptions, tool_specs
@@ -88,6 +89,7 @@ def _tool(spec: ToolSpec, live: Live) -> Tool:
     if long_action:
         wait = model_arguments(WaitOptions)
         props.update(wait["properties"])
+    props["request_id"] = dict(REQUEST_ID_SCHEMA)
     parts = [spec.summary, spec.notes(live) if spec.notes else "", WAITING if long_action else ""]
     description = " ".join(p for p in parts if p)
     command_type = command.model_fields["type"].default if command is not None else None

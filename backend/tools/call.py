@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import weakref
 from collections.abc import Iterator
 from typing import Any
 
@@ -19,11 +20,15 @@ from pydantic import BaseModel, ValidationError
 from backend.control.ai import ToolArgumentError
 from backend.hub import TERMINAL, Hub
 from backend.tools.build import Tool, build_tools
+from backend.tools.dialect_schemas import drop_nulls
 from backend.tools.errors import ToolError
+from backend.tools.idempotency import RequestLedger
+from backend.tools.observe import frame_summary
 from backend.tools.status import robot_status
-from backend.tools.table import StatusArguments, WaitOptions
+from backend.tools.table import FrameArguments, StatusArguments, WaitOptions
 
 OPEN = ("accepted", "queued", "started")  # a command that has not ended yet
+_LEDGERS: weakref.WeakKeyDictionary[Hub, RequestLedger] = weakref.WeakKeyDictionary()  # one per server
 
 
 async def call_tool(hub: Hub, name: str, arguments: Any) -> dict[str, Any]:
@@ -41,9 +46,51 @@ async def call_tool(hub: Hub, name: str, arguments: Any) -> dict[str, Any]:
         )
     if not isinstance(arguments, dict):
         raise ToolError("a tool's arguments are a JSON object", code="invalid_arguments")
+    arguments = drop_nulls(arguments, tool.parameters)  # strict dialects send null for "not given"
+    request_id = _request_id(arguments.pop("request_id", None))
     check_choices(tool, arguments)
-    if tool.command is None:
+    if tool.command is None:  # a read is always fresh: its request id is not replayed
+        if tool.name == "get_frame":
+            _validated(FrameArguments, arguments)
+            frame = await asyncio.to_thread(frame_summary, hub.session, hub.session.engine.last_frame)
+            return {"tool": "get_frame", **frame}
         return await _status(hub, _validated(StatusArguments, arguments))
+    if request_id is None:
+        return await _act(hub, tool, arguments, None)
+    ledger = _LEDGERS.setdefault(hub, RequestLedger())
+    what = {k: v for k, v in arguments.items() if k not in ("wait", "timeout")}  # a retry may wait otherwise
+    answer, replayed = await ledger.once(
+        request_id, name, what, lambda: _act(hub, tool, arguments, request_id)
+    )
+    return await _replay(hub, answer, arguments) if replayed else answer
+
+
+async def _replay(hub: Hub, answer: dict[str, Any], arguments: dict[str, Any]) -> dict[str, Any]:
+    """A repeated call's answer: the first one, with the action's status as it is now (waited for, when
+    the repeat asks to wait and the action still runs)."""
+    waiting = _validated(WaitOptions, {k: arguments[k] for k in ("wait", "timeout") if k in arguments})
+    entry, timed_out = hub.commands.get(answer["id"]), False
+    if waiting.wait and entry is not None and entry["status"] in OPEN:
+        with listening(hub) as events:
+            entry, timed_out = await wait_until_ended(hub, events, answer["id"], waiting.timeout)
+    return {
+        **answer,
+        "status": entry["status"] if entry else answer["status"],
+        "waited": answer["waited"] or waiting.wait,
+        "timed_out": timed_out,
+        "replayed": True,
+        "outcome": entry.get("outcome") if entry else answer.get("outcome"),
+    }
+
+
+def _request_id(value: Any) -> str | None:
+    if value is None or (isinstance(value, str) and 1 <= len(value) <= 128):
+        return value
+    raise ToolError("request_id: a string of 1 to 128 characters (e.g. a UUID)", field="request_id")
+
+
+async def _act(hub: Hub, tool: Tool, arguments: dict[str, Any], request_id: str | None) -> dict[str, Any]:
+    """Send the tool's command and, when asked, wait for the action to end; the call's answer."""
     args = dict(arguments)
     waiting = WaitOptions()
     if tool.long_action:
@@ -55,13 +102,16 @@ async def call_tool(hub: Hub, name: str, arguments: Any) -> dict[str, Any]:
         if waiting.wait and ack["status"] in OPEN:
             entry, timed_out = await wait_until_ended(hub, events, ack["id"], waiting.timeout)
     return {
-        "tool": name,
+        "tool": tool.name,
         "command": command["type"],
         "id": ack["id"],
         "status": entry["status"] if entry else ack["status"],
         "result": ack["result"],
         "waited": waiting.wait and ack["status"] in OPEN,
         "timed_out": timed_out,
+        "request_id": request_id,
+        "replayed": False,
+        "outcome": entry.get("outcome") if entry else None,
     }
 
 

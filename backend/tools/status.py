@@ -1,5 +1,6 @@
 """What the robot is doing, for an AI's get_status: per layer what plays (clip, command id, progress),
-the posture move, where it looks, its mood and inputs, the layers' weights and the engine's health.
+the posture move, where it is asked to look and where it looks now, its mood and inputs, the layers'
+weights, what the drivers measure at the motors (when one reads them) and the engine's health.
 
 Built from public state only (ClipPlayer.playing, Posture.move_status, LayerMixer.layer_states, the
 exposed inputs, Engine.stats), read in one clock-thread call so it describes one moment.
@@ -14,6 +15,7 @@ from backend.control.session_view import CommandSession
 from backend.control.targets import blocks_of, layer_members, layers_of, mixers
 from backend.engine.blocks.clip_player import ClipPlayer
 from backend.engine.blocks.posture import Posture as PostureBlock
+from backend.tools.observe import gaze_now, measured
 
 GAZE_FRAME = "m, robot base frame: x forward, y left, z up"
 
@@ -21,7 +23,7 @@ GAZE_FRAME = "m, robot base frame: x forward, y left, z up"
 def robot_status(session: CommandSession) -> dict[str, Any]:
     """The status document (JSON) of `session`, an EngineSession."""
 
-    def read() -> tuple[list, list, dict, dict]:
+    def read() -> tuple[list, list, dict, dict, dict | None]:
         members = layer_members(session)
         players = [
             {
@@ -49,9 +51,11 @@ def robot_status(session: CommandSession) -> dict[str, Any]:
             ]
             for m in mixers(session)
         }
-        return players, moves, layers, dict(session.engine.ctx.inputs)
+        inputs = dict(session.engine.ctx.inputs)
+        looking = gaze_now(session, session.engine.last_frame, inputs.get("gaze_target"))
+        return players, moves, layers, inputs, looking
 
-    players, moves, layers, inputs = session.engine.call(read)
+    players, moves, layers, inputs, looking = session.engine.call(read)
     inputs = {name: _json(v) for name, v in inputs.items()}
     program = session.program
     declared = {i.name for i in program.inputs} if program is not None else set()
@@ -60,9 +64,10 @@ def robot_status(session: CommandSession) -> dict[str, Any]:
         "program": program.name if program is not None else None,
         "playing": players,
         "posture": moves,
-        "gaze": {"target": inputs.get("gaze_target"), "units": GAZE_FRAME}
+        "gaze": {"target": inputs.get("gaze_target"), **(looking or {}), "units": GAZE_FRAME}
         if "gaze_target" in declared
         else None,
+        "measured": measured(session),
         "mood": {n: inputs[n] for n in ("valence", "arousal") if n in declared and n in inputs} or None,
         "inputs": inputs,
         "layers": layers,

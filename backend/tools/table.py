@@ -53,6 +53,12 @@ class StatusArguments(WaitOptions):
     )
 
 
+class FrameArguments(BaseModel):
+    """get_frame takes no arguments (a request id at most, which a read does not replay)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
 @dataclass(frozen=True)
 class ToolSpec:
     """One tool: its name, the command it sends (`command`, whose fields are its arguments unless
@@ -72,6 +78,8 @@ class ToolSpec:
     shape: Callable[[Live, dict[str, Any]], None] | None = None
     route: Callable[[dict[str, Any]], dict[str, Any]] | None = None
     order: float = 500.0
+    idempotent: bool = False
+    destructive: bool = False
 
     @property
     def model(self) -> type:
@@ -93,6 +101,8 @@ class ToolSpec:
             decl.shape,
             decl.route,
             decl.order,
+            decl.idempotent,
+            decl.destructive,
         )
 
 
@@ -106,6 +116,18 @@ EXTRA_TOOLS: tuple[ToolSpec, ...] = (
         None,
         always,
         order=920,
+        idempotent=True,
+    ),
+    ToolSpec(
+        "get_frame",
+        "The last Animation Frame the robot got, compactly: every DoF's value (rad or m; display "
+        "DoFs by option or colour), the joints the motors get (rad) and the DoFs the safety net "
+        "corrected on it. Where the robot is now, not what was asked.",
+        None,
+        always,
+        fields=FrameArguments,
+        order=925,
+        idempotent=True,
     ),
 )
 

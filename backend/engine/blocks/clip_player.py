@@ -443,7 +443,13 @@ class ClipPlayer(Source[ClipPlayerParams]):
             if s.pos >= duration:
                 s.pos = duration
                 events = self._events_between(clip, before, duration)
-                self.ctx.notify(self.node_id, "completed", command_id=s.command_id, clip=clip.name)
+                self.ctx.notify(
+                    self.node_id,
+                    "completed",
+                    command_id=s.command_id,
+                    clip=clip.name,
+                    _channels=tuple(np.flatnonzero(clip.mask).tolist()),  # what the clip moved (action watch)
+                )
                 if self.params.hold:
                     s.done = True
                 else:

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from backend.engine.blocks import gaze_reach
 from backend.engine.blocks.base import (
     FRAME_OUT,
     BlockParams,
@@ -238,6 +239,39 @@ class Gaze(Source[GazeParams]):
 
     def reset(self) -> None:
         self.state = self.State(x=np.zeros(len(self.names)))
+        self._end_watch("cancelled", reached=False)
+
+    # --- look_at: reach and the end of the move ------------------------------------------------------
+    def reach(self, target: Any) -> dict[str, Any]:
+        """Whether the gaze can face `target` (m, base frame), and where it stops if not (gaze_reach)."""
+        return gaze_reach.reach(self, target)
+
+    def handle(self, command: str, args: dict[str, Any]) -> Any:
+        if command == "watch":  # a look_at: report its end (a newer one replaces it)
+            self._end_watch("cancelled", reached=False, replaced=True)
+            self._watch = gaze_reach.GazeWatch(str(args.get("command_id")))
+            self.ctx.notify(self.node_id, "started", command_id=self._watch.command_id)
+            return {"watching": True}
+        if command == "unwatch":  # its command was cancelled (the hub reports that)
+            watch = getattr(self, "_watch", None)
+            if watch is not None and watch.command_id == args.get("command_id"):
+                self._watch = None
+            return {"stopped": True}
+        if command == "stop":  # stop_all, reset: the look_at in progress ends as cancelled
+            self._end_watch("cancelled", reached=False)
+            return {"stopped": True}
+        return super().handle(command, args)
+
+    def _end_watch(self, event: str, **details: Any) -> None:
+        watch = getattr(self, "_watch", None)
+        if watch is not None:
+            self._watch = None
+            self.ctx.notify(self.node_id, event, command_id=watch.command_id, **details)
+
+    def _follow_watch(self, on_target: bool, x_old: np.ndarray, x: np.ndarray) -> None:
+        watch = getattr(self, "_watch", None)
+        if watch is not None and watch.done(on_target, float(np.abs(x - x_old).max(initial=0.0))):
+            self._end_watch("completed", reached=on_target, _channels=tuple(self.idx.tolist()))
 
     # --- run time -----------------------------------------------------------------------------------
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
@@ -249,7 +283,8 @@ class Gaze(Source[GazeParams]):
             dip[0] = s.dip
             x = s.x.copy()  # a new array each tick, as below (an adopted state never shares it)
             on_target = self._kernel(x, dip, out, target, float(strength), float(dt), *self._kernel_args)
-            s.x, s.dip = x, float(dip[0])
+            x_old, s.x, s.dip = s.x, x, float(dip[0])
+            self._follow_watch(bool(on_target), x_old, x)
             return {"out": PartialFrame(out, self.mask, []), "on_target": bool(on_target)}
         # Where the eyes are and look now (the gaze pose without the arc dip, other joints at rest).
         values = emb.rest.copy()
@@ -293,6 +328,7 @@ class Gaze(Source[GazeParams]):
         out[self.idx] += np.clip(strength * rel, self.lo, self.hi)
         mask = np.zeros(emb.n_channels, dtype=bool)
         mask[self.idx] = True
+        self._follow_watch(on_target, x_old, x)
         return {"out": PartialFrame(out, mask, []), "on_target": on_target}
 
     def _limit(self, old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:

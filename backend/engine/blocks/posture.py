@@ -166,6 +166,12 @@ class Posture(Source[PostureParams]):
             s.current = np.where(self.emb.enum_mask, np.where(u >= 0.5, s.target, s.start), cont)
             if u >= 1.0:
                 s.current = s.target.copy()
-                self.ctx.notify(self.node_id, "completed", command_id=s.command_id, posture=s.move["posture"])
+                self.ctx.notify(
+                    self.node_id,
+                    "completed",
+                    command_id=s.command_id,
+                    posture=s.move["posture"],
+                    _channels=tuple(np.flatnonzero(s.mask).tolist()),  # what the move moved (action watch)
+                )
                 s.move = None
         return {"out": PartialFrame(s.current.copy(), s.mask, []), "moving": s.move is not None}
