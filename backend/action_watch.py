@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,17 +39,18 @@ SETTLE_TICKS = 5  # consecutive ticks within SETTLE_SPEED
 SETTLE_MAX = 2.0  # s: a completion is never held longer
 
 
-@dataclass
 class _Tally:
-    ticks: int = 0
-    per_dof: dict[int, list[float]] = field(default_factory=dict)  # channel -> [ticks, max correction]
+    """One action's corrections, per channel (structure of arrays: a corrected tick is two vector ops)."""
+
+    def __init__(self, n_channels: int):
+        self.ticks = 0
+        self.per_channel = np.zeros(n_channels, dtype=np.int64)  # ticks corrected
+        self.largest = np.zeros(n_channels)  # largest |requested - delivered| (rad or m)
 
     def add(self, channels: np.ndarray, sizes: np.ndarray) -> None:
         self.ticks += 1
-        for c, size in zip(channels.tolist(), sizes.tolist()):
-            entry = self.per_dof.setdefault(c, [0, 0.0])
-            entry[0] += 1
-            entry[1] = max(entry[1], size)
+        self.per_channel[channels] += 1  # `channels` holds each channel once (np.flatnonzero)
+        self.largest[channels] = np.maximum(self.largest[channels], sizes)
 
 
 @dataclass
@@ -68,6 +69,7 @@ class ActionWatch:
         self._release = release
         self._channel_dof = [embodiment.dofs[i].name for i in embodiment.dof_of_channel.tolist()]
         self._continuous = np.asarray(embodiment.continuous_mask, dtype=bool)
+        self._n = embodiment.n_channels
         self._lock = threading.Lock()
         self._open: dict[str, _Tally] = {}
         self._held: dict[str, _Held] = {}
@@ -76,7 +78,7 @@ class ActionWatch:
     # --- from the event path (any thread) ---------------------------------------------------------
     def opened(self, cid: str) -> None:
         with self._lock:
-            self._open.setdefault(cid, _Tally())
+            self._open.setdefault(cid, _Tally(self._n))
 
     def hold(self, cid: str, message: dict[str, Any]) -> None:
         """Keep a `completed` event until the motion has ended (see the module doc): the motion of the
@@ -85,7 +87,7 @@ class ActionWatch:
         channels = channels[self._continuous[channels]] if channels.size else channels
         with self._lock:
             if channels.size:
-                self._open.setdefault(cid, _Tally())
+                self._open.setdefault(cid, _Tally(self._n))
                 self._held[cid] = _Held(message, channels)
                 return
             tally = self._open.pop(cid, None)
@@ -151,8 +153,8 @@ class ActionWatch:
         if tally is None:
             return {"corrected_ticks": 0, "dofs": {}}
         dofs: dict[str, dict[str, Any]] = {}
-        for c, (ticks, size) in sorted(tally.per_dof.items()):
-            name = self._channel_dof[c]
+        for c in np.flatnonzero(tally.per_channel).tolist():  # once per action, when it ends
+            name, ticks, size = self._channel_dof[c], int(tally.per_channel[c]), float(tally.largest[c])
             entry = dofs.setdefault(name, {"ticks": 0, "max_correction": 0.0})
             entry["ticks"] = max(entry["ticks"], ticks)
             entry["max_correction"] = round(max(entry["max_correction"], size), 6)

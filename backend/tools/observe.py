@@ -15,7 +15,6 @@ import numpy as np
 
 from backend.control.session_view import CommandSession
 from backend.control.targets import blocks_of
-from backend.engine.embodiment import DofType
 from backend.engine.frames import AnimationFrame
 
 DEFAULT_DISTANCE = 1.0  # m: where the gaze point is drawn without a target
@@ -60,19 +59,16 @@ def frame_summary(session: CommandSession, frame: AnimationFrame | None) -> dict
     emb = session.embodiment
     if frame is None:
         return {"t": None, "seq": None, "dofs": {}, "joints": {}, "corrected": []}
-    position = frame.position.tolist()
+    full = frame.to_dict(emb, derivatives=False)  # the frame's own JSON form, flattened and rounded here
     dofs: dict[str, Any] = {}
-    for d in emb.dofs:
-        sl = d.channels
-        if d.type is DofType.continuous:
-            dofs[d.name] = round(position[sl.start], 4)
-        elif d.type is DofType.enum and d.options:
-            dofs[d.name] = d.options[min(max(round(position[sl.start]), 0), len(d.options) - 1)]
-        elif d.type is DofType.colour:
-            dofs[d.name] = [round(v, 3) for v in position[sl]]
-    joints = (
-        dict(zip(emb.joint_names, np.round(frame.joint_values(emb), 4).tolist())) if emb.joint_names else {}
-    )
+    for name, value in full["dofs"].items():
+        if "position" in value:
+            dofs[name] = round(value["position"], 4)
+        elif "option" in value:
+            dofs[name] = value["option"]
+        elif "rgb" in value:
+            dofs[name] = [round(v, 3) for v in value["rgb"]]
+    joints = {name: round(v, 4) for name, v in full.get("joints", {}).items()}
     corrected = (
         [emb.channel_names[i] for i in np.flatnonzero(frame.corrected)] if frame.corrected is not None else []
     )

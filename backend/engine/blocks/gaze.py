@@ -18,6 +18,7 @@ from backend.engine.blocks.base import (
     Source,
     drivable,
 )
+from backend.engine.blocks.gaze_reach import yaw_pitch
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_constants, gaze_tick
 from backend.engine.embodiment import Dimension, DofType
@@ -26,11 +27,6 @@ from backend.engine.kinematics import chain_for, joint_depths
 
 ARC_SMOOTHING = 0.08  # s, first-order smoothing of the arc dip (no jumps when a turn starts or stops)
 _GAIN_STEP = 1e-4  # rad, finite-difference step for each DoF's effect on the gaze direction
-
-
-def yaw_pitch(d: np.ndarray) -> tuple[float, float]:
-    """Yaw (left +, about z) and pitch (down +, about y) of a direction in the base frame (rad)."""
-    return math.atan2(d[1], d[0]), math.atan2(-d[2], math.hypot(d[0], d[1]))
 
 
 def _wrap(a: float) -> float:

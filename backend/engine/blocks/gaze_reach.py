@@ -25,6 +25,11 @@ STILL = 1e-5  # rad per tick: the gaze DoFs no longer move
 STILL_TICKS = 10
 
 
+def yaw_pitch(d: np.ndarray) -> tuple[float, float]:
+    """Yaw (left +, about z) and pitch (down +, about y) of a direction in the base frame (rad)."""
+    return math.atan2(d[1], d[0]), math.atan2(-d[2], math.hypot(d[0], d[1]))
+
+
 def _direction(yaw: float, pitch: float) -> np.ndarray:
     """Unit vector of a gaze direction (yaw left +, pitch down +) in the base frame."""
     return np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), -math.sin(pitch)])
@@ -40,8 +45,6 @@ def _nearest(angle: float, lo: float, hi: float, wraps: bool) -> float:
 
 def reach(block: Any, target: Any) -> dict[str, Any]:
     """See the module doc: {reachable, reason, clamped_to, yaw, pitch, yaw_range, pitch_range} (rad)."""
-    from backend.engine.blocks.gaze import yaw_pitch  # the gaze module imports this one
-
     emb = block.emb
     pose = block.chain.fk(block.chain.q_from_channels(emb.rest.copy()))
     eye = pose[:3, :3] @ block.eye_offset + pose[:3, 3]
