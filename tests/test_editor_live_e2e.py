@@ -18,6 +18,7 @@ import time
 
 import pytest
 from editor_browser import ARTIFACTS, BROWSER, editor_page, scratch_robot, wait_until
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from server_process import running_server
 
 COOK = re.compile(r"^\d+(\.\d)? (µs|ms)$")
@@ -91,17 +92,34 @@ def running_node(server, node):
 
 
 def select(page, node):
+    """Click a block's title so the parameter panel shows it. Fit animates the view: the title is
+    clicked once it stands still, and again if a busy machine let the click land before it did."""
     page.get_by_role("button", name="Fit").click()  # the whole program in view
-    time.sleep(0.2)
     header = page.get_by_test_id(f"node-{node}").locator(".block-header")
-    if page.evaluate(
-        "(el) => el.getBoundingClientRect().top < document.querySelector('.react-flow').getBoundingClientRect().top",
-        header.element_handle(),
-    ):
-        header.dispatch_event("click")  # a tall block framed from its middle: its title is above the canvas
-    else:
-        header.click()
-    page.get_by_test_id("param-panel").locator("h3").filter(has_text=node).wait_for()
+    shown = page.get_by_test_id("param-panel").locator("h3").filter(has_text=node)
+    for attempt in range(3):
+        box = None
+        for _ in range(50):  # until the title has not moved for 0.1 s (at most 5 s)
+            now = header.bounding_box()
+            if now is not None and now == box:
+                break
+            box = now
+            time.sleep(0.1)
+        if page.evaluate(
+            "(el) => el.getBoundingClientRect().top < document.querySelector('.react-flow').getBoundingClientRect().top",
+            header.element_handle(),
+        ):
+            header.dispatch_event(
+                "click"
+            )  # a tall block framed from its middle: its title is above the canvas
+        else:
+            header.click()
+        try:
+            shown.wait_for(timeout=5000 if attempt < 2 else 20000)
+            return
+        except PlaywrightTimeout:
+            if attempt == 2:
+                raise
 
 
 BREATH = "breathe.out->mix.idle"
