@@ -52,7 +52,7 @@ export function CurvePanel() {
   const counts = netCounts(samples, keys, from, to);
   const pause = () => { setPaused(paused ? null : snapshot(live)); setBack(0); };
   return (
-    <div className="curves" data-testid="curve-panel" ref={panel}>
+    <div className="curves" data-testid="curve-panel" data-span={span.toFixed(2)} ref={panel}>
       <CurveHead all={all} series={series} onSeries={setCurves} paused={!!paused} onPause={pause} />
       <div className="curve-legend" data-testid="curve-legend">
         <span data-testid="curve-frames">{counts.frames} frames</span>
