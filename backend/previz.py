@@ -63,6 +63,8 @@ CAMERA_MARGIN = 1.1
 MAX_RATE = 60.0
 CAPTION_SECONDS = 4.0
 GHOST_COLOUR = (0.45, 0.75, 1.0, 0.35)
+# The Pre-Viz background per editor theme: the editor's page background (--bg) in each (RGB, 0..255).
+THEME_BACKGROUNDS = {"dark": (20, 23, 28), "light": (243, 244, 246)}
 
 
 def _yaw_pitch_roll_to_wxyz(yaw: float, pitch: float, roll: float) -> tuple[float, float, float, float]:
@@ -206,6 +208,7 @@ class PreViz:
         self.base = self.server.scene.add_frame("/robot", show_axes=False)
         self.robot = ViserUrdf(self.server, urdf, root_node_name="/robot/body")
         ghost_urdf = yourdfpy.URDF.load(str(self.emb.urdf_path), build_scene_graph=True, load_meshes=True)
+        self.theme = "light"  # viser's own, until the editor says (set_theme)
         self.ghost_base = self.server.scene.add_frame("/ghost", show_axes=False)
         self.ghost = ViserUrdf(
             self.server, ghost_urdf, root_node_name="/ghost/body", mesh_color_override=GHOST_COLOUR
@@ -353,6 +356,14 @@ class PreViz:
     @property
     def ghost_visible(self) -> bool:
         return bool(self.ghost_base.visible)
+
+    def set_theme(self, theme: str) -> None:
+        """Light or dark panels and background, as the editor beside it (`THEME_BACKGROUNDS`)."""
+        colour = THEME_BACKGROUNDS[theme]
+        self.server.gui.configure_theme(dark_mode=theme == "dark")
+        # a solid image: viser's own background is white in either mode
+        self.server.scene.set_background_image(np.full((4, 4, 3), colour, dtype=np.uint8), format="png")
+        self.theme = theme
 
     @property
     def trusted_clients(self) -> frozenset[int]:

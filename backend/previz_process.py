@@ -8,7 +8,7 @@ minute with the Pre-Viz page open, a handful without. In a child process the ser
 sending two position vectors down a pipe per shown frame (tens of µs, on the Pre-Viz sink's thread).
 
 `PreVizProcess` (the server's side) offers what the server uses of `backend.previz.PreViz`: `port`,
-`proxy_secret`, `url`, `ghost_visible`, `set_ghost`, `frames_shown`, `shown`, `drag_gaze`,
+`proxy_secret`, `url`, `ghost_visible`, `set_ghost`, `set_theme`, `frames_shown`, `shown`, `drag_gaze`,
 `trusted_clients`, `start` and `stop`. The child runs a `PreViz` on a stand-in session (`_Remote`):
 the embodiment, and gaze drags sent back to the server, which sets the program's input.
 
@@ -121,7 +121,7 @@ def _child_main(
         log.debug("the Pre-Viz could not start", exc_info=True)  # the traceback stays here, for a bug report
         send(("error", f"{type(exc).__name__}: {exc}"))
         return
-    calls = {"shown": pv.shown, "set_ghost": pv.set_ghost, "move_gaze": pv.move_gaze}
+    calls = {"shown": pv.shown, "set_ghost": pv.set_ghost, "set_theme": pv.set_theme, "move_gaze": pv.move_gaze}
     send(("ready", pv.port))
     reported: tuple = ()
     reported_at = 0.0
@@ -300,6 +300,9 @@ class PreVizProcess:
     def set_ghost(self, visible: bool) -> None:
         self._call("set_ghost", bool(visible))
         self._ghost = bool(visible)
+
+    def set_theme(self, theme: str) -> None:
+        self._call("set_theme", theme)
 
     @property
     def trusted_clients(self) -> frozenset[int]:

@@ -18,7 +18,7 @@ from pydantic import ValidationError
 from backend import control
 from backend.engine.apu import MAX_LEVEL
 from backend.engine.blocks import BLOCKS
-from backend.engine.blocks.base import BlockContext
+from backend.engine.blocks.base import Block, BlockContext, BlockParams
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.library import RobotLibrary
@@ -55,6 +55,23 @@ class SessionError(DomainError):
             where = ".".join(x for x in (e.node, e.port) if x)
             lines.append(f"  [{e.code}] {where + ': ' if where else ''}{e.message}")
         return "\n".join(lines)
+
+
+def _validated_params(cls: type[Block], node_id: str, merged: dict[str, Any]) -> BlockParams:
+    """`merged` validated by the block's model, or the SessionError naming the field."""
+    try:
+        return cls.Params.from_json_value(merged)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        field = ".".join(str(x) for x in err["loc"])
+        code = "unknown_param" if err["type"] == "extra_forbidden" else "invalid_param"
+        raise SessionError(
+            f"node '{node_id}' parameter '{field}': {err['msg']}",
+            ValidationReport(
+                valid=False, errors=[Issue(code=code, node=node_id, port=field, message=err["msg"])]
+            ),
+            code=code,
+        ) from exc
 
 
 class EngineSession:
@@ -239,7 +256,8 @@ class EngineSession:
         cur = self.flat
         if cur is None or program is None or self.engine.apu is None:
             return False
-        if [(n.id, n.type) for n in cur.nodes] != [(n.id, n.type) for n in program.nodes]:
+        # a bypass switched on or off runs another class: structural
+        if [(n.id, n.type, n.bypass) for n in cur.nodes] != [(n.id, n.type, n.bypass) for n in program.nodes]:
             return False
         if sorted(e.key() for e in cur.edges) != sorted(e.key() for e in program.edges):
             return False
@@ -273,7 +291,9 @@ class EngineSession:
         """Change one node's parameters live, without rebuilding the program (slider drags).
 
         `params` may be partial; they are merged over the node's current parameters, validated with
-        the block's model and applied at a tick boundary. Raises SessionError naming the field.
+        the block's model and applied at a tick boundary. A node inside a subgraph (`idle/breathe`)
+        is its definition's node: every instance of that definition changes at the same tick, and the
+        program's definition keeps the new parameters. Raises SessionError naming the field.
         """
         with self._lock:
             if self.program is None or self.flat is None or self.engine.apu is None:
@@ -283,25 +303,11 @@ class EngineSession:
                 raise SessionError(f"the running program has no node '{node_id}'", code="unknown_node")
             cls = BLOCKS[node.type]
             merged = {**node.params, **params}
-            try:
-                p = cls.Params.from_json_value(merged)
-            except ValidationError as exc:
-                err = exc.errors()[0]
-                field = ".".join(str(x) for x in err["loc"])
-                code = "unknown_param" if err["type"] == "extra_forbidden" else "invalid_param"
-                raise SessionError(
-                    f"node '{node_id}' parameter '{field}': {err['msg']}",
-                    ValidationReport(
-                        valid=False, errors=[Issue(code=code, node=node_id, port=field, message=err["msg"])]
-                    ),
-                    code=code,
-                ) from exc
+            p = _validated_params(cls, node_id, merged)
             if cls.ports(p) != cls.ports(cls.Params.model_validate(node.params)):
                 # Ports changed (e.g. a layer added): that is a structural edit, so swap the program.
                 doc = self.program.model_copy(deep=True)
-                written = inner_definition_node(
-                    doc, node_id
-                )  # the node as written (in a subgraph: its definition)
+                written = inner_definition_node(doc, node_id)  # in a subgraph: its definition's node
                 if written is not None:
                     written.params = p.model_dump(mode="json")
                 self.load_program(doc.to_json_dict())
@@ -316,16 +322,28 @@ class EngineSession:
                     ),
                     code="block_config",
                 ) from exc
-            block = self.engine.apu.block(node_id)
-            self.engine.call(lambda: block.update_params(p))
-            node.params = merged  # as the author wrote them: defaults stay implicit
-            if (
-                "/" not in node_id
-                and (written := self.program.node(node_id)) is not None
-                and written is not node
-            ):
-                written.params = merged
-            return node.params
+            apu, flat = self.engine.apu, self.flat
+            blocks = [(apu.block(i), p.model_copy(deep=True)) for i in self._instances(node_id)]
+            self.engine.call(lambda: [block.update_params(own) for block, own in blocks])
+            for block, _ in blocks:
+                if (running := flat.node(block.node_id)) is not None:
+                    running.params = dict(merged)
+            if (written := inner_definition_node(self.program, node_id)) is not None:
+                written.params = dict(merged)  # as the author wrote them: defaults stay implicit
+            return merged
+
+    def _instances(self, node_id: str) -> list[str]:
+        """The flat ids that run the same written node as `node_id`: itself at the top level, every
+        instance of its subgraph definition's node inside one."""
+        if "/" not in node_id or self.program is None or self.flat is None:
+            return [node_id]
+        written = inner_definition_node(self.program, node_id)
+        same = [
+            n.id
+            for n in self.flat.nodes
+            if "/" in n.id and inner_definition_node(self.program, n.id) is written
+        ]
+        return same if written is not None and node_id in same else [node_id]
 
     # --- inputs -------------------------------------------------------------------------------------
     def set_input(self, name: str, value: Any) -> Any:

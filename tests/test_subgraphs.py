@@ -301,7 +301,7 @@ def test_library_subgraphs_save_list_get_delete(desk, tmp_path):
             assert client.get("/api/subgraphs").json() == []
             r = client.put("/api/subgraphs/idle", json=definition)
             assert r.status_code == 200, r.text
-            assert (tmp_path / "subgraphs" / "idle.json").exists()
+            assert (tmp_path / "subgraphs" / "idle.json").stat().st_mode & 0o777 == 0o644  # not mkstemp's 0600
             assert client.get("/api/subgraphs").json() == ["idle"]
             assert client.get("/api/subgraphs/idle").json()["outputs"] == definition["outputs"]
             bad = copy.deepcopy(definition)
@@ -374,3 +374,21 @@ def test_duplicate_ids_inside_a_definition_point_into_it(desk):
     assert err.code == "duplicate_node" and err.node == f"idle/{nodes[0]['id']}"
     assert err.path == f"subgraphs.idle.nodes[{len(nodes) - 1}].id"
     assert f"(subgraphs.idle.nodes[0] and subgraphs.idle.nodes[{len(nodes) - 1}])" in err.message
+
+
+def test_a_patch_inside_a_subgraph_edits_the_definition_for_every_instance(desk):
+    doc = grouped()
+    idle = next(n for n in doc["nodes"] if n["id"] == "idle")
+    doc["nodes"].append({**copy.deepcopy(idle), "id": "idle2"})  # a second instance, unwired: it still runs
+    session = EngineSession.create(desk, rate=100, program=doc)
+    try:
+        blocks = [session.engine.apu.block(f"{i}/breathe") for i in ("idle", "idle2")]
+        got = session.update_params("idle2/breathe", {"amplitude": 0.05})
+        assert got["amplitude"] == 0.05
+        assert [b.params.amplitude for b in blocks] == [0.05, 0.05]  # the same tick, nothing rebuilt
+        assert [session.engine.apu.block(f"{i}/breathe") for i in ("idle", "idle2")] == blocks
+        written = next(n for n in session.program.subgraphs["idle"].nodes if n.id == "breathe")
+        assert written.params["amplitude"] == 0.05  # GET /api/program and a save show the edit
+        assert all(session.flat.node(f"{i}/breathe").params["amplitude"] == 0.05 for i in ("idle", "idle2"))
+    finally:
+        session.engine.close()

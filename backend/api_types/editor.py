@@ -35,6 +35,7 @@ class BlockEntry(Shape):
     inputs: dict[str, PortSpec] = Field(..., description="ports without parameters (see port_rules)")
     outputs: dict[str, PortSpec]
     dynamic_ports: bool
+    bypassable: bool = Field(..., description="a program node of this type may carry `bypass: true`")
     port_rules: list[PortRule] = Field(
         ..., description="ports derived from the parameters, after the fixed ones"
     )
@@ -278,6 +279,12 @@ class GhostSet(Shape):
     """PUT /api/previz/ghost."""
 
     ghost: bool
+
+
+class ThemeSet(Shape):
+    """PUT /api/previz/theme."""
+
+    theme: Literal["light", "dark"]
 
 
 class ErrorDetail(OpenShape):

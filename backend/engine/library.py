@@ -30,6 +30,7 @@ from backend.engine.clips import compile_clip, validate_clip_doc
 from backend.engine.embodiment import DofType, Embodiment
 
 KINDS = ("clips", "postures", "programs", "subgraphs")
+LIBRARY_FILE_MODE = 0o644  # saved files: readable by everyone, like the files the library ships with
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-\.]{0,79}$")
 POSTURE_FORMAT = "nutty-posture/1"
 
@@ -278,6 +279,7 @@ class RobotLibrary:
             d.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(dir=d, prefix=f".{name}.", suffix=".tmp")
             try:
+                os.fchmod(fd, LIBRARY_FILE_MODE)  # mkstemp makes it private (0600); the library is shared
                 with os.fdopen(fd, "w") as fh:
                     json.dump(doc, fh, indent=2)
                     fh.write("\n")

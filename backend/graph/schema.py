@@ -56,6 +56,16 @@ class Node(_Strict):
     type: str = Field(..., min_length=1, description="block type name (see GET /api/blocks)")
     params: dict[str, Any] = Field(default_factory=dict, description="parameters by name; omitted = default")
     ui: dict[str, Any] = Field(default_factory=dict, description="editor data (x, y, colour, collapsed, …)")
+    bypass: bool | None = Field(
+        default=None,
+        description="true: the engine passes the block's first frame input to its first frame output "
+        "unchanged (operators, mixers and stage-2 blocks; not the safety limiter); omitted when off",
+    )
+
+    @field_validator("bypass")
+    @classmethod
+    def _bypass_off_is_omitted(cls, v: bool | None) -> bool | None:
+        return True if v else None  # `false` and absent are the same document
 
 
 class ExposedInput(_Strict):

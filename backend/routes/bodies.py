@@ -11,7 +11,7 @@ Either way the body was JSON-safe before (backend.routes.json_body).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, RootModel, SkipValidation
 
@@ -33,6 +33,12 @@ class GhostToggle(BaseModel):
     """Body of PUT /api/previz/ghost."""
 
     visible: bool = Field(..., description="show (true) or hide the ghost, the stage-1 pose")
+
+
+class ThemeChoice(BaseModel):
+    """Body of PUT /api/previz/theme."""
+
+    theme: Literal["light", "dark"] = Field(..., description="the editor's theme, which the Pre-Viz follows")
 
 
 class PortsRequest(BaseModel):

@@ -9,10 +9,10 @@ from fastapi import APIRouter, Request, WebSocket
 from fastapi.responses import RedirectResponse, Response
 
 from backend import security
-from backend.api_types import GhostSet, PrevizInfo, Profile, ServerStatus
+from backend.api_types import GhostSet, PrevizInfo, Profile, ServerStatus, ThemeSet
 from backend.errors import DomainError
 from backend.hub import Hub
-from backend.routes.bodies import GhostToggle
+from backend.routes.bodies import GhostToggle, ThemeChoice
 from backend.routes.errors import api_error
 from backend.routes.json_body import SafeJsonRoute
 from backend.routes.state import HubDep
@@ -91,6 +91,14 @@ async def previz_ghost(body: GhostToggle, hub: HubDep) -> dict[str, Any]:
         raise _no_previz()
     hub.previz.set_ghost(body.visible)
     return {"ghost": body.visible}
+
+
+@router.put("/previz/theme", response_model=ThemeSet, summary="Light or dark Pre-Viz, as the editor's theme")
+async def previz_theme(body: ThemeChoice, hub: HubDep) -> dict[str, Any]:
+    if hub.previz is None:
+        raise _no_previz()
+    hub.previz.set_theme(body.theme)
+    return {"theme": body.theme}
 
 
 @previz_proxy.get("/previz")

@@ -113,6 +113,13 @@ class BlockParams(BaseModel):
         return cls.model_validate_json(validation_bytes(raw), strict=True)
 
 
+def soft_range(lo: float, hi: float, step: float | None = None) -> dict[str, Any]:
+    """A number parameter's `json_schema_extra`: the range (and step) the editor's slider spans, inside
+    its hard `ge`/`le` bounds. Typing may still go beyond it up to the hard bounds; the engine reads
+    only the hard ones."""
+    return {"x-soft": [lo, hi], **({"x-step": step} if step is not None else {})}
+
+
 # Parameter annotations that the editor renders with dedicated widgets.
 DofSelection = Annotated[
     list[str],
@@ -203,6 +210,9 @@ class Block(Generic[P]):
     category: ClassVar[str] = "operators"  # one of catalog.CATEGORIES
     role: ClassVar[Role] = Role.operator
     doc: ClassVar[str] = ""
+    # Whether a program may bypass it (frame in -> frame out unchanged; see blocks/bypass.py).
+    can_bypass: ClassVar[bool] = True
+    bypassed: ClassVar[bool] = False  # True on the pass-through subclass a bypassed node runs
     Params: ClassVar[type[BlockParams]] = BlockParams
     inputs: ClassVar[dict[str, Port]] = {}  # the declared ports, then one per drivable parameter
     outputs: ClassVar[dict[str, Port]] = {}
@@ -272,8 +282,15 @@ class Block(Generic[P]):
             "inputs": {k: p.to_dict() for k, p in ins.items()},
             "outputs": {k: p.to_dict() for k, p in outs.items()},
             "dynamic_ports": bool(cls.port_rules),
+            "bypassable": cls.bypassable(),
             "port_rules": [rule.model_dump() for rule in cls.port_rules],
         }
+
+    @classmethod
+    def bypassable(cls) -> bool:
+        """Whether a program may bypass this block: it takes a frame and gives one (an operator, a
+        mixer or a stage-2 block) and does not guard the robot (`can_bypass`)."""
+        return cls.role in (Role.operator, Role.mixer, Role.stage2) and cls.can_bypass
 
     # --- program checks (called by backend.graph.checks; `node` is its NodeCheck) ----------------
     @classmethod

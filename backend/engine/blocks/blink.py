@@ -10,7 +10,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source
+from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, soft_range
 from backend.engine.blocks.idle import block_rng
 from backend.engine.frames import PartialFrame
 from backend.engine.selectors import channel_mask
@@ -25,9 +25,27 @@ class BlinkParams(BlockParams):
     close_time: float = Field(default=0.08, ge=0.02, le=1.0, description="time to close (s)")
     hold_time: float = Field(default=0.03, ge=0.0, le=1.0, description="time held closed (s)")
     open_time: float = Field(default=0.18, ge=0.02, le=2.0, description="time to open again (s)")
-    min_interval: float = Field(default=1.5, ge=0.2, le=120.0, description="shortest time between blinks (s)")
-    mean_interval: float = Field(default=4.0, ge=0.2, le=120.0, description="average time between blinks (s)")
-    max_interval: float = Field(default=10.0, ge=0.2, le=120.0, description="longest time between blinks (s)")
+    min_interval: float = Field(
+        default=1.5,
+        ge=0.2,
+        le=120.0,
+        description="shortest time between blinks (s)",
+        json_schema_extra=soft_range(0.2, 10, 0.1),
+    )
+    mean_interval: float = Field(
+        default=4.0,
+        ge=0.2,
+        le=120.0,
+        description="average time between blinks (s)",
+        json_schema_extra=soft_range(0.2, 20, 0.1),
+    )
+    max_interval: float = Field(
+        default=10.0,
+        ge=0.2,
+        le=120.0,
+        description="longest time between blinks (s)",
+        json_schema_extra=soft_range(0.2, 30, 0.1),
+    )
     double_blink_probability: float = Field(
         default=0.1, ge=0.0, le=1.0, description="chance a blink is doubled (0..1)"
     )

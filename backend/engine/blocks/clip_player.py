@@ -18,6 +18,7 @@ from backend.engine.blocks.base import (
     PortType,
     Source,
     drivable,
+    soft_range,
 )
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
 from backend.engine.compiled import entry_point
@@ -52,7 +53,13 @@ class ClipPlayerParams(BlockParams):
     autoplay: bool = Field(default=False, description="start playing `clip` when the program starts")
     mode: PlayMode = Field(default="once", description="once, loop, or ping_pong (forward then backward)")
     speed: float = drivable(
-        Field(default=1.0, ge=0.05, le=5.0, description="playback speed (1 = authored timing)"),
+        Field(
+            default=1.0,
+            ge=0.05,
+            le=5.0,
+            description="playback speed (1 = authored timing)",
+            json_schema_extra=soft_range(0.25, 2, 0.01),
+        ),
         "overrides the speed (e.g. from an emotion mapping)",
     )
     crossfade: float = Field(

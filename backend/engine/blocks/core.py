@@ -25,6 +25,7 @@ from backend.engine.blocks.base import (
     SignalBlock,
     Source,
     drivable,
+    soft_range,
 )
 from backend.engine.compiled import entry_point, plain_frame
 from backend.engine.compiled.frames import (
@@ -246,11 +247,23 @@ class Pose(Source[PoseParams]):
 class SineParams(BlockParams):
     dofs: DofSelection = Field(default=["stationary:*"])
     amplitude: float = drivable(
-        Field(default=0.1, ge=0.0, le=10.0, description="peak deviation (rad or m)"),
+        Field(
+            default=0.1,
+            ge=0.0,
+            le=10.0,
+            description="peak deviation (rad or m)",
+            json_schema_extra=soft_range(0, 1, 0.005),
+        ),
         "overrides the amplitude parameter",
     )
     frequency: float = drivable(
-        Field(default=0.25, ge=0.0, le=20.0, description="cycles per second (Hz)"),
+        Field(
+            default=0.25,
+            ge=0.0,
+            le=20.0,
+            description="cycles per second (Hz)",
+            json_schema_extra=soft_range(0, 3, 0.01),
+        ),
         "overrides the frequency parameter",
     )
     phase: float = Field(default=0.0, ge=-2 * math.pi, le=2 * math.pi, description="phase at t=0 (rad)")
@@ -261,7 +274,13 @@ class SineParams(BlockParams):
         description="extra phase per selected DoF (rad), for wave-like motion",
     )
     offset: float = drivable(
-        Field(default=0.0, ge=-10.0, le=10.0, description="added to the rest pose (rad or m)"),
+        Field(
+            default=0.0,
+            ge=-10.0,
+            le=10.0,
+            description="added to the rest pose (rad or m)",
+            json_schema_extra=soft_range(-1, 1, 0.01),
+        ),
         "overrides the offset parameter",
     )
 
@@ -301,10 +320,22 @@ class Sine(Source[SineParams]):
 class GainOffsetParams(BlockParams):
     dofs: DofSelection = Field(default=["*"])
     gain: float = drivable(
-        Field(default=1.0, ge=-10.0, le=10.0, description="scale of the deviation from the rest pose")
+        Field(
+            default=1.0,
+            ge=-10.0,
+            le=10.0,
+            description="scale of the deviation from the rest pose",
+            json_schema_extra=soft_range(-2, 2, 0.01),
+        )
     )
     offset: float = drivable(
-        Field(default=0.0, ge=-10.0, le=10.0, description="added after scaling (rad or m)")
+        Field(
+            default=0.0,
+            ge=-10.0,
+            le=10.0,
+            description="added after scaling (rad or m)",
+            json_schema_extra=soft_range(-1, 1, 0.01),
+        )
     )
 
 
@@ -385,6 +416,7 @@ class SafetyLimiter(Block[SafetyParams]):
     title = "Safety limiter"
     category = "stage2"
     role = Role.stage2
+    can_bypass = False  # the robot's guard is never switched off from the editor (see blocks/bypass.py)
     inputs = FRAME_IN
     outputs = FRAME_OUT
 

@@ -23,6 +23,7 @@ from backend.engine.blocks.base import (
     Source,
     colour_or_none,
     drivable,
+    soft_range,
 )
 from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
 from backend.engine.frames import FrameEvent, PartialFrame
@@ -395,7 +396,11 @@ class PlaySoundParams(BlockParams):
         default=None, description="clip played on a rising edge of the trigger input; default: the first"
     )
     duration: float = Field(
-        default=1.0, ge=0.05, le=60.0, description="estimated length of a clip, for `completed` (s)"
+        default=1.0,
+        ge=0.05,
+        le=60.0,
+        description="estimated length of a clip, for `completed` (s)",
+        json_schema_extra=soft_range(0.05, 10, 0.05),
     )
 
 

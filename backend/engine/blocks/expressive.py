@@ -22,6 +22,7 @@ from backend.engine.blocks.base import (
     Port,
     PortType,
     drivable,
+    soft_range,
 )
 from backend.engine.embodiment import Dof, DofType, Embodiment
 from backend.engine.frames import FrameHistory, PartialFrame
@@ -223,7 +224,11 @@ class ExaggerateParams(BlockParams):
         default="rest", description="deviation from the rest pose, or from a moving average of the input"
     )
     time_constant: float = Field(
-        default=1.0, ge=0.01, le=30.0, description="moving-average time constant (s)"
+        default=1.0,
+        ge=0.01,
+        le=30.0,
+        description="moving-average time constant (s)",
+        json_schema_extra=soft_range(0.01, 5, 0.01),
     )
 
 
@@ -297,10 +302,18 @@ class ArcParams(BlockParams):
         description="abs: same direction whatever way the primary moves (a dip); signed: follows its sign",
     )
     threshold: float = Field(
-        default=0.0, ge=0.0, le=10.0, description="primary speed below which nothing is added (rad/s)"
+        default=0.0,
+        ge=0.0,
+        le=10.0,
+        description="primary speed below which nothing is added (rad/s)",
+        json_schema_extra=soft_range(0, 2, 0.01),
     )
     smoothing: float = Field(
-        default=0.08, ge=0.0, le=2.0, description="time constant of the velocity smoothing (s)"
+        default=0.08,
+        ge=0.0,
+        le=2.0,
+        description="time constant of the velocity smoothing (s)",
+        json_schema_extra=soft_range(0, 1, 0.01),
     )
 
     @model_validator(mode="after")

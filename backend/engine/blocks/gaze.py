@@ -17,6 +17,7 @@ from backend.engine.blocks.base import (
     PortType,
     Source,
     drivable,
+    soft_range,
 )
 from backend.engine.blocks.gaze_reach import yaw_pitch
 from backend.engine.compiled import entry_point
@@ -75,8 +76,15 @@ class GazeParams(BlockParams):
         le=5.0,
         description="first-order time constant added per follower stage (s): the 2nd DoF of "
         "an axis lags by this, the 3rd by twice this, …",
+        json_schema_extra=soft_range(0, 2, 0.01),
     )
-    max_speed: float = Field(default=3.0, gt=0.0, le=20.0, description="speed cap for every gaze DoF (rad/s)")
+    max_speed: float = Field(
+        default=3.0,
+        gt=0.0,
+        le=20.0,
+        description="speed cap for every gaze DoF (rad/s)",
+        json_schema_extra=soft_range(0, 8, 0.05),
+    )
     speed_fraction: float = Field(
         default=0.8, gt=0.0, le=1.0, description="fraction of each DoF's velocity limit allowed (0..1]"
     )

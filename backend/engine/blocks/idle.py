@@ -22,6 +22,7 @@ from backend.engine.blocks.base import (
     DofSelection,
     Source,
     drivable,
+    soft_range,
 )
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.idle import (
@@ -177,12 +178,19 @@ class NoiseParams(BlockParams):
         "overrides the amplitude parameter (rad or m)",
         clamp="range",
     )
-    tau: float = Field(default=1.5, ge=0.05, le=60.0, description="correlation time of the wander (s)")
+    tau: float = Field(
+        default=1.5,
+        ge=0.05,
+        le=60.0,
+        description="correlation time of the wander (s)",
+        json_schema_extra=soft_range(0.05, 10, 0.05),
+    )
     smoothing: float = Field(
         default=0.3,
         ge=0.0,
         le=10.0,
         description="time constant of the second low-pass stage (s); 0 turns it off",
+        json_schema_extra=soft_range(0, 2, 0.01),
     )
     seed: int = Field(
         default=0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"
@@ -312,10 +320,26 @@ class WeightShiftParams(BlockParams):
     amplitude: float = Field(
         default=0.08, ge=0.0, le=1.0, description="largest offset from the rest pose (rad or m)"
     )
-    min_interval: float = Field(default=4.0, ge=0.5, le=120.0, description="shortest time between shifts (s)")
-    max_interval: float = Field(default=12.0, ge=0.5, le=120.0, description="longest time between shifts (s)")
+    min_interval: float = Field(
+        default=4.0,
+        ge=0.5,
+        le=120.0,
+        description="shortest time between shifts (s)",
+        json_schema_extra=soft_range(0.5, 30, 0.1),
+    )
+    max_interval: float = Field(
+        default=12.0,
+        ge=0.5,
+        le=120.0,
+        description="longest time between shifts (s)",
+        json_schema_extra=soft_range(0.5, 30, 0.1),
+    )
     shift_duration: float = Field(
-        default=2.5, ge=0.1, le=30.0, description="time to ease into a new offset (s)"
+        default=2.5,
+        ge=0.1,
+        le=30.0,
+        description="time to ease into a new offset (s)",
+        json_schema_extra=soft_range(0.1, 10, 0.1),
     )
     seed: int = Field(
         default=0, ge=0, le=2**31 - 1, description="random seed (combined with the engine seed and node id)"

@@ -156,6 +156,20 @@ class LayerMixer(Block[MixerParams]):
                 j = old.names.index(name)
                 mine.fade_level[i] = theirs.fade_level[j]
                 mine.fade_target[i] = theirs.fade_target[j]
+        self._follow_written_active(old.params.layers)
+
+    def update_params(self, params: MixerParams) -> None:
+        before = self.params.layers
+        super().update_params(params)
+        self._follow_written_active(before)
+
+    def _follow_written_active(self, before: list[LayerSpec]) -> None:
+        """A layer whose written `active` changed (the editor's mute, saved in the program) fades to it;
+        one left as written keeps what run-time commands made of it."""
+        was = {layer.name: layer.active for layer in before}
+        for i, layer in enumerate(self.params.layers):
+            if was.get(layer.name, layer.active) != layer.active:
+                self.state.fade_target[i] = 1.0 if layer.active else 0.0
 
     def effective_weights(self) -> np.ndarray:
         return self.weights * self.state.fade_level * self.signal_weights

@@ -27,6 +27,7 @@ from backend.engine.blocks.base import (
     PortType,
     Role,
     drivable,
+    soft_range,
 )
 from backend.engine.compiled import entry_point, plain_frame
 from backend.engine.compiled.frames import FILTER_SIG, filter_tick
@@ -76,20 +77,29 @@ class FilterParams(BlockParams):
         le=1e6,
         description="velocity bound of the output for every "
         "filtered DoF (units/s); default: the robot's per-DoF limits",
+        json_schema_extra=soft_range(0, 20, 0.1),
     )
     acc_limit: float | None = Field(
         default=None,
         gt=0.0,
         le=1e8,
         description="acceleration bound of the output (units/s²); default: the robot's per-DoF limits",
+        json_schema_extra=soft_range(0, 200, 1),
     )
     jerk_limit: float | None = Field(
         default=None,
         gt=0.0,
         le=1e10,
         description="jerk bound of the output (units/s³); default: the robot's per-DoF limits",
+        json_schema_extra=soft_range(0, 5000, 10),
     )
-    beta: float = Field(default=5.0, ge=1.0, le=200.0, description="position-saturation exponent β (>= 1)")
+    beta: float = Field(
+        default=5.0,
+        ge=1.0,
+        le=200.0,
+        description="position-saturation exponent β (>= 1)",
+        json_schema_extra=soft_range(1, 50, 0.5),
+    )
 
 
 class MotionFilterParams(FilterParams):

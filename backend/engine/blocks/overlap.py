@@ -18,6 +18,7 @@ from backend.engine.blocks.base import (
     BlockParams,
     DofSelection,
     Operator,
+    soft_range,
 )
 from backend.engine.frames import FrameHistory, PartialFrame
 from backend.engine.selectors import channel_mask
@@ -47,7 +48,13 @@ class FollowThroughParams(BlockParams):
     enabled: bool = Field(
         default=False, description="off by default: overshoot moves the robot beyond the programmed pose"
     )
-    frequency: float = Field(default=2.0, ge=0.1, le=20.0, description="natural frequency of the spring (Hz)")
+    frequency: float = Field(
+        default=2.0,
+        ge=0.1,
+        le=20.0,
+        description="natural frequency of the spring (Hz)",
+        json_schema_extra=soft_range(0.1, 8, 0.05),
+    )
     damping: float = Field(
         default=0.3, ge=0.05, le=1.0, description="damping ratio (1 = critical, no overshoot)"
     )

@@ -10,7 +10,7 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock, drivable
+from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock, drivable, soft_range
 
 # --------------------------------------------------------------------------------------------------
 # Math
@@ -146,16 +146,35 @@ class LfoParams(BlockParams):
         default="sine", description="sine, triangle, square, saw or random_smooth (smooth noise)"
     )
     frequency: float = drivable(
-        Field(default=0.5, ge=0.0, le=50.0, description="cycles per second (Hz)"),
+        Field(
+            default=0.5,
+            ge=0.0,
+            le=50.0,
+            description="cycles per second (Hz)",
+            json_schema_extra=soft_range(0, 5, 0.01),
+        ),
         "overrides the frequency (Hz)",
         clamp="floor",
     )
     amplitude: float = drivable(
-        Field(default=1.0, ge=0.0, le=100.0, description="peak deviation from the offset"),
+        Field(
+            default=1.0,
+            ge=0.0,
+            le=100.0,
+            description="peak deviation from the offset",
+            json_schema_extra=soft_range(0, 1, 0.01),
+        ),
         "overrides the amplitude",
     )
     offset: float = drivable(
-        Field(default=0.0, ge=-100.0, le=100.0, description="centre value"), "overrides the offset"
+        Field(
+            default=0.0,
+            ge=-100.0,
+            le=100.0,
+            description="centre value",
+            json_schema_extra=soft_range(-1, 1, 0.01),
+        ),
+        "overrides the offset",
     )
     phase: float = Field(default=0.0, ge=0.0, le=1.0, description="phase at start (cycles, 0..1)")
 
@@ -247,7 +266,11 @@ class EmotionParams(BlockParams):
         description="posture name -> its (valence, arousal); the nearest one is output",
     )
     smoothing: float = Field(
-        default=0.5, ge=0.0, le=10.0, description="time constant of the valence/arousal smoothing (s)"
+        default=0.5,
+        ge=0.0,
+        le=10.0,
+        description="time constant of the valence/arousal smoothing (s)",
+        json_schema_extra=soft_range(0, 3, 0.01),
     )
     hysteresis: float = Field(
         default=0.05,

@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from backend.engine.blocks import BLOCKS
 from backend.engine.blocks.base import Block, BlockParams
+from backend.engine.blocks.bypass import pass_through
 from backend.engine.selectors import SelectorError
 from backend.graph.checks.dofs import dof_errors, find_value
 from backend.graph.checks.hooks import NodeCheck
@@ -74,6 +75,17 @@ def _check_node(state: CheckState, node: Node, i: int) -> None:
                 message=f"node '{node.id}' ({node.type}): cannot derive its ports: {exc}",
             )
         )
+    if node.bypass and state.ports[node.id] is not None and pass_through(cls, params) is None:
+        state.errors.append(
+            Issue(
+                code="cannot_bypass",
+                node=node.id,
+                path=f"nodes[{i}].bypass",
+                message=f"node '{node.id}' ({node.type}) cannot be bypassed: "
+                + ("it guards the robot" if not cls.can_bypass else "it has no frame to pass through"),
+            )
+        )
+        return
     own = NodeCheck(state, node, i)
     cls.check(params, own)
     if own.ports_in_doubt:
@@ -83,7 +95,7 @@ def _check_node(state: CheckState, node: Node, i: int) -> None:
     dof_issues = dof_errors(node, i, params, state.embodiment)
     state.errors.extend(dof_issues)
     if not dof_issues:
-        _probe(state, node, i, cls, params)
+        _probe(state, node, i, state.block_class(node.id) or cls, params)
 
 
 def _params(state: CheckState, node: Node, i: int, cls: type[Block]) -> BlockParams | None:

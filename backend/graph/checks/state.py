@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from backend.engine.blocks import BLOCKS
 from backend.engine.blocks.base import Block, BlockContext, BlockParams, Port
+from backend.engine.blocks.bypass import bypassed
 from backend.engine.embodiment import Embodiment
 from backend.graph.issues import Issue, ValidationReport
 from backend.graph.schema import Edge, ExposedInput, Node, Program
@@ -63,7 +64,10 @@ class CheckState:
     level: int | None = None
 
     def block_class(self, node_id: str) -> type[Block] | None:
-        return BLOCKS.get(self.node_by_id[node_id].type)
+        """The class the node runs as: its block's, or that block's pass-through when bypassed."""
+        node = self.node_by_id[node_id]
+        cls = BLOCKS.get(node.type)
+        return bypassed(cls) if cls is not None and node.bypass else cls
 
     def relocate(self) -> None:
         """Point issues about the inside of subgraphs at their place in the document (once, at the end)."""

@@ -108,6 +108,7 @@ export interface NuttyApi {
   StoredSubgraph?: StoredSubgraph;
   TelemetryMessage?: TelemetryMessage;
   TelemetrySubscribe?: TelemetrySubscribe;
+  ThemeSet?: ThemeSet;
   ToolAnswer?: ToolAnswer;
   Tools?: Tools;
   TrackAnalysis?: TrackAnalysis;
@@ -120,6 +121,10 @@ export interface NuttyApi {
  * via the `definition` "BlockEntry".
  */
 export interface BlockEntry {
+  /**
+   * a program node of this type may carry `bypass: true`
+   */
+  bypassable: boolean;
   category: string;
   doc: string;
   dynamic_ports: boolean;
@@ -1026,6 +1031,15 @@ export interface TelemetrySubscribe {
 export interface SignalRef {
   node: string;
   port: string;
+}
+/**
+ * PUT /api/previz/theme.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ThemeSet".
+ */
+export interface ThemeSet {
+  theme: "light" | "dark";
 }
 /**
  * POST /api/tools/{name} for a tool that sends a command.

@@ -28,6 +28,10 @@ export type Inputs = ExposedInput[];
 export type MaxLevel = number;
 export type Name1 = string;
 /**
+ * true: the engine passes the block's first frame input to its first frame output unchanged (operators, mixers and stage-2 blocks; not the safety limiter); omitted when off
+ */
+export type Bypass = boolean | null;
+/**
  * unique within the program ('/' is for the blocks of subgraphs: `idle/breathe`)
  */
 export type Id = string;
@@ -120,6 +124,7 @@ export interface ExposedInput {
  * A block instance: its id, block type, parameters by name, and editor-only data.
  */
 export interface Node1 {
+  bypass?: Bypass;
   id: Id;
   params?: Params;
   type: Type1;
