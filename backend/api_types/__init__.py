@@ -39,7 +39,6 @@ from backend.api_types.editor import (
     ErrorDetail,
     ExposedInputs,
     GhostSet,
-    ThemeSet,
     InputSet,
     JointFrame,
     JsonSchemaDocument,
@@ -54,6 +53,7 @@ from backend.api_types.editor import (
     StoredPosture,
     StoredProgram,
     StoredSubgraph,
+    ThemeSet,
 )
 from backend.api_types.server import (
     AnthropicTool,
@@ -131,7 +131,6 @@ __all__ = [
     "ExposedInputs",
     "FilteredTracks",
     "GhostSet",
-    "ThemeSet",
     "InputSet",
     "Issue",
     "JointFrame",
@@ -169,6 +168,7 @@ __all__ = [
     "TelemetryFrame",
     "TelemetryMessage",
     "TelemetrySubscribe",
+    "ThemeSet",
     "TimingSummary",
     "ToolAnswer",
     "ToolCalled",
