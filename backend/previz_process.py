@@ -121,12 +121,7 @@ def _child_main(
         log.debug("the Pre-Viz could not start", exc_info=True)  # the traceback stays here, for a bug report
         send(("error", f"{type(exc).__name__}: {exc}"))
         return
-    calls = {
-        "shown": pv.shown,
-        "set_ghost": pv.set_ghost,
-        "set_theme": pv.set_theme,
-        "move_gaze": pv.move_gaze,
-    }
+    calls = {name: getattr(pv, name) for name in ("shown", "set_ghost", "set_theme", "move_gaze")}
     send(("ready", pv.port))
     reported: tuple = ()
     reported_at = 0.0

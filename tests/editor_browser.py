@@ -68,6 +68,31 @@ def editor_page(url: str, timeout_ms: int = 25000, on_dialog: Callable | None = 
             browser.close()
 
 
+@contextmanager
+def editor_server(
+    tmp_path_factory, files: dict[str, object] | None = None, program: str | None = None
+) -> Iterator[dict]:
+    """`nutty serve` (without viser) on a scratch copy of the bundled robot holding only its interactive
+    program, plus `files` (a path in the robot's folder -> its JSON); `program` is one of those files to
+    run instead. Yields {"url", "client", "robot"}."""
+    import json
+
+    from server_process import running_server
+
+    robot = scratch_robot(tmp_path_factory, keep=("interactive",))
+    for rel, doc in (files or {}).items():
+        (robot / rel).parent.mkdir(parents=True, exist_ok=True)
+        (robot / rel).write_text(json.dumps(doc))
+    extra = ("--program", str(robot / program)) if program else ()
+    with running_server("--robot", str(robot), *extra, "--no-previz") as (url, _, client):
+        yield {"url": url, "client": client, "robot": robot}
+
+
+def running_program(server: dict) -> dict:
+    """The program the server runs now (GET /api/program)."""
+    return server["client"].program()["program"]
+
+
 def wait_until(fn, timeout: float = 10.0, what: str = "condition") -> None:
     """Poll `fn` until it is true; the timeout only bounds a hang."""
     end = time.time() + timeout

@@ -188,8 +188,9 @@ def test_a_slider_drag_is_throttled_patches_only(page, server):
 
 
 def test_save_as_names_the_program(page, server):
-    page.once("dialog", lambda d: d.accept("calm_idle"))
     page.get_by_role("button", name="Save as").click()
+    page.get_by_test_id("save-as-name").fill("calm_idle")
+    page.keyboard.press("Enter")
     path = server["robot"] / "programs" / "calm_idle.json"
     wait_until(
         lambda: path.exists() and json.loads(path.read_text())["name"] == "calm_idle",

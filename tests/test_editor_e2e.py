@@ -147,8 +147,9 @@ def test_mixer_weight_port_is_wired_in_the_browser(page, server):
 
     wait_until(swelling, what="the idle layer's weight to follow the LFO")
     # the weight wire round-trips through the robot's library: saved, and drawn again when reopened
-    page.once("dialog", lambda d: d.accept("weighted"))
     page.get_by_role("button", name="Save as").click()
+    page.get_by_test_id("save-as-name").fill("weighted")
+    page.keyboard.press("Enter")
     wait_until(lambda: "weighted" in server["client"]._call("GET", "/api/programs"), what="the saved program")
     assert wire in server["client"]._call("GET", "/api/programs/weighted")["edges"]
     page.get_by_role("button", name="New").click()
@@ -233,7 +234,9 @@ def test_add_sine_connect_errors_undo_redo_and_save(page, server):
     page.get_by_test_id("undo").click()
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     # save to the library and reopen
-    page.get_by_test_id("save").click()
+    page.get_by_test_id("save").click()  # never saved: the Save-as dialog asks for a name
+    page.get_by_test_id("save-as-name").fill("e2e_program")
+    page.keyboard.press("Enter")
     wait_until(
         lambda: "e2e_program" in server["client"]._call("GET", "/api/programs"), what="the saved program"
     )

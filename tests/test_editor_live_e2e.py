@@ -219,6 +219,8 @@ def test_layer_stack_mutes_solos_and_weights_layers_on_the_server(page, server):
     # mute: the server fades the layer out; unmute brings it back
     page.get_by_test_id("ls-mute-idle").click()
     wait_until(lambda: not telemetry_layers(server)["idle"]["active"], what="the idle layer to be muted")
+    written = lambda: next(l for l in running_node(server, "mix")["params"]["layers"] if l["name"] == "idle")
+    wait_until(lambda: written().get("active") is False, what="the mute saved in the running program")
     wait_until(
         lambda: page.get_by_test_id("ls-idle").get_attribute("data-active") == "0", what="the row to show it"
     )

@@ -41,10 +41,8 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(server):
-    # prompts (the library's name for the subgraph) are answered "idle"
-    with editor_page(
-        server["url"], on_dialog=lambda d: d.accept("idle") if d.type == "prompt" else d.accept()
-    ) as pg:
+    # the browser's own dialogs (a confirm before discarding unsaved edits) are accepted
+    with editor_page(server["url"], on_dialog=lambda d: d.accept()) as pg:
         yield pg
 
 
@@ -160,6 +158,8 @@ def test_build_group_and_go_live(page, server):
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
     page.locator("[data-testid=node-idle] .block-header").click()
     page.get_by_test_id("save-subgraph").click()
+    page.get_by_test_id("save-as-name").fill("idle")  # the editor's dialog names it
+    page.get_by_test_id("save-as-save").click()
     wait_until(lambda: "idle" in client._call("GET", "/api/subgraphs"), what="the subgraph in the library")
     page.get_by_test_id("palette-subgraph-idle").wait_for()
 

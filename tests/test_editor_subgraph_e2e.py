@@ -133,12 +133,23 @@ def test_open_the_subgraph_and_go_back(page, server):
 
 def test_save_to_library_and_add_it_to_another_program(page, server):
     page.locator("[data-testid=node-idle] .block-header").click()
-    page.answers["library"] = "idle_layer"
     page.get_by_test_id("save-subgraph").click()
+    dialog = page.get_by_test_id("save-as-dialog")  # the page's own dialog, not the browser's prompt
+    assert dialog.get_attribute("aria-label") == "save subgraph as"
+    page.get_by_test_id("save-as-name").fill("idle_layer")
+    page.get_by_test_id("save-as-name").press("Enter")
     wait_until(
         lambda: "idle_layer" in server["client"]._call("GET", "/api/subgraphs"), what="the saved subgraph"
     )
     assert (server["robot"] / "subgraphs" / "idle_layer.json").exists()
+    # saving it again under that name asks before replacing the library's file
+    page.get_by_test_id("save-subgraph").click()
+    page.get_by_test_id("save-as-name").fill("idle_layer")
+    page.get_by_test_id("save-as-name").press("Enter")
+    assert "subgraph 'idle_layer'" in page.get_by_test_id("save-as-overwrite").inner_text()
+    page.keyboard.press("Escape")  # back to the name
+    page.keyboard.press("Escape")  # closed, nothing saved
+    wait_until(lambda: dialog.count() == 0, what="the dialog to close")
     page.get_by_test_id("palette-subgraph-idle_layer").wait_for()
     page.get_by_role("button", name="New").click()
     wait_until(lambda: page.get_by_test_id("node-mix").count() == 0, what="a blank program")
@@ -195,8 +206,9 @@ def test_comment_and_reroute_survive_save_and_reopen(page, server):
         kept_by_server, timeout=30, what="the server's program to keep the comment and the reroute in its ui"
     )
     page.screenshot(path=str(ARTIFACTS / "organise-comment-reroute.png"))
-    page.answers["Save program"] = "e2e_organise"
-    page.get_by_test_id("save").click()
+    page.get_by_test_id("save").click()  # never saved: the Save-as dialog asks for a name
+    page.get_by_test_id("save-as-name").fill("e2e_organise")
+    page.keyboard.press("Enter")
     wait_until(
         lambda: "e2e_organise" in server["client"]._call("GET", "/api/programs"), what="the saved program"
     )

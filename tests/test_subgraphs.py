@@ -301,7 +301,9 @@ def test_library_subgraphs_save_list_get_delete(desk, tmp_path):
             assert client.get("/api/subgraphs").json() == []
             r = client.put("/api/subgraphs/idle", json=definition)
             assert r.status_code == 200, r.text
-            assert (tmp_path / "subgraphs" / "idle.json").stat().st_mode & 0o777 == 0o644  # not mkstemp's 0600
+            assert (
+                tmp_path / "subgraphs" / "idle.json"
+            ).stat().st_mode & 0o777 == 0o644  # not mkstemp's 0600
             assert client.get("/api/subgraphs").json() == ["idle"]
             assert client.get("/api/subgraphs/idle").json()["outputs"] == definition["outputs"]
             bad = copy.deepcopy(definition)

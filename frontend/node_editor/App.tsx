@@ -19,10 +19,10 @@ import { useWatchedSignals } from "./live/WireProbes";
 import { Layout } from "./Layout";
 import { liveInside, signalsInside } from "./organise/liveInside";
 import { ActionsContext, EditorStoreProvider, useActions, useEditor, type EditorActions } from "./store/EditorStore";
-import type { Position } from "./store/state";
+import type { Graph, Position } from "./store/state";
 import type { FlowNode, SubgraphDef } from "./graph";
 import { subgraphAliases, withAliasedSignals, withAliasedValues } from "./live/subgraphLive";
-import { fitReadable, visibleSpot } from "./viewport";
+import { fitReadable, sizeOf, visibleSpot } from "./viewport";
 
 const NO_NODES: FlowNode[] = [];
 
@@ -67,11 +67,13 @@ function Editor() {
   const detach = useCallback(() => dispatch({ type: "draftStarted" }), [dispatch]);
   const sendCommand = useControlSocket(log);
   const library = useLibrary(say);
-  const { copy, paste } = useClipboard();
+  const nodes = state.history.present.nodes;
+  // pasted at the pointer (over the canvas) or a free spot in view
+  const place = useCallback((clip: Graph) => visibleSpot(flow, nodes, sizeOf(clip.nodes)), [flow, nodes]);
+  const { copy, paste } = useClipboard(place);
 
   const fitView = useCallback(() => fitReadable(flow), [flow]);
-  // without a position (a palette click): a free spot in the visible part of the canvas
-  const nodes = state.history.present.nodes;
+  // without a position (a palette click, a quick-add): at the pointer over the canvas, else a free spot in view
   const addBlock = useCallback((type: string, position?: Position) => dispatch({
     type: "blockAdded", blockType: type, position: position ?? visibleSpot(flow, nodes),
   }), [flow, dispatch, nodes]);

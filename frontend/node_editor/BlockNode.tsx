@@ -1,9 +1,12 @@
 // One block on the graph: a header coloured by category, typed ports (frame ports wide and white,
 // one colour per signal type), the live value of each output, and error badges from the server.
 import { Handle, Position, useUpdateNodeInternals, type NodeProps } from "@xyflow/react";
-import { memo, useContext, useEffect } from "react";
+import { memo, useContext, useEffect, type CSSProperties } from "react";
 import type { NodeData } from "./graph";
 import { LiveContext, CatalogContext } from "./context";
+import { NodeTitle } from "./NodeTitle";
+import { DimContext, portKey } from "./wireDrop";
+import { useActions } from "./store/EditorStore";
 import { HANDLE_TOP, LIVE_ROW_HEIGHT, PORT_ROW_HEIGHT, PORT_ROWS_TOP } from "./layout/constants";
 import { CookBadge, WarningBadge, WarningLine } from "./live/NodeBadges";
 import { NetRows } from "./live/NetRows";
@@ -83,25 +86,56 @@ export function LiveRows({ id, ports, top }: { id: string; ports: string[]; top:
   );
 }
 
+type LayerParam = { name: string; mode?: string; weight?: number; active?: boolean };
+
+/** A mixer's layers: the checkbox is the program's `active` (saved, undoable, a live patch), the bar the
+ * engine's effective weight. */
+function LayerRows({ id, params, top }: { id: string; params: Record<string, unknown>; top: number }) {
+  const live = useContext(LiveContext);
+  const { editParams } = useActions();
+  const layers = Array.isArray(params.layers) ? (params.layers as LayerParam[]) : null;
+  if (!layers?.length) return null;
+  const effective = Object.fromEntries((live.layers[id] ?? []).map((l) => [l.name, l.effective]));
+  const setActive = (i: number, active: boolean) =>
+    editParams(id, { ...params, layers: layers.map((l, k) => (k === i ? { ...l, active } : l)) });
+  return (
+    <div className="layers" style={{ marginTop: top }}>
+      {layers.map((l, i) => (
+        <div key={l.name} className="layer-row" title={`${l.mode ?? "override"}, weight ${l.weight ?? 1}`}>
+          <input type="checkbox" className="nodrag" checked={l.active ?? true} aria-label={`layer ${l.name} on`}
+                 data-testid={`layer-${id}-${l.name}`} onChange={(e) => setActive(i, e.target.checked)} />
+          <span className="layer-name">{l.name}</span>
+          <span className="layer-mode">{l.mode ?? "override"}</span>
+          <span className="layer-bar"><span style={{ width: `${Math.round((effective[l.name] ?? 0) * 100)}%` }} /></span>
+        </div>
+      ))}
+    </div>
+  );
+}
+
 export const BlockNode = memo(function BlockNode({ id, data, selected }: NodeProps & { data: NodeData }) {
   const catalog = useContext(CatalogContext);
-  const live = useContext(LiveContext);
   const entry = catalog[data.type];
   const colour = CATEGORY_COLOURS[entry?.category ?? "signals"] ?? "#555";
   const ins = Object.entries(data.inputs);
   const outs = Object.entries(data.outputs);
   const rows = Math.max(ins.length, outs.length, 1);
   const liveTop = PORT_ROWS_TOP + rows * PORT_ROW_HEIGHT;
-  const layers = live.layers[id];
   // level of detail: zoomed out, a block is its enlarged title and its ports (no labels, values, layers)
   const compact = useCompact();
+  // while a wire is dragged, the ports that cannot take it fade
+  const dim = useContext(DimContext);
+  const faded = (side: "source" | "target", port: string) => (dim.has(portKey(id, side, port)) ? " dimmed" : "");
   const updateInternals = useUpdateNodeInternals();
   useEffect(() => updateInternals(id), [compact, id, updateInternals]);
+  const kind = entry?.title ?? data.type;
+  const classes = `block ${selected ? "selected" : ""} ${data.errors.length ? "has-error" : ""} ${data.bypass ? "bypassed" : ""}`;
+  const bypassTag = data.bypass ? <span className="bypass-tag" data-testid={`bypassed-${id}`}>bypassed</span> : null;
   if (compact) return (
-    <div className={`block compact ${selected ? "selected" : ""} ${data.errors.length ? "has-error" : ""}`} data-testid={`node-${id}`}
-         aria-label={`${entry?.title ?? data.type} ${id}`} title={`${entry?.title ?? data.type} · ${id}`}>
+    <div className={`${classes} compact`} data-testid={`node-${id}`} aria-label={`${kind} ${id}`} style={{ "--cat": colour } as CSSProperties}>
       <div className="block-header" style={{ background: colour }}>
-        <span className="block-title">{entry?.title ?? data.type}</span>
+        <NodeTitle id={id} kind={kind} />
+        {bypassTag}
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
         <WarningBadge id={id} />
         <NetRows id={id} type={data.type} compact />
@@ -109,22 +143,21 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
       <div className="block-body" style={{ height: Math.max(rows * COMPACT_ROW + 2 * COMPACT_ROWS_TOP, COMPACT_BODY_MIN_HEIGHT) }}>
         <div className="compact-cook"><CookBadge id={id} /></div>
         {ins.map(([name, p], i) => (
-          <Handle key={`in-${name}`} type="target" position={Position.Left} id={name} className={`handle ${p.type}`}
+          <Handle key={`in-${name}`} type="target" position={Position.Left} id={name} className={`handle ${p.type}${faded("target", name)}`}
                   style={{ background: PORT_COLOURS[p.type], top: COMPACT_ROWS_TOP + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
         ))}
         {outs.map(([name, p], i) => (
-          <Handle key={`out-${name}`} type="source" position={Position.Right} id={name} className={`handle ${p.type}`}
+          <Handle key={`out-${name}`} type="source" position={Position.Right} id={name} className={`handle ${p.type}${faded("source", name)}`}
                   style={{ background: PORT_COLOURS[p.type], top: COMPACT_ROWS_TOP + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
         ))}
       </div>
     </div>
   );
   return (
-    <div className={`block ${selected ? "selected" : ""} ${data.errors.length ? "has-error" : ""}`} data-testid={`node-${id}`}
-         aria-label={`${entry?.title ?? data.type} ${id}`} title={entry?.doc}>
+    <div className={classes} data-testid={`node-${id}`} aria-label={`${kind} ${id}`} title={entry?.doc}>
       <div className="block-header" style={{ background: colour }}>
-        <span className="block-title">{entry?.title ?? data.type}</span>
-        <span className="block-id">{id}</span>
+        <NodeTitle id={id} kind={kind} />
+        {bypassTag}
         {data.errors.length > 0 && <span className="badge" data-testid={`error-${id}`} title={data.errors.join("\n")}>{data.errors.length}</span>}
         <WarningBadge id={id} />
         <CookBadge id={id} />
@@ -132,7 +165,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
       <div className="block-body" style={{ minHeight: liveTop + outs.length * LIVE_ROW_HEIGHT + BODY_BOTTOM }}>
         {ins.map(([name, p], i) => (
           <div key={`in-${name}`} className="port-row in" style={{ top: PORT_ROWS_TOP + i * PORT_ROW_HEIGHT }}>
-            <Handle type="target" position={Position.Left} id={name} className={`handle ${p.type}`}
+            <Handle type="target" position={Position.Left} id={name} className={`handle ${p.type}${faded("target", name)}`}
                     style={{ background: PORT_COLOURS[p.type], top: HANDLE_TOP }} title={`${name}: ${p.type}${p.doc ? " — " + p.doc : ""}`} />
             <span className="port-label">{name}</span>
           </div>
@@ -140,25 +173,12 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
         {outs.map(([name, p], i) => (
           <div key={`out-${name}`} className="port-row out" style={{ top: PORT_ROWS_TOP + i * PORT_ROW_HEIGHT }}>
             <span className="port-label">{name}</span>
-            <Handle type="source" position={Position.Right} id={name} className={`handle ${p.type}`}
+            <Handle type="source" position={Position.Right} id={name} className={`handle ${p.type}${faded("source", name)}`}
                     style={{ background: PORT_COLOURS[p.type], top: HANDLE_TOP }} title={`${name}: ${p.type}`} />
           </div>
         ))}
         <LiveRows id={id} ports={outs.map(([name]) => name)} top={liveTop} />
-        {layers && (
-          <div className="layers" style={{ marginTop: liveTop + outs.length * LIVE_ROW_HEIGHT }}>
-            {layers.map((l) => (
-              <div key={l.name} className="layer-row" title={`${l.mode}, weight ${l.weight}`}>
-                <input type="checkbox" className="nodrag" checked={l.active} aria-label={`layer ${l.name} on`}
-                       data-testid={`layer-${id}-${l.name}`}
-                       onChange={(e) => live.setLayer?.(id, l.name, e.target.checked)} />
-                <span className="layer-name">{l.name}</span>
-                <span className="layer-mode">{l.mode}</span>
-                <span className="layer-bar"><span style={{ width: `${Math.round(l.effective * 100)}%` }} /></span>
-              </div>
-            ))}
-          </div>
-        )}
+        <LayerRows id={id} params={data.params} top={liveTop + outs.length * LIVE_ROW_HEIGHT} />
       </div>
       {data.errors.length > 0 && <div className="block-errors">{data.errors[0]}</div>}
       <WarningLine id={id} hidden={data.errors.length > 0} />

@@ -1,6 +1,8 @@
-// Zoom and layout buttons on the canvas: zoom in/out, fit (readable), 100 %, auto-layout.
+// Zoom and layout buttons on the canvas: zoom in/out, fit (readable), 100 %, auto-layout; they also hand
+// the zoom to the styles (--zoom), which size collapsed titles from it.
 import { Panel, useReactFlow, useStore } from "@xyflow/react";
-import { MAX_FIT_ZOOM } from "./viewport";
+import { useEffect } from "react";
+import { MAX_FIT_ZOOM, READABLE_ZOOM } from "./viewport";
 
 /** How long the buttons' zooms animate (ms). */
 const ZOOM_MS = 150;
@@ -8,6 +10,13 @@ const ZOOM_MS = 150;
 export function CanvasControls({ fit, autoLayout }: { fit: () => void; autoLayout: () => void }) {
   const flow = useReactFlow();
   const zoom = useStore((s) => Math.round(s.transform[2] * 100));
+  // collapsed titles are sized from the zoom in CSS (styles.css: --zoom), and drop their type line below
+  // the zoom where it is too small to read (.tiny)
+  useEffect(() => {
+    const graph = document.querySelector<HTMLElement>(".graph");
+    graph?.style.setProperty("--zoom", String(zoom / 100));
+    graph?.classList.toggle("tiny", zoom / 100 < READABLE_ZOOM);
+  }, [zoom]);
   return (
     <Panel position="bottom-left" className="canvas-controls" data-testid="canvas-controls">
       <button onClick={() => flow.zoomIn({ duration: ZOOM_MS })} title="Zoom in (wheel)" aria-label="zoom in">+</button>

@@ -1,6 +1,9 @@
 // The graph: the program's blocks and edges on a React Flow canvas. Edits go to the store; a wire the
 // rules refuse is not drawn, and dropping it says why; one dropped on an occupied input replaces its wire.
-// Dropping a wire in empty space, Tab / Shift+A / Space, and the context menus open the quick-add search.
+// Dropping a wire in empty space, Tab / Shift+A / Space, and the context menus open the quick-add search;
+// one dropped on a block's body goes to its first port that fits, and ports that cannot take a dragged
+// wire fade. F2 renames the selected block in place; inside a subgraph, Group Input / Output stand-ins
+// show where its exposed ports go.
 import {
   Background, MiniMap, ReactFlow, SelectionMode, useReactFlow, type Connection as FlowConnection, type EdgeChange,
   type FinalConnectionState, type NodeChange,
@@ -13,10 +16,13 @@ import { CanvasControls } from "./CanvasControls";
 import { nodeMenuExtras, wireMenuExtras } from "./canvasMenus";
 import { CommentFrame } from "./CommentFrame";
 import { ContextMenu, type MenuEntry } from "./ContextMenu";
-import { type FlowEdge, type FlowNode } from "./graph";
+import { type FlowEdge, type FlowNode, type SubgraphDef } from "./graph";
+import { groupIO, isGroupIO } from "./groupIO";
+import { GroupIONode } from "./GroupIONode";
+import { RenameContext, type Renaming } from "./NodeTitle";
 import { useCanvasKeys } from "./hooks/useCanvasKeys";
 import {
-  BLOCK_HEADER_HEIGHT, BLOCK_WIDTH, LAYER_ROW_HEIGHT, LAYERS_PADDING, LIVE_ROW_HEIGHT, MINIMAP_SIZE, PORT_ROW_HEIGHT, PORT_ROWS_TOP,
+  BLOCK_HEADER_HEIGHT, BLOCK_WIDTH, DRAG_BLOCK, DRAG_SUBGRAPH, LAYER_ROW_HEIGHT, LAYERS_PADDING, LIVE_ROW_HEIGHT, MINIMAP_SIZE, PORT_ROW_HEIGHT, PORT_ROWS_TOP,
 } from "./layout/constants";
 import { OrganiseContext } from "./organise/context";
 import { useOrganise } from "./organise/useOrganise";
@@ -28,11 +34,13 @@ import { useActions, useEditor } from "./store/EditorStore";
 import { warningsByNode } from "./live/logic";
 import { WarningsContext } from "./live/NodeBadges";
 import { WireOverlay, wireHoverHandlers } from "./live/WireProbes";
-import { errorsByNode, type Graph, type Position } from "./store/state";
+import { errorsByNode, type Position } from "./store/state";
 import { SubgraphNode } from "./SubgraphNode";
-import { CANVAS_MAX_ZOOM, CANVAS_MIN_ZOOM, fitReadable, frameOpening } from "./viewport";
+import { CANVAS_MAX_ZOOM, CANVAS_MIN_ZOOM, clearSpot, fitReadable, frameOpening, refitOnResize, trackPointer } from "./viewport";
+import { DimContext, dropOnBody, incompatiblePorts } from "./wireDrop";
 
-const nodeTypes = { block: BlockNode, subgraph: SubgraphNode, comment: CommentFrame, reroute: RerouteNode };
+const nodeTypes = { block: BlockNode, subgraph: SubgraphNode, comment: CommentFrame, reroute: RerouteNode, groupIO: GroupIONode };
+const NO_DIM: ReadonlySet<string> = new Set();
 const edgeTypes = { routed: RoutedEdge };
 export const FIT_VIEW = { padding: 0.15, maxZoom: 1.1 };
 /** A freshly loaded program is fitted into view once React Flow has measured its nodes. */
@@ -65,7 +73,9 @@ function withErrors(nodes: FlowNode[], errors: Record<string, string[]>): FlowNo
 
 function styled(e: FlowEdge) {
   const type = e.data?.type ?? "frame";
-  return { ...e, style: { stroke: PORT_COLOURS[type], strokeWidth: type === "frame" ? 2.5 : 1.5 } };
+  const standIn = isGroupIO(e.source) || isGroupIO(e.target);
+  return { ...e, style: { stroke: PORT_COLOURS[type], strokeWidth: type === "frame" ? 2.5 : 1.5, ...(standIn ? { strokeDasharray: "6 4" } : {}) },
+    ...(standIn ? { selectable: false, deletable: false } : {}) };
 }
 
 function Toast() {
@@ -98,14 +108,27 @@ export function GraphView() {
   const graph = state.history.present;
   const inside = state.meta?.inside?.path;
   const errors = useMemo(() => errorsByNode(state.report, inside), [state.report, inside]);
-  const nodes = useMemo(() => withErrors(graph.nodes, errors), [graph.nodes, errors]);
-  const edges = useMemo(() => withRoutes(graph.edges.map(styled), graph.nodes), [graph.edges, graph.nodes]);
+  // the open subgraph's Group Input / Output stand-ins: drawn, never in the store's graph
+  // (React Flow shows a node once it has been measured: their sizes are kept here, as the store keeps blocks')
+  const [ioSizes, setIoSizes] = useState<Record<string, { width: number; height: number }>>({});
+  const io = useMemo(() => groupIO(graph.nodes, state.meta?.inside), [graph.nodes, state.meta?.inside]);
+  const nodes = useMemo(() => [...withErrors(graph.nodes, errors), ...io.nodes.map((n) => ({ ...n, measured: ioSizes[n.id] }))],
+    [graph.nodes, errors, io.nodes, ioSizes]);
+  const edges = useMemo(() => withRoutes([...graph.edges, ...io.edges].map(styled), graph.nodes), [graph.edges, io.edges, graph.nodes]);
   const organise = useOrganise();
   const canvas = useRef<HTMLElement>(null);
   const [quick, setQuick] = useState<QuickState | null>(null);
   const [menu, setMenu] = useState<MenuState | null>(null);
   const closeQuick = useCallback(() => setQuick(null), []);
   const closeMenu = useCallback(() => setMenu(null), []);
+  const [dimmed, setDimmed] = useState<ReadonlySet<string>>(NO_DIM);
+  const [renaming, setRenaming] = useState<string | null>(null);
+  const rename: Renaming = useMemo(() => ({
+    id: renaming, cancel: () => setRenaming(null),
+    commit: (from, to) => { setRenaming(null); dispatch({ type: "nodeRenamed", from, to }); },
+  }), [renaming, dispatch]);
+  useEffect(() => (canvas.current ? trackPointer(canvas.current) : undefined), []);
+  useEffect(() => (canvas.current ? refitOnResize(flow, canvas.current) : undefined), [flow]);
   // the graph as it is now, for the layout's callbacks and timers (set once a render is committed)
   const graphRef = useRef(graph);
   useLayoutEffect(() => { graphRef.current = graph; }, [graph]);
@@ -136,7 +159,9 @@ export function GraphView() {
 
   // deletions come as one `deleted` action (onDelete): a node and its wires are one undo step
   const onNodesChange = useCallback((changes: NodeChange<FlowNode>[]) => {
-    const rest = changes.filter((c) => c.type !== "remove");
+    const sized = changes.flatMap((c) => (c.type === "dimensions" && c.dimensions && isGroupIO(c.id) ? [[c.id, c.dimensions] as const] : []));
+    if (sized.length) setIoSizes((s) => ({ ...s, ...Object.fromEntries(sized) }));
+    const rest = changes.filter((c) => c.type !== "remove" && !isGroupIO("id" in c ? c.id : ""));
     if (rest.length) dispatch({ type: "nodesChanged", changes: rest });
   }, [dispatch]);
   const onEdgesChange = useCallback((changes: EdgeChange<FlowEdge>[]) => {
@@ -165,33 +190,60 @@ export function GraphView() {
     setQuick(null);
     if (!q) return;
     const { at, mode } = q;
-    const near = (offset: Position) => ({ x: at.x + offset.x, y: at.y + offset.y });
+    // beside the point it was opened at, but in view and never under the minimap or the canvas's buttons
+    const near = (offset: Position) => {
+      const spot = { x: at.x + offset.x, y: at.y + offset.y };
+      return clearSpot(flow, spot) ?? spot;
+    };
     if (mode.kind === "any") dispatch({ type: "blockAdded", blockType: o.type, position: near(QUICK_ADD_OFFSET.any) });
     else if (mode.kind === "insert") dispatch({ type: "blockInserted", blockType: o.type, position: near(QUICK_ADD_OFFSET.insert), edge: mode.edge });
     else dispatch({
       type: "blockAddedFrom", blockType: o.type, port: mode.port,
       position: near(mode.port.side === "source" ? QUICK_ADD_OFFSET.fromOutput : QUICK_ADD_OFFSET.fromInput),
     });
-  }, [quick, dispatch]);
+  }, [quick, dispatch, flow]);
 
+  const onConnectStart = useCallback((_: unknown, p: { nodeId: string | null; handleId: string | null; handleType: "source" | "target" | null }) => {
+    if (p.nodeId && p.handleType) setDimmed(incompatiblePorts(graph.nodes, graph.edges, { node: p.nodeId, handle: p.handleId ?? "", side: p.handleType }));
+  }, [graph]);
   const onConnectEnd = useCallback((event: MouseEvent | TouchEvent, end: FinalConnectionState) => {
+    setDimmed(NO_DIM);
     // dropped on a port that refused the wire: say why
     if (end && end.isValid === false && end.toHandle && lastProblem.current) { say(`refused: ${lastProblem.current}`); return; }
-    // dropped in empty space: the search for a block to wire it to, there
-    const target = event.target as Element | null;
-    if (!end?.fromHandle || end.toHandle || target?.closest?.(".react-flow__node")) return;
-    const p = "changedTouches" in event ? event.changedTouches[0] : event;
+    if (!end?.fromHandle || end.toHandle) return;
     const h = end.fromHandle;
-    openQuick(p.clientX, p.clientY, { kind: "from", port: { node: h.nodeId, handle: h.id ?? "", side: h.type } });
-  }, [say, openQuick]);
+    const from = { node: h.nodeId, handle: h.id ?? "", side: h.type };
+    const p = "changedTouches" in event ? event.changedTouches[0] : event;
+    // dropped on a block's body: its first port that fits
+    const onto = (document.elementFromPoint(p.clientX, p.clientY) ?? (event.target as Element | null))?.closest?.(".react-flow__node") as HTMLElement | null;
+    if (onto) {
+      const id = onto.dataset.id ?? "";
+      if (!id || isGroupIO(id) || id === from.node || !graph.nodes.some((n) => n.id === id && (n.type === "block" || n.type === "subgraph"))) return;
+      const c = dropOnBody(graph.nodes, graph.edges, from, id);
+      if (typeof c === "string") say(`refused: ${c}`);
+      else dispatch({ type: "connected", connection: c });
+      return;
+    }
+    // dropped in empty space: the search for a block to wire it to, there
+    openQuick(p.clientX, p.clientY, { kind: "from", port: from });
+  }, [say, openQuick, graph, dispatch]);
   const onDrop = (e: React.DragEvent) => {
-    const type = e.dataTransfer.getData("application/nutty-block");
-    if (type) addBlock(type, flow.screenToFlowPosition({ x: e.clientX, y: e.clientY }));
+    const at = flow.screenToFlowPosition({ x: e.clientX, y: e.clientY });
+    const type = e.dataTransfer.getData(DRAG_BLOCK);
+    if (type) return addBlock(type, at);
+    const sub = e.dataTransfer.getData(DRAG_SUBGRAPH);
+    if (!sub) return;
+    const { name, definition } = JSON.parse(sub) as { name: string; definition: SubgraphDef };
+    dispatch({ type: "subgraphInserted", name, definition, position: { x: at.x - BLOCK_WIDTH / 2, y: at.y - 20 } });
   };
 
   const selectAll = useCallback(() => dispatch({ type: "selectedAll" }), [dispatch]);
   const quickAtPointer = useCallback((x: number, y: number) => openQuick(x, y, { kind: "any" }), [openQuick]);
-  useCanvasKeys(canvas, { quickAdd: quickAtPointer, selectAll, busy: quick !== null || menu !== null });
+  const renameSelected = useCallback(() => {
+    const chosen = graphRef.current.nodes.filter((n) => n.selected && (n.type === "block" || n.type === "subgraph"));
+    if (chosen.length === 1) setRenaming(chosen[0].id);
+  }, []);
+  useCanvasKeys(canvas, { quickAdd: quickAtPointer, selectAll, busy: quick !== null || menu !== null || renaming !== null, rename: renameSelected });
 
   const openMenu = (e: React.MouseEvent | MouseEvent, what: MenuTarget) => {
     e.preventDefault();
@@ -212,10 +264,6 @@ export function GraphView() {
     openMenu(e, { kind: "node", ids });
   };
 
-  const clipOf = (g: Graph, ids: string[]): Graph => {
-    const keep = new Set(ids);
-    return { nodes: g.nodes.filter((n) => keep.has(n.id)), edges: g.edges.filter((e) => keep.has(e.source) && keep.has(e.target)) };
-  };
   const entries = (m: MenuState): { title?: string; entries: MenuEntry[] } => {
     const fit = () => fitReadable(flow);
     switch (m.kind) {
@@ -230,11 +278,14 @@ export function GraphView() {
       case "node": {
         const extras = m.ids.length === 1 ? graph.nodes.filter((n) => n.id === m.ids[0]) : [];
         return { title: m.ids.length === 1 ? m.ids[0] : `${m.ids.length} blocks`, entries: [
-          { label: "Duplicate", run: () => dispatch({ type: "pasted", clip: clipOf(graph, m.ids) }) },
+          { label: "Duplicate", hint: "Shift+D", run: () => dispatch({ type: "duplicated", nodes: m.ids,  // at the pointer, like Shift+D
+            at: { x: m.at.x + QUICK_ADD_OFFSET.any.x, y: m.at.y + QUICK_ADD_OFFSET.any.y } }) },
           { label: "Copy", hint: "Ctrl+C", run: copy },
           { label: "Disconnect all", run: () => dispatch({ type: "deleted", nodes: [],  // one undo step, however many blocks
             edges: graph.edges.filter((e) => m.ids.includes(e.source) || m.ids.includes(e.target)).map((e) => e.id) }) },
           { label: "Delete", hint: "Del", run: () => dispatch({ type: "deleted", nodes: m.ids, edges: [] }) },
+          ...extras.filter((n) => n.type === "block" || n.type === "subgraph").map((n) => ({ label: "Rename", hint: "F2", run: () => setRenaming(n.id) })),
+          ...extras.filter((n) => n.type === "subgraph").map((n) => ({ label: "Ungroup", run: () => dispatch({ type: "ungrouped", node: n.id }) })),
           ...nodeMenuExtras.flatMap((x) => extras.filter((n) => !x.when || x.when(n)).map((n) => ({ label: x.label, run: () => x.run(n) }))),
         ] };
       }
@@ -262,10 +313,12 @@ export function GraphView() {
     <main ref={canvas} className="graph" onDragOver={(e) => e.preventDefault()} onDrop={onDrop}>
       <OrganiseContext.Provider value={organise.context}>
       <WarningsContext.Provider value={warnings}>
+      <RenameContext.Provider value={rename}>
+      <DimContext.Provider value={dimmed}>
       <ReactFlow nodes={nodes} edges={edges} nodeTypes={nodeTypes} edgeTypes={edgeTypes} {...wireHoverHandlers}
                  onEdgeDoubleClick={organise.onEdgeDoubleClick} onNodeDoubleClick={organise.onNodeDoubleClick}
                  onNodesChange={onNodesChange} onEdgesChange={onEdgesChange} onConnect={onConnect} onDelete={onDelete}
-                 onConnectEnd={onConnectEnd} isValidConnection={isValidConnection}
+                 onConnectStart={onConnectStart} onConnectEnd={onConnectEnd} isValidConnection={isValidConnection}
                  deleteKeyCode={["Delete", "Backspace"]} multiSelectionKeyCode="Shift"
                  // Blender/Unreal hands: left-drag on empty canvas box-selects, middle-drag (or Space+drag) pans, wheel zooms
                  selectionOnDrag panOnDrag={[1]} selectionMode={SelectionMode.Partial}
@@ -282,6 +335,8 @@ export function GraphView() {
       {quick && <QuickAdd x={quick.x} y={quick.y} mode={quick.mode} onPick={pick} onClose={closeQuick} />}
       {menu && <ContextMenu x={menu.x} y={menu.y} {...entries(menu)} onClose={closeMenu} />}
       <SubgraphBar />
+      </DimContext.Provider>
+      </RenameContext.Provider>
       </WarningsContext.Provider>
       </OrganiseContext.Provider>
       <Toast />

@@ -1,6 +1,8 @@
 // The top bar: the program's name and status, live or draft, the safety net's corrections, files,
 // undo/redo (zoom and Fit are on the canvas).
+import { CommandButtons } from "./CommandButtons";
 import { SafetyIndicator } from "./live/SafetyIndicator";
+import { SaveAsDialog } from "./saveAs/SaveAsDialog";
 import { useActions, useEditor } from "./store/EditorStore";
 import { statusText } from "./store/state";
 
@@ -41,11 +43,13 @@ export function Toolbar() {
         {library.map((p) => <option key={p} value={p}>{p}</option>)}
       </select>
       <button onClick={() => save()} data-testid="save">Save</button>
-      <button onClick={saveAs}>Save as</button>
+      <button onClick={saveAs} data-testid="save-as">Save as</button>
+      <SaveAsDialog />
       <label className="button">Import<input type="file" accept=".json" hidden onChange={(e) => e.target.files?.[0] && importJson(e.target.files[0])} /></label>
       <button onClick={exportJson}>Export</button>
       <button onClick={() => dispatch({ type: "undo" })} disabled={!history.past.length} data-testid="undo" title="Ctrl+Z">Undo</button>
       <button onClick={() => dispatch({ type: "redo" })} disabled={!history.future.length} data-testid="redo" title="Ctrl+Shift+Z">Redo</button>
+      <CommandButtons />
     </header>
   );
 }

@@ -80,6 +80,8 @@ export const api = {
   inputs: () => call<ExposedInputs>("GET", "/api/inputs"),
   previz: () => call<PrevizInfo>("GET", "/api/previz"),
   ghost: (visible: boolean) => call<GhostSet>("PUT", "/api/previz/ghost", { visible }),
+  /** The Pre-Viz scene's background follows the editor's theme (refused when there is no Pre-Viz). */
+  previzTheme: (theme: "light" | "dark") => call<{ theme: string }>("PUT", "/api/previz/theme", { theme }),
 };
 
 export function wsUrl(path: string): string {

@@ -96,7 +96,8 @@ describe("schema-driven forms", () => {
     const sine = fieldsFromSchema(catalog.sine.params_schema);
     const amp = sine.find((f) => f.name === "amplitude")!;
     expect(amp.kind).toBe("slider");
-    expect([amp.min, amp.max]).toEqual([0, 10]);
+    expect([amp.min, amp.max]).toEqual([0, 1]);  // the slider spans the soft range (x-soft)
+    expect([amp.number?.hardMin, amp.number?.hardMax]).toEqual([0, 10]);  // typing goes up to the hard one
     expect(sine.find((f) => f.name === "dofs")!.kind).toBe("dofs");
     const nmf = fieldsFromSchema(catalog.nmf_stage2.params_schema);
     expect(nmf.find((f) => f.name === "preset")!.options).toContain("D");

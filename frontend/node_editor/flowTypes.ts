@@ -10,6 +10,8 @@ export interface NodeData {
   inputs: Record<string, PortSpec>;
   outputs: Record<string, PortSpec>;
   errors: string[];
+  /** Bypassed (program node `bypass: true`): the block passes its first frame input through. */
+  bypass?: boolean;
   [key: string]: unknown;
 }
 

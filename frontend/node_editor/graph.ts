@@ -108,7 +108,8 @@ export function programToFlow(program: Program, catalog: Catalog): { nodes: Flow
     const { inputs, outputs } = nodePorts(n.type, params, meta.subgraphs, catalog);
     const pos = positions?.[n.id] ?? { x: Number(ui.x ?? 0), y: Number(ui.y ?? 0) };
     const type = n.type === SUBGRAPH ? "subgraph" : "block";
-    return { id: n.id, type, position: pos, data: { type: n.type, params, ui, inputs, outputs, errors: [] } };
+    const bypass = n.bypass === true ? { bypass: true } : {};
+    return { id: n.id, type, position: pos, data: { type: n.type, params, ui, inputs, outputs, errors: [], ...bypass } };
   });
   // comment frames first (drawn behind), reroutes last; the rest of `ui` stays in meta
   const notes = annotationsToFlow(meta.ui as Record<string, unknown> | undefined);
@@ -154,6 +155,7 @@ export function flowToProgram(nodes: FlowNode[], edges: FlowEdge[], meta: Meta):
       type: n.data.type,
       params: n.data.params,
       ui: { ...n.data.ui, x: Math.round(n.position.x), y: Math.round(n.position.y) },
+      ...(n.data.bypass ? { bypass: true } : {}),
     })),
     edges: edges.map((e) => ({ from: { node: e.source, port: e.sourceHandle }, to: { node: e.target, port: e.targetHandle } })),
   } as Program;

@@ -1,4 +1,5 @@
 // Parameter-panel fields derived from a block's JSON Schema (pydantic's output), one widget each.
+import { niceStep, type NumberSpec } from "./fields/numberField";
 import type { JsonSchema } from "./jsonSchema";
 
 export type FieldKind = "slider" | "number" | "integer" | "enum" | "bool" | "text" | "dofs" | "colour" | "json" | "posture" | "clip";
@@ -8,9 +9,12 @@ export interface Field {
   label: string;
   kind: FieldKind;
   description: string;
+  /** The slider's (soft) range: `x-soft` when the block declares one, else the hard range. */
   min?: number;
   max?: number;
   step?: number;
+  /** Numbers: the soft range, the hard range and the step (../fields/numberField). */
+  number?: NumberSpec;
   options?: (string | number)[];
   nullable: boolean;
   default?: unknown;
@@ -62,11 +66,9 @@ export function fieldsFromSchema(schema: JsonSchema): Field[] {
     }
     const t = Array.isArray(s.type) ? s.type.find((x) => x !== "null") : s.type;
     if (t === "number" || t === "integer") {
-      const min = s.minimum ?? s.exclusiveMinimum;
-      const max = s.maximum ?? s.exclusiveMaximum;
-      const bounded = typeof min === "number" && typeof max === "number";
-      const step = t === "integer" ? 1 : bounded ? niceStep((max as number) - (min as number)) : undefined;
-      out.push({ ...base, kind: bounded ? "slider" : t === "integer" ? "integer" : "number", min, max, step });
+      const number = numberSpec(s, raw, t === "integer");
+      const slider = number.softMin !== undefined && number.softMax !== undefined;
+      out.push({ ...base, kind: slider ? "slider" : t, min: number.softMin, max: number.softMax, step: number.step, number });
       continue;
     }
     if (t === "boolean") {
@@ -86,11 +88,29 @@ export function fieldsFromSchema(schema: JsonSchema): Field[] {
   return out;
 }
 
-function niceStep(span: number): number {
-  if (span <= 1.01) return 0.01;
-  if (span <= 10.01) return 0.05;
-  if (span <= 100.01) return 0.5;
-  return Math.pow(10, Math.floor(Math.log10(span)) - 2);
+/** A hard range wider than this (a seed's 0..2^31) makes no usable slider: a typed field only. The
+ * server's tests hold every wide number parameter to an `x-soft` range (tests/test_soft_ranges.py). */
+const WIDEST_HARD_SLIDER = 1000;
+
+const num = (x: unknown) => (typeof x === "number" && Number.isFinite(x) ? x : undefined);
+
+/** A number's ranges (contract C1): the slider spans `x-soft` when declared, else a bounded hard range;
+ * typing may go up to the hard range (`minimum`/`maximum`, or exclusive bounds). */
+function numberSpec(s: JsonSchema, raw: JsonSchema, integer: boolean): NumberSpec {
+  const ext = (key: string) => raw[key] ?? s[key];
+  const minEx = num(s.exclusiveMinimum), maxEx = num(s.exclusiveMaximum);
+  const hardMin = num(s.minimum) ?? minEx, hardMax = num(s.maximum) ?? maxEx;
+  const soft = ext("x-soft");
+  const hardSlider = hardMin !== undefined && hardMax !== undefined && hardMax - hardMin <= WIDEST_HARD_SLIDER;
+  const [softMin, softMax] = Array.isArray(soft) && soft.length === 2 && soft.every((x) => num(x) !== undefined)
+    ? (soft as number[]) : hardSlider ? [hardMin, hardMax] : [undefined, undefined];
+  const bounded = softMin !== undefined && softMax !== undefined;
+  const step = num(ext("x-step")) ?? (integer ? 1 : bounded ? niceStep(softMax - softMin) : 0.01);
+  return {
+    ...(bounded ? { softMin, softMax } : {}), hardMin, hardMax, step, integer,
+    ...(num(s.minimum) === undefined && minEx !== undefined ? { minExclusive: true } : {}),
+    ...(num(s.maximum) === undefined && maxEx !== undefined ? { maxExclusive: true } : {}),
+  };
 }
 
 /** Hex colour of an [r, g, b] in 0..1 and back (for colour pickers). */

@@ -1,14 +1,25 @@
-// Keys over the canvas (never while typing in a field): Tab, Shift+A or a tap of Space open the
-// quick-add search at the pointer; Ctrl/Cmd+A selects every block.
+// Keys over the canvas (never while typing in a field; the table: ../shortcuts): Tab, Shift+A or a tap
+// of Space open the quick-add search at the pointer; Ctrl/Cmd+A selects every block; M bypasses the
+// selected blocks; Shift+D duplicates them at the pointer; F2 renames the selected block.
+import { useReactFlow } from "@xyflow/react";
 import { useEffect, useRef, type RefObject } from "react";
+import { BLOCK_WIDTH } from "../layout/constants";
+import { shortcutOf } from "../shortcuts";
+import { useEditor } from "../store/EditorStore";
 
 const TYPING = ["INPUT", "TEXTAREA", "SELECT"];
 /** A Space held longer than this (ms), or with a drag (a pan), is not a tap. */
 const TAP_MS = 300;
+/** Copies made at the pointer (Shift+D) have their first block's title under it (flow px from its corner). */
+const DUPLICATE_AT = { x: -BLOCK_WIDTH / 2, y: -20 };
 
-export function useCanvasKeys(canvas: RefObject<HTMLElement | null>, { quickAdd, selectAll, busy }: {
+export function useCanvasKeys(canvas: RefObject<HTMLElement | null>, { quickAdd, selectAll, busy, rename }: {
   quickAdd: (clientX: number, clientY: number) => void; selectAll: () => void; busy: boolean;
+  /** F2 on a selected block (the canvas's in-place rename), when the canvas has one. */
+  rename?: () => void;
 }) {
+  const { dispatch } = useEditor();
+  const flow = useReactFlow();
   const pointer = useRef({ x: 0, y: 0, inside: false, dragged: false });
   const space = useRef<number | null>(null);
   useEffect(() => {
@@ -29,13 +40,23 @@ export function useCanvasKeys(canvas: RefObject<HTMLElement | null>, { quickAdd,
     };
     const down = (e: KeyboardEvent) => {
       if (busy || typing(e)) return;
-      const mod = e.ctrlKey || e.metaKey;
       const p = pointer.current;
-      if (mod && !e.shiftKey && !e.altKey && e.key.toLowerCase() === "a") { e.preventDefault(); selectAll(); return; }
-      if (mod || e.altKey || !p.inside) return;
-      if (e.key === "Tab" && !e.shiftKey) { e.preventDefault(); quickAdd(p.x, p.y); }
-      else if (e.key === "A" && e.shiftKey) { e.preventDefault(); quickAdd(p.x, p.y); }
-      else if (e.key === " " && !e.repeat) { space.current = performance.now(); p.dragged = false; }
+      if (shortcutOf(e, "anywhere") === "selectAll") { e.preventDefault(); selectAll(); return; }
+      const id = p.inside ? shortcutOf(e, "canvas") : null;
+      if (!id) return;
+      if (id === "quickAdd" && e.key === " ") {  // a tap, told apart from a held Space (a pan) on its release
+        if (!e.repeat) { space.current = performance.now(); p.dragged = false; }
+        return;
+      }
+      if (id === "rename" && !rename) return;
+      e.preventDefault();
+      if (id === "quickAdd") quickAdd(p.x, p.y);
+      else if (id === "bypass") dispatch({ type: "bypassToggled" });
+      else if (id === "duplicate") {
+        const at = flow.screenToFlowPosition({ x: p.x, y: p.y });
+        dispatch({ type: "duplicated", at: { x: at.x + DUPLICATE_AT.x, y: at.y + DUPLICATE_AT.y } });
+      }
+      else if (id === "rename") rename?.();
     };
     const up = (e: KeyboardEvent) => {
       if (e.key !== " " || space.current === null) return;
@@ -49,5 +70,5 @@ export function useCanvasKeys(canvas: RefObject<HTMLElement | null>, { quickAdd,
     window.addEventListener("keydown", down);
     window.addEventListener("keyup", up);
     return () => { window.removeEventListener("keydown", down); window.removeEventListener("keyup", up); };
-  }, [busy, quickAdd, selectAll]);
+  }, [busy, quickAdd, selectAll, rename, dispatch, flow]);
 }

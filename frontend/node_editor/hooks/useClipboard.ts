@@ -1,9 +1,10 @@
-// Copy the selected blocks (and the edges between them); paste them with fresh ids.
+// Copy the selected blocks (and the edges between them); paste them with fresh ids, where `place` says
+// (the pointer or a free spot in view) or beside their originals.
 import { useCallback, useRef } from "react";
 import { useEditor } from "../store/EditorStore";
-import type { Graph } from "../store/state";
+import type { Graph, Position } from "../store/state";
 
-export function useClipboard() {
+export function useClipboard(place?: (clip: Graph) => Position) {
   const { state, dispatch } = useEditor();
   const graph = state.history.present;
   const clip = useRef<Graph | null>(null);
@@ -12,6 +13,8 @@ export function useClipboard() {
     const ids = new Set(nodes.map((n) => n.id));
     clip.current = { nodes, edges: graph.edges.filter((e) => ids.has(e.source) && ids.has(e.target)) };
   }, [graph]);
-  const paste = useCallback(() => { if (clip.current) dispatch({ type: "pasted", clip: clip.current }); }, [dispatch]);
+  const paste = useCallback(() => {
+    if (clip.current) dispatch({ type: "pasted", clip: clip.current, at: place?.(clip.current) });
+  }, [dispatch, place]);
   return { copy, paste };
 }

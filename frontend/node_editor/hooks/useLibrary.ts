@@ -5,6 +5,8 @@ import { useCallback, useEffect, useMemo } from "react";
 import { api, ApiError, type Program } from "../api";
 import { flowToProgram } from "../graph";
 import { useEditor } from "../store/EditorStore";
+import { suggestedName } from "../saveAs/libraryName";
+import { requestSaveAs } from "../saveAs/saveAsRequest";
 
 /** What "New" starts from: the rest pose on the output. */
 const BLANK_PROGRAM = {
@@ -18,9 +20,6 @@ const BLANK_PROGRAM = {
 
 const DISCARD = "Discard unsaved changes?";
 
-/** A library file name from a program's name (letters, digits, _ . -). */
-const fileName = (name: string | null | undefined) => (name ?? "program").replace(/[^A-Za-z0-9_.-]+/g, "_");
-
 export function useLibrary(say: (message: string) => void) {
   const { state, dispatch } = useEditor();
   const { history, meta, libName, dirty } = state;
@@ -28,11 +27,11 @@ export function useLibrary(say: (message: string) => void) {
   const current = useCallback(() => flowToProgram(graph.nodes, graph.edges, meta!), [graph, meta]);
 
   const save = useCallback(async (asName?: string) => {
-    const prompted = asName === undefined && !libName;
-    const name = asName ?? libName ?? window.prompt("Save program as", fileName(meta?.name));
-    if (!name) return;
+    const name = asName ?? libName;
+    // never saved: the dialog asks for a name and calls back with it
+    if (!name) return requestSaveAs(suggestedName(meta?.name));
     // a program saved under a new name is called by that name (its title follows the file)
-    const rename = asName !== undefined || prompted;
+    const rename = asName !== undefined;
     try {
       const program = current();
       await api.saveProgram(name, rename ? { ...program, name } : program);
@@ -44,10 +43,7 @@ export function useLibrary(say: (message: string) => void) {
     }
   }, [libName, meta, current, dispatch, say]);
 
-  const saveAs = useCallback(() => {
-    const name = window.prompt("Save as", fileName(libName ?? meta?.name));
-    if (name) save(name);
-  }, [save, libName, meta]);
+  const saveAs = useCallback(() => requestSaveAs(suggestedName(libName ?? meta?.name)), [libName, meta]);
 
   const open = useCallback(async (name: string) => {
     if (dirty && !window.confirm(DISCARD)) return;

@@ -1,6 +1,6 @@
 // Keeps the server in step with the graph. Live: every structural edit is validated and hot-swapped
-// (PUT, shortly after the last edit) and a parameter drag is applied live (PATCH, throttled, nothing
-// rebuilt). Draft: edits are only validated (POST /api/program/validate) and the robot keeps its
+// (PUT, shortly after the last edit; a burst of undo/redo steps once it ends) and a parameter drag is
+// applied live (PATCH, throttled, nothing rebuilt; inside a subgraph, to the definition's node). Draft: edits are only validated (POST /api/program/validate) and the robot keeps its
 // program until "Go live" swaps the draft in (the engine blends the swap within the robot's limits).
 import { useCallback, useEffect, useMemo, useRef } from "react";
 import { api, ApiError, type Program } from "../api";
@@ -9,9 +9,8 @@ import { useEditor } from "../store/EditorStore";
 import type { Meta } from "../graph";
 import { structureKey, withParams, type Graph } from "../store/state";
 import { refreshInputs } from "./useBootstrap";
+import { gestureTime, useSyncDelay, type Gesture } from "./syncTiming";
 
-/** Edits closer together than this (ms) go to the server as one program. */
-const SYNC_DELAY_MS = 90;
 /** A parameter drag sends at most one PATCH per node this often (ms); the last value is always sent. */
 export const PATCH_INTERVAL_MS = 50;
 
@@ -56,6 +55,8 @@ export function useProgramSync(say: (message: string) => void) {
     synced.current = loaded.fromServer ? syncKey(true, graph, meta) : "";
   }, [loaded]);  // eslint-disable-line react-hooks/exhaustive-deps -- only when a program arrives: the graph and meta are the loaded ones then
 
+  const syncDelay = useSyncDelay(history);  // an undo burst is one swap when it ends
+
   useEffect(() => {
     if (!meta) return;
     const key = syncKey(live, graph, meta);
@@ -85,9 +86,9 @@ export function useProgramSync(say: (message: string) => void) {
       } finally {
         dispatch({ type: "syncing", on: false });
       }
-    }, SYNC_DELAY_MS);
+    }, syncDelay());
     return () => window.clearTimeout(timer);
-  }, [graph, meta, live, program, dispatch, say]);
+  }, [graph, meta, live, program, dispatch, say, syncDelay]);
 
   const throttle = useMemo(() => new PatchThrottle(async (node, params) => {
     try {
@@ -98,21 +99,22 @@ export function useProgramSync(say: (message: string) => void) {
     }
   }), [dispatch, say]);
 
-  /** Change a node's parameters (a drag's steps and its release alike). Live, a change that keeps the
-   * node's ports is a throttled PATCH: the server is then at this graph with no hot swap. One that
-   * changes ports, or returns a parameter to its default (a PATCH merges, it cannot unset), is
-   * structural and goes as a PUT with the next sync. */
-  const editParams = useCallback((id: string, params: Record<string, unknown>) => {
+  const gesture = useRef<Gesture | null>(null);
+
+  /** Change a node's parameters: `inProgress` for a drag's steps, not for its end nor a typed value.
+   * Live, a change that keeps the node's ports is a throttled PATCH: the server is then at this graph
+   * with no hot swap. Inside an open subgraph it patches the definition's node (`<instance path>/<id>`),
+   * which the server applies to every instance. One that changes ports, or returns a parameter to its
+   * default (a PATCH merges, it cannot unset), is structural and goes as a PUT with the next sync. */
+  const editParams = useCallback((id: string, params: Record<string, unknown>, inProgress = false) => {
     const before = graph.nodes.find((n) => n.id === id)?.data.params ?? {};
     const next = withParams(graph, catalog, id, params);
     if (!next) return;
-    dispatch({ type: "paramsEdited", node: id, params, at: performance.now() });
+    dispatch({ type: "paramsEdited", node: id, params, at: gestureTime(gesture, id, inProgress, performance.now()) });
     const unset = Object.keys(before).some((k) => !(k in next.params));
-    // Inside an open subgraph the definition is shared by every node using it: the hot swap (a
-    // parameter-only one on the server, nothing rebuilt) changes them all, a PATCH would change one.
-    if (!live || next.structural || unset || !report?.valid || meta?.inside) return;
+    if (!live || next.structural || unset || !report?.valid) return;
     synced.current = syncKey(true, next.graph, meta);  // before the sync effect runs
-    throttle.push(id, next.params);
+    throttle.push(meta?.inside ? `${meta.inside.path}/${id}` : id, next.params);
     // a PATCH answers no report: judge the patched graph once the edits pause, so its warnings (a layer's
     // weight dragged to 0) show on the graph
     window.clearTimeout(revalidate.current);

@@ -6,8 +6,9 @@
 
 /** A block's width: .block's min-width (236) and its borders, rounded up. */
 export const BLOCK_WIDTH = 240;
-/** A block's header (.block-header: a 16 px title, its padding and the border), about; its body is below. */
-export const BLOCK_HEADER_HEIGHT = 34;
+/** A block's header (.block-header: a 16 px name over an 11 px type, its padding and the border), about;
+ * its body is below. */
+export const BLOCK_HEADER_HEIGHT = 46;
 /** One row of ports (.port-row): an input on the left and an output on the right share a row. */
 export const PORT_ROW_HEIGHT = 22;
 /** The first port row's top in the block's body. */
@@ -35,3 +36,9 @@ export const MENU_EDGE_MARGIN = 4;
 export const FALLBACK_CANVAS_SIZE = { width: 800, height: 600 };
 /** The minimap's size (styles.css sizes .react-flow__minimap the same). */
 export const MINIMAP_SIZE = { width: 180, height: 110 };
+
+// ---- dragged from the palette onto the canvas (dataTransfer types)
+
+/** A block type (panels/Palette) and a library subgraph, `{name, definition}` as JSON (panels/SubgraphLibrary). */
+export const DRAG_BLOCK = "application/nutty-block";
+export const DRAG_SUBGRAPH = "application/nutty-subgraph";

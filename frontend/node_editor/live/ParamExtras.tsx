@@ -3,6 +3,8 @@
 import { useContext, useState } from "react";
 import type { LayerState } from "../api";
 import { LiveContext } from "../context";
+import { NumberField } from "../fields/NumberField";
+import type { NumberSpec } from "../fields/numberField";
 import { useFocusNode } from "./focus";
 import { setSolo, useLiveUi } from "./liveUi";
 import { maskSummary, moved, mutePlan, soloPlan, summarise, unsoloPlan, type Driver } from "./logic";
@@ -26,6 +28,9 @@ export function DrivenBy({ param, driver }: { param: string; driver: Driver }) {
 export type Layer = Record<string, unknown> & { name: string };
 
 const MODES = ["override", "additive", "average"];
+/** A layer's weight and its fade time (s), as the mixer's schema bounds them. */
+const WEIGHT: NumberSpec = { softMin: 0, softMax: 1, hardMin: 0, hardMax: 1, step: 0.01 };
+const FADE: NumberSpec = { hardMin: 0, hardMax: 30, step: 0.1 };
 
 /** The layer mixer's layers, bottom to top: mode, weight, fade, mask, mute/solo, the live weight. */
 export function LayerStack({ node, layers, onChange }: {
@@ -55,7 +60,8 @@ export function LayerStack({ node, layers, onChange }: {
       <div className="ls-note muted">bottom to top: later layers override earlier ones</div>
       {layers.map((l, i) => {
         const st = stateOf(l.name);
-        const active = activeNow[i].active;
+        const active = activeNow[i].active;  // as it runs (commands may have switched it)
+        const written = l.active !== false;  // as the program says
         const weight = typeof l.weight === "number" ? l.weight : 1;
         return (
           <div key={l.name} className={`ls-row ${active ? "" : "muted-layer"} ${solo?.layer === l.name ? "soloed" : ""}`}
@@ -72,9 +78,10 @@ export function LayerStack({ node, layers, onChange }: {
                       onChange={(e) => edit(i, { mode: e.target.value }, false)}>
                 {MODES.map((m) => <option key={m} value={m}>{m}</option>)}
               </select>
-              <button type="button" className={`ls-toggle ${active ? "" : "on"}`} data-testid={`ls-mute-${l.name}`}
-                      title={active ? "mute: fade this layer out" : "unmute: fade this layer in"}
-                      onClick={() => send(mutePlan({ name: l.name, active }))}>M</button>
+              {/* mute is the layer's `active` parameter: saved with the program and undoable */}
+              <button type="button" className={`ls-toggle ${written ? "" : "on"}`} data-testid={`ls-mute-${l.name}`}
+                      title={written ? "mute: fade this layer out (saved in the program)" : "unmute: fade this layer in"}
+                      onClick={() => edit(i, { active: mutePlan({ name: l.name, active: written }).active }, false)}>M</button>
               <button type="button" className="ls-toggle" data-testid={`ls-remove-${l.name}`} disabled={layers.length === 1}
                       title="remove this layer (its input and the wire to it go too)"
                       onClick={() => onChange(layers.filter((_, k) => k !== i), false)}>×</button>
@@ -83,15 +90,13 @@ export function LayerStack({ node, layers, onChange }: {
                       onClick={() => toggleSolo(l.name)}>S</button>
             </div>
             <div className="ls-line">
-              <span className="ls-label">weight</span>
-              <input type="range" min={0} max={1} step={0.01} value={weight} aria-label={`${l.name} weight`}
-                     data-testid={`ls-weight-${l.name}`} onChange={(e) => edit(i, { weight: Number(e.target.value) }, true)} />
-              <span className="ls-num">{weight.toFixed(2)}</span>
-              <span className="ls-label">fade</span>
-              <input type="number" className="ls-fade" min={0} max={30} step={0.1} aria-label={`${l.name} fade`}
-                     data-testid={`ls-fade-${l.name}`} value={typeof l.fade === "number" ? l.fade : 0.5}
-                     onChange={(e) => e.target.value !== "" && edit(i, { fade: Number(e.target.value) }, true)} />
-              <span className="ls-label">s</span>
+              <NumberField testId={`ls-weight-${l.name}`} label="weight" labelClass="ls-label" ariaLabel={`${l.name} weight`}
+                           value={weight} spec={WEIGHT} onChange={(v, phase) => edit(i, { weight: v }, phase === "live")} />
+              <NumberField testId={`ls-fade-${l.name}`} label="fade" labelClass="ls-label" slider={false}
+                           value={typeof l.fade === "number" ? l.fade : 0.5} spec={FADE}
+                           onChange={(v, phase) => edit(i, { fade: v }, phase === "live")}>
+                <span className="ls-label">s</span>
+              </NumberField>
             </div>
             <div className="ls-line">
               <MaskField layer={l.name} mask={l.mask} onChange={(mask) => edit(i, { mask }, false)} />

@@ -1,7 +1,8 @@
 // The running program's exposed inputs as controls: a slider per number, a box per flag, a top-view
 // pad per 3D point (e.g. a gaze target).
-import { useState } from "react";
 import type { ExposedInput } from "../api";
+import { NumberField } from "../fields/NumberField";
+import type { NumberSpec } from "../fields/numberField";
 import { useActions, useEditor } from "../store/EditorStore";
 
 export function InputsPanel() {
@@ -40,35 +41,25 @@ function GazePad({ decl, value, onSet }: { decl: ExposedInput; value: unknown; o
   );
 }
 
-/** A number input's slider. While the pointer holds it, the slider shows its own value: nothing else
- * (a refresh of the inputs after a program swap, an older value arriving late) moves the thumb under
- * the user's hand. The range is the declared one, with a step that divides it exactly, and the value
- * shown is clamped into it (an out-of-range value would sit at an end and leap at the first touch). */
-function InputSlider({ decl, value, onSet }: { decl: ExposedInput; value: unknown; onSet: (v: number) => void }) {
+/** A number input: the slider spans its declared range with a step that divides it exactly (../fields
+ * keeps the thumb under the hand while it is held), the text box takes any value in that range. */
+function InputNumber({ decl, value, onSet }: { decl: ExposedInput; value: unknown; onSet: (v: number) => void }) {
   const min = decl.min ?? -1, max = decl.max ?? 1;
-  const step = decl.type === "int" ? 1 : (max - min) / 200;
-  const [held, setHeld] = useState<number | null>(null);
+  const integer = decl.type === "int";
+  const spec: NumberSpec = { softMin: min, softMax: max, hardMin: decl.min ?? undefined, hardMax: decl.max ?? undefined,
+                             step: integer ? 1 : (max - min) / 200, integer };
   const stored = Number(value ?? decl.default ?? 0);
-  const shown = held ?? Math.min(max, Math.max(min, Number.isFinite(stored) ? stored : 0));
-  const release = () => setHeld(null);
   return (
-    <label className="input-slider">
-      <span>{decl.name}</span>
-      <input type="range" min={min} max={max} step={step} value={shown} aria-label={`input ${decl.name}`}
-             onPointerDown={() => setHeld(shown)} onPointerUp={release} onPointerCancel={release} onBlur={release}
-             onChange={(e) => {
-               const v = Number(e.target.value);
-               if (held !== null) setHeld(v);
-               onSet(v);
-             }} />
-      <span className="num">{shown.toFixed(2)}</span>
-    </label>
+    <div className="input-slider">
+      <NumberField testId={`input-${decl.name}`} label={decl.name} labelClass="input-name" ariaLabel={`input ${decl.name}`}
+                   value={Number.isFinite(stored) ? stored : 0} spec={spec} onChange={(v) => onSet(v)} />
+    </div>
   );
 }
 
 function InputControl({ decl, value, onSet }: { decl: ExposedInput; value: unknown; onSet: (v: unknown) => void }) {
   if (decl.type === "vec3") return <GazePad decl={decl} value={value} onSet={onSet} />;
-  if (decl.type === "float" || decl.type === "int") return <InputSlider decl={decl} value={value} onSet={onSet} />;
+  if (decl.type === "float" || decl.type === "int") return <InputNumber decl={decl} value={value} onSet={onSet} />;
   if (decl.type === "bool") return <label><input type="checkbox" checked={Boolean(value)} onChange={(e) => onSet(e.target.checked)} /> {decl.name}</label>;
   return null;
 }

@@ -3,6 +3,7 @@
 import { useMemo, useState } from "react";
 import type { BlockEntry } from "../api";
 import { CATEGORY_COLOURS } from "../BlockNode";
+import { DRAG_BLOCK } from "../layout/constants";
 import { CATEGORIES } from "../ports";
 import { useActions, useEditor } from "../store/EditorStore";
 
@@ -28,7 +29,7 @@ export function Palette() {
           <div className="group-title" style={{ borderColor: CATEGORY_COLOURS[cat.name] }}>{cat.title}</div>
           {items.map((e) => (
             <div key={e.type} className="palette-item" draggable data-testid={`palette-${e.type}`} title={e.doc}
-                 onDragStart={(ev) => { ev.dataTransfer.setData("application/nutty-block", e.type); ev.dataTransfer.effectAllowed = "move"; }}
+                 onDragStart={(ev) => { ev.dataTransfer.setData(DRAG_BLOCK, e.type); ev.dataTransfer.effectAllowed = "move"; }}
                  onDoubleClick={() => addBlock(e.type)}>
               <span className="dot" style={{ background: CATEGORY_COLOURS[cat.name] }} />
               <span className="name">{e.title}</span>

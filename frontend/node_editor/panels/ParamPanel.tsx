@@ -1,12 +1,13 @@
 // The parameter panel, generated from the selected block's JSON Schema; the server's errors for the
 // block are shown on it and on the fields they name.
-import { useMemo, useState } from "react";
+import { useMemo, useState, type ReactNode } from "react";
 import type { RobotDescription } from "../api";
 import { fieldsFromSchema, hexToRgb, rgbToHex, type Field } from "../schemaForm";
 import { useActions, useEditor } from "../store/EditorStore";
 import { errorsByNode } from "../store/state";
 import { drivenBy } from "../live/logic";
 import { DrivenBy, LayerStack, type Layer } from "../live/ParamExtras";
+import { NumberField } from "../fields/NumberField";
 
 function DofPicker({ value, robot, onChange }: { value: string[]; robot: RobotDescription | null; onChange: (v: string[]) => void }) {
   const [text, setText] = useState("");
@@ -34,24 +35,6 @@ function DofPicker({ value, robot, onChange }: { value: string[]; robot: RobotDe
 function FieldEditor({ f, value, robot, clips, onChange }: { f: Field; value: unknown; robot: RobotDescription | null; clips: string[]; onChange: (v: unknown, live: boolean) => void }) {
   const v = value === undefined ? f.default : value;
   switch (f.kind) {
-    case "slider": {
-      const unset = typeof v !== "number";  // a nullable override left to its default (e.g. the preset's σ)
-      const num = unset ? ((Number(f.min ?? 0) + Number(f.max ?? 1)) / 2) : (v as number);
-      return (
-        <div className={`row ${unset ? "unset" : ""}`}>
-          <input type="range" aria-label={f.name} data-testid={`param-${f.name}`} min={f.min} max={f.max} step={f.step} value={num}
-                 onChange={(e) => onChange(Number(e.target.value), true)} />
-          <input type="number" className="num" min={f.min} max={f.max} step={f.step} value={unset ? "" : num}
-                 placeholder={unset ? "default" : undefined}
-                 onChange={(e) => e.target.value !== "" && onChange(Number(e.target.value), true)} />
-          {f.nullable && v !== null && <button title="use the default" onClick={() => onChange(null, false)}>↺</button>}
-        </div>
-      );
-    }
-    case "number":
-    case "integer":
-      return <input type="number" aria-label={f.name} step={f.kind === "integer" ? 1 : "any"} value={v === null || v === undefined ? "" : Number(v)}
-                    onChange={(e) => onChange(e.target.value === "" ? (f.nullable ? null : 0) : Number(e.target.value), true)} />;
     case "enum":
       return (
         <select aria-label={f.name} value={String(v ?? "")} onChange={(e) => {
@@ -79,12 +62,27 @@ function FieldEditor({ f, value, robot, clips, onChange }: { f: Field; value: un
         </select>
       );
     case "colour":
-      return <input type="color" aria-label={f.name} value={rgbToHex((v as number[]) ?? [1, 1, 1])} onChange={(e) => onChange(hexToRgb(e.target.value), true)} />;
+      return <input type="color" aria-label={f.name} value={rgbToHex((v as number[]) ?? [1, 1, 1])} onChange={(e) => onChange(hexToRgb(e.target.value), false)} />;
     case "text":
       return <input type="text" aria-label={f.name} value={String(v ?? "")} onChange={(e) => onChange(e.target.value, false)} />;
     default:
       return <JsonField value={v} onChange={(x) => onChange(x, false)} />;
   }
+}
+
+/** A numeric parameter: slider over its soft range (when it has one) and free typing (../fields). */
+function NumberParam({ f, value, disabled, aside, onChange }: {
+  f: Field; value: unknown; disabled: boolean; aside: ReactNode; onChange: (v: unknown, live: boolean) => void;
+}) {
+  const v = value === undefined ? f.default : value;
+  const num = typeof v === "number" ? v : null;  // null: a nullable override left to its default (e.g. the preset's σ)
+  return (
+    <NumberField testId={`param-${f.name}`} label={f.label} ariaLabel={f.name} value={num} spec={f.number!}
+                 disabled={disabled} aside={aside} onChange={(x, phase) => onChange(x, phase === "live")}>
+      {f.nullable && v !== null && v !== undefined && !disabled &&
+        <button type="button" title="use the default" onClick={() => onChange(null, false)}>↺</button>}
+    </NumberField>
+  );
 }
 
 /** A JSON field grows with its text up to this many rows, then scrolls. */
@@ -125,6 +123,16 @@ export function ParamPanel() {
             </div>
           );
         const driver = drivenBy(history.present.edges, node.id, f.name);
+        if (f.number)
+          return (
+            // keyed by node too: a half-typed value or a hint does not carry over to the next block
+            <div key={`${node.id}/${f.name}`} className={`field ${bad} ${driver ? "driven" : ""}`} title={f.description}>
+              <NumberParam f={f} value={params[f.name]} disabled={!!driver}
+                           aside={driver && <DrivenBy param={f.name} driver={driver} />}
+                           onChange={(val, live) => onChange(node.id, { ...params, [f.name]: val }, live)} />
+              {f.description && <span className="hint">{f.description}</span>}
+            </div>
+          );
         const editor = <FieldEditor f={f} value={params[f.name]} robot={robot} clips={clips}
                                     onChange={(val, live) => onChange(node.id, { ...params, [f.name]: val }, live)} />;
         return (

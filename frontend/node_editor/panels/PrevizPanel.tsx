@@ -1,9 +1,11 @@
 // The 3D Pre-Viz (the server's viser page) with its ghost toggle (the stage-1 pose). Embedded, the page
 // is asked (`?embed=1`) to hide viser's own control panel and notices, which would cover the robot; it
-// can be enlarged over the graph, or popped out into its own window (with viser's panel).
+// can be enlarged over the graph, or popped out into its own window (with viser's panel). Its scene's
+// background follows the editor's theme.
 import { useEffect, useState } from "react";
-import { withToken } from "../api";
+import { api, withToken } from "../api";
 import { useActions, useEditor } from "../store/EditorStore";
+import { useTheme } from "../theme";
 
 /** The popped-out Pre-Viz window's size. */
 const POPOUT_FEATURES = "width=1100,height=800";
@@ -18,6 +20,11 @@ export function PrevizPanel() {
   const { setGhost } = useActions();
   const [big, setBig] = useState(false);
   const url = previz?.url ? withToken(previz.url) : null;
+  const theme = useTheme();
+  useEffect(() => {
+    // a server without a Pre-Viz (or from before the route) refuses: the scene keeps its own colours
+    if (previz?.url) api.previzTheme(theme).catch(() => undefined);
+  }, [theme, previz?.url]);
   useEffect(() => {  // Esc puts the enlarged Pre-Viz back in its corner
     if (!big) return;
     const onKey = (e: KeyboardEvent) => { if (e.key === "Escape") setBig(false); };

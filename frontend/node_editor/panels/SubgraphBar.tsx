@@ -6,6 +6,7 @@ import { useCallback, useEffect, useMemo, useState } from "react";
 import { api, ApiError } from "../api";
 import { FALLBACK_CANVAS_SIZE } from "../layout/constants";
 import { useActions, useEditor } from "../store/EditorStore";
+import { requestSaveAs } from "../saveAs/saveAsRequest";
 import {
   breadcrumb, exposedCandidates, frameAround, groupCandidates, openDefinition, selectedBlocks, SUBGRAPH, type Candidate, type SubgraphDef,
 } from "../subgraphs";
@@ -101,16 +102,18 @@ export function SubgraphBar() {
 
   const saveToLibrary = useCallback(async () => {
     if (!toLibrary) return;
-    const name = window.prompt("Save the subgraph to the robot's library as", toLibrary.name);
-    if (!name) return;
-    try {
-      await api.saveSubgraph(name, toLibrary.definition);
-      window.dispatchEvent(new Event(SUBGRAPHS_CHANGED));
-      say(`saved subgraph '${name}' to the library`);
-    } catch (e) {
-      const report = e instanceof ApiError ? e.detail?.report : null;
-      say(`not saved: ${report?.errors?.[0]?.message ?? (e instanceof ApiError ? e.detail?.message : String(e))}`);
-    }
+    const definition = toLibrary.definition;
+    const existing = await api.subgraphs().catch(() => [] as string[]);
+    requestSaveAs(toLibrary.name, { what: "subgraph", existing, save: async (name) => {
+      try {
+        await api.saveSubgraph(name, definition);
+        window.dispatchEvent(new Event(SUBGRAPHS_CHANGED));
+        say(`saved subgraph '${name}' to the library`);
+      } catch (e) {
+        const report = e instanceof ApiError ? e.detail?.report : null;
+        say(`not saved: ${report?.errors?.[0]?.message ?? (e instanceof ApiError ? e.detail?.message : String(e))}`);
+      }
+    } });
   }, [toLibrary, say]);
 
   const addComment = useCallback(() => {

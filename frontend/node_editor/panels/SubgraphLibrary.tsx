@@ -1,17 +1,17 @@
-// The palette's "Subgraphs" group: the robot library's subgraphs (GET /api/subgraphs). Double-click
-// one (or its +) to add it to the program: its definition is copied into the program's subgraphs.
+// The palette's "Subgraphs" group: the robot library's subgraphs (GET /api/subgraphs). Drag one onto the
+// canvas, double-click it or press its + to add it to the program: its definition is copied into the
+// program's subgraphs.
 import { useReactFlow } from "@xyflow/react";
 import { useEffect, useState } from "react";
 import { api } from "../api";
+import { DRAG_SUBGRAPH } from "../layout/constants";
 import { useActions, useEditor } from "../store/EditorStore";
 import type { SubgraphDef } from "../subgraphs";
+import { visibleSpot } from "../viewport";
 import { SUBGRAPHS_CHANGED } from "./SubgraphBar";
 
 type Item = { name: string; definition: SubgraphDef };
 
-/** An inserted subgraph's node goes at this part of the window's width and height (left of centre, above
- * it: where the canvas is, between the side bars and above the bottom panels). */
-const INSERT_AT = { x: 0.4, y: 0.3 };
 
 /** The library's subgraphs with their definitions (one that cannot be read is left out). */
 async function librarySubgraphs(): Promise<Item[]> {
@@ -21,7 +21,7 @@ async function librarySubgraphs(): Promise<Item[]> {
 }
 
 export function SubgraphLibrary() {
-  const { dispatch } = useEditor();
+  const { state, dispatch } = useEditor();
   const { say } = useActions();
   const flow = useReactFlow();
   const [items, setItems] = useState<Item[]>([]);
@@ -38,7 +38,7 @@ export function SubgraphLibrary() {
 
   const add = (name: string, definition: SubgraphDef) => dispatch({
     type: "subgraphInserted", name, definition,
-    position: flow.screenToFlowPosition({ x: window.innerWidth * INSERT_AT.x, y: window.innerHeight * INSERT_AT.y }),
+    position: visibleSpot(flow, state.history.present.nodes),  // a free spot in view, clear of the canvas's overlays
   });
 
   return (
@@ -47,7 +47,8 @@ export function SubgraphLibrary() {
         <div className="group-title" style={{ borderColor: "#c9a227" }}>Subgraphs</div>
         {!items.length && <div className="muted small">Group blocks (Ctrl+G) and save them to the library to reuse them here.</div>}
         {items.map(({ name, definition }) => (
-          <div key={name} className="palette-item" data-testid={`palette-subgraph-${name}`} onDoubleClick={() => add(name, definition)}
+          <div key={name} className="palette-item" data-testid={`palette-subgraph-${name}`} onDoubleClick={() => add(name, definition)} draggable
+               onDragStart={(ev) => { ev.dataTransfer.setData(DRAG_SUBGRAPH, JSON.stringify({ name, definition })); ev.dataTransfer.effectAllowed = "move"; }}
                title={`${definition.nodes?.length ?? 0} blocks; inputs: ${(definition.inputs ?? []).map((p) => p.name).join(", ") || "none"}; outputs: ${(definition.outputs ?? []).map((p) => p.name).join(", ") || "none"}`}>
             <span className="dot" style={{ background: "#c9a227" }} />
             <span className="name">▣ {name} <button className="add-subgraph" data-testid={`add-subgraph-${name}`} onClick={() => add(name, definition)}>+</button></span>

@@ -27,7 +27,7 @@ export interface EditorActions {
   say: (message: string) => void;
   log: (line: string) => void;
   sendCommand: (command: Command) => void;
-  /** New parameters of a node (a drag step or a committed value; `live` is kept for callers, unused). */
+  /** New parameters of a node; `live` for a drag's steps (its end is not): one drag is one undo step. */
   editParams: (node: string, params: Record<string, unknown>, live?: boolean) => void;
   /** Swap the draft into the robot (false when the server refuses it). */
   goLive: () => Promise<boolean>;

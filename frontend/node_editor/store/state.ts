@@ -9,7 +9,10 @@ import * as H from "../history";
 import { NEW_BLOCK_CLEARANCE, NEW_BLOCK_STEP } from "../layout/constants";
 import { defaultParams, portsOf } from "../ports";
 import { firstInputFor, firstOutputFor, replacingProblem, withoutOccupant, type PortRef } from "../quickAdd";
+import { renameNode } from "../rename";
 import { organise, type OrganiseAction } from "../subgraphs";
+import { ungroupNode } from "../ungroup";
+import { editCommand, type EditCommand } from "./editCommands";
 import type { Connection, EditorState, Graph, Position } from "./types";
 
 // the state's shape lives apart (./types), so that ../subgraphs, whose cases this reducer delegates to,
@@ -24,7 +27,7 @@ export type Action =
   | { type: "connected"; connection: Connection }
   | { type: "blockAdded"; blockType: string; position: Position }
   | { type: "paramsEdited"; node: string; params: Record<string, unknown>; at: number }
-  | { type: "pasted"; clip: Graph }
+  | { type: "pasted"; clip: Graph; at?: Position }
   | { type: "undo" }
   | { type: "redo" }
   | { type: "renamed"; name: string }
@@ -49,6 +52,12 @@ export type Action =
   | { type: "laidOut"; positions: Record<string, Position>; undoable: boolean }
   | { type: "selectedAll" }
   | { type: "selectedOnly"; nodes: string[] }
+  // the command overlays (find a block, the shortcut list): one at a time
+  | { type: "overlayShown"; overlay: EditorState["overlay"] }
+  | EditCommand
+  // the canvas: a node renamed in place (F2), a subgraph node replaced by its blocks
+  | { type: "nodeRenamed"; from: string; to: string }
+  | { type: "ungrouped"; node: string }
   | OrganiseAction;
 
 /** Parameter edits of one node closer together than this (ms) are one undo step. */
@@ -59,7 +68,7 @@ export const initialState: EditorState = {
   catalog: {}, robot: null, previz: null, meta: null, history: H.init({ nodes: [], edges: [] }), report: null,
   syncing: false, dirty: false, libName: null, library: [], clips: [], inputs: { decls: [], values: {} },
   toast: null, consoleLines: [], loaded: { count: 0, fromServer: false }, lastParamEdit: null,
-  live: false, runningName: null,
+  live: false, runningName: null, overlay: null,
 };
 
 /** The program's structure (no positions): what the server must have; equal keys need no sync. */
@@ -113,6 +122,12 @@ export function statusText(report: ValidationReport | null, syncing: boolean, li
 }
 
 const deselected = (nodes: FlowNode[]) => nodes.map((n) => ({ ...n, selected: false }));
+
+/** The clip moved so that its top-left corner is at `at`. */
+function placedAt(clip: Graph, at: Position): Graph {
+  const dx = at.x - Math.min(...clip.nodes.map((n) => n.position.x)), dy = at.y - Math.min(...clip.nodes.map((n) => n.position.y));
+  return { ...clip, nodes: clip.nodes.map((n) => ({ ...n, position: { x: n.position.x + dx, y: n.position.y + dy } })) };
+}
 
 /** Record a graph edit: a new undo step (`push`) or folded into the present one. */
 function edit(state: EditorState, next: Graph, push = true): EditorState {
@@ -252,7 +267,8 @@ export function reducer(state: EditorState, action: Action): EditorState {
     }
     case "pasted": {
       if (!action.clip.nodes.length) return state;
-      const pasted = pasteClipboard(graph.nodes, action.clip);
+      // with `at`: the clip's top-left corner lands there (the pointer, or a free spot in view)
+      const pasted = action.at ? pasteClipboard(graph.nodes, placedAt(action.clip, action.at), 0) : pasteClipboard(graph.nodes, action.clip);
       return edit(state, { nodes: [...deselected(graph.nodes), ...pasted.nodes], edges: [...graph.edges, ...pasted.edges] });
     }
     case "undo":
@@ -316,6 +332,15 @@ export function reducer(state: EditorState, action: Action): EditorState {
       const nodes = graph.nodes.map((n) => (!!n.selected === keep.has(n.id) ? n : { ...n, selected: keep.has(n.id) }));
       return edit(state, { ...graph, nodes }, false);
     }
+    case "overlayShown":
+      return { ...state, overlay: action.overlay };
+    case "nodeRenamed":
+      return renameNode(state, action.from, action.to);
+    case "ungrouped":
+      return ungroupNode(state, action.node);
+    case "bypassToggled":
+    case "duplicated":
+      return editCommand(state, action);
     default:
       return organise(state, action);  // subgraphs, comment frames, reroutes (../subgraphs)
   }

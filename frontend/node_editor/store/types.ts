@@ -33,4 +33,6 @@ export interface EditorState {
   live: boolean;
   /** Name of the program the robot runs (shown while a draft is edited). */
   runningName: string | null;
+  /** The command overlay shown over the editor: the find-block box (Ctrl+F) or the shortcut list (?). */
+  overlay: "find" | "help" | null;
 }
