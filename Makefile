@@ -12,7 +12,9 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
 FRONTEND := frontend
-# pytest-xdist workers: one per core (CI's machine has two).
+# pytest-xdist workers: one per core (CI's machine has two). `--dist loadfile` keeps each test module on
+# one worker: the browser modules are stories whose tests build on each other's state (one server and
+# one page per module), which split over two workers started twice and broke when split.
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
 .PHONY: run test test-fast lint deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench bench-long \
@@ -28,7 +30,7 @@ test: deps frontend-build
 
 # No browser, no Blender, no spawned servers: what a change to the engine, graph or API needs first.
 test-fast: deps-python
-	$(PY) -m pytest -q -n $(JOBS) -m "not browser and not blender and not server"
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m "not browser and not blender and not server"
 
 lint: deps-python deps-frontend
 	$(VENV)/bin/ruff check backend tests benchmarks blender
@@ -63,7 +65,7 @@ frontend-build:
 	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm run build --silent; fi
 
 test-python:
-	$(PY) -m pytest -q -n $(JOBS)
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile
 
 test-frontend:
 	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm test --silent; fi

@@ -38,9 +38,17 @@ def page(server):
 
 
 def _readable(page) -> None:
-    """Zoom to 100 %: blocks show their live rows (zoomed out they are titles and ports)."""
-    page.get_by_label("zoom 100%").click()
-    wait_until(lambda: page.locator(".block.compact").count() == 0, what="full blocks")
+    """Zoom to 100 %: blocks show their live rows (zoomed out they are titles and ports). Clicked again
+    while a framing of a program just loaded (it may run late on a loaded machine) zooms back out."""
+
+    def full_and_staying() -> bool:
+        if page.locator(".block.compact").count():
+            page.get_by_label("zoom 100%").click()
+            return False
+        time.sleep(0.3)
+        return page.locator(".block.compact").count() == 0
+
+    wait_until(full_and_staying, timeout=20, what="full blocks")
 
 
 def _legend(page) -> tuple[int, ...]:
