@@ -5,17 +5,33 @@ import { memo, useContext, useEffect, type CSSProperties } from "react";
 import type { NodeData } from "./graph";
 import { LiveContext, CatalogContext } from "./context";
 import { NodeTitle } from "./NodeTitle";
-import { DimContext, portKey } from "./wireDrop";
+import { useFaded } from "./wireDrop";
 import { useActions } from "./store/EditorStore";
 import { HANDLE_TOP, LIVE_ROW_HEIGHT, PORT_ROW_HEIGHT, PORT_ROWS_TOP } from "./layout/constants";
 import { CookBadge, WarningBadge, WarningLine } from "./live/NodeBadges";
 import { NetRows } from "./live/NetRows";
 import { useCompact } from "./viewport";
 
-/** Port row pitch (px) of a collapsed block, its rows' top (and room below them), and its least body height. */
-const COMPACT_ROW = 20;
-const COMPACT_ROWS_TOP = 4;
+/** Port row pitch (px) of a collapsed block or subgraph node, its rows' top (and room below them), and a
+ * block's least body height. */
+export const COMPACT_ROW = 20;
+export const COMPACT_ROWS_TOP = 4;
 const COMPACT_BODY_MIN_HEIGHT = 36;
+
+type PortEntry = [string, NodeData["inputs"][string]];
+
+/** A collapsed node's ports: handles without labels, inputs left and outputs right, one row each. */
+export function CompactHandles({ id, ins, outs, titleOf }: {
+  id: string; ins: PortEntry[]; outs: PortEntry[]; titleOf: (name: string, p: PortEntry[1]) => string;
+}) {
+  const faded = useFaded(id);
+  const side = (list: PortEntry[], type: "target" | "source") => list.map(([name, p], i) => (
+    <Handle key={`${type}-${name}`} type={type} position={type === "target" ? Position.Left : Position.Right} id={name}
+            className={`handle ${p.type}${faded(type, name)}`} title={titleOf(name, p)}
+            style={{ background: PORT_COLOURS[p.type], top: COMPACT_ROWS_TOP + i * COMPACT_ROW + COMPACT_ROW / 2 }} />
+  ));
+  return <>{side(ins, "target")}{side(outs, "source")}</>;
+}
 /** Room below a full block's last live row. */
 const BODY_BOTTOM = 4;
 /** A live value's sparkline: its size, and the margin keeping its line off the top and bottom edges. */
@@ -124,8 +140,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
   // level of detail: zoomed out, a block is its enlarged title and its ports (no labels, values, layers)
   const compact = useCompact();
   // while a wire is dragged, the ports that cannot take it fade
-  const dim = useContext(DimContext);
-  const faded = (side: "source" | "target", port: string) => (dim.has(portKey(id, side, port)) ? " dimmed" : "");
+  const faded = useFaded(id);
   const updateInternals = useUpdateNodeInternals();
   useEffect(() => updateInternals(id), [compact, id, updateInternals]);
   const kind = entry?.title ?? data.type;
@@ -142,14 +157,7 @@ export const BlockNode = memo(function BlockNode({ id, data, selected }: NodePro
       </div>
       <div className="block-body" style={{ height: Math.max(rows * COMPACT_ROW + 2 * COMPACT_ROWS_TOP, COMPACT_BODY_MIN_HEIGHT) }}>
         <div className="compact-cook"><CookBadge id={id} /></div>
-        {ins.map(([name, p], i) => (
-          <Handle key={`in-${name}`} type="target" position={Position.Left} id={name} className={`handle ${p.type}${faded("target", name)}`}
-                  style={{ background: PORT_COLOURS[p.type], top: COMPACT_ROWS_TOP + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
-        ))}
-        {outs.map(([name, p], i) => (
-          <Handle key={`out-${name}`} type="source" position={Position.Right} id={name} className={`handle ${p.type}${faded("source", name)}`}
-                  style={{ background: PORT_COLOURS[p.type], top: COMPACT_ROWS_TOP + i * COMPACT_ROW + COMPACT_ROW / 2 }} title={`${name}: ${p.type}`} />
-        ))}
+        <CompactHandles id={id} ins={ins} outs={outs} titleOf={(name, p) => `${name}: ${p.type}`} />
       </div>
     </div>
   );

@@ -22,7 +22,7 @@ import { GroupIONode } from "./GroupIONode";
 import { RenameContext, type Renaming } from "./NodeTitle";
 import { useCanvasKeys } from "./hooks/useCanvasKeys";
 import {
-  BLOCK_HEADER_HEIGHT, BLOCK_WIDTH, DRAG_BLOCK, DRAG_SUBGRAPH, LAYER_ROW_HEIGHT, LAYERS_PADDING, LIVE_ROW_HEIGHT, MINIMAP_SIZE, PORT_ROW_HEIGHT, PORT_ROWS_TOP,
+  AT_POINTER, BLOCK_HEADER_HEIGHT, BLOCK_WIDTH, DRAG_BLOCK, DRAG_SUBGRAPH, LAYER_ROW_HEIGHT, LAYERS_PADDING, LIVE_ROW_HEIGHT, MINIMAP_SIZE, PORT_ROW_HEIGHT, PORT_ROWS_TOP,
 } from "./layout/constants";
 import { OrganiseContext } from "./organise/context";
 import { useOrganise } from "./organise/useOrganise";
@@ -56,7 +56,7 @@ const PORT_GAP = 40;
  * with its title under it; on a wire, a little higher, so the wire meets its ports; from a dragged port,
  * beside the port (right of an output, left of an input), its first ports about level with it. */
 const QUICK_ADD_OFFSET = {
-  any: { x: -BLOCK_WIDTH / 2, y: -20 },
+  any: AT_POINTER,
   insert: { x: -BLOCK_WIDTH / 2, y: -40 },
   fromOutput: { x: PORT_GAP, y: -45 },
   fromInput: { x: -(BLOCK_WIDTH + PORT_GAP), y: -45 },
@@ -234,7 +234,7 @@ export function GraphView() {
     const sub = e.dataTransfer.getData(DRAG_SUBGRAPH);
     if (!sub) return;
     const { name, definition } = JSON.parse(sub) as { name: string; definition: SubgraphDef };
-    dispatch({ type: "subgraphInserted", name, definition, position: { x: at.x - BLOCK_WIDTH / 2, y: at.y - 20 } });
+    dispatch({ type: "subgraphInserted", name, definition, position: { x: at.x + AT_POINTER.x, y: at.y + AT_POINTER.y } });
   };
 
   const selectAll = useCallback(() => dispatch({ type: "selectedAll" }), [dispatch]);
@@ -279,7 +279,7 @@ export function GraphView() {
         const extras = m.ids.length === 1 ? graph.nodes.filter((n) => n.id === m.ids[0]) : [];
         return { title: m.ids.length === 1 ? m.ids[0] : `${m.ids.length} blocks`, entries: [
           { label: "Duplicate", hint: "Shift+D", run: () => dispatch({ type: "duplicated", nodes: m.ids,  // at the pointer, like Shift+D
-            at: { x: m.at.x + QUICK_ADD_OFFSET.any.x, y: m.at.y + QUICK_ADD_OFFSET.any.y } }) },
+            at: { x: m.at.x + AT_POINTER.x, y: m.at.y + AT_POINTER.y } }) },
           { label: "Copy", hint: "Ctrl+C", run: copy },
           { label: "Disconnect all", run: () => dispatch({ type: "deleted", nodes: [],  // one undo step, however many blocks
             edges: graph.edges.filter((e) => m.ids.includes(e.source) || m.ids.includes(e.target)).map((e) => e.id) }) },

@@ -3,18 +3,14 @@
 // out it collapses like a block: its name enlarged and its ports without labels.
 import { Handle, Position, useUpdateNodeInternals, type NodeProps } from "@xyflow/react";
 import { memo, useContext, useEffect } from "react";
-import { LiveRows, PORT_COLOURS } from "./BlockNode";
+import { COMPACT_ROW, COMPACT_ROWS_TOP, CompactHandles, LiveRows, PORT_COLOURS } from "./BlockNode";
 import { HANDLE_TOP, LIVE_ROW_HEIGHT, PORT_ROW_HEIGHT, PORT_ROWS_TOP } from "./layout/constants";
 import { CookBadge, WarningBadge } from "./live/NodeBadges";
 import { NodeTitle } from "./NodeTitle";
-import { DimContext, portKey } from "./wireDrop";
+import { useFaded } from "./wireDrop";
 import { OrganiseContext } from "./organise/context";
 import type { NodeData } from "./graph";
 import { useCompact } from "./viewport";
-
-/** Port row pitch (px) of a collapsed subgraph node, and its rows' top. */
-const COMPACT_ROW = 20;
-const COMPACT_ROWS_TOP = 4;
 
 /** Room in the body beside its rows (above and below them). */
 const BODY_PADDING = 8;
@@ -27,8 +23,7 @@ export const SubgraphNode = memo(function SubgraphNode({ id, data, selected }: N
   const name = String(data.params.subgraph ?? "?");
   const compact = useCompact();
   // while a wire is dragged, the ports that cannot take it fade
-  const dim = useContext(DimContext);
-  const faded = (side: "source" | "target", port: string) => (dim.has(portKey(id, side, port)) ? " dimmed" : "");
+  const faded = useFaded(id);
   const updateInternals = useUpdateNodeInternals();
   useEffect(() => updateInternals(id), [compact, id, updateInternals]);
   const openButton = (
@@ -45,12 +40,7 @@ export const SubgraphNode = memo(function SubgraphNode({ id, data, selected }: N
         {openButton}
       </div>
       <div className="block-body" style={{ height: rows * COMPACT_ROW + 2 * COMPACT_ROWS_TOP }}>
-        {[...ins.map((x) => ["target", x] as const), ...outs.map((x) => ["source", x] as const)].map(([side, [port, p]]) => (
-          <Handle key={`${side}-${port}`} type={side} position={side === "target" ? Position.Left : Position.Right} id={port}
-                  className={`handle ${p.type}${faded(side, port)}`} title={`${port}: ${p.type} — ${p.doc}`}
-                  style={{ background: PORT_COLOURS[p.type],
-                    top: COMPACT_ROWS_TOP + (side === "target" ? ins : outs).findIndex(([q]) => q === port) * COMPACT_ROW + COMPACT_ROW / 2 }} />
-        ))}
+        <CompactHandles id={id} ins={ins} outs={outs} titleOf={(port, p) => `${port}: ${p.type} — ${p.doc}`} />
       </div>
     </div>
   );

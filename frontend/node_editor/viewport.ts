@@ -4,7 +4,7 @@
 import { useStore, type ReactFlowInstance } from "@xyflow/react";
 import type { Catalog } from "./api";
 import type { FlowEdge, FlowNode } from "./graph";
-import { BLOCK_WIDTH, FALLBACK_CANVAS_SIZE } from "./layout/constants";
+import { AT_POINTER, BLOCK_WIDTH, FALLBACK_CANVAS_SIZE } from "./layout/constants";
 
 /** Below this zoom blocks collapse to an enlarged title and their ports (see .block.compact). */
 export const LOD_ZOOM = 0.7;
@@ -45,8 +45,6 @@ const SPOT_CLEARANCE = { x: BLOCK.width + 10, y: 150 };
 const OVERLAYS = ".graph .react-flow__minimap, .graph .canvas-controls, .graph .toast, .graph .subgraph-bar > *, .graph .live-bar";
 /** Screen px a block put near the pointer keeps from an overlay it would have covered. */
 const OVERLAY_GAP = 6;
-/** A block put at the pointer: its title's middle under it. */
-const AT_POINTER = { x: -BLOCK.width / 2, y: -20 };
 
 /** Whether blocks are collapsed: re-renders a node only when the zoom crosses LOD_ZOOM. */
 export function useCompact(): boolean {

@@ -1,6 +1,6 @@
 // A wire being dragged: the ports that cannot take it (dimmed on the canvas while it is dragged) and where
 // it goes when dropped on a block's body instead of a port. The rules are the port rules (./quickAdd).
-import { createContext } from "react";
+import { createContext, useContext } from "react";
 import type { FlowEdge, FlowNode } from "./graph";
 import { replacingProblem, type PortRef } from "./quickAdd";
 import type { Connection } from "./store/types";
@@ -10,6 +10,12 @@ export const portKey = (node: string, side: "source" | "target", handle: string)
 
 /** The ports to dim while a wire from `from` is dragged (empty when nothing is dragged). */
 export const DimContext = createContext<ReadonlySet<string>>(new Set());
+
+/** For node `id`: the class suffix of a port while a wire that port cannot take is dragged (" dimmed"). */
+export function useFaded(id: string): (side: "source" | "target", port: string) => string {
+  const dim = useContext(DimContext);
+  return (side, port) => (dim.has(portKey(id, side, port)) ? " dimmed" : "");
+}
 
 /** Every port of the canvas's blocks that a wire dragged from `from` cannot be dropped on: the ports on its
  * own side, and those of the other side the rules refuse. */

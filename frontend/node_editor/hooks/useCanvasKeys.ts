@@ -3,15 +3,13 @@
 // selected blocks; Shift+D duplicates them at the pointer; F2 renames the selected block.
 import { useReactFlow } from "@xyflow/react";
 import { useEffect, useRef, type RefObject } from "react";
-import { BLOCK_WIDTH } from "../layout/constants";
+import { AT_POINTER } from "../layout/constants";
 import { shortcutOf } from "../shortcuts";
 import { useEditor } from "../store/EditorStore";
 
 const TYPING = ["INPUT", "TEXTAREA", "SELECT"];
 /** A Space held longer than this (ms), or with a drag (a pan), is not a tap. */
 const TAP_MS = 300;
-/** Copies made at the pointer (Shift+D) have their first block's title under it (flow px from its corner). */
-const DUPLICATE_AT = { x: -BLOCK_WIDTH / 2, y: -20 };
 
 export function useCanvasKeys(canvas: RefObject<HTMLElement | null>, { quickAdd, selectAll, busy, rename }: {
   quickAdd: (clientX: number, clientY: number) => void; selectAll: () => void; busy: boolean;
@@ -54,7 +52,7 @@ export function useCanvasKeys(canvas: RefObject<HTMLElement | null>, { quickAdd,
       else if (id === "bypass") dispatch({ type: "bypassToggled" });
       else if (id === "duplicate") {
         const at = flow.screenToFlowPosition({ x: p.x, y: p.y });
-        dispatch({ type: "duplicated", at: { x: at.x + DUPLICATE_AT.x, y: at.y + DUPLICATE_AT.y } });
+        dispatch({ type: "duplicated", at: { x: at.x + AT_POINTER.x, y: at.y + AT_POINTER.y } });
       }
       else if (id === "rename") rename?.();
     };

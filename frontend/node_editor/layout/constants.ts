@@ -21,6 +21,10 @@ export const LIVE_ROW_HEIGHT = 18;
 export const LAYER_ROW_HEIGHT = 18;
 export const LAYERS_PADDING = 12;
 
+/** A block put at the pointer (quick-add, Shift+D, the menu's Duplicate) has its corner here from the
+ * pointer (flow px): centred on it, its title under it. */
+export const AT_POINTER = { x: -BLOCK_WIDTH / 2, y: -20 };
+
 // ---- new blocks: never dropped onto another one (store/state.ts, subgraphs.ts)
 
 /** A new block this close to another one's top-left corner (both ways) would cover it… */
