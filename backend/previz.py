@@ -208,7 +208,6 @@ class PreViz:
         self.base = self.server.scene.add_frame("/robot", show_axes=False)
         self.robot = ViserUrdf(self.server, urdf, root_node_name="/robot/body")
         ghost_urdf = yourdfpy.URDF.load(str(self.emb.urdf_path), build_scene_graph=True, load_meshes=True)
-        self.theme = "light"  # viser's own, until the editor says (set_theme)
         self.ghost_base = self.server.scene.add_frame("/ghost", show_axes=False)
         self.ghost = ViserUrdf(
             self.server, ghost_urdf, root_node_name="/ghost/body", mesh_color_override=GHOST_COLOUR
@@ -363,7 +362,6 @@ class PreViz:
         self.server.gui.configure_theme(dark_mode=theme == "dark")
         # a solid image: viser's own background is white in either mode
         self.server.scene.set_background_image(np.full((4, 4, 3), colour, dtype=np.uint8), format="png")
-        self.theme = theme
 
     @property
     def trusted_clients(self) -> frozenset[int]:

@@ -322,28 +322,23 @@ class EngineSession:
                     ),
                     code="block_config",
                 ) from exc
-            apu, flat = self.engine.apu, self.flat
-            blocks = [(apu.block(i), p.model_copy(deep=True)) for i in self._instances(node_id)]
+            apu, flat, program = self.engine.apu, self.flat, self.program
+            written = inner_definition_node(program, node_id)  # in a subgraph: its definition's node
+            ids = [node_id]  # the flat ids that run it: inside a subgraph, every instance of the definition
+            if "/" in node_id and written is not None:
+                ids = [
+                    n.id
+                    for n in flat.nodes
+                    if "/" in n.id and inner_definition_node(program, n.id) is written
+                ]
+            blocks = [(apu.block(i), p.model_copy(deep=True)) for i in ids]
             self.engine.call(lambda: [block.update_params(own) for block, own in blocks])
-            for block, _ in blocks:
-                if (running := flat.node(block.node_id)) is not None:
+            for i in ids:
+                if (running := flat.node(i)) is not None:
                     running.params = dict(merged)
-            if (written := inner_definition_node(self.program, node_id)) is not None:
+            if written is not None:
                 written.params = dict(merged)  # as the author wrote them: defaults stay implicit
             return merged
-
-    def _instances(self, node_id: str) -> list[str]:
-        """The flat ids that run the same written node as `node_id`: itself at the top level, every
-        instance of its subgraph definition's node inside one."""
-        if "/" not in node_id or self.program is None or self.flat is None:
-            return [node_id]
-        written = inner_definition_node(self.program, node_id)
-        same = [
-            n.id
-            for n in self.flat.nodes
-            if "/" in n.id and inner_definition_node(self.program, n.id) is written
-        ]
-        return same if written is not None and node_id in same else [node_id]
 
     # --- inputs -------------------------------------------------------------------------------------
     def set_input(self, name: str, value: Any) -> Any:
