@@ -303,12 +303,12 @@ def test_previz_follows_the_theme(page, server):
         page.reload()
         page.get_by_test_id("status").filter(has_text=VALID).wait_for()
         first = page.evaluate("document.documentElement.dataset.theme")
-        wait_until(lambda: asked[-1:] == [first], what="the Pre-Viz given the theme on opening")
+        wait_until(lambda: asked[-1:] == [first], timeout=30, what="the Pre-Viz given the theme on opening")
         page.get_by_test_id("theme-toggle").click()
         other = "dark" if first == "light" else "light"
-        wait_until(lambda: asked[-1:] == [other], what="the Pre-Viz given the new theme")
+        wait_until(lambda: asked[-1:] == [other], timeout=30, what="the Pre-Viz given the new theme")
         page.get_by_test_id("theme-toggle").click()
-        wait_until(lambda: asked[-1:] == [first], what="and back")
+        wait_until(lambda: asked[-1:] == [first], timeout=30, what="and back")
     finally:
         page.unroute("**/api/previz")
         page.unroute("**/api/previz/theme")
