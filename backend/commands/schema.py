@@ -13,8 +13,8 @@ def register(sub) -> None:
         "schema",
         help="export JSON Schemas (program, commands, API), the block catalog and rules",
         description="Write program.schema.json, commands.schema.json, api.schema.json (the API's "
-        "responses and messages), blocks.json (the block catalog) and rules.json (the "
-        "wiring rule, the palette's categories) to OUT_DIR.",
+        "responses and messages), clip.schema.json (the clip format), blocks.json (the block catalog) "
+        "and rules.json (the wiring rule, the palette's categories) to OUT_DIR.",
     )
     p.add_argument("out_dir", help="output folder")
     p.set_defaults(func=run)
@@ -24,12 +24,14 @@ def schemas() -> dict[str, object]:
     from backend.api_types import api_json_schema  # lazy: a fast `nutty --help`
     from backend.control import command_json_schema  # lazy: a fast `nutty --help`
     from backend.engine.blocks import block_catalog, editor_rules  # lazy: a fast `nutty --help`
+    from backend.engine.clips import clip_json_schema  # lazy: a fast `nutty --help`
     from backend.graph.schema import program_json_schema  # lazy: a fast `nutty --help`
 
     return {
         "program.schema.json": program_json_schema(),
         "commands.schema.json": command_json_schema(),
         "api.schema.json": api_json_schema(),
+        "clip.schema.json": clip_json_schema(),
         "blocks.json": block_catalog(),
         "rules.json": editor_rules(),
     }

@@ -84,6 +84,13 @@ class Clip(_Model):
         default=None, gt=0.0, le=3600.0, description="length (s); default: the last key"
     )
     relative: bool = Field(default=False, description="continuous values are offsets from the rest pose")
+    fps: float | None = Field(
+        default=None,
+        ge=1.0,
+        le=1000.0,
+        description="frame rate the clip is authored at (frames/s): editors snap keys to its frames "
+        "(default 30); playback is continuous and ignores it",
+    )
     tracks: dict[str, list[Keyframe]] = Field(..., description="DoF name -> keys in increasing time")
     anchors: dict[str, float] = Field(default_factory=dict, description="anchor name -> clip time (s)")
     events: list[ClipEvent] = Field(default_factory=list)
@@ -110,6 +117,11 @@ class Clip(_Model):
     def length(self) -> float:
         last = max(keys[-1].t for keys in self.tracks.values())
         return float(self.duration) if self.duration is not None else float(last)
+
+
+def clip_json_schema() -> dict[str, Any]:
+    """JSON Schema of the clip format, for the editor's generated types (`nutty schema`)."""
+    return Clip.model_json_schema()
 
 
 def validate_clip_doc(doc: dict[str, Any]) -> dict[str, Any]:

@@ -41,6 +41,7 @@ const apiImports = [
 const targets = [
   { file: "program.schema.json", name: "Program" },
   { file: "commands.schema.json", name: "Command" },
+  { file: "clip.schema.json", name: "Clip" },
   { file: "api.schema.json", name: "NuttyApi", header: apiImports, options: { unreachableDefinitions: true } },
 ];
 const stale = [];
