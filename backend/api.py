@@ -33,7 +33,7 @@ from fastapi.staticfiles import StaticFiles
 from backend import __version__, security
 from backend.engine import clip_preview
 from backend.hub import Hub
-from backend.routes import analysis, commands, library, program, robot, sockets, status, tools
+from backend.routes import analysis, clip_editing, commands, library, program, robot, sockets, status, tools
 from backend.routes.errors import SafeJSONResponse, install_error_handlers
 from backend.security import MAX_BODY
 from backend.session import EngineSession
@@ -51,6 +51,7 @@ ROUTERS = (
     status.previz_proxy,
     sockets.router,
     analysis.router,
+    clip_editing.router,
 )
 
 

@@ -23,7 +23,9 @@ from typing import Any
 from backend import control
 from backend.action_watch import ActionWatch
 from backend.errors import DomainError
+from backend.pose_preview import PosePreview
 from backend.session import EngineSession
+from backend.take_recorder import TakeRecorder
 
 TERMINAL = ("completed", "cancelled", "failed")
 log = logging.getLogger(__name__)
@@ -141,6 +143,11 @@ class Hub:
         # what became of each long action: its completion held until the motion has ended, and what
         # the safety net did to it (backend/action_watch.py)
         self.actions = ActionWatch(session.embodiment, self._completed)
+        # the clip editor's preview pose in the Pre-Viz, and the take being recorded (backend/routes/takes.py)
+        self.pose_preview = PosePreview(session.embodiment, previz)
+        if previz is not None:
+            previz.on_pose_grab = self.pose_preview.grab
+        self.take: TakeRecorder | None = None
         session.engine.add_frame_observer(self.actions.observe)
         session.on_note(self._on_note)
 

@@ -5,6 +5,8 @@
 - Display DoFs are visible: LED colours as lit spheres at their links, the face expression as a label.
 - Speech and sounds appear as captions for a few seconds.
 - The paper's *ghost*: a translucent second robot shows the stage-1 (unfiltered) pose; switchable.
+- The clip editor's preview pose takes the solid robot while its lease runs (the ghost then shows the
+  live robot), and a link can be turned about its joint to pose it (`backend.previz_posing`).
 - A draggable gaze target sets the program's `gaze_target` input when the program declares one.
 - Updates run on the Pre-Viz sink's own thread at <= 60 Hz; a stale frame is dropped, never queued,
   so the engine clock never waits for viser. Only the joint frames that moved are sent to viser
@@ -38,6 +40,7 @@ from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 from backend.errors import DomainError
 from backend.previz_pose import UrdfPoser
+from backend.previz_posing import PreviewPosing
 
 # The API's /previz/ proxy lives in backend.previz_proxy; its names stay importable from here.
 from backend.previz_proxy import (  # noqa: F401 (re-exported: callers import them from here)
@@ -238,6 +241,20 @@ class PreViz:
         self.frames_shown = 0
         self._lock = threading.Lock()
         self._set_camera_on_connect()
+        self.posing = PreviewPosing(self)  # the clip editor's preview pose and the link grab ring
+
+    def set_preview(self, vector: Any, label: str = "", lease: float = 0.0) -> None:
+        """Show a pose (a channel vector) instead of the robot's for `lease` s; None stops at once."""
+        self.posing.set(vector, label, lease)
+
+    @property
+    def on_pose_grab(self) -> Any:
+        """Called with (dof, value) when a trusted client turns a link in the preview."""
+        return self.posing.on_grab
+
+    @on_pose_grab.setter
+    def on_pose_grab(self, callback: Any) -> None:
+        self.posing.on_grab = callback
 
     # --- who may connect ------------------------------------------------------------------------
     def _guard_direct_clients(self) -> None:
@@ -416,19 +433,23 @@ class PreViz:
 
     def show(self, frame: AnimationFrame) -> None:
         """Pose both robots and the displays from one frame (called on the sink thread)."""
+        preview = self.posing.current()
+        # a preview takes the solid robot; the ghost then shows the live robot beside it
+        position = frame.position if preview is None else preview
+        ghost = frame.stage1 if preview is None else frame.position
         with self._lock, self.server.atomic():
-            self._cfg_now = self._cfg(frame.position, frame.joints)
+            self._cfg_now = self._cfg(position, frame.joints if preview is None else None)
             self._pose(self.robot, self._cfg_now)
-            base = self.emb.base_pose(frame.position)
+            base = self.emb.base_pose(position)
             _set_if_changed(self.base, "position", (base["x"], base["y"], base["z"]))
             _set_if_changed(
                 self.base, "wxyz", _yaw_pitch_roll_to_wxyz(base["yaw"], base["pitch"], base["roll"])
             )
-            if self.ghost_visible and frame.stage1 is not None:
-                self._pose(self.ghost, self._cfg(frame.stage1))
-                gb = self.emb.base_pose(frame.stage1)
+            if self.ghost_visible and ghost is not None:
+                self._pose(self.ghost, self._cfg(ghost, frame.joints if preview is not None else None))
+                gb = self.emb.base_pose(ghost)
                 _set_if_changed(self.ghost_base, "position", (gb["x"], gb["y"], gb["z"]))
-            position = frame.position.tolist()
+            position = position.tolist()
             for _, channels, handles in self._leds:
                 rgb = tuple(round(255 * min(max(c, 0.0), 1.0)) for c in position[channels])
                 for h in handles:

@@ -8,14 +8,15 @@ minute with the Pre-Viz page open, a handful without. In a child process the ser
 sending two position vectors down a pipe per shown frame (tens of µs, on the Pre-Viz sink's thread).
 
 `PreVizProcess` (the server's side) offers what the server uses of `backend.previz.PreViz`: `port`,
-`proxy_secret`, `url`, `ghost_visible`, `set_ghost`, `set_theme`, `frames_shown`, `shown`, `drag_gaze`,
-`trusted_clients`, `start` and `stop`. The child runs a `PreViz` on a stand-in session (`_Remote`):
+`proxy_secret`, `url`, `ghost_visible`, `set_ghost`, `set_theme`, `set_preview`, `on_pose_grab`,
+`frames_shown`, `shown`, `drag_gaze`, `trusted_clients`, `start` and `stop`. The child runs a `PreViz` on a stand-in session (`_Remote`):
 the embodiment, and gaze drags sent back to the server, which sets the program's input.
 
 Messages, server -> child: ("frame", position, stage1, events, joints), ("call", id, name, args), ("stop",);
 child -> server: ("ready", port) or ("error", text) once, ("reply", id, ok, value), ("state",
 frames_shown, ghost, trusted ids) when they change (frames_shown at most 4 times a second), ("gaze",
-[x, y, z]) for a trusted client's drag. A child that dies takes only the Pre-Viz with it.
+[x, y, z]) for a trusted client's drag, ("pose", dof, value) for a link turned in the preview. A
+child that dies takes only the Pre-Viz with it.
 """
 
 from __future__ import annotations
@@ -121,7 +122,10 @@ def _child_main(
         log.debug("the Pre-Viz could not start", exc_info=True)  # the traceback stays here, for a bug report
         send(("error", f"{type(exc).__name__}: {exc}"))
         return
-    calls = {name: getattr(pv, name) for name in ("shown", "set_ghost", "set_theme", "move_gaze")}
+    calls = {
+        name: getattr(pv, name) for name in ("shown", "set_ghost", "set_theme", "move_gaze", "set_preview")
+    }
+    pv.on_pose_grab = lambda dof, value: send(("pose", dof, value))
     send(("ready", pv.port))
     reported: tuple = ()
     reported_at = 0.0
@@ -180,6 +184,8 @@ class PreVizProcess:
         self.proxy_only = bool(proxy_only)
         #: `PreViz.run_command`: gizmo drags as `set_gaze` commands on the server's command path.
         self.run_command: Any = None
+        #: `PreViz.on_pose_grab`: a link turned in the clip editor's preview, as (dof, value).
+        self.on_pose_grab: Any = None
         self.host = host
         self.proxy_secret = secrets.token_urlsafe(24)
         self.start_timeout = start_timeout
@@ -233,6 +239,8 @@ class PreVizProcess:
                             future.set_exception(PreVizUnavailable(message[3]))
                 elif kind == "gaze":
                     gaze_from_drag(self.session, self.run_command, message[1])
+                elif kind == "pose" and self.on_pose_grab is not None:
+                    self.on_pose_grab(message[1], message[2])
                 elif kind == "ready":
                     self._port = int(message[1])
                     self._ready.set()
@@ -300,6 +308,9 @@ class PreVizProcess:
     def set_ghost(self, visible: bool) -> None:
         self._call("set_ghost", bool(visible))
         self._ghost = bool(visible)
+
+    def set_preview(self, vector: Any, label: str = "", lease: float = 0.0) -> None:
+        self._call("set_preview", None if vector is None else np.asarray(vector, dtype=float), label, lease)
 
     def set_theme(self, theme: str) -> None:
         self._call("set_theme", theme)

@@ -68,4 +68,13 @@ def test_the_command_body_is_the_whole_union(openapi):
 
 def test_routes_are_grouped_by_concern(openapi):
     tags = {op["tags"][0] for ops in openapi["paths"].values() for op in ops.values()}
-    assert tags == {"robot", "program", "library", "commands", "tools", "status", "analysis"}
+    assert tags == {
+        "robot",
+        "program",
+        "library",
+        "commands",
+        "tools",
+        "status",
+        "analysis",
+        "clip editor",
+    }

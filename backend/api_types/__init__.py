@@ -24,6 +24,7 @@ from typing import Any
 from pydantic import BaseModel
 from pydantic.json_schema import GenerateJsonSchema, models_json_schema
 
+from backend.api_types.clip_editing import PreviewShown, PreviewState, TakeSaved, TakeStatus
 from backend.api_types.editor import (
     BlockEntry,
     BlockPorts,
@@ -145,6 +146,8 @@ __all__ = [
     "PortSpec",
     "PortType",
     "PostureChoice",
+    "PreviewShown",
+    "PreviewState",
     "PrevizInfo",
     "PrevizStatus",
     "Profile",
@@ -164,6 +167,8 @@ __all__ = [
     "StoredProgram",
     "StoredSubgraph",
     "Subscribed",
+    "TakeSaved",
+    "TakeStatus",
     "Telemetry",
     "TelemetryFrame",
     "TelemetryMessage",
@@ -208,6 +213,10 @@ API_MODELS: tuple[type[BaseModel], ...] = (
     PrevizInfo,
     GhostSet,
     ThemeSet,
+    PreviewShown,
+    PreviewState,
+    TakeStatus,
+    TakeSaved,
     ServerStatus,
     TrackAnalysis,
     FilteredTracks,

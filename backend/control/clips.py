@@ -31,7 +31,7 @@ class PlayClip(BlockCommand):
         "Play one of the robot's recorded moves (a gesture or an emotion clip).",
         available=lambda live: live.has("clip_player") and bool(live.clips),
         choices={"clip": (lambda live: live.clips, "the robot's clips")},
-        hide=("anchors",),
+        hide=("anchors", "document", "start"),
         order=10,
     )
     type: Literal["play_clip"] = "play_clip"
@@ -53,6 +53,14 @@ class PlayClip(BlockCommand):
         default=None,
         description="while another clip plays on this player: replace it (crossfade; default), queue "
         "behind it, or reject this play",
+    )
+    document: dict[str, Any] | None = Field(
+        default=None,
+        description="an unsaved clip (nutty-clip/1) to play under the name `clip` instead of the "
+        "library's: the clip editor's working copy on the robot",
+    )
+    start: float | None = Field(
+        default=None, ge=0.0, le=3600.0, description="clip time to start from (s; default 0)"
     )
 
     def run(self, ctx: CommandContext) -> Any:

@@ -8,7 +8,12 @@ from __future__ import annotations
 
 
 class LibraryError(ValueError):
-    """A bad name, a missing asset, or an asset that fails validation; the message says which."""
+    """A bad name, a missing asset, or an asset that fails validation; the message says which, and
+    `field` (a dotted path such as `tracks.head_pitch.2.t`) where in the document, when known."""
+
+    def __init__(self, message: str, field: str | None = None):
+        super().__init__(message)
+        self.field = field
 
 
 class NotFound(LibraryError):

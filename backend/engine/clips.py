@@ -31,7 +31,12 @@ CLIP_FORMAT = "nutty-clip/1"
 
 
 class ClipError(ValueError):
-    """A clip that does not fit the robot or is malformed; the message names the track and key."""
+    """A clip that does not fit the robot or is malformed; the message names the track and key, and
+    `field` is its path in the document (`tracks.head_pitch.2.v`, `events.0.dof`), when known."""
+
+    def __init__(self, message: str, field: str | None = None):
+        super().__init__(message)
+        self.field = field
 
 
 class _Model(BaseModel):
@@ -99,18 +104,23 @@ class Clip(_Model):
     @model_validator(mode="after")
     def _check(self) -> Clip:
         if not self.tracks:
-            raise ValueError("a clip needs at least one track")
+            raise ClipError("a clip needs at least one track", "tracks")
         for dof, keys in self.tracks.items():
             if not keys:
-                raise ValueError(f"track '{dof}' has no keys")
+                raise ClipError(f"track '{dof}' has no keys", f"tracks.{dof}")
             times = [k.t for k in keys]
-            for a, b in zip(times, times[1:]):
+            for i, (a, b) in enumerate(zip(times, times[1:])):
                 if b <= a:
-                    raise ValueError(f"track '{dof}': key times must increase strictly ({a} then {b})")
+                    raise ClipError(
+                        f"track '{dof}': key times must increase strictly ({a} then {b})",
+                        f"tracks.{dof}.{i + 1}.t",
+                    )
         end = self.length
         for name, t in self.anchors.items():
             if not 0.0 <= t <= end:
-                raise ValueError(f"anchor '{name}' at {t} s is outside the clip (0..{end} s)")
+                raise ClipError(
+                    f"anchor '{name}' at {t} s is outside the clip (0..{end} s)", f"anchors.{name}"
+                )
         return self
 
     @property
@@ -124,14 +134,24 @@ def clip_json_schema() -> dict[str, Any]:
     return Clip.model_json_schema()
 
 
+def first_clip_error(exc: ValidationError) -> tuple[str, str | None]:
+    """The first error of a clip's validation as (message, field path): a field pydantic names, or
+    the one a whole-clip check (`Clip._check`) raised with its ClipError."""
+    first = exc.errors()[0]
+    cause = (first.get("ctx") or {}).get("error")
+    if isinstance(cause, ClipError):
+        return f"invalid clip: {cause}", cause.field
+    where = ".".join(str(p) for p in first["loc"])
+    return f"invalid clip: {where}: {first['msg']}", where or None
+
+
 def validate_clip_doc(doc: dict[str, Any]) -> dict[str, Any]:
-    """The library's validator: a normalised clip document, or ValueError naming the field."""
+    """The library's validator: a normalised clip document, or LibraryError naming the field."""
     try:
         return Clip.model_validate(doc).model_dump(mode="json", exclude_none=True)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"])
-        raise LibraryError(f"invalid clip: {where}: {first['msg']}") from exc
+        message, field = first_clip_error(exc)
+        raise LibraryError(message, field) from exc
 
 
 @dataclass
@@ -166,25 +186,26 @@ def compile_clip(clip: Clip | dict[str, Any], emb: Embodiment) -> CompiledClip:
         try:
             clip = Clip.model_validate(clip)
         except ValidationError as exc:
-            first = exc.errors()[0]
-            raise ClipError(
-                f"invalid clip: {'.'.join(str(p) for p in first['loc'])}: {first['msg']}"
-            ) from exc
+            raise ClipError(*first_clip_error(exc)) from exc
     channels: list[int] = []
     curves: list[list[Key]] = []
     relative: list[bool] = []
     enum_flags: list[bool] = []
     for dof_name, keys in clip.tracks.items():
         if not emb.has_dof(dof_name):
-            raise ClipError(f"track '{dof_name}': robot '{emb.name}' has no DoF '{dof_name}'")
+            raise ClipError(
+                f"track '{dof_name}': robot '{emb.name}' has no DoF '{dof_name}'", f"tracks.{dof_name}"
+            )
         dof = emb.dof(dof_name)
         sl = dof.channels
         if dof.type is DofType.event:
-            raise ClipError(f"track '{dof_name}': event DoFs take clip events, not keys")
+            raise ClipError(
+                f"track '{dof_name}': event DoFs take clip events, not keys", f"tracks.{dof_name}"
+            )
         width = sl.stop - sl.start
         per_channel: list[list[Key]] = [[] for _ in range(width)]
         for n, k in enumerate(keys):
-            vals = _key_values(dof, k.v, f"track '{dof_name}' key {n}")
+            vals = _key_values(dof, k.v, f"track '{dof_name}' key {n}", f"tracks.{dof_name}.{n}.v")
             interp = "constant" if dof.type is DofType.enum else k.interp
             if dof.type is DofType.colour and interp == "bezier":
                 interp = "linear"
@@ -209,7 +230,7 @@ def compile_clip(clip: Clip | dict[str, Any], emb: Embodiment) -> CompiledClip:
     events: list[tuple[float, FrameEvent]] = []
     for n, e in enumerate(clip.events):
         if not emb.has_dof(e.dof):
-            raise ClipError(f"event {n}: robot '{emb.name}' has no DoF '{e.dof}'")
+            raise ClipError(f"event {n}: robot '{emb.name}' has no DoF '{e.dof}'", f"events.{n}.dof")
         events.append((e.t, FrameEvent(e.dof, e.kind, dict(e.payload))))
     events.sort(key=lambda item: item[0])
     try:
@@ -231,23 +252,23 @@ def compile_clip(clip: Clip | dict[str, Any], emb: Embodiment) -> CompiledClip:
     )
 
 
-def _key_values(dof, v: Any, where: str) -> list[float]:
+def _key_values(dof, v: Any, where: str, field: str) -> list[float]:
     if dof.type is DofType.continuous:
         if not isinstance(v, (int, float)):
-            raise ClipError(f"{where}: DoF '{dof.name}' takes a number, got {v!r}")
+            raise ClipError(f"{where}: DoF '{dof.name}' takes a number, got {v!r}", field)
         return [float(v)]
     if dof.type is DofType.colour:
         if not isinstance(v, list) or len(v) != 3:
-            raise ClipError(f"{where}: DoF '{dof.name}' takes a colour [r, g, b], got {v!r}")
+            raise ClipError(f"{where}: DoF '{dof.name}' takes a colour [r, g, b], got {v!r}", field)
         return [min(max(float(x), 0.0), 1.0) for x in v]
     options = list(dof.options or ())
     if isinstance(v, str):
         if v not in options:
-            raise ClipError(f"{where}: DoF '{dof.name}' has no option '{v}' (one of {options})")
+            raise ClipError(f"{where}: DoF '{dof.name}' has no option '{v}' (one of {options})", field)
         return [float(options.index(v))]
     if isinstance(v, (int, float)) and 0 <= int(v) < len(options):
         return [float(int(v))]
-    raise ClipError(f"{where}: DoF '{dof.name}' takes one of {options}, got {v!r}")
+    raise ClipError(f"{where}: DoF '{dof.name}' takes one of {options}, got {v!r}", field)
 
 
 def time_map(

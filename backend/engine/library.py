@@ -257,7 +257,7 @@ class RobotLibrary:
             try:
                 compile_clip(doc, self.embodiment)
             except ValueError as exc:
-                raise LibraryError(f"invalid clip: {exc}") from exc
+                raise LibraryError(f"invalid clip: {exc}", getattr(exc, "field", None)) from exc
         return doc
 
     def joint_warnings(self, kind: str, doc: dict[str, Any]) -> list[str]:

@@ -80,7 +80,7 @@ def add_kind(
         try:
             stored = await asyncio.to_thread(session.library.save, kind, name, doc)
         except LibraryError as exc:
-            raise DomainError(str(exc), code="invalid_document") from exc
+            raise DomainError(str(exc), code="invalid_document", field=exc.field) from exc
         await tools_changed(hub)  # a clip or posture is part of the AI tools' vocabulary
         warnings = await asyncio.to_thread(session.library.joint_warnings, kind, stored)
         return {"saved": name, "warnings": warnings} if warnings else {"saved": name}

@@ -157,28 +157,34 @@ class ClipPlayer(Source[ClipPlayerParams]):
         )
 
     # --- clips --------------------------------------------------------------------------------------
-    def _load(self, name: str) -> CompiledClip:
-        lib = self.ctx.resources
-        if lib is None:
-            raise BlockCommandError("no clip library is attached to this engine")
+    def _load(self, name: str, document: Any = None) -> CompiledClip:
+        """The library's clip `name`, or `document` (an unsaved clip: the clip editor's working copy)."""
+        doc = document
+        if document is None:
+            lib = self.ctx.resources
+            if lib is None:
+                raise BlockCommandError("no clip library is attached to this engine")
+            try:
+                doc = lib.get("clips", name)
+            except ValueError as exc:  # LibraryError / NotFound
+                raise BlockCommandError(f"clip '{name}': {exc}") from exc
+            cached = self._cache.get(name)
+            if cached is not None and cached[0] == id(doc):
+                return cached[1]
+        elif not isinstance(document, dict):
+            raise BlockCommandError("document must be a nutty-clip/1 object")
         try:
-            doc = lib.get("clips", name)
-        except ValueError as exc:  # LibraryError / NotFound
-            raise BlockCommandError(f"clip '{name}': {exc}") from exc
-        cached = self._cache.get(name)
-        if cached is not None and cached[0] == id(doc):
-            return cached[1]
-        try:
-            compiled = compile_clip(doc, self.emb)
+            compiled = compile_clip(doc if document is None else {**doc, "name": name}, self.emb)
         except ClipError as exc:
             raise BlockCommandError(f"clip '{name}': {exc}") from exc
         compiled.mask &= self.allowed
-        self._cache[name] = (id(doc), compiled)
+        if document is None:
+            self._cache[name] = (id(doc), compiled)
         return compiled
 
     def _prepare(self, name: str, args: dict[str, Any]) -> tuple[CompiledClip, str, Any, Any, float]:
         """The clip and how to play it (clip, mode, speed, anchor warp, crossfade), or BlockCommandError."""
-        clip = self._load(name)
+        clip = self._load(name, args.get("document"))
         mode = str(args.get("mode") or self.params.mode)
         if mode not in ("once", "loop", "ping_pong"):
             raise BlockCommandError(f"mode must be once, loop or ping_pong, got '{mode}'")
@@ -208,7 +214,8 @@ class ClipPlayer(Source[ClipPlayerParams]):
         s.xfade = crossfade if s.env > 0.0 else 0.0
         s.xfade_t = 0.0
         s.current, s.mode, s.speed, s.warp = clip, mode, speed, warp
-        s.pos, s.play_t, s.direction, s.done = 0.0, 0.0, 1.0, False
+        start = min(max(float(args.get("start") or 0.0), 0.0), clip.duration)
+        s.pos, s.play_t, s.direction, s.done = start, 0.0, 1.0, False
         s.env_target = 1.0
         s.fade_in = crossfade
         s.mask = clip.mask.copy()

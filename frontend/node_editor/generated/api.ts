@@ -95,6 +95,8 @@ export interface NuttyApi {
   Issue?: Issue;
   JsonSchemaDocument?: JsonSchemaDocument;
   ParamsApplied?: ParamsApplied;
+  PreviewShown?: PreviewShown;
+  PreviewState?: PreviewState;
   PrevizInfo?: PrevizInfo;
   Profile?: Profile;
   ProgramLoaded?: ProgramLoaded;
@@ -106,6 +108,8 @@ export interface NuttyApi {
   StoredPosture?: StoredPosture;
   StoredProgram?: StoredProgram;
   StoredSubgraph?: StoredSubgraph;
+  TakeSaved?: TakeSaved;
+  TakeStatus?: TakeStatus;
   TelemetryMessage?: TelemetryMessage;
   TelemetrySubscribe?: TelemetrySubscribe;
   ThemeSet?: ThemeSet;
@@ -484,6 +488,48 @@ export interface InputSet {
  */
 export interface ParamsApplied {
   params: {
+    [k: string]: unknown;
+  };
+}
+/**
+ * PUT /api/previz/preview.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PreviewShown".
+ */
+export interface PreviewShown {
+  /**
+   * s until the preview lapses unless sent again
+   */
+  expires_in: number;
+  /**
+   * the Pre-Viz shows the pose (false: no Pre-Viz, or cleared)
+   */
+  preview: boolean;
+}
+/**
+ * GET /api/previz/preview: the preview pose and the DoFs turned in the Pre-Viz.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PreviewState".
+ */
+export interface PreviewState {
+  active: boolean;
+  /**
+   * DoF -> value (rad or m) set by turning a link
+   */
+  grabbed: {
+    [k: string]: number;
+  };
+  label: string;
+  /**
+   * counts the turns: a change means new `grabbed` values
+   */
+  revision: number;
+  /**
+   * DoF -> value of the pose shown
+   */
+  values: {
     [k: string]: unknown;
   };
 }
@@ -879,6 +925,177 @@ export interface StoredPosture {
  */
 export interface StoredSubgraph {
   [k: string]: unknown;
+}
+/**
+ * POST /api/record/stop: the take as a clip, saved in the library.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TakeSaved".
+ */
+export interface TakeSaved {
+  /**
+   * the nutty-clip/1 document saved
+   */
+  clip: {
+    [k: string]: unknown;
+  };
+  /**
+   * frames the recorder missed (it was behind)
+   */
+  dropped: number;
+  /**
+   * s
+   */
+  duration: number;
+  /**
+   * DoF -> keys kept by the key reduction
+   */
+  keys: {
+    [k: string]: number;
+  };
+  /**
+   * the clip against the recorded samples (rad or m)
+   */
+  max_error: number;
+  report: TrackAnalysis;
+  samples: number;
+  saved: string;
+  warnings?: string[];
+}
+/**
+ * POST /api/analyze: where posted tracks break the robot's limits.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TrackAnalysis".
+ */
+export interface TrackAnalysis {
+  /**
+   * class -> the editor's colour (#rrggbb)
+   */
+  colours: {
+    [k: string]: string;
+  };
+  dofs: {
+    [k: string]: TrackSummary;
+  };
+  /**
+   * the rate the verdict was computed at (Hz)
+   */
+  engine_rate: number;
+  /**
+   * clips: the uniform slow-down that fits every limit (null: none does)
+   */
+  fit_scale?: number | null;
+  /**
+   * clips: the largest slow-down searched
+   */
+  max_scale?: number | null;
+  /**
+   * no sample breaks a limit
+   */
+  ok: boolean;
+  /**
+   * by first sample, then DoF
+   */
+  ranges: LimitRange[];
+  /**
+   * samples per second (Hz) of `samples` and the ranges' indices
+   */
+  rate: number;
+  samples: number;
+  /**
+   * clips: what would fit, in one line
+   */
+  suggestion?: string | null;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TrackSummary".
+ */
+export interface TrackSummary {
+  /**
+   * class (ok, velocity, ...) -> samples
+   */
+  counts: {
+    [k: string]: number;
+  };
+  limits: TrackLimits;
+  max_acceleration: number;
+  max_jerk: number;
+  max_velocity: number;
+}
+/**
+ * A DoF's limits: position (rad or m), velocity (/s), acceleration (/s²), jerk (/s³).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TrackLimits".
+ */
+export interface TrackLimits {
+  acceleration: number;
+  jerk: number;
+  max: number;
+  min: number;
+  velocity: number;
+}
+/**
+ * A run of samples of one DoF over a limit.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "LimitRange".
+ */
+export interface LimitRange {
+  dof: string;
+  /**
+   * last sample of the run (inclusive)
+   */
+  end: number;
+  /**
+   * the limit that breaks: for posted tracks each sample's class; for a clip position, else the lowest-order derivative over its limit
+   */
+  kind: "velocity" | "acceleration" | "jerk" | "position";
+  /**
+   * every limit broken in the run -> its worst ratio
+   */
+  limits: {
+    [k: string]: number;
+  };
+  /**
+   * first sample (scene frame from the start frame) of the run
+   */
+  start: number;
+  /**
+   * clip time of the run's last sample (s)
+   */
+  t_end: number;
+  /**
+   * clip time of the run's first sample (s)
+   */
+  t_start: number;
+  /**
+   * the worst sample's value over the `kind` limit
+   */
+  worst_ratio: number;
+  worst_sample: number;
+}
+/**
+ * POST /api/record/start and GET /api/record: the take being recorded.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "TakeStatus".
+ */
+export interface TakeStatus {
+  dofs: string[];
+  /**
+   * frame time recorded so far (s)
+   */
+  elapsed: number;
+  /**
+   * the engine's rate (Hz): one sample per frame
+   */
+  rate: number;
+  recording: boolean;
+  samples: number;
+  source: string;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -1318,119 +1535,4 @@ export interface McpAnnotations {
   openWorldHint: boolean;
   readOnlyHint: boolean;
   title: string;
-}
-/**
- * POST /api/analyze: where posted tracks break the robot's limits.
- *
- * This interface was referenced by `NuttyApi`'s JSON-Schema
- * via the `definition` "TrackAnalysis".
- */
-export interface TrackAnalysis {
-  /**
-   * class -> the editor's colour (#rrggbb)
-   */
-  colours: {
-    [k: string]: string;
-  };
-  dofs: {
-    [k: string]: TrackSummary;
-  };
-  /**
-   * the rate the verdict was computed at (Hz)
-   */
-  engine_rate: number;
-  /**
-   * clips: the uniform slow-down that fits every limit (null: none does)
-   */
-  fit_scale?: number | null;
-  /**
-   * clips: the largest slow-down searched
-   */
-  max_scale?: number | null;
-  /**
-   * no sample breaks a limit
-   */
-  ok: boolean;
-  /**
-   * by first sample, then DoF
-   */
-  ranges: LimitRange[];
-  /**
-   * samples per second (Hz) of `samples` and the ranges' indices
-   */
-  rate: number;
-  samples: number;
-  /**
-   * clips: what would fit, in one line
-   */
-  suggestion?: string | null;
-}
-/**
- * This interface was referenced by `NuttyApi`'s JSON-Schema
- * via the `definition` "TrackSummary".
- */
-export interface TrackSummary {
-  /**
-   * class (ok, velocity, ...) -> samples
-   */
-  counts: {
-    [k: string]: number;
-  };
-  limits: TrackLimits;
-  max_acceleration: number;
-  max_jerk: number;
-  max_velocity: number;
-}
-/**
- * A DoF's limits: position (rad or m), velocity (/s), acceleration (/s²), jerk (/s³).
- *
- * This interface was referenced by `NuttyApi`'s JSON-Schema
- * via the `definition` "TrackLimits".
- */
-export interface TrackLimits {
-  acceleration: number;
-  jerk: number;
-  max: number;
-  min: number;
-  velocity: number;
-}
-/**
- * A run of samples of one DoF over a limit.
- *
- * This interface was referenced by `NuttyApi`'s JSON-Schema
- * via the `definition` "LimitRange".
- */
-export interface LimitRange {
-  dof: string;
-  /**
-   * last sample of the run (inclusive)
-   */
-  end: number;
-  /**
-   * the limit that breaks: for posted tracks each sample's class; for a clip position, else the lowest-order derivative over its limit
-   */
-  kind: "velocity" | "acceleration" | "jerk" | "position";
-  /**
-   * every limit broken in the run -> its worst ratio
-   */
-  limits: {
-    [k: string]: number;
-  };
-  /**
-   * first sample (scene frame from the start frame) of the run
-   */
-  start: number;
-  /**
-   * clip time of the run's last sample (s)
-   */
-  t_end: number;
-  /**
-   * clip time of the run's first sample (s)
-   */
-  t_start: number;
-  /**
-   * the worst sample's value over the `kind` limit
-   */
-  worst_ratio: number;
-  worst_sample: number;
 }

@@ -67,6 +67,12 @@ export type Clip = string;
  */
 export type Crossfade = number | null;
 /**
+ * an unsaved clip (nutty-clip/1) to play under the name `clip` instead of the library's: the clip editor's working copy on the robot
+ */
+export type Document = {
+  [k: string]: unknown;
+} | null;
+/**
  * client-chosen id (echoed in acks and events)
  */
 export type Id2 = string | null;
@@ -90,6 +96,10 @@ export type Node1 = string | null;
  * playback speed (1 = authored timing)
  */
 export type Speed = number | null;
+/**
+ * clip time to start from (s; default 0)
+ */
+export type Start = number | null;
 export type Type2 = "play_clip";
 /**
  * client-chosen id (echoed in acks and events)
@@ -301,12 +311,14 @@ export interface PlayClip {
   anchors?: Anchors;
   clip: Clip;
   crossfade?: Crossfade;
+  document?: Document;
   id?: Id2;
   if_busy?: IfBusy;
   layer?: Layer1;
   mode?: Mode;
   node?: Node1;
   speed?: Speed;
+  start?: Start;
   type?: Type2;
 }
 /**
