@@ -71,7 +71,7 @@ class PreviewPosing:
         self._grab: tuple[str, np.ndarray, float] | None = None  # (dof, gizmo's wxyz at grab, value then)
         self._ring: Any = None
         self.label = pv.server.scene.add_label(
-            "/preview_label", "", position=(0.0, 0.0, 0.7), anchor="bottom-center", font_screen_scale=0.9
+            "/preview_label", "", position=(0.0, 0.0, 0.5), anchor="bottom-center", font_screen_scale=0.9
         )
         self._link_dof = self._links_to_dofs()
         self._attach_clicks()

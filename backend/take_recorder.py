@@ -3,7 +3,8 @@
 A performer moves the robot (the editor's pose sliders in live mode, the Blender live link, a gamepad:
 all through the program's puppet layer) while a `TakeRecorder` — a sink of the engine, so the clock
 never waits for it — keeps the chosen DoFs' values of every frame: `source="output"` records what the
-motors get (after stage 2 and the safety net), `"stage1"` the program's pose before stage 2.
+motors get (after stage 2 and the safety net), `"program"` the program's frame before the safety net,
+`"stage1"` the program's pose before stage 2.
 
 `finish` turns the samples into a `nutty-clip/1` document with the importer's key reduction
 (`backend.importers.keys.hermite_keys`: a smooth curve through the samples, dropping every sample the
@@ -28,7 +29,7 @@ from backend.importers.keys import hermite_keys
 
 MAX_SECONDS = 600.0  # a take longer than ten minutes stops recording (what was recorded is kept)
 QUEUE = 4096  # frames the sink may hold while its thread catches up (4 s at 1 kHz)
-Source = Literal["output", "stage1"]
+Source = Literal["output", "program", "stage1"]
 
 
 def recordable(emb: Embodiment, dofs: list[str]) -> list[int]:
@@ -70,7 +71,8 @@ class TakeRecorder(Sink[AnimationFrame]):
         super().__init__("take-recorder", max_queue=QUEUE, batch=0.02)
 
     def consume(self, frame: AnimationFrame) -> None:
-        pose = frame.stage1 if self.source == "stage1" and frame.stage1 is not None else frame.position
+        pose = {"stage1": frame.stage1, "program": frame.program}.get(self.source)
+        pose = frame.position if pose is None else pose
         with self._lock:
             if self._times and frame.t - self._times[0] > MAX_SECONDS:
                 return

@@ -117,6 +117,18 @@ def canvas_point(page, fx, fy):
     return box["x"] + box["width"] * fx, box["y"] + box["height"] * fy
 
 
+def empty_canvas_point(page) -> tuple[float, float]:
+    """A point of the canvas with nothing on it (no block, wire or control), near its lower left."""
+    for fy in (0.9, 0.8, 0.7, 0.6):
+        for fx in (0.1, 0.2, 0.3, 0.45, 0.6):
+            x, y = canvas_point(page, fx, fy)
+            if page.evaluate(
+                "([x, y]) => document.elementFromPoint(x, y)?.classList.contains('react-flow__pane')", [x, y]
+            ):
+                return x, y
+    raise AssertionError("no empty point on the canvas")
+
+
 def test_opens_readable(page, server):
     """(a) The running 28-block program opens at a zoom where block titles are ≥ 11 px tall, in view."""
     assert len(running_program(server)["nodes"]) >= 20
@@ -303,7 +315,7 @@ def test_wire_menu_inserts_a_block(page, server):
     )
     assert ("mix", "out", "output", "in") not in edges(server)
     # the canvas menu too
-    page.mouse.click(*canvas_point(page, 0.1, 0.9), button="right")
+    page.mouse.click(*empty_canvas_point(page), button="right")
     menu.wait_for()
     assert menu.get_by_role("menuitem", name="Auto-layout").count() == 1
     page.screenshot(path=str(ARTIFACTS / "canvas-menu.png"))

@@ -35,10 +35,10 @@ class PreviewBody(BaseModel):
 class TakeStart(BaseModel):
     model_config = ConfigDict(extra="forbid")
     dofs: list[str] = Field(..., min_length=1, max_length=64, description="continuous DoFs to record")
-    source: Literal["output", "stage1"] = Field(
+    source: Literal["output", "program", "stage1"] = Field(
         default="output",
-        description="output: what the motors get (after stage 2 and the safety net); stage1: the "
-        "program's pose before stage 2",
+        description="output: what the motors get (after stage 2 and the safety net); program: the "
+        "program's frame before the safety net; stage1: the program's pose before stage 2",
     )
 
 

@@ -1,8 +1,12 @@
-// The editor's page: the top bar, the graph, and the registered panels in their areas. The side bars and
-// the bottom panels fold away (their toggle) and resize (drag their inner edge); the page remembers both.
+// The editor's page: the top bar, the graph (or, by tab, the clip library or the clip editor), and the
+// registered panels in their areas. The side bars and the bottom panels fold away (their toggle) and
+// resize (drag their inner edge); the page remembers both.
 import { useCallback, useEffect, useState, type CSSProperties, type PointerEvent as ReactPointerEvent } from "react";
+import { ClipBrowser } from "./clip_editor/ClipBrowser";
+import { ClipEditor } from "./clip_editor/ClipEditor";
 import { GraphView } from "./GraphView";
 import { PANELS, type Area } from "./panels";
+import { useEditor } from "./store/EditorStore";
 import { Toolbar } from "./Toolbar";
 
 /** Where the page keeps its panels' sizes between visits (localStorage). */
@@ -58,6 +62,49 @@ function Resizer({ side, resize }: { side: Side; resize: (side: Side, size: numb
   return <div className="panel-resize" data-testid={`resize-${side}`} onPointerDown={start} />;
 }
 
+/** The graph's area: a tab strip "Program | Clips | Clip: <name>" over the program's graph, the clip
+ * library and the open clip's editor. The graph stays mounted (hidden) so its view is kept. */
+function GraphArea() {
+  const { state, dispatch } = useEditor();
+  const { clip, clipTab } = state;
+  const show = (tab: typeof clipTab) => () => dispatch({ type: "clipTabShown", tab });
+  const pane = (tab: typeof clipTab) => (clipTab === tab ? "" : "pane-hidden");
+  // the deep link /?clip=<name> opens that clip at load; the address then follows the open clip
+  useEffect(() => {
+    const name = new URLSearchParams(location.search).get("clip");
+    if (name) dispatch({ type: "clipRequested", name });
+  }, [dispatch]);
+  const openName = clip && !clip.fresh ? clip.name : null;
+  useEffect(() => {
+    const url = new URL(location.href);
+    if ((url.searchParams.get("clip") ?? null) === openName) return;
+    if (openName) url.searchParams.set("clip", openName);
+    else url.searchParams.delete("clip");
+    history.replaceState(history.state, "", url.toString());
+  }, [openName]);
+  return (
+    <div className="graph-area">
+      <nav className="graph-tabs" role="tablist">
+        <button role="tab" data-testid="tab-program" className={clipTab === "program" ? "on" : ""} aria-selected={clipTab === "program"}
+                onClick={show("program")}>Program</button>
+        <button role="tab" data-testid="tab-clips" className={clipTab === "library" ? "on" : ""} aria-selected={clipTab === "library"}
+                onClick={show("library")}>Clips</button>
+        {clip && <>
+          <button role="tab" data-testid="tab-clip" className={clipTab === "clip" ? "on" : ""} aria-selected={clipTab === "clip"}
+                  onClick={show("clip")}>Clip: {clip.name}</button>
+          <button className="tab-close" data-testid="tab-clip-close" aria-label={`close the clip ${clip.name}`}
+                  onClick={() => dispatch({ type: "clipCloseRequested" })}>×</button>
+        </>}
+      </nav>
+      <div className="graph-panes">
+        <div className={pane("program")}><GraphView /></div>
+        {clipTab === "library" && <ClipBrowser />}
+        {clip && <div className={pane("clip")}><ClipEditor active={clipTab === "clip"} /></div>}
+      </div>
+    </div>
+  );
+}
+
 export function Layout() {
   const [prefs, setPrefs] = useState<Prefs>(loadPrefs);
   useEffect(() => {
@@ -84,7 +131,7 @@ export function Layout() {
         <PanelsIn area="left" />
         {prefs.left.open && <Resizer side="left" resize={resize} />}
       </aside>
-      <GraphView />
+      <GraphArea />
       <aside className="right">
         <Toggle side="right" open={prefs.right.open} flip={() => flip("right")} />
         <PanelsIn area="right" />

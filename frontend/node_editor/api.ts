@@ -49,7 +49,8 @@ export function withToken(url: string): string {
   return `${url}${url.includes("?") ? "&" : "?"}token=${encodeURIComponent(token)}`;
 }
 
-async function call<T>(method: string, path: string, body?: unknown): Promise<T> {
+/** One request to the server's API (token and JSON handled); refused requests throw ApiError. */
+export async function call<T>(method: string, path: string, body?: unknown): Promise<T> {
   const headers: Record<string, string> = {};
   if (body !== undefined) headers["Content-Type"] = "application/json";
   const token = accessToken();

@@ -8,6 +8,7 @@ import { errorsByNode } from "../store/state";
 import { drivenBy } from "../live/logic";
 import { DrivenBy, LayerStack, type Layer } from "../live/ParamExtras";
 import { NumberField } from "../fields/NumberField";
+import { PoseField } from "../clip_editor/PoseField";
 
 function DofPicker({ value, robot, onChange }: { value: string[]; robot: RobotDescription | null; onChange: (v: string[]) => void }) {
   const [text, setText] = useState("");
@@ -99,7 +100,7 @@ function JsonField({ value, onChange }: { value: unknown; onChange: (v: unknown)
 }
 
 export function ParamPanel() {
-  const { catalog, history, robot, clips, report } = useEditor().state;
+  const { state: { catalog, history, robot, clips, report }, dispatch } = useEditor();
   const { editParams: onChange } = useActions();
   const node = history.present.nodes.find((n) => n.selected) ?? null;
   const entry = node ? catalog[node.data.type] : undefined;
@@ -123,6 +124,16 @@ export function ParamPanel() {
             </div>
           );
         const driver = drivenBy(history.present.edges, node.id, f.name);
+        // a pose parameter (the constant pose's `values`): one row per DoF rather than raw JSON
+        if (entry.params_schema.properties?.[f.name]?.["x-widget"] === "pose" && !driver)
+          return (
+            <div key={`${node.id}/${f.name}`} className={`field ${bad}`} title={f.description}>
+              <span className="field-name">{f.label}</span>
+              <PoseField name={f.name} value={params[f.name]} robot={robot}
+                         onChange={(val, live) => onChange(node.id, { ...params, [f.name]: val }, live)} />
+              {f.description && <span className="hint">{f.description}</span>}
+            </div>
+          );
         if (f.number)
           return (
             // keyed by node too: a half-typed value or a hint does not carry over to the next block
@@ -140,6 +151,10 @@ export function ParamPanel() {
             <span className="field-name">{f.label}</span>
             {driver && <DrivenBy param={f.name} driver={driver} />}
             {driver ? <fieldset disabled className="driven-editor" title="overridden by the wire">{editor}</fieldset> : editor}
+            {f.kind === "clip" && typeof (params[f.name] ?? f.default) === "string" && (params[f.name] ?? f.default) !== "" && (
+              <button type="button" data-testid="param-edit-clip" title="open this clip in the clip editor"
+                      onClick={(e) => { e.preventDefault(); dispatch({ type: "clipRequested", name: String(params[f.name] ?? f.default) }); }}>Edit clip</button>
+            )}
             {f.description && <span className="hint">{f.description}</span>}
           </label>
         );

@@ -12,6 +12,7 @@ import { firstInputFor, firstOutputFor, replacingProblem, withoutOccupant, type 
 import { renameNode } from "../rename";
 import { organise, type OrganiseAction } from "../subgraphs";
 import { ungroupNode } from "../ungroup";
+import { clipReducer, type ClipAction } from "./clipState";
 import { editCommand, type EditCommand } from "./editCommands";
 import type { Connection, EditorState, Graph, Position } from "./types";
 
@@ -55,6 +56,8 @@ export type Action =
   // the command overlays (find a block, the shortcut list): one at a time
   | { type: "overlayShown"; overlay: EditorState["overlay"] }
   | EditCommand
+  // the clip editor: which clip is open (./clipState)
+  | ClipAction
   // the canvas: a node renamed in place (F2), a subgraph node replaced by its blocks
   | { type: "nodeRenamed"; from: string; to: string }
   | { type: "ungrouped"; node: string }
@@ -68,7 +71,7 @@ export const initialState: EditorState = {
   catalog: {}, robot: null, previz: null, meta: null, history: H.init({ nodes: [], edges: [] }), report: null,
   syncing: false, dirty: false, libName: null, library: [], clips: [], inputs: { decls: [], values: {} },
   toast: null, consoleLines: [], loaded: { count: 0, fromServer: false }, lastParamEdit: null,
-  live: false, runningName: null, overlay: null,
+  live: false, runningName: null, overlay: null, clip: null, clipTab: "program", clipRequest: null,
 };
 
 /** The program's structure (no positions): what the server must have; equal keys need no sync. */
@@ -341,6 +344,13 @@ export function reducer(state: EditorState, action: Action): EditorState {
     case "bypassToggled":
     case "duplicated":
       return editCommand(state, action);
+    case "clipRequested":
+    case "clipCloseRequested":
+    case "clipRequestGranted":
+    case "clipRequestDropped":
+    case "clipTabShown":
+    case "clipSaved":
+      return clipReducer(state, action);
     default:
       return organise(state, action);  // subgraphs, comment frames, reroutes (../subgraphs)
   }

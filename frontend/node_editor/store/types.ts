@@ -35,4 +35,23 @@ export interface EditorState {
   runningName: string | null;
   /** The command overlay shown over the editor: the find-block box (Ctrl+F) or the shortcut list (?). */
   overlay: "find" | "help" | null;
+  /** The clip open in the clip editor (./clipState), the tab the graph's area shows, and a pending
+   * open or close the clip editor has yet to grant. */
+  clip: OpenClip | null;
+  clipTab: ClipTab;
+  clipRequest: ClipRequest | null;
 }
+
+/** The clip the clip editor has open (./clipState). */
+export interface OpenClip {
+  name: string;
+  /** A new clip not yet saved to the library. */
+  fresh: boolean;
+  /** Counts opens, so opening the same clip again reloads it. */
+  seq: number;
+}
+
+export type ClipRequest = { kind: "open"; name: string; fresh: boolean } | { kind: "close" };
+
+/** What the graph's area shows: the program, the clip library, or the open clip. */
+export type ClipTab = "program" | "library" | "clip";

@@ -63,6 +63,7 @@ function RulerImpl({ view, setView, fps, duration, playhead, setPlayhead, width,
   const frame = Math.round(playhead * fps);
   return (
     <div ref={box} className="clip-ruler" data-testid="clip-ruler" onPointerDown={onPointerDown}
+         data-t0={view.t0} data-t1={view.t1} data-gutter={gutter}
          style={width != null ? { width } : undefined}>
       <svg width={total} height={HEIGHT}>
         <text className="ruler-now" x={6} y={17}>{playhead.toFixed(3)} s · f {frame}</text>
