@@ -21,12 +21,14 @@ from typing import Any, Literal
 import numpy as np
 
 from backend.engine.clips import CLIP_FORMAT, compile_clip
+from backend.engine.curves import CurveSet, Key
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
 from backend.errors import DomainError
 from backend.importers.keys import hermite_keys
 
+REFINE = 6  # halvings of a take's key tolerance (at most 64x finer) to keep its curve within limits
 MAX_SECONDS = 600.0  # a take longer than ten minutes stops recording (what was recorded is kept)
 QUEUE = 4096  # frames the sink may hold while its thread catches up (4 s at 1 kHz)
 Source = Literal["output", "program", "stage1"]
@@ -106,7 +108,9 @@ class TakeRecorder(Sink[AnimationFrame]):
             )
         keep = np.concatenate([[True], np.diff(t) > 1e-9])  # a repeated frame time would stop the keys
         t, v = t[keep], v[keep]
-        tracks = {dof: hermite_keys(t, v[:, i], tolerance) for i, dof in enumerate(self.dofs)}
+        tracks = {
+            dof: self._keys(t, v[:, i], self.emb.dof(dof), tolerance) for i, dof in enumerate(self.dofs)
+        }
         doc = {
             "format": CLIP_FORMAT,
             "name": name,
@@ -125,8 +129,59 @@ class TakeRecorder(Sink[AnimationFrame]):
             "dropped": int(self.dropped),
         }
 
+    @staticmethod
+    def _keys(t: np.ndarray, v: np.ndarray, dof: Any, tolerance: float) -> list[dict[str, Any]]:
+        """Keys of one DoF's samples within `tolerance`, refined (the tolerance halved, at most
+        REFINE times) while the keyed curve is faster, or accelerates or jerks harder, than both the
+        DoF's limit and the performance itself: a Hermite curve is smooth in velocity only, so few keys
+        over a motion that rides the limits put jerk spikes at the keys that the samples did not have."""
+        keys = hermite_keys(t, v, tolerance)
+        for _ in range(REFINE if tolerance > 0 else 0):
+            if len(keys) >= len(t) or _as_gentle(keys, t, v, dof):
+                break
+            tolerance /= 2
+            keys = hermite_keys(t, v, tolerance)
+        return keys
+
     def _max_error(self, doc: dict[str, Any], t: np.ndarray, v: np.ndarray) -> float:
         clip = compile_clip(doc, self.emb)
         rows = [int(np.flatnonzero(clip.channels == self.emb.dof(d).channels.start)[0]) for d in self.dofs]
         played = np.array([clip.curves.evaluate(float(tj))[rows] for tj in t])
         return float(np.max(np.abs(played - v)))
+
+
+def _peaks(x: np.ndarray, dt: np.ndarray) -> np.ndarray:
+    """Peak |velocity|, |acceleration|, |jerk| of samples x at steps dt (finite differences, as the
+    engine computes its frames' derivatives)."""
+    out = []
+    for _ in range(3):
+        x = np.diff(x) / dt[: len(x) - 1]
+        out.append(float(np.max(np.abs(x))) if len(x) else 0.0)
+    return np.array(out)
+
+
+def _as_gentle(keys: list[dict[str, Any]], t: np.ndarray, v: np.ndarray, dof: Any) -> bool:
+    """Whether the keys' curve, at the samples' times, stays within the DoF's velocity, acceleration and
+    jerk limits, or else no further over them than the recorded samples themselves."""
+    curve = CurveSet(
+        [
+            [
+                Key(
+                    k["t"],
+                    k["v"],
+                    k["interp"],
+                    "in_out",
+                    k.get("left_type", "auto_clamped"),
+                    k.get("right_type", "auto_clamped"),
+                    k.get("left"),
+                    k.get("right"),
+                )
+                for k in keys
+            ]
+        ]
+    )
+    keyed = np.array([curve.evaluate(float(tj))[0] for tj in t])
+    dt = np.diff(t)
+    limits = np.array([dof.velocity, dof.acceleration, dof.jerk], dtype=float)
+    allowed = np.maximum(limits, _peaks(v, dt)) * (1 + 1e-6)
+    return bool(np.all(_peaks(keyed, dt) <= allowed))

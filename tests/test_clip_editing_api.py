@@ -187,8 +187,9 @@ def test_a_take_records_the_output_reduces_keys_and_plays_back_within_005_rad(se
     assert 3 <= take["keys"]["head_yaw"] < 100  # reduced: far fewer keys than the 300 samples
     report = take["report"]  # the trajectory-helper's verdict on the take, at the engine's rate
     assert report["engine_rate"] == RATE and set(report["dofs"]) == {"head_yaw", "ear_left"}
-    assert report["ok"] == (not report["ranges"])
-    assert all(r["kind"] != "position" for r in report["ranges"])
+    # keyed within the limits the performance kept: only its first ticks may jerk, where the take
+    # begins in mid-motion and the check starts it from standstill
+    assert all(r["end"] <= 10 for r in report["ranges"]), report["ranges"][:3]
     assert client.get("/api/clips/take-1").json()["tracks"]["head_yaw"]
 
     tick(session, 0.01, {"type": "puppet", "release": True})
