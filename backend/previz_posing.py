@@ -137,7 +137,10 @@ class PreviewPosing:
         if vector is None:
             return None
         dof, joint = self._link_dof[link]
-        return self.grab(dof, joint, vector)
+        self.grab(dof, joint, vector)
+        if self.on_grab is not None:  # the editor's pose panel marks the DoF the ring turns
+            self.on_grab(dof, float(vector[self.emb.dof(dof).channels.start]))
+        return dof
 
     def grab(self, dof: str, joint: str, vector: np.ndarray) -> str:
         urdf = self.pv._urdf

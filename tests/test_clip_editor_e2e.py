@@ -266,3 +266,45 @@ def test_deep_link_edit_clip_and_the_pose_field(page, server):
     )
     page.get_by_test_id("posefield-remove-ear_right").click()
     wait_until(lambda: "ear_right" not in hold_values(), what="the DoF removed")
+
+
+FAKE_GAMEPAD = """
+window.__pad = {id: "test pad", index: 0, connected: true, mapping: "standard", timestamp: 0,
+                axes: [0, 0, 0, 0], buttons: []};
+navigator.getGamepads = () => [window.__pad];
+"""
+
+
+def test_a_gamepad_stick_puppeteers_a_take(page, server):
+    """The browser's Gamepad API (a stand-in pad: headless Chromium has no device) drives a chosen DoF
+    live through the puppet layer, and Record turns the performance into a clip."""
+    page.add_init_script(FAKE_GAMEPAD)
+    page.goto(server["url"] + "/?clip=browser_nod")
+    wait_until(
+        lambda: page.get_by_test_id("clip-editor").get_attribute("data-clip") == "browser_nod", what="open"
+    )
+    page.evaluate("() => window.dispatchEvent(new Event('gamepadconnected'))")
+    page.get_by_test_id("pose-pad-x").select_option("ear_left")
+    page.get_by_test_id("pose-live").check()
+    page.get_by_test_id("track-ear_left").click()
+    page.get_by_test_id("clip-record").click()
+    page.get_by_test_id("record-elapsed").wait_for(timeout=10000)
+    start = time.monotonic()
+    while (t := time.monotonic() - start) < 2.5:  # the stick swings right and back
+        page.evaluate("(x) => { window.__pad.axes = [x, 0, 0, 0]; }", 0.8 * math.sin(math.pi * t / 2.5))
+        time.sleep(0.05)
+    page.evaluate("() => { window.__pad.axes = [0, 0, 0, 0]; }")
+    time.sleep(0.6)
+    page.get_by_test_id("clip-record-stop").click()
+    page.get_by_test_id("record-report").wait_for()
+    page.get_by_test_id("pose-live").uncheck()
+    wait_until(
+        lambda: page.get_by_test_id("clip-editor").get_attribute("data-clip") != "browser_nod",
+        what="take open",
+    )
+    name = page.get_by_test_id("clip-editor").get_attribute("data-clip")
+    take = api(server, "GET", f"/api/clips/{name}")
+    peak = max(k["v"] for k in take["tracks"]["ear_left"])
+    ear = load_embodiment(server["robot"]).dof("ear_left")
+    assert peak > 0.3 * ear.max  # the stick's swing, within the DoF's limits, reached the robot
+    assert peak <= ear.max + 1e-9

@@ -84,14 +84,15 @@ def test_clicking_a_link_puts_a_ring_on_its_joint_axis_and_turning_it_sets_the_d
     preview.show({"body_yaw": 0.5, "neck_pitch": 0.1}, "pose")
     assert previz.posing.click("neck", None) is None  # a click nobody vouches for
     assert previz.posing.click("neck", CLIENT) == "neck_pitch"
+    assert preview.state()["grabbed"] == {"neck_pitch": pytest.approx(0.1)}
     ring = previz.posing._ring
     # the ring's x axis is the neck's pitch axis (y) turned by the body's yaw
     assert rotation(ring.wxyz)[:, 0] == pytest.approx([-math.sin(0.5), math.cos(0.5), 0.0], abs=1e-6)
     turned = quat_mul(np.asarray(ring.wxyz), quat_about([1, 0, 0], 0.2))
     assert previz.posing.turn(turned, CLIENT) == pytest.approx(0.3)
     assert previz.posing.turn(turned, 99) is None  # an untrusted client's turn
-    state = preview.state()
-    assert state["grabbed"] == {"neck_pitch": pytest.approx(0.3)} and state["revision"] == 1
+    state = preview.state()  # the click marked the DoF (at its value then), the turn set it
+    assert state["grabbed"] == {"neck_pitch": pytest.approx(0.3)} and state["revision"] == 2
     frame = previz.session.engine.tick()
     previz.show(frame)
     assert previz.shown()["joints"]["neck_pitch"] == pytest.approx(0.3)  # the turn shows at once

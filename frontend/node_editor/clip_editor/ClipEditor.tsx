@@ -101,6 +101,9 @@ export function ClipEditor({ active }: { active: boolean }) {
 
   const figures = useHelperFigures(doc, rate, ghost, active && ready);
   const robotError = useOnRobot(onRobot, name, doc, playhead, playback.loop);
+  // the robot plays from the playhead: the playhead runs with it, so the two stay together
+  const { play } = playback;
+  useEffect(() => { if (onRobot) play(); }, [onRobot, play]);
 
   const save = useCallback(() => void cd.save(), [cd]);
   useClipKeys(active, { undo: cd.undo, redo: cd.redo, save, togglePlay: playback.toggle });

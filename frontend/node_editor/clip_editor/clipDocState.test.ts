@@ -101,3 +101,13 @@ describe("documentToSave", () => {
       .toMatchObject({ name: "wave", robot: "other", fps: 24 });
   });
 });
+
+describe("documentToSave", () => {
+  it("keeps a clip long enough for an anchor or event after its last key", () => {
+    const doc = { tracks: { head_pitch: [{ t: 0, v: 0 }, { t: 1, v: 0.2 }] }, anchors: { beat: 1.5 },
+      events: [{ t: 1.8, dof: "sound", kind: "sound", payload: {} }] };
+    expect(documentToSave(doc, "c", "nutty", 30).duration).toBe(1.8);
+    expect(documentToSave({ ...doc, anchors: {}, events: [] }, "c", "nutty", 30).duration).toBeUndefined();
+    expect(documentToSave({ ...doc, duration: 3 }, "c", "nutty", 30).duration).toBe(3);
+  });
+});

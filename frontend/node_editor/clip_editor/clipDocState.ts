@@ -2,6 +2,7 @@
 // views' transient edit protocol (drag steps replace the present; the commit pushes ONE step from the
 // pre-drag document), the selection, and what was last saved (for the dirty mark). Tested with vitest.
 import * as H from "../history";
+import { clipEnd } from "./model/markers";
 import type { Clip, Edited, KeyRef } from "./model/types";
 
 export interface Snapshot {
@@ -89,5 +90,11 @@ export function isDirty(state: ClipDocState): boolean {
 
 /** The document to PUT: the working copy with the fields the format requires set. */
 export function documentToSave(doc: Clip, name: string, robot: string | null, fallbackFps: number): Clip {
-  return { ...doc, format: "nutty-clip/1", name, robot: doc.robot || robot, fps: doc.fps ?? fallbackFps };
+  const out: Clip = { ...doc, format: "nutty-clip/1", name, robot: doc.robot || robot, fps: doc.fps ?? fallbackFps };
+  // a clip ends at its last key unless it says otherwise: an anchor or event after the last key
+  // (keys moved or deleted from under it) keeps the clip long enough to hold it, rather than a refusal
+  const marks = [...Object.values(doc.anchors ?? {}), ...(doc.events ?? []).map((e) => e.t)];
+  const latest = Math.max(0, ...marks);
+  if (doc.duration == null && latest > clipEnd(doc)) out.duration = latest;
+  return out;
 }

@@ -8,6 +8,8 @@ export interface Playback {
   loop: boolean;
   setLoop: (loop: boolean) => void;
   toggle: () => void;
+  /** Play from the playhead (nothing when already playing). */
+  play: () => void;
   /** Stop and go back to the start. */
   stop: () => void;
 }
@@ -45,9 +47,10 @@ export function usePlayback(playhead: number, setPlayhead: (t: number) => void, 
   }, [playing, now]);
 
   const toggle = useCallback(() => setPlaying((p) => !p), []);
+  const play = useCallback(() => setPlaying(true), []);
   const stop = useCallback(() => {
     setPlaying(false);
     now.current.setPlayhead(0);
   }, [now]);
-  return { playing, loop, setLoop, toggle, stop };
+  return { playing, loop, setLoop, toggle, play, stop };
 }
