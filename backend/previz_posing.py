@@ -153,7 +153,7 @@ class PreviewPosing:
         self._drop_ring()
         self._ring = self.pv.server.scene.add_transform_controls(
             "/robot/pose_ring",
-            scale=0.09,
+            scale=0.12,
             position=tuple(pose[:3, 3]),
             wxyz=tuple(wxyz),
             active_axes=(False, True, True),  # the ring about x lies in the y-z plane

@@ -4,7 +4,9 @@ play_clip with an unsaved document from a clip time."""
 
 from __future__ import annotations
 
+import json
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -221,3 +223,14 @@ def test_take_errors_are_specific_and_leave_nothing_running(served):
     assert client.delete("/api/record").status_code == 200
     assert client.get("/api/record").json()["recording"] is False
     assert not any(s.name == "take-recorder" for s in session.engine._sinks)
+
+
+def test_analyze_without_the_fit_gives_the_same_ranges_and_no_slow_down(served):
+    _, client = served
+    wave = json.loads((Path(__file__).resolve().parents[1] / "robots/nutty_desk/clips/wave.json").read_text())
+    full = client.post("/api/analyze", json={"rate": RATE, "clip": wave}).json()
+    quick = client.post("/api/analyze", json={"rate": RATE, "clip": wave, "fit": False}).json()
+    assert quick["ranges"] == full["ranges"] and quick["dofs"] == full["dofs"] and full["ranges"]
+    assert quick["fit_scale"] is None and quick["suggestion"] is None and full["suggestion"]
+    refused = client.post("/api/filter", json={"rate": RATE, "clip": wave, "preset": "B", "fit": False})
+    assert refused.status_code == 422  # the filter takes no `fit`

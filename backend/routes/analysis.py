@@ -57,6 +57,14 @@ class TracksBody(BaseModel):
         return self
 
 
+class AnalyzeBody(TracksBody):
+    fit: bool = Field(
+        default=True,
+        description="clips: also search the slow-down that fits (`fit_scale`, `suggestion`); false answers "
+        "the ranges alone, several times faster",
+    )
+
+
 class FilterBody(TracksBody):
     preset: Literal["W", "A", "B", "C", "D", "E"] | None = Field(
         default=None,
@@ -73,14 +81,19 @@ def _track_error(exc: TrackError) -> DomainError:
     response_model=TrackAnalysis,
     summary="Trajectory-helper: where posted tracks break the robot's limits",
 )
-async def analyze(body: TracksBody, session: SessionDep) -> dict[str, Any]:
+async def analyze(body: AnalyzeBody, session: SessionDep) -> dict[str, Any]:
     """Per DoF, ranges of samples over the velocity (orange), acceleration (pink) or jerk (red) limit,
     or outside the position limits, each with its worst ratio to the limit; a clip also gets the
     slow-down that fits. See backend/engine/clip_preview.py and track_analysis.py."""
     try:
         if body.clip is not None:
             return await asyncio.to_thread(
-                clip_preview.analyze_clip, session.embodiment, session.engine.rate, body.clip, body.rate
+                clip_preview.analyze_clip,
+                session.embodiment,
+                session.engine.rate,
+                body.clip,
+                body.rate,
+                body.fit,
             )
         return await asyncio.to_thread(analyze_tracks, session.embodiment, body.rate, body.tracks or {})
     except TrackError as exc:

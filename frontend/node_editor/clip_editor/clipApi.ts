@@ -40,7 +40,8 @@ export const clipApi = {
   get: (name: string) => call<Clip>("GET", `/api/clips/${enc(name)}`),
   save: (name: string, doc: Clip) => call<Saved>("PUT", `/api/clips/${enc(name)}`, doc),
   status: () => call<ServerStatus>("GET", "/api/status"),
-  analyze: (rate: number, clip: Clip) => call<TrackAnalysis>("POST", "/api/analyze", { rate, clip }),
+  /** `fit: false` leaves out the slow-down search (the bulk of the time): the colours of every edit. */
+  analyze: (rate: number, clip: Clip, fit = true) => call<TrackAnalysis>("POST", "/api/analyze", { rate, clip, fit }),
   filter: (rate: number, clip: Clip, preset?: GhostPreset) =>
     call<FilteredTracks>("POST", "/api/filter", preset ? { rate, clip, preset } : { rate, clip }),
   preview: (values: PoseValues | null, label?: string) =>

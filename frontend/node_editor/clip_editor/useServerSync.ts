@@ -56,11 +56,15 @@ export interface HelperFigures {
 
 export type GhostSource = "program" | GhostPreset | "off";
 
+/** The slow-down search runs this long (ms) after the last edit. */
+export const FIT_AFTER_MS = 400;
+
 /** The trajectory helper's verdict and the ghost for the newest document: one request pair in flight
  * at a time; a document edited meanwhile is sent as soon as the answer is in (the newest wins). */
 export function useHelperFigures(doc: Clip, rate: number | null, ghost: GhostSource, enabled: boolean): HelperFigures {
   const [figures, setFigures] = useState<HelperFigures>({ helper: null, ghost: null, error: null, rev: 0 });
   const state = useRef<{ busy: boolean; pending: { doc: Clip; ghost: GhostSource; rate: number } | null }>({ busy: false, pending: null });
+  const fit = useRef<{ doc: Clip; fields: Pick<TrackAnalysis, "fit_scale" | "max_scale" | "suggestion"> } | null>(null);
 
   useEffect(() => {
     if (!enabled || rate === null || !Object.keys(doc.tracks).length) return;
@@ -71,14 +75,16 @@ export function useHelperFigures(doc: Clip, rate: number | null, ghost: GhostSou
       if (!job || s.busy) return;
       s.pending = null;
       s.busy = true;
-      const analysis = clipApi.analyze(job.rate, job.doc);
+      const analysis = clipApi.analyze(job.rate, job.doc, false);
       const filtered = job.ghost === "off" ? Promise.resolve(null)
         : clipApi.filter(job.rate, job.doc, job.ghost === "program" ? undefined : job.ghost);
       Promise.allSettled([analysis, filtered]).then(([a, f]) => {
         s.busy = false;
         const failed = [a, f].find((r): r is PromiseRejectedResult => r.status === "rejected");
+        const fitted = fit.current;
         setFigures((prev) => ({
-          helper: a.status === "fulfilled" ? a.value : prev.helper,
+          // the fit found for this very document stays with its new colours
+          helper: a.status === "fulfilled" ? (fitted?.doc === job.doc ? { ...a.value, ...fitted.fields } : a.value) : prev.helper,
           ghost: f.status === "fulfilled" ? f.value : null,
           error: failed ? refusalOf(failed.reason).message : null,
           rev: prev.rev + 1,
@@ -88,6 +94,22 @@ export function useHelperFigures(doc: Clip, rate: number | null, ghost: GhostSou
     };
     run();
   }, [doc, rate, ghost, enabled]);
+
+  // the slow-down that would fit (a search: ~100 ms on a long clip over its limits) once edits pause,
+  // kept only while it still describes the document on screen
+  useEffect(() => {
+    if (!enabled || rate === null || !Object.keys(doc.tracks).length) return;
+    let current = true;
+    const timer = window.setTimeout(() => {
+      clipApi.analyze(rate, doc, true).then((full) => {
+        if (!current) return;
+        const fields = { fit_scale: full.fit_scale, max_scale: full.max_scale, suggestion: full.suggestion };
+        fit.current = { doc, fields };
+        setFigures((prev) => ({ ...prev, helper: prev.helper && { ...prev.helper, ...fields }, rev: prev.rev + 1 }));
+      }).catch(() => undefined);  // the colours stand without it; the next pause asks again
+    }, FIT_AFTER_MS);
+    return () => { current = false; window.clearTimeout(timer); };
+  }, [doc, rate, enabled]);
   return figures;
 }
 
