@@ -143,6 +143,18 @@ def test_a_nod_with_an_overshoot_made_in_the_browser_plays_as_drawn(page, server
     keys = editor_doc(page)["tracks"]["head_pitch"]
     assert [(k["t"], k["v"]) for k in keys] == [(0.0, 0.0), (0.6, 0.3), (1.3, -0.06), (2.0, 0.0)]
 
+    # a key dragged in the dopesheet moves in frame steps; one undo puts it back
+    box = page.get_by_test_id("key-head_pitch-3").bounding_box()
+    kx, ky = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(kx, ky)
+    page.mouse.down()
+    page.mouse.move(kx + 40, ky, steps=5)
+    page.mouse.up()
+    moved = editor_doc(page)["tracks"]["head_pitch"][3]["t"]
+    assert moved > 2.0 and abs(moved * 30 - round(moved * 30)) < 1e-6  # on a frame of the clip's 30 fps
+    page.get_by_test_id("clip-undo").click()
+    assert editor_doc(page)["tracks"]["head_pitch"][3]["t"] == 2.0
+
     # a handle drag: the overshoot key's right handle pulled down makes it dip deeper
     page.get_by_test_id("gkey-head_pitch-2").click()
     handle = page.get_by_test_id("handle-head_pitch-2-right")

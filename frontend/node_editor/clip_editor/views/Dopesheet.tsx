@@ -6,13 +6,14 @@
 import { memo, useCallback, useLayoutEffect, useMemo, useRef, useState } from "react";
 import type { KeyboardEvent as ReactKeyboardEvent, PointerEvent as ReactPointerEvent } from "react";
 import { moveDelta, moveKeys, scaleKeys } from "../model/edits";
-import type { Clip, ClipErrors, DofInfo, Edited, KeyRef } from "../model/types";
+import type { Clip, ClipErrors, DofInfo, KeyRef } from "../model/types";
 import { keyId } from "../model/types";
 import type { Box, LayoutRow } from "./dopesheetLayout";
 import { keysInBox, layoutHeight, layoutRows, ROW_H, summaryTimes, unionRefs, visibleKeys } from "./dopesheetLayout";
 import { snapOptions, trackPointer, typingInto, useElementWidth, useWheel, wheelTimeView } from "./interaction";
 import type { ModalCompute, OnChange } from "./keyOps";
 import { keyCommand, letterOf, modalKey, useModal } from "./keyOps";
+import { pressKey } from "./keyDrag";
 import { MarkerRow } from "./MarkerRow";
 import type { TimeView } from "./timeView";
 import { frameAll, GUTTER, panBy, secondsPerPx, timeToX } from "./timeView";
@@ -91,35 +92,12 @@ function DopesheetImpl(p: DopesheetProps) {
   };
 
   const onKeyPointerDown = (e: ReactPointerEvent, ref: KeyRef) => {
-    if (e.button === 1) return;
     if (e.button !== 0) return;
-    e.stopPropagation();
-    e.preventDefault();
     root.current?.focus();
-    const id = keyId(ref);
-    const was = selected.has(id);
-    const additive = e.shiftKey;
-    let sel = selection;
-    if (!was) {
-      sel = additive ? [...selection, ref] : [ref];
-      setSelection(sel);
-    }
-    const startDoc = doc;
-    let last: Edited | null = null;
-    trackPointer(
-      e,
-      (m) => {
-        const dt = (m.clientX - e.clientX) * spp;
-        last = moveKeys(startDoc, sel, dt, 0, snapOptions(m, fps, spp, playhead));
-        onChange(last, null);
-      },
-      (_u, moved) => {
-        if (moved) {
-          if (last) onChange(last, { label: "Move keys" });
-        } else if (was && additive) setSelection(selection.filter((r) => keyId(r) !== id));
-        else if (was && selection.length > 1) setSelection([ref]);
-      },
-    );
+    pressKey(e, ref, {
+      doc, selection, selected, setSelection, onChange,
+      move: (start, sel, down, m) => moveKeys(start, sel, (m.clientX - down.clientX) * spp, 0, snapOptions(m, fps, spp, playhead)),
+    });
   };
 
   // a stable handler for the memoised tracks, always running the latest closure

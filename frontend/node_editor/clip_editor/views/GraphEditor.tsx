@@ -20,6 +20,7 @@ import { snapOptions, trackPointer, typingInto, useElementSize, useWheel, wheelT
 import type { ModalCompute, OnChange } from "./keyOps";
 import { keyCommand, letterOf, modalKey, useModal } from "./keyOps";
 import { graphFrame } from "./graphFrame";
+import { pressKey } from "./keyDrag";
 import type { TimeView } from "./timeView";
 import { GUTTER, panBy, secondsPerPx, timeToX } from "./timeView";
 import "./views.css";
@@ -112,35 +113,13 @@ function GraphEditorImpl(p: GraphEditorProps) {
 
   const onKeyPointerDown = (e: ReactPointerEvent, ref: KeyRef) => {
     if (e.button !== 0) return;
-    e.stopPropagation();
-    e.preventDefault();
     root.current?.focus();
     freeze();
-    const id = keyId(ref);
-    const was = selected.has(id);
-    const additive = e.shiftKey;
-    let sel = selection;
-    if (!was) {
-      sel = additive ? [...selection, ref] : [ref];
-      setSelection(sel);
-    }
-    const startDoc = doc;
-    let last: Edited | null = null;
-    trackPointer(
-      e,
-      (m) => {
-        const dt = (m.clientX - e.clientX) * spp;
-        const dv = -(m.clientY - e.clientY) * vpp;
-        last = moveKeys(startDoc, sel, dt, dv, snapOptions(m, fps, spp, playhead));
-        onChange(last, null);
-      },
-      (_u, moved) => {
-        if (moved) {
-          if (last) onChange(last, { label: "Move keys" });
-        } else if (was && additive) setSelection(selection.filter((r) => keyId(r) !== id));
-        else if (was && selection.length > 1) setSelection([ref]);
-      },
-    );
+    pressKey(e, ref, {
+      doc, selection, selected, setSelection, onChange,
+      move: (start, sel, down, m) => moveKeys(start, sel, (m.clientX - down.clientX) * spp,
+        -(m.clientY - down.clientY) * vpp, snapOptions(m, fps, spp, playhead)),
+    });
   };
 
   const onHandlePointerDown = (e: ReactPointerEvent, ref: KeyRef, side: Side) => {
