@@ -9,6 +9,7 @@ recorded (`source: "program"`, before the safety net, which may smooth a key's j
 
 from __future__ import annotations
 
+import json
 import math
 import time
 
@@ -253,6 +254,40 @@ def test_deep_link_edit_clip_and_the_pose_field(page, server):
     page.get_by_test_id("ghost-head_pitch").wait_for()
     page.get_by_test_id("limit-head_pitch-acceleration").wait_for()  # the bundled nod is too quick for it
     assert int(page.get_by_test_id("clip-editor").get_attribute("data-helper-rev") or 0) >= rev
+
+    # an edit, then another clip: the editor asks before dropping the edit
+    page.get_by_test_id("dopesheet").focus()
+    page.keyboard.press("x")  # the selection (none yet): nothing to lose
+    page.get_by_test_id("key-head_pitch-2").click()
+    page.keyboard.press("x")
+    page.get_by_test_id("clip-dirty").wait_for()
+    page.get_by_test_id("tab-clips").click()
+    page.get_by_test_id("clip-open-wave").click()
+    page.get_by_test_id("clip-confirm").wait_for()
+    page.get_by_test_id("clip-confirm-cancel").click()
+    assert page.get_by_test_id("clip-editor").get_attribute("data-clip") == "nod"
+    page.get_by_test_id("tab-clip").click()
+    page.get_by_test_id("clip-undo").click()
+    wait_until(lambda: page.get_by_test_id("clip-dirty").count() == 0, what="the edit undone")
+
+    # a clip the robot cannot play (written by another tool): the server's refusal sits on its track
+    broken = {
+        "format": "nutty-clip/1",
+        "tracks": {
+            "head_pitch": [{"t": 0, "v": 0}, {"t": 1, "v": 0.1}],
+            "antenna": [{"t": 0, "v": 0}, {"t": 1, "v": 0.2}],
+        },
+    }
+    (server["robot"] / "clips" / "broken.json").write_text(json.dumps(broken))
+    page.get_by_test_id("tab-clips").click()
+    page.get_by_test_id("clip-open-broken").click()
+    wait_until(lambda: page.get_by_test_id("clip-editor").get_attribute("data-clip") == "broken", what="open")
+    page.get_by_test_id("clip-save").click()
+    page.get_by_test_id("clip-error").wait_for()
+    assert "antenna" in page.get_by_test_id("clip-error").inner_text()
+    row = page.get_by_test_id("track-antenna")
+    wait_until(lambda: "has-error" in (row.get_attribute("class") or ""), what="the error on its track")
+    assert "has-error" not in (page.get_by_test_id("track-head_pitch").get_attribute("class") or "")
 
     page.get_by_test_id("tab-program").click()
     page.get_by_test_id("node-gesture").click()
