@@ -1,7 +1,7 @@
 // The clip editor: the open clip's document, history and server conversations (./useClipDocument,
 // ./useServerSync), and its views (ruler, dopesheet and graph editor sharing one time view and
 // playhead, ../clip_editor/views) beside the pose panel. Shown in the graph's area while a clip is open.
-import { useCallback, useEffect, useMemo, useState } from "react";
+import { useCallback, useEffect, useMemo, useRef, useState } from "react";
 import { api } from "../api";
 import { useEditor } from "../store/EditorStore";
 import { clipApi, type PoseValues, type RecordResult } from "./clipApi";
@@ -16,6 +16,7 @@ import { RecordControls } from "./RecordControls";
 import { useClipDocument } from "./useClipDocument";
 import { useClipKeys } from "./useClipKeys";
 import { useLatest } from "./useLatest";
+import { useTimelineSplit } from "./TimelineSplit";
 import { usePlayback } from "./usePlayback";
 import { usePrevizGrab } from "./usePoseInputs";
 import { useHelperFigures, useOnRobot, usePoseStream, type GhostSource } from "./useServerSync";
@@ -66,6 +67,15 @@ export function ClipEditor({ active }: { active: boolean }) {
   const [posture, setPosture] = useState<PoseValues | null>(null);
   const [notice, setNotice] = useState<string | null>(null);
   const playback = usePlayback(playhead, setPlayhead, end);
+  const [share, SplitBar] = useTimelineSplit();
+  const dopesheetBox = useRef<HTMLDivElement>(null);
+  const graphBox = useRef<HTMLDivElement>(null);
+  // the height the bar divides: from the dopesheet's top to the graph editor's bottom
+  const splitArea = useCallback(() => {
+    const top = dopesheetBox.current?.getBoundingClientRect();
+    const bottom = graphBox.current?.getBoundingClientRect();
+    return top && bottom ? new DOMRect(top.left, top.top, top.width, bottom.bottom - top.top) : null;
+  }, []);
 
   // a clip (re)loaded: framed, from the start, nothing moved, not on the robot
   const docRef = useLatest(doc);
@@ -166,14 +176,15 @@ export function ClipEditor({ active }: { active: boolean }) {
                    record={<RecordControls clipName={name} defaultDofs={recordDefaults} dofs={infos} onRecorded={onRecorded} />} />
       {notice && <div className="clip-notice" role="status" onClick={() => setNotice(null)}>{notice}</div>}
       <div className="clip-body">
-        <div className="clip-timelines">
+        <div className="clip-timelines" style={{ gridTemplateRows: `auto minmax(60px, ${share}fr) 5px minmax(90px, ${1 - share}fr)` }}>
           <Ruler view={view} setView={setView} fps={fps} duration={end} playhead={playhead} setPlayhead={setPlayhead} />
-          <div className="clip-dopesheet">
+          <div className="clip-dopesheet" ref={dopesheetBox}>
             <Dopesheet doc={doc} rows={rows} view={view} setView={setView} playhead={playhead} setPlayhead={setPlayhead}
                        selection={cd.selection} setSelection={cd.setSelection} onChange={cd.onChange} selectedDofs={selectedDofs}
                        setSelectedDofs={setSelectedDofs} fps={fps} errors={errors} />
           </div>
-          <div className="clip-graph">
+          <SplitBar area={splitArea} />
+          <div className="clip-graph" ref={graphBox}>
             <GraphEditor doc={doc} dofs={graphDofs} view={view} setView={setView} playhead={playhead} setPlayhead={setPlayhead}
                          selection={cd.selection} setSelection={cd.setSelection} onChange={cd.onChange} offsets={offsets}
                          helper={figures.helper} ghost={figures.ghost} errors={errors} fps={fps} />
