@@ -42,7 +42,6 @@ function DopesheetImpl(p: DopesheetProps) {
   const { doc, rows, view, setView, playhead, selection, setSelection, onChange, selectedDofs, setSelectedDofs, fps, errors } = p;
   const root = useRef<HTMLDivElement>(null);
   const keysSvg = useRef<SVGSVGElement>(null);
-  const pointer = useRef({ x: 0, y: 0 });
   const total = useElementWidth(root);
   const width = Math.max(1, total - GUTTER);
   const [collapsed, setCollapsed] = useState<ReadonlySet<string>>(() => new Set());
@@ -150,7 +149,7 @@ function DopesheetImpl(p: DopesheetProps) {
     if ((k === "g" || k === "s") && plain) {
       e.preventDefault();
       if (selection.length)
-        modal.start({ kind: k === "g" ? "grab" : "scale", x0: pointer.current.x, y0: pointer.current.y, doc, sel: selection });
+        modal.start({ kind: k === "g" ? "grab" : "scale", x0: modal.pointer.current.x, y0: modal.pointer.current.y, doc, sel: selection });
       return;
     }
     const handled = keyCommand(e, {
@@ -163,17 +162,6 @@ function DopesheetImpl(p: DopesheetProps) {
     if (handled) e.preventDefault();
   };
 
-  const onPointerMove = (e: ReactPointerEvent) => {
-    pointer.current = { x: e.clientX, y: e.clientY };
-    if (modal.active()) modal.move(e.clientX, e.clientY, e);
-  };
-  const onPointerDownCapture = (e: ReactPointerEvent) => {
-    if (!modal.active()) return;
-    e.stopPropagation();
-    e.preventDefault();
-    if (e.button === 2) modal.cancel();
-    else modal.confirm();
-  };
 
   const pickDof = (e: React.MouseEvent, dof: string) => {
     root.current?.focus();
@@ -191,7 +179,7 @@ function DopesheetImpl(p: DopesheetProps) {
   const px = timeToX(view, width, playhead);
   return (
     <div ref={root} className="dopesheet" data-testid="dopesheet" tabIndex={0} onKeyDown={onKeyDown}
-         onPointerMove={onPointerMove} onPointerDownCapture={onPointerDownCapture}
+         onPointerMove={modal.onPointerMove} onPointerDownCapture={modal.onPointerDownCapture}
          onContextMenu={(e) => e.preventDefault()}>
       <div className="view-hint" data-testid="dopesheet-hint">{modal.hint ?? ""}</div>
       <MarkerRow doc={doc} view={view} width={width} fps={fps} selection={selection} onChange={onChange} />

@@ -51,7 +51,6 @@ function GraphEditorImpl(p: GraphEditorProps) {
   const root = useRef<HTMLDivElement>(null);
   const area = useRef<HTMLDivElement>(null);
   const svg = useRef<SVGSVGElement>(null);
-  const pointer = useRef({ x: 0, y: 0 });
   const size = useElementSize(area);
   const width = Math.max(1, size.width - GUTTER);
   const height = Math.max(40, size.height);
@@ -234,14 +233,14 @@ function GraphEditorImpl(p: GraphEditorProps) {
       e.preventDefault();
       if (selection.length) {
         freeze();
-        modal.start({ kind: k === "g" ? "grab" : "scale", x0: pointer.current.x, y0: pointer.current.y, doc, sel: selection });
+        modal.start({ kind: k === "g" ? "grab" : "scale", x0: modal.pointer.current.x, y0: modal.pointer.current.y, doc, sel: selection });
       }
       return;
     }
     if ((k === "t" || k === "v") && plain) {
       e.preventDefault();
       if (selection.length && rect)
-        setMenu({ kind: k === "t" ? "interp" : "handle", x: Math.max(0, pointer.current.x - rect.left), y: Math.max(0, pointer.current.y - rect.top) });
+        setMenu({ kind: k === "t" ? "interp" : "handle", x: Math.max(0, modal.pointer.current.x - rect.left), y: Math.max(0, modal.pointer.current.y - rect.top) });
       return;
     }
     if (k !== "Home") freeze();
@@ -250,17 +249,6 @@ function GraphEditorImpl(p: GraphEditorProps) {
       e.preventDefault();
   };
 
-  const onPointerMove = (e: ReactPointerEvent) => {
-    pointer.current = { x: e.clientX, y: e.clientY };
-    if (modal.active()) modal.move(e.clientX, e.clientY, e);
-  };
-  const onPointerDownCapture = (e: ReactPointerEvent) => {
-    if (!modal.active()) return;
-    e.stopPropagation();
-    e.preventDefault();
-    if (e.button === 2) modal.cancel();
-    else modal.confirm();
-  };
 
   const byDof = useMemo(() => {
     const m = new Map<string, NonNullable<typeof helper>["ranges"]>();
@@ -272,7 +260,7 @@ function GraphEditorImpl(p: GraphEditorProps) {
 
   return (
     <div ref={root} className="graph-editor" data-testid="graph-editor" tabIndex={0} onKeyDown={onKeyDown}
-         onPointerMove={onPointerMove} onPointerDownCapture={onPointerDownCapture} onContextMenu={(e) => e.preventDefault()}>
+         onPointerMove={modal.onPointerMove} onPointerDownCapture={modal.onPointerDownCapture} onContextMenu={(e) => e.preventDefault()}>
       <GraphToolbar doc={doc} selection={selection} apply={apply} legend={legend} helper={helper} ghost={ghost} />
       <div className="view-hint" data-testid="graph-hint">{modal.hint ?? (shown.length ? "" : "Select DoFs in the dopesheet to see their curves")}</div>
       <div ref={area} className="graph-area">

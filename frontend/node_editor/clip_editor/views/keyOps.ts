@@ -2,7 +2,7 @@
 // none, frame all) and the Blender-style modal grab/scale: keys follow the pointer as transient edits
 // until a click or Enter commits one undo step, or Esc/right-click puts the document back.
 import { useCallback, useRef, useState } from "react";
-import type { KeyboardEvent as ReactKeyboardEvent } from "react";
+import type { KeyboardEvent as ReactKeyboardEvent, PointerEvent as ReactPointerEvent } from "react";
 import { clipboard, copyKeys, pasteKeys } from "../model/clipboard";
 import { deleteKeys, insertKeys } from "../model/edits";
 import type { Clip, DofInfo, Edited, KeyRef } from "../model/types";
@@ -128,7 +128,20 @@ export function useModal(onChange: OnChange, compute: ModalCompute) {
     if (m.last) onChange({ doc: m.doc, selection: m.sel }, null);
   }, [onChange]);
   const active = useCallback(() => state.current !== null, []);
-  return { hint, start, move, confirm, cancel, active };
+  // the view's pointer: where G or S starts from, and what moves, confirms or cancels the mode
+  const pointer = useRef({ x: 0, y: 0 });
+  const onPointerMove = useCallback((e: ReactPointerEvent) => {
+    pointer.current = { x: e.clientX, y: e.clientY };
+    if (state.current) move(e.clientX, e.clientY, e);
+  }, [move]);
+  const onPointerDownCapture = useCallback((e: ReactPointerEvent) => {
+    if (!state.current) return;
+    e.stopPropagation();
+    e.preventDefault();
+    if (e.button === 2) cancel();
+    else confirm();
+  }, [cancel, confirm]);
+  return { hint, start, move, confirm, cancel, active, pointer, onPointerMove, onPointerDownCapture };
 }
 
 /** Handle the keys a modal listens to (Enter confirms, Esc cancels); true when consumed. */
