@@ -21,7 +21,6 @@ from typing import Any, Literal
 import numpy as np
 
 from backend.engine.clips import CLIP_FORMAT, compile_clip
-from backend.engine.curves import CurveSet, Key
 from backend.engine.embodiment import DofType, Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
@@ -108,9 +107,8 @@ class TakeRecorder(Sink[AnimationFrame]):
             )
         keep = np.concatenate([[True], np.diff(t) > 1e-9])  # a repeated frame time would stop the keys
         t, v = t[keep], v[keep]
-        tracks = {
-            dof: self._keys(t, v[:, i], self.emb.dof(dof), tolerance) for i, dof in enumerate(self.dofs)
-        }
+        keyed = {dof: self._keys(dof, t, v[:, i], tolerance) for i, dof in enumerate(self.dofs)}
+        tracks = {dof: keys for dof, (keys, _) in keyed.items()}
         doc = {
             "format": CLIP_FORMAT,
             "name": name,
@@ -120,34 +118,39 @@ class TakeRecorder(Sink[AnimationFrame]):
             "tracks": tracks,
             "source": {"recorded": self.source, "samples": len(t), "tolerance": tolerance},
         }
+        played = np.column_stack([played for _, played in keyed.values()])
         return {
             "clip": doc,
             "samples": len(t),
             "keys": {dof: len(keys) for dof, keys in tracks.items()},
             "duration": float(t[-1]),
-            "max_error": self._max_error(doc, t, v),
+            "max_error": float(np.max(np.abs(played - v))),
             "dropped": int(self.dropped),
         }
 
-    @staticmethod
-    def _keys(t: np.ndarray, v: np.ndarray, dof: Any, tolerance: float) -> list[dict[str, Any]]:
-        """Keys of one DoF's samples within `tolerance`, refined (the tolerance halved, at most
-        REFINE times) while the keyed curve is faster, or accelerates or jerks harder, than both the
-        DoF's limit and the performance itself: a Hermite curve is smooth in velocity only, so few keys
-        over a motion that rides the limits put jerk spikes at the keys that the samples did not have."""
+    def _keys(
+        self, name: str, t: np.ndarray, v: np.ndarray, tolerance: float
+    ) -> tuple[list[dict[str, Any]], np.ndarray]:
+        """Keys of DoF `name`'s samples within `tolerance`, and what the engine plays of them at the
+        samples' times. Refined (the tolerance halved, at most REFINE times) while the keyed curve is
+        faster, or accelerates or jerks harder, than both the DoF's limit and the performance itself:
+        a Hermite curve is smooth in velocity only, so few keys over a motion that rides the limits put
+        jerk spikes at the keys that the samples did not have."""
+        dof = self.emb.dof(name)
         keys = hermite_keys(t, v, tolerance)
+        played = self._played(name, keys, t)
         for _ in range(REFINE if tolerance > 0 else 0):
-            if len(keys) >= len(t) or _as_gentle(keys, t, v, dof):
+            if len(keys) >= len(t) or _as_gentle(played, t, v, dof):
                 break
             tolerance /= 2
             keys = hermite_keys(t, v, tolerance)
-        return keys
+            played = self._played(name, keys, t)
+        return keys, played
 
-    def _max_error(self, doc: dict[str, Any], t: np.ndarray, v: np.ndarray) -> float:
-        clip = compile_clip(doc, self.emb)
-        rows = [int(np.flatnonzero(clip.channels == self.emb.dof(d).channels.start)[0]) for d in self.dofs]
-        played = np.array([clip.curves.evaluate(float(tj))[rows] for tj in t])
-        return float(np.max(np.abs(played - v)))
+    def _played(self, name: str, keys: list[dict[str, Any]], t: np.ndarray) -> np.ndarray:
+        """The track `keys` of DoF `name` at times `t`, by the engine's playback code."""
+        curves = compile_clip({"tracks": {name: keys}}, self.emb).curves
+        return np.array([curves.evaluate(float(tj))[0] for tj in t])
 
 
 def _peaks(x: np.ndarray, dt: np.ndarray) -> np.ndarray:
@@ -160,28 +163,10 @@ def _peaks(x: np.ndarray, dt: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def _as_gentle(keys: list[dict[str, Any]], t: np.ndarray, v: np.ndarray, dof: Any) -> bool:
-    """Whether the keys' curve, at the samples' times, stays within the DoF's velocity, acceleration and
-    jerk limits, or else no further over them than the recorded samples themselves."""
-    curve = CurveSet(
-        [
-            [
-                Key(
-                    k["t"],
-                    k["v"],
-                    k["interp"],
-                    "in_out",
-                    k.get("left_type", "auto_clamped"),
-                    k.get("right_type", "auto_clamped"),
-                    k.get("left"),
-                    k.get("right"),
-                )
-                for k in keys
-            ]
-        ]
-    )
-    keyed = np.array([curve.evaluate(float(tj))[0] for tj in t])
+def _as_gentle(played: np.ndarray, t: np.ndarray, v: np.ndarray, dof: Any) -> bool:
+    """Whether a keyed curve (`played` at the samples' times `t`) stays within the DoF's velocity,
+    acceleration and jerk limits, or else no further over them than the recorded samples `v`."""
     dt = np.diff(t)
     limits = np.array([dof.velocity, dof.acceleration, dof.jerk], dtype=float)
     allowed = np.maximum(limits, _peaks(v, dt)) * (1 + 1e-6)
-    return bool(np.all(_peaks(keyed, dt) <= allowed))
+    return bool(np.all(_peaks(played, dt) <= allowed))
