@@ -124,3 +124,50 @@ def drag(page, src, dst) -> None:
 def handle(page, node: str, port: str, kind: str):
     """The port `port` of block `node`; `kind` is "source" (an output) or "target" (an input)."""
     return page.locator(f"[data-testid=node-{node}] .react-flow__handle.{kind}[data-handleid='{port}']")
+
+
+def edges(server: dict) -> set[tuple[str, str, str, str]]:
+    """The running program's wires as (from node, port, to node, port)."""
+    return {
+        (e["from"]["node"], e["from"]["port"], e["to"]["node"], e["to"]["port"])
+        for e in running_program(server)["edges"]
+    }
+
+
+def show_program(page, server: dict, prog: dict, settle: Callable | None = None) -> None:
+    """Run `prog` on the server and reload the page until it shows it; then `settle(page)`, or a short
+    pause for the opening frame (set once React Flow has measured the blocks)."""
+    server["client"].load_program(prog)
+    page.reload()
+    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    page.get_by_test_id(f"node-{prog['nodes'][0]['id']}").wait_for()
+    if settle is not None:
+        settle(page)
+    else:
+        time.sleep(0.3)
+
+
+def zoom(page) -> float:
+    """The canvas's zoom (React Flow's viewport scale)."""
+    return page.evaluate("""() => {
+        const t = getComputedStyle(document.querySelector('.react-flow__viewport')).transform;
+        return new DOMMatrixReadOnly(t).a;
+    }""")
+
+
+def canvas_point(page, fx: float, fy: float) -> tuple[float, float]:
+    """A point of the canvas at fractions of its width and height."""
+    box = page.locator(".react-flow__pane").bounding_box()
+    return box["x"] + box["width"] * fx, box["y"] + box["height"] * fy
+
+
+def empty_canvas_point(page) -> tuple[float, float]:
+    """A point of the canvas with nothing on it (no block, wire or control), near its lower left."""
+    for fy in (0.9, 0.8, 0.7, 0.6):
+        for fx in (0.1, 0.2, 0.3, 0.45, 0.6):
+            x, y = canvas_point(page, fx, fy)
+            if page.evaluate(
+                "([x, y]) => document.elementFromPoint(x, y)?.classList.contains('react-flow__pane')", [x, y]
+            ):
+                return x, y
+    raise AssertionError("no empty point on the canvas")

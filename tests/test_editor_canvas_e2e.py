@@ -17,15 +17,19 @@ import pytest
 from editor_browser import (
     ARTIFACTS,
     BROWSER,
-    VALID,
+    canvas_point,
     centre,
     drag,
     drag_to_point,
+    edges,
     editor_page,
     editor_server,
+    empty_canvas_point,
     handle,
     running_program,
+    show_program,
     wait_until,
+    zoom,
 )
 
 READABLE_PX = 11.0
@@ -85,48 +89,8 @@ def page(server):
         yield pg
 
 
-def edges(server):
-    return {
-        (e["from"]["node"], e["from"]["port"], e["to"]["node"], e["to"]["port"])
-        for e in running_program(server)["edges"]
-    }
-
-
 def node_types(server):
     return {n["id"]: n["type"] for n in running_program(server)["nodes"]}
-
-
-def load(page, server, prog):
-    server["client"].load_program(prog)
-    page.reload()
-    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
-    page.get_by_test_id(f"node-{prog['nodes'][0]['id']}").wait_for()
-    time.sleep(0.3)  # the opening frame is set once React Flow has measured the blocks
-
-
-def zoom(page):
-    return page.evaluate("""() => {
-        const t = getComputedStyle(document.querySelector('.react-flow__viewport')).transform;
-        return new DOMMatrixReadOnly(t).a;
-    }""")
-
-
-def canvas_point(page, fx, fy):
-    """A point of the canvas at fractions of its width and height."""
-    box = page.locator(".react-flow__pane").bounding_box()
-    return box["x"] + box["width"] * fx, box["y"] + box["height"] * fy
-
-
-def empty_canvas_point(page) -> tuple[float, float]:
-    """A point of the canvas with nothing on it (no block, wire or control), near its lower left."""
-    for fy in (0.9, 0.8, 0.7, 0.6):
-        for fx in (0.1, 0.2, 0.3, 0.45, 0.6):
-            x, y = canvas_point(page, fx, fy)
-            if page.evaluate(
-                "([x, y]) => document.elementFromPoint(x, y)?.classList.contains('react-flow__pane')", [x, y]
-            ):
-                return x, y
-    raise AssertionError("no empty point on the canvas")
 
 
 def test_opens_readable(page, server):
@@ -168,7 +132,7 @@ def test_opens_readable(page, server):
 
 def test_drag_wire_into_empty_space_opens_search(page, server):
     """(b) A wire from an output dropped in empty space -> search -> Enter: a block wired to that output."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN)
     x, y = canvas_point(page, 0.5, 0.85)
     drag_to_point(page, handle(page, "wave", "out", "source"), x, y)
     search = page.get_by_label("quick add search")
@@ -198,7 +162,7 @@ def _flow_pos(page, node_id):
 
 def test_quick_add_at_the_cursor(page, server):
     """(c) Tab and Shift+A over the canvas open the search at the pointer; the block lands there."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN)
     for key, block, fx, fy in (("Tab", "lfo", 0.45, 0.88), ("Shift+A", "noise", 0.8, 0.86)):
         x, y = canvas_point(page, fx, fy)
         page.mouse.move(x, y)
@@ -238,7 +202,7 @@ def test_quick_add_at_the_cursor(page, server):
 
 def test_drop_on_occupied_input_replaces_the_wire(page, server):
     """(d) A wire dropped on an input that has one replaces it."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN)
     assert ("rest", "out", "mix", "base") in edges(server)
     drag(page, handle(page, "wave", "out", "source"), handle(page, "mix", "base", "target"))
     wait_until(lambda: ("wave", "out", "mix", "base") in edges(server), what="the new wire on the server")
@@ -252,7 +216,7 @@ def test_drop_on_occupied_input_replaces_the_wire(page, server):
 
 def test_delete_and_undo_is_one_step(page, server):
     """(e) Delete a wired block, one Ctrl+Z: block and all its wires are back; no PUT had it without them."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN)
     bodies = []
 
     def record(request):
@@ -288,7 +252,7 @@ def test_delete_and_undo_is_one_step(page, server):
 
 def test_wire_menu_inserts_a_block(page, server):
     """(f) Right-click a wire -> Insert block… -> the block sits between the wire's ends on the server."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN)
     edge = page.locator(".react-flow__edge[data-id='mix.out->output.in'] .react-flow__edge-interaction")
     if edge.count() == 0:
         edge = page.locator(".react-flow__edge[data-id='mix.out->output.in'] path").first
@@ -325,7 +289,7 @@ def test_wire_menu_inserts_a_block(page, server):
 
 def test_select_all(page, server):
     """(g) Ctrl+A selects every block."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN)
     page.mouse.click(*canvas_point(page, 0.05, 0.05))
     assert page.locator(".react-flow__node.selected").count() < len(CHAIN["nodes"])
     page.keyboard.press("Control+a")

@@ -18,11 +18,14 @@ from editor_browser import (
     ARTIFACTS,
     BROWSER,
     VALID,
+    canvas_point,
     centre,
     editor_page,
     editor_server,
     running_program,
+    show_program,
     wait_until,
+    zoom,
 )
 
 pytestmark = BROWSER
@@ -78,26 +81,6 @@ def server_node(server, node_id):
     return next((n for n in running_program(server)["nodes"] if n["id"] == node_id), None)
 
 
-def load(page, server, prog=CHAIN):
-    server["client"].load_program(prog)
-    page.reload()
-    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
-    page.get_by_test_id(f"node-{prog['nodes'][0]['id']}").wait_for()
-    time.sleep(0.3)  # the opening frame is set once React Flow has measured the blocks
-
-
-def zoom(page):
-    return page.evaluate("""() => {
-        const t = getComputedStyle(document.querySelector('.react-flow__viewport')).transform;
-        return new DOMMatrixReadOnly(t).a;
-    }""")
-
-
-def canvas_point(page, fx, fy):
-    box = page.locator(".react-flow__pane").bounding_box()
-    return box["x"] + box["width"] * fx, box["y"] + box["height"] * fy
-
-
 def select(page, *ids):
     for k, node_id in enumerate(ids):
         page.locator(f"[data-testid=node-{node_id}] .block-header").click(modifiers=["Shift"] if k else [])
@@ -111,7 +94,7 @@ def pointer_on_canvas(page, fx=0.5, fy=0.5):
 def test_m_bypasses_the_selected_block(page, server):
     """M over the canvas bypasses the selected operator: the program the server runs says so, the block is
     greyed; Ctrl+Z takes it back; a source cannot be bypassed and a notice says why."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     select(page, "smooth")
     pointer_on_canvas(page, 0.5, 0.95)
     page.keyboard.press("m")
@@ -141,7 +124,7 @@ def test_m_bypasses_the_selected_block(page, server):
 def test_shift_d_duplicates_at_the_pointer(page, server):
     """Shift+D copies the selected blocks with the wire between them, at the pointer, selected; the
     server's validation sees them (the copied filter's input is not wired yet)."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     select(page, "smooth", "louder")
     x, y = canvas_point(page, 0.3, 0.8)
     page.mouse.move(x, y)
@@ -165,7 +148,7 @@ def test_shift_d_duplicates_at_the_pointer(page, server):
 
 def test_ctrl_f_finds_and_frames_a_block(page, server):
     """Ctrl+F, a few letters of a name, Enter: that block is selected and framed; Escape closes the box."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     page.mouse.click(*canvas_point(page, 0.02, 0.98))  # nothing selected
     page.keyboard.press("Control+f")
     box = page.get_by_label("find block")
@@ -195,7 +178,7 @@ def test_ctrl_f_finds_and_frames_a_block(page, server):
 
 def test_dot_frames_the_selection(page, server):
     """ "." frames the selected blocks: they fill the view, at a zoom where their names read."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     select(page, "wave", "smooth")
     pointer_on_canvas(page)
     page.keyboard.press(".")
@@ -214,7 +197,7 @@ def test_dot_frames_the_selection(page, server):
 
 def test_question_mark_lists_every_shortcut(page, server):
     """ "?" shows the list of shortcuts (the keys the handlers read); "?" or Escape hides it."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     pointer_on_canvas(page)
     page.keyboard.press("?")
     help_ = page.get_by_test_id("shortcut-help")
@@ -233,7 +216,7 @@ def test_question_mark_lists_every_shortcut(page, server):
 
 def test_comment_frame_around_the_selection(page, server):
     """A comment made with blocks selected surrounds them, with a margin."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     select(page, "wave", "smooth")
     page.get_by_test_id("add-comment").click()
     frame = page.locator("[data-testid^=comment-note-]").first
@@ -260,7 +243,7 @@ def lightness(rgb: str) -> float:
 
 def test_light_theme_stays_after_reload(page, server):
     """The top bar's toggle turns the editor light (the canvas turns light, blocks white); a reload keeps it."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     start = page.evaluate("document.documentElement.dataset.theme")
     if start == "light":  # the system prefers light: go dark first, the toggle's other way
         page.get_by_test_id("theme-toggle").click()
@@ -331,7 +314,7 @@ def test_previz_follows_the_theme(page, server):
 
 def test_theme_follows_the_system_until_chosen(page, server):
     """With no theme chosen, the editor takes the system's (prefers-color-scheme); a choice outlasts it."""
-    load(page, server)
+    show_program(page, server, CHAIN)
     try:
         page.evaluate("localStorage.removeItem('nutty.theme')")
         for scheme in ("dark", "light"):

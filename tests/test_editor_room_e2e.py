@@ -19,11 +19,14 @@ from editor_browser import (
     VALID,
     centre,
     drag,
+    edges,
     editor_page,
     editor_server,
     handle,
     running_program,
+    show_program,
     wait_until,
+    zoom,
 )
 
 READABLE_PX = 11.0
@@ -91,22 +94,8 @@ def page(server):
         yield pg
 
 
-def edges(server):
-    return {
-        (e["from"]["node"], e["from"]["port"], e["to"]["node"], e["to"]["port"])
-        for e in running_program(server)["edges"]
-    }
-
-
 def node_ids(server):
     return {n["id"] for n in running_program(server)["nodes"]}
-
-
-def zoom(page):
-    return page.evaluate("""() => {
-        const t = getComputedStyle(document.querySelector('.react-flow__viewport')).transform;
-        return new DOMMatrixReadOnly(t).a;
-    }""")
 
 
 def settled(page):
@@ -139,14 +128,6 @@ def overlaps(a, b):
         and a["y"] < b["y"] + b["height"]
         and b["y"] < a["y"] + a["height"]
     )
-
-
-def load(page, server, prog):
-    server["client"].load_program(prog)
-    page.reload()
-    page.get_by_test_id("status").filter(has_text=VALID).wait_for()
-    page.get_by_test_id(f"node-{prog['nodes'][0]['id']}").wait_for()
-    settled(page)
 
 
 def test_opens_whole_and_readable(page, server):
@@ -190,7 +171,7 @@ def test_opens_whole_and_readable(page, server):
 
 def test_top_bar_stays_one_line_with_an_error(page, server):
     """A long error status is cut with an ellipsis: the top bar keeps its height and every button."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN, settle=settled)
     bar = page.locator(".topbar").bounding_box()
     page.get_by_test_id("node-output").click()
     page.keyboard.press("Delete")
@@ -271,7 +252,7 @@ def _placed_well(page, node_id):
 
 def test_new_and_pasted_blocks_land_in_view(page, server):
     """A palette block lands in view; a paste lands at the pointer, or clear of the minimap near it."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN, settle=settled)
     page.get_by_test_id("palette-breathe").dblclick()
     wait_until(lambda: "breathe" in node_ids(server), what="breathe on the server")
     _placed_well(page, "breathe")
@@ -299,7 +280,7 @@ def test_new_and_pasted_blocks_land_in_view(page, server):
 
 def test_rename_in_place(page, server):
     """F2 renames the selected block: its wires follow; a taken or invalid name is refused; one undo step."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN, settle=settled)
     page.get_by_test_id("node-rest").click()
     page.keyboard.press("F2")
     field = page.get_by_test_id("rename-rest")
@@ -333,7 +314,7 @@ def test_rename_in_place(page, server):
 def test_wire_on_a_body_connects_and_refusing_ports_dim(page, server):
     """A wire dropped on a block's body goes to its first free input that fits; while it is dragged,
     ports that cannot take it are dimmed and those that can are not."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN, settle=settled)
     src = handle(page, "smooth", "out", "source")
     sx, sy = centre(src.bounding_box())
     body = page.get_by_test_id("node-mix").bounding_box()
@@ -361,7 +342,7 @@ def test_wire_on_a_body_connects_and_refusing_ports_dim(page, server):
 def test_library_subgraph_dragged_in_shows_its_ports_and_ungroups(page, server):
     """A library subgraph dragged from the palette lands at the drop point; inside it, Group Input and
     Group Output show where its exposed ports go; Ungroup puts its blocks back with the outer wires."""
-    load(page, server, CHAIN)
+    show_program(page, server, CHAIN, settle=settled)
     pane = page.locator(".react-flow__pane").bounding_box()
     drop = {"x": pane["width"] * 0.45, "y": pane["height"] * 0.85}  # below the blocks: nothing to move off
     page.get_by_test_id("palette-subgraph-sway").drag_to(
@@ -405,7 +386,7 @@ def test_bypass_greys_a_block_and_the_layer_box_edits_the_program(page, server):
     prog = json.loads(json.dumps(CHAIN))
     prog["edges"].append({"from": {"node": "smooth", "port": "out"}, "to": {"node": "mix", "port": "idle"}})
     next(n for n in prog["nodes"] if n["id"] == "smooth")["bypass"] = True
-    load(page, server, prog)
+    show_program(page, server, prog, settle=settled)
     smooth = page.get_by_test_id("node-smooth")
 
     def greyed():
