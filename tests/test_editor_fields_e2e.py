@@ -336,11 +336,11 @@ def test_a_slider_drag_inside_a_subgraph_sends_only_patches(page, server):
     server["client"].load_program(NESTED)
     page.reload()
     page.get_by_test_id("status").filter(has_text=VALID).wait_for()
+    swaps = server["client"].status()["swaps"]  # opening the subgraph and selecting in it swap nothing either
+    requests = Requests(page)
     page.locator("[data-testid=node-idle] .block-header").dblclick()  # opens the subgraph
     select(page, "wave")
     slider = page.get_by_test_id("param-amplitude")
-    swaps = server["client"].status()["swaps"]
-    requests = Requests(page)
     box = slider.bounding_box()
     y = box["y"] + box["height"] / 2
     page.mouse.move(box["x"] + 4, y)

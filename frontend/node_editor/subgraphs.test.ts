@@ -91,6 +91,16 @@ describe("grouping", () => {
 });
 
 describe("opening a subgraph", () => {
+  it("is the same program as the server's, which stores an empty ui on each definition", () => {
+    const g = grouped();
+    const served = flowToProgram(g.history.present.nodes, g.history.present.edges, g.meta!);
+    for (const d of Object.values(served.subgraphs ?? {})) d.ui = {};  // as GET /api/program answers it
+    const fromServer = reducer({ ...initialState, catalog }, { type: "programLoaded", program: served, fromServer: true });
+    const inside = reducer(fromServer, { type: "subgraphOpened", node: "idle" });
+    expect(inside.loaded.view).toBe(true);  // a view of the program the server has: nothing to send
+    expect(structureKey(inside.history.present, inside.meta)).toBe(structureKey(fromServer.history.present, fromServer.meta));
+  });
+
   it("shows the inside, composes the whole program while inside, and goes back", () => {
     const g = grouped();
     const whole = structureKey(g.history.present, g.meta);

@@ -219,7 +219,7 @@ function openSubgraph(state: EditorState, id: string): EditorState {
   };
   return {
     ...state, meta: innerMeta, history: H.init({ nodes: inner.nodes, edges: inner.edges }), lastParamEdit: null,
-    loaded: { count: state.loaded.count + 1, fromServer: false },
+    loaded: { count: state.loaded.count + 1, fromServer: false, view: true },
   };
 }
 
@@ -239,7 +239,7 @@ function closeSubgraph(state: EditorState, levels = 1): EditorState {
     const edges = outer.edges.filter((e) => byId.get(e.source)?.data.outputs[e.sourceHandle] && byId.get(e.target)?.data.inputs[e.targetHandle]);
     next = {
       ...next, meta: outerMeta, history: H.replace(ctx.outer, { nodes, edges }), lastParamEdit: null, dirty: true,
-      loaded: { count: next.loaded.count + 1, fromServer: false },
+      loaded: { count: next.loaded.count + 1, fromServer: false, view: true },
     };
   }
   return next;

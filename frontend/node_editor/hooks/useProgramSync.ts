@@ -52,6 +52,9 @@ export function useProgramSync(say: (message: string) => void) {
   const revalidate = useRef<number | undefined>(undefined);
 
   useEffect(() => {
+    // a subgraph opened or closed is the same program (its key composes the whole of it): what the server
+    // has stays known, so only an edit not yet sent makes the next sync differ
+    if (loaded.view) return;
     synced.current = loaded.fromServer ? syncKey(true, graph, meta) : "";
   }, [loaded]);  // eslint-disable-line react-hooks/exhaustive-deps -- only when a program arrives: the graph and meta are the loaded ones then
 

@@ -79,7 +79,10 @@ export function structureKey(g: Graph, meta: Meta | null): string {
   const p = flowToProgram(g.nodes.map((n) => ({ ...n, position: { x: 0, y: 0 } })), g.edges, meta ?? ({} as Meta));
   // inside an open subgraph the enclosing graph (and every definition) is in it too: no positions there either
   const still = (nodes: Program["nodes"] = []) => nodes.map((n) => ({ ...n, ui: { ...n.ui, x: 0, y: 0 } }));
-  const subgraphs = p.subgraphs && Object.fromEntries(Object.entries(p.subgraphs).map(([k, d]) => [k, { ...d, nodes: still(d.nodes) }]));
+  // an empty `ui` is no ui: the server stores one on every definition, a definition composed from an
+  // open subgraph leaves it out
+  const subgraphs = p.subgraphs && Object.fromEntries(Object.entries(p.subgraphs).map(([k, { ui, ...d }]) =>
+    [k, { ...d, nodes: still(d.nodes), ...(ui && Object.keys(ui).length ? { ui } : {}) }]));
   return JSON.stringify({ ...p, ...(subgraphs ? { subgraphs } : {}), nodes: still(p.nodes) });
 }
 

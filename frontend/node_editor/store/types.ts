@@ -24,8 +24,10 @@ export interface EditorState {
   inputs: { decls: ExposedInput[]; values: Record<string, unknown> };
   toast: string | null;
   consoleLines: string[];
-  /** Counts loaded programs (the graph view fits each one into view); `fromServer`: the running one. */
-  loaded: { count: number; fromServer: boolean };
+  /** Counts loaded programs (the graph view fits each one into view); `fromServer`: the running one;
+   * `view`: the same program seen from another level (a subgraph opened or closed), so what the server
+   * has is unchanged. */
+  loaded: { count: number; fromServer: boolean; view?: boolean };
   /** The last parameter edit: edits of one node in quick succession are one undo step. */
   lastParamEdit: { node: string; at: number } | null;
   /** Live: the graph is the robot's running program and edits reach it. Draft: edits are only validated
