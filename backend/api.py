@@ -33,8 +33,21 @@ from fastapi.staticfiles import StaticFiles
 from backend import __version__, security
 from backend.engine import clip_preview
 from backend.hub import Hub
-from backend.routes import analysis, clip_editing, commands, library, program, robot, sockets, status, tools
+from backend.routes import (
+    analysis,
+    behaviours,
+    clip_editing,
+    commands,
+    library,
+    program,
+    robot,
+    sockets,
+    sounds,
+    status,
+    tools,
+)
 from backend.routes.errors import SafeJSONResponse, install_error_handlers
+from backend.routes.sounds import SOUND_BODY
 from backend.security import MAX_BODY
 from backend.session import EngineSession
 
@@ -52,6 +65,8 @@ ROUTERS = (
     sockets.router,
     analysis.router,
     clip_editing.router,
+    sounds.router,
+    behaviours.router,
 )
 
 
@@ -104,7 +119,9 @@ def create_app(
         app.add_middleware(
             CORSMiddleware, allow_origins=extra_origins, allow_methods=["*"], allow_headers=["*"]
         )
-    app.add_middleware(security.Guard, policy=policy, max_body=MAX_BODY)
+    app.add_middleware(
+        security.Guard, policy=policy, max_body=MAX_BODY, body_limits=[("/api/sounds", SOUND_BODY)]
+    )
     install_error_handlers(app)
     for router in ROUTERS:
         app.include_router(router)

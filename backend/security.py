@@ -285,11 +285,17 @@ class Guard:
         policy: AccessPolicy,
         max_body: int = MAX_BODY,
         token_prefixes: Iterable[str] = (PREVIZ_PREFIX,),
+        body_limits: Iterable[tuple[str, int]] = (),
     ):
         self.app = app
         self.policy = policy
         self.max_body = max_body
         self.token_prefixes = tuple(token_prefixes)
+        # (path prefix, bytes): routes that take more than a JSON document (a sound file)
+        self.body_limits = tuple(body_limits)
+
+    def _body_limit(self, path: str) -> int:
+        return next((n for p, n in self.body_limits if path.startswith(p + "/")), self.max_body)
 
     def _protected(self, path: str) -> bool:
         return any(path == p or path.startswith(p + "/") for p in self.token_prefixes)
@@ -335,12 +341,13 @@ class Guard:
                 [(b"www-authenticate", b"Bearer")],
             )
         length = headers.get("content-length")
+        limit = self._body_limit(path)
         if length is not None:
             if not length.strip().isdigit():
                 return await _send_json(send, 400, error_body("bad_request", "malformed Content-Length"))
-            if int(length) > self.max_body:
+            if int(length) > limit:
                 return await _send_json(
-                    send, 413, error_body("too_large", f"request body over {self.max_body} bytes")
+                    send, 413, error_body("too_large", f"request body over {limit} bytes")
                 )
         seen = 0
         started = False
@@ -350,7 +357,7 @@ class Guard:
             message = await receive()
             if message.get("type") == "http.request":
                 seen += len(message.get("body", b""))
-                if seen > self.max_body:
+                if seen > limit:
                     raise BodyTooLarge()
             return message
 
@@ -364,9 +371,7 @@ class Guard:
             await self.app(scope, counted_receive, tracked_send)
         except BodyTooLarge:
             if not started:
-                await _send_json(
-                    send, 413, error_body("too_large", f"request body over {self.max_body} bytes")
-                )
+                await _send_json(send, 413, error_body("too_large", f"request body over {limit} bytes"))
 
     async def _websocket(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         headers = _headers(scope)

@@ -7,6 +7,7 @@ boundary; a rejected change leaves the engine exactly as it was.
 
 from __future__ import annotations
 
+import functools
 import json
 import threading
 from collections.abc import Callable, Iterator
@@ -16,7 +17,10 @@ from typing import Any
 from pydantic import ValidationError
 
 from backend import control
+from backend.behaviours import validate_behaviour_doc
+from backend.behaviours.player import BehaviourPlayer
 from backend.engine.apu import MAX_LEVEL
+from backend.engine.audio_events import stamp_audio
 from backend.engine.blocks import BLOCKS
 from backend.engine.blocks.base import Block, BlockContext, BlockParams
 from backend.engine.embodiment import Embodiment
@@ -79,9 +83,13 @@ class EngineSession:
         self.engine = engine
         self.embodiment: Embodiment = engine.embodiment
         self.library = library or RobotLibrary(
-            _robot_folder(engine.embodiment), engine.embodiment, validators=library_validators()
+            _robot_folder(engine.embodiment),
+            engine.embodiment,
+            validators={**library_validators(), "behaviours": validate_behaviour_doc},
         )
         engine.ctx.resources = self.library
+        # speech and sound events carry their start time, and a sound file's URL (backend.engine.audio_events)
+        engine.set_event_stamp(functools.partial(stamp_audio, self.library.sounds))
         self.program: Program | None = None  # the running document (with its subgraphs, if any)
         self.flat: Program | None = None  # the running program with subgraphs flattened: the APU's node ids
         self.report: ValidationReport | None = None
@@ -89,6 +97,7 @@ class EngineSession:
         self._lock = threading.RLock()  # serialises program changes from concurrent requests
         self._note_listeners: list[Callable[[dict[str, Any]], None]] = []
         engine.add_listener(self._on_note)
+        self.behaviours = BehaviourPlayer(self)  # behaviours play on the clock (backend.behaviours)
 
     # --- construction ---------------------------------------------------------------------------
     @classmethod

@@ -189,7 +189,20 @@ def test_say_and_play_sound_commands_route_to_blocks_end_to_end(desk):
 
     session.execute({"type": "play_sound", "sound": "chirp", "id": "c2"})
     frames = list(session.run_headless(5))
-    assert [e.payload for f in frames for e in f.events if e.kind == "sound"] == [{"clip": "chirp"}]
+    played = [(f.t, e.payload) for f in frames for e in f.events if e.kind == "sound"]
+    # the event names the sound, and (it is a file of the robot's sounds/) where and when it plays
+    assert played == [
+        (
+            played[0][0],
+            {
+                "clip": "chirp",
+                "sound": "chirp",
+                "t": round(played[0][0], 6),
+                "url": "/api/sounds/chirp",
+                "duration": 0.35,
+            },
+        )
+    ]
     with pytest.raises(CommandError, match="unknown sound 'moo'"):
         session.execute({"type": "play_sound", "sound": "moo"})
 

@@ -24,6 +24,14 @@ from typing import Any
 from pydantic import BaseModel
 from pydantic.json_schema import GenerateJsonSchema, models_json_schema
 
+from backend.api_types.behaviours import (
+    BehaviourIssue,
+    BehaviourPlanned,
+    BehaviourRendered,
+    BehaviourSummary,
+    SoundEntry,
+    StoredBehaviour,
+)
 from backend.api_types.clip_editing import PreviewShown, PreviewState, TakeSaved, TakeStatus
 from backend.api_types.editor import (
     BlockEntry,
@@ -107,6 +115,10 @@ from backend.graph.issues import Issue, ValidationReport
 __all__ = [
     "API_MODELS",
     "AnthropicTool",
+    "BehaviourIssue",
+    "BehaviourPlanned",
+    "BehaviourRendered",
+    "BehaviourSummary",
     "BlendMode",
     "BlockEntry",
     "BlockPorts",
@@ -162,6 +174,8 @@ __all__ = [
     "SignalRef",
     "SinkStats",
     "SocketError",
+    "SoundEntry",
+    "StoredBehaviour",
     "StoredClip",
     "StoredPosture",
     "StoredProgram",
@@ -217,6 +231,12 @@ API_MODELS: tuple[type[BaseModel], ...] = (
     PreviewState,
     TakeStatus,
     TakeSaved,
+    SoundEntry,
+    BehaviourIssue,
+    BehaviourSummary,
+    BehaviourPlanned,
+    BehaviourRendered,
+    StoredBehaviour,
     ServerStatus,
     TrackAnalysis,
     FilteredTracks,

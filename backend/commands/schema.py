@@ -13,7 +13,7 @@ def register(sub) -> None:
         "schema",
         help="export JSON Schemas (program, commands, API), the block catalog and rules",
         description="Write program.schema.json, commands.schema.json, api.schema.json (the API's "
-        "responses and messages), clip.schema.json (the clip format), blocks.json (the block catalog) "
+        "responses and messages), clip.schema.json (the clip format), behaviour.schema.json (the behaviour format), blocks.json (the block catalog) "
         "and rules.json (the wiring rule, the palette's categories) to OUT_DIR.",
     )
     p.add_argument("out_dir", help="output folder")
@@ -22,6 +22,7 @@ def register(sub) -> None:
 
 def schemas() -> dict[str, object]:
     from backend.api_types import api_json_schema  # lazy: a fast `nutty --help`
+    from backend.behaviours import behaviour_json_schema  # lazy: a fast `nutty --help`
     from backend.control import command_json_schema  # lazy: a fast `nutty --help`
     from backend.engine.blocks import block_catalog, editor_rules  # lazy: a fast `nutty --help`
     from backend.engine.clips import clip_json_schema  # lazy: a fast `nutty --help`
@@ -32,6 +33,7 @@ def schemas() -> dict[str, object]:
         "commands.schema.json": command_json_schema(),
         "api.schema.json": api_json_schema(),
         "clip.schema.json": clip_json_schema(),
+        "behaviour.schema.json": behaviour_json_schema(),
         "blocks.json": block_catalog(),
         "rules.json": editor_rules(),
     }

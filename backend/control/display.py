@@ -63,15 +63,28 @@ class Say(_Audible):
         "say",
         "Say a sentence aloud (with the mouth moving while it speaks).",
         available=lambda live: live.has("say") or "speech" in live.channels,
+        hide=("audio",),  # recordings are an animator's: AIs play them inside behaviours
         order=60,
     )
     channel = "speech"
     event = "say"
     type: Literal["say"] = "say"
     text: str = Field(..., min_length=1, max_length=2000, description="what to say")
+    audio: str | None = Field(
+        default=None,
+        max_length=80,
+        description="one of the robot's sounds: a recording of the text, played instead of the voice; "
+        "the mouth follows its loudness",
+    )
+
+    def run(self, ctx: CommandContext) -> Any:
+        if self.audio is not None and not ctx.session.library.sounds.has(self.audio):
+            sounds = ctx.session.library.sounds.list()
+            raise CommandError(f"no sound '{self.audio}' (sounds: {sounds})", field="audio")
+        return super().run(ctx)
 
     def event_payload(self) -> dict[str, Any]:
-        return {"text": self.text}
+        return {"text": self.text, **({"audio": self.audio} if self.audio else {})}
 
     @classmethod
     def stop_owned(cls, block: Block, command_id: str) -> None:

@@ -27,6 +27,7 @@ class Reset(BaseCommand):
         # Long actions end as cancelled (their blocks are about to be replaced), then the program
         # starts afresh as it declares itself: layers, inputs, no overrides.
         busy = tuple({name for cls in REGISTRY.classes() if cls.long_action for name in cls.acts_on.blocks})
+        ctx.session.behaviours.stop_all()
         for block in blocks_of(ctx.session, busy):
             with contextlib.suppress(CommandError):  # a block with nothing to stop
                 tell(ctx.session, block, "stop", {"fade": 0.0})
@@ -48,14 +49,15 @@ def _stop_route(args: dict[str, Any]) -> dict[str, Any]:
 
 
 class StopAll(BaseCommand):
-    """Stop everything now: clips, pending actions, overrides; exposed inputs back to their defaults."""
+    """Stop everything now: behaviours, clips, pending actions, overrides; exposed inputs back to their
+    defaults."""
 
     acts_on = Target(blocks=("clip_player",), role="engine", what="running program")
     # One tool for both stops: its arguments are stop_clip's, and `layer` decides which is sent.
     ai_tool = AiTool(
         "stop",
         "Stop: with `layer`, the clip playing on that layer (fading out over `fade` s); without, "
-        "everything at once (clips, held LEDs and faces; exposed inputs back to their defaults).",
+        "everything at once (behaviours, clips, held LEDs and faces; exposed inputs back to their defaults).",
         fields=StopClip,
         layer_choice=True,
         route=_stop_route,
@@ -67,6 +69,7 @@ class StopAll(BaseCommand):
 
     def run(self, ctx: CommandContext) -> Any:
         session = ctx.session
+        session.behaviours.stop_all()  # first: a behaviour would go on starting its next items
         for block in blocks_of(session, self.acts_on.blocks):
             tell(session, block, "stop", {"fade": 0.0})
         session.engine.call(session.engine.clear_overrides)

@@ -3,16 +3,20 @@
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from backend.engine.embodiment import Embodiment
 from backend.engine.library import RobotLibrary
 from backend.engine.runtime import Engine
 from backend.graph.schema import Program
 
+if TYPE_CHECKING:  # the player imports the commands lazily; only its type is named here
+    from backend.behaviours.player import BehaviourPlayer
+
 
 class CommandSession(Protocol):
-    """The running engine, its robot and library, the running program document, and a reset."""
+    """The running engine, its robot and library, the running program document, the behaviour player
+    and a reset."""
 
     @property
     def engine(self) -> Engine: ...
@@ -25,6 +29,9 @@ class CommandSession(Protocol):
 
     @property
     def program(self) -> Program | None: ...
+
+    @property
+    def behaviours(self) -> BehaviourPlayer: ...
 
     def reset(self, fade: float | None = None) -> None:
         """The running program as it starts, reached over `fade` seconds within the robot's limits."""

@@ -20,7 +20,7 @@ it into DoFs in `backend.engine.kinematronics`; their public names are importabl
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -55,6 +55,7 @@ from backend.engine.kinematronics import (  # noqa: F401 (re-exported: the names
     dofs_from_urdf,
     read_urdf_joints,
 )
+from backend.engine.sounds import SoundLibrary
 
 
 @dataclass(eq=False)  # identity semantics: embodiments are shared, hashed by identity
@@ -69,6 +70,8 @@ class Embodiment:
     gaze: dict[str, Any] = field(default_factory=dict)
     description: str = ""
     posture_descriptions: dict[str, str] = field(default_factory=dict)  # name -> one line (may be missing)
+    # sound DoFs whose list is the robot folder's sounds/ files (they declare none of their own)
+    folder_sound_dofs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         self._by_name = {d.name: d for d in self.dofs}
@@ -124,6 +127,13 @@ class Embodiment:
 
     def has_dof(self, name: str) -> bool:
         return name in self._by_name
+
+    def follow_sound_folder(self, names: list[str]) -> None:
+        """Give the sound DoFs that follow the robot folder's sounds/ this list of sound names (after a
+        sound is stored or deleted). Only the DoF's `sounds` changes: no channel does."""
+        for i, d in enumerate(self.dofs):
+            if d.name in self.folder_sound_dofs:
+                self.dofs[i] = self._by_name[d.name] = replace(d, sounds=tuple(names))
 
     @property
     def dof_names(self) -> list[str]:
@@ -322,4 +332,7 @@ def _from_config(cfg: EmbodimentConfig, folder: Path) -> Embodiment:
         for dof_name in pose:
             if not emb.has_dof(dof_name):
                 raise EmbodimentError(f"postures.{pname}: unknown DoF '{dof_name}'")
+    emb.folder_sound_dofs = tuple(s.name for s in cfg.audible if s.kind == "sound" and not s.sounds)
+    if emb.folder_sound_dofs:
+        emb.follow_sound_folder(SoundLibrary(folder / "sounds").list())
     return emb

@@ -98,7 +98,11 @@ class AudibleDofConfig(_Model):
 
     name: str
     kind: Literal["speech", "sound"]
-    sounds: list[str] = Field(default_factory=list, description="sound clips this player knows (sound only)")
+    sounds: list[str] = Field(
+        default_factory=list,
+        description="sounds this player knows by name (sound only); none listed: the robot folder's "
+        "sounds/ files, followed as they are added and deleted",
+    )
     description: str = ""
 
 

@@ -1,7 +1,9 @@
-"""A robot's asset library on disk: clips, postures and programs as JSON files.
+"""A robot's asset library on disk: clips, postures, programs, subgraphs and behaviours as JSON files,
+and sounds as audio files (`self.sounds`, backend.engine.sounds).
 
 Layout: `robots/<name>/clips/<clip>.json`, `robots/<name>/postures/<posture>.json`,
-`robots/<name>/programs/<program>.json`. Postures declared in `embodiment.yaml` are listed too
+`robots/<name>/programs/<program>.json`, `robots/<name>/behaviours/<behaviour>.json`,
+`robots/<name>/sounds/<sound>.wav|ogg|flac`. Postures declared in `embodiment.yaml` are listed too
 (read-only). Names are restricted to a safe character set, so a request can never escape the folder.
 Writes are atomic (write to a temporary file, then rename) and validated against the asset's
 format first, so nothing malformed is ever stored: a program must parse as `nutty-program/1`, a clip
@@ -28,8 +30,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from backend.engine.asset_errors import LibraryError, NotFound  # re-exported: the library's errors
 from backend.engine.clips import compile_clip, validate_clip_doc
 from backend.engine.embodiment import DofType, Embodiment
+from backend.engine.sounds import SoundLibrary
 
-KINDS = ("clips", "postures", "programs", "subgraphs")
+KINDS = ("clips", "postures", "programs", "subgraphs", "behaviours")
 LIBRARY_FILE_MODE = 0o644  # saved files: readable by everyone, like the files the library ships with
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_\-\.]{0,79}$")
 POSTURE_FORMAT = "nutty-posture/1"
@@ -170,6 +173,7 @@ class RobotLibrary:
         self.validators: dict[str, DocValidator] = {"clips": validate_clip_doc, **(validators or {})}
         self._lock = threading.Lock()
         self._cache: dict[tuple[str, str], tuple[float, dict[str, Any]]] = {}
+        self.sounds = SoundLibrary(self.folder / "sounds" if self.folder is not None else None)
 
     # --- paths ------------------------------------------------------------------------------------
     def _dir(self, kind: str) -> Path:

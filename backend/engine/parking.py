@@ -43,3 +43,18 @@ def park(engine: Engine, timeout: float = 3.0) -> dict[str, Any]:
         "seconds": seconds,
         "max_error": float(error[engine.embodiment.continuous_mask].max(initial=0.0)),
     }
+
+
+def at_rest(
+    apu: Any, transition: Any, seq: int, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, emb: Any
+) -> bool:
+    """Whether an engine's last frame (`pos`, `vel`, `acc` after `seq` ticks) is the rest pose exactly,
+    standing still, with no program (`apu`) or swap (`transition`) going on."""
+    return (
+        apu is None
+        and transition is None
+        and seq > 2
+        and bool(np.array_equal(pos, emb.rest))
+        and not np.any(vel)
+        and not np.any(acc)
+    )

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from backend.engine import parking
+from backend.engine import parking, runtime_stats
 from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
 
@@ -107,6 +107,10 @@ class Engine:
         self._sinks_lock = threading.Lock()
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         self._observers: list[Callable[[AnimationFrame], None]] = []  # see add_frame_observer
+        self._tick_hooks: list[Callable[[float], None]] = []  # see add_tick_hook
+        #: what carries each tick's events on (e.g. sounds get their file's URL); see set_event_stamp
+        self._stamp: Callable[[list, float], list] | None = None
+        self._ticking: int | None = None  # the thread inside `tick` (calls from it run at once)
         self._pos = embodiment.rest.copy()
         self._vel = np.zeros(embodiment.n_channels)
         self._acc = np.zeros(embodiment.n_channels)
@@ -149,7 +153,10 @@ class Engine:
         """`call_soon` and wait. When the clock is not running, runs `fn` at once (under the tick lock).
 
         `timeout` (s) only bounds a wait on a clock that is stuck: the next tick boundary normally comes
-        within one period, but a machine under heavy load can hold the clock thread off for a while."""
+        within one period, but a machine under heavy load can hold the clock thread off for a while.
+        Called from inside a tick (a tick hook, a listener), `fn` runs at once: that thread is the clock."""
+        if self._ticking == threading.get_ident():
+            return fn()
         if not self.running:
             with self._tick_lock:
                 self._drain_pending()
@@ -203,13 +210,8 @@ class Engine:
             kept = (
                 apu.adopt_state_from(self.apu) if (adopt and apu is not None and self.apu is not None) else []
             )
-            if apu is not None and (apu.cook.every, apu.cook.window) != (
-                self.profile_every,
-                self.profile_window,
-            ):
-                apu.cook = CookTimes(
-                    apu.cook.node_ids, apu.cook.types, self.profile_every, self.profile_window
-                )
+            if apu is not None:
+                runtime_stats.retime(apu, self.profile_every, self.profile_window)
             self.apu = apu
             self.swaps += 1
             if also is not None:
@@ -228,13 +230,8 @@ class Engine:
 
     def at_rest(self) -> bool:
         """Whether the last frame is the rest pose exactly, standing still, with no program running."""
-        return (
-            self.apu is None
-            and self._transition is None
-            and self.seq > 2
-            and bool(np.array_equal(self._pos, self.embodiment.rest))
-            and not np.any(self._vel)
-            and not np.any(self._acc)
+        return parking.at_rest(
+            self.apu, self._transition, self.seq, self._pos, self._vel, self._acc, self.embodiment
         )
 
     @property
@@ -257,6 +254,11 @@ class Engine:
         self._override_values = np.where(mask, values, self._override_values)
         self._overriding = bool(self._override_mask.any())
 
+    def release_override(self, mask: np.ndarray) -> None:
+        """Give the channels of `mask` back to the program (clock thread)."""
+        self._override_mask = self._override_mask & ~mask
+        self._overriding = bool(self._override_mask.any())
+
     def clear_overrides(self) -> None:
         self._override_mask = np.zeros_like(self._override_mask)
         self._overriding = False
@@ -264,6 +266,16 @@ class Engine:
     def add_listener(self, fn: Callable[[dict[str, Any]], None]) -> None:
         """Receive block notifications (clip started/completed, …) from the clock thread; keep it quick."""
         self._listeners.append(fn)
+
+    def add_tick_hook(self, fn: Callable[[float], None]) -> None:
+        """Call `fn(t)` on the clock thread at the start of every tick, after queued inputs and before the
+        program runs, with the time (s) of the frame it is about to make: what a hook starts shows in
+        that frame. It must be quick; an exception is logged (throttled) and the tick goes on."""
+        self._tick_hooks.append(fn)
+
+    def set_event_stamp(self, fn: Callable[[list, float], list] | None) -> None:
+        """`fn(events, t)` returns a tick's events as they go out (called only on ticks with events)."""
+        self._stamp = fn
 
     def add_frame_observer(self, fn: Callable[[AnimationFrame], None]) -> None:
         """Call `fn(frame)` on the clock thread after every frame's notes; it must be quick and not raise."""
@@ -303,74 +315,94 @@ class Engine:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
         with self._tick_lock:
             t0, cpu0 = time.perf_counter(), time.thread_time()
-            self._drain_pending()
-            dt = self.dt
-            if self.apu is not None:
-                try:
-                    final, stage1, events = self.apu.tick(dt)
-                except Exception as exc:  # a faulty block holds the last pose rather than killing the clock
-                    message = f"{type(exc).__name__}: {exc}"
-                    self._notify({"event": "error", "message": message})
-                    skipped = _faults.due(type(exc).__name__)
-                    if skipped is not None:
-                        again = f" ({skipped} more of its kind since the last report)" if skipped else ""
-                        log.error("a block failed; holding the last pose: %s%s", message, again, exc_info=exc)
-                    final, stage1, events = self._pos, self._pos, []
-            else:
-                final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
-            program = np.array(final, dtype=float)
-            if self._overriding:
-                np.copyto(program, self._override_values, where=self._override_mask)
-            target = program
-            if self._transition is not None:
-                target = program.copy()
-                if self._transition.apply(target):
-                    self._transition = None
-            pos = self.safety.step(target)
-            if self._injected:
-                events, self._injected = [*events, *self._injected], []
-            if self._derivatives is not None and pos.shape == self._pos.shape and pos.dtype == np.float64:
-                vel, acc, jerk = np.empty_like(pos), np.empty_like(pos), np.empty_like(pos)
-                self._derivatives(pos, self._pos, self._vel, self._acc, dt, self.seq, vel, acc, jerk)
-            else:
-                vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
-                acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
-                jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
-            self._pos, self._vel, self._acc = pos, vel, acc
-            frame = AnimationFrame(
-                embodiment=self.embodiment.name,
-                t=self.t,
-                dt=dt,
-                seq=self.seq,
-                position=pos,
-                velocity=vel,
-                acceleration=acc,
-                jerk=jerk,
-                events=list(events),
-                stage1=np.array(stage1, dtype=float),
-                corrected=self.safety.corrected.copy() if self.safety.corrected_any else None,
-                program=program,
-                joints=self.safety.joint_out,
-                requested=target,
-            )
-            if frame.corrected is not None:  # what the net changed, and which limits it enforced
-                frame.net = net_correction(frame, self.embodiment, self.safety.joints, *self._past)
-            self._past = ((target, *self._past[0][:2]), (self.safety.joint_out, *self._past[1][:2]))
-            self.last_frame = frame
-            self.seq += 1
-            self.t = self.seq * dt
-            self.ticks += 1
-            if self.ctx.events:
-                notes, self.ctx.events = self.ctx.events, []
-                for note in notes:
-                    self._notify(note)
-            for fn in self._observers:
-                fn(frame)
-            for sink in self._sinks:
-                sink.offer(frame)
-            self.tick_cost.add(time.perf_counter() - t0)
-            self.tick_cpu.add(time.thread_time() - cpu0)
-            return frame
+            self._ticking = threading.get_ident()
+            try:
+                return self._tick(t0, cpu0)
+            finally:
+                self._ticking = None
+
+    def _run_hooks(self) -> None:
+        for fn in self._tick_hooks:
+            try:
+                fn(self.t)
+            except Exception as exc:  # a hook's fault must not stop the clock
+                skipped = _faults.due(f"tick hook {fn!r}: {type(exc).__name__}")
+                if skipped is not None:
+                    log.error("a tick hook failed", exc_info=exc)
+
+    def _tick(self, t0: float, cpu0: float) -> AnimationFrame:
+        self._drain_pending()
+        if self._tick_hooks:
+            self._run_hooks()
+        dt = self.dt
+        if self.apu is not None:
+            try:
+                final, stage1, events = self.apu.tick(dt)
+            except Exception as exc:  # a faulty block holds the last pose rather than killing the clock
+                message = f"{type(exc).__name__}: {exc}"
+                self._notify({"event": "error", "message": message})
+                skipped = _faults.due(type(exc).__name__)
+                if skipped is not None:
+                    again = f" ({skipped} more of its kind since the last report)" if skipped else ""
+                    log.error("a block failed; holding the last pose: %s%s", message, again, exc_info=exc)
+                final, stage1, events = self._pos, self._pos, []
+        else:
+            final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
+        program = np.array(final, dtype=float)
+        if self._overriding:
+            np.copyto(program, self._override_values, where=self._override_mask)
+        target = program
+        if self._transition is not None:
+            target = program.copy()
+            if self._transition.apply(target):
+                self._transition = None
+        pos = self.safety.step(target)
+        if self._injected:
+            events, self._injected = [*events, *self._injected], []
+        if events and self._stamp is not None:
+            events = self._stamp(events, self.t)
+        if self._derivatives is not None and pos.shape == self._pos.shape and pos.dtype == np.float64:
+            vel, acc, jerk = np.empty_like(pos), np.empty_like(pos), np.empty_like(pos)
+            self._derivatives(pos, self._pos, self._vel, self._acc, dt, self.seq, vel, acc, jerk)
+        else:
+            vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
+            acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
+            jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
+        self._pos, self._vel, self._acc = pos, vel, acc
+        frame = AnimationFrame(
+            embodiment=self.embodiment.name,
+            t=self.t,
+            dt=dt,
+            seq=self.seq,
+            position=pos,
+            velocity=vel,
+            acceleration=acc,
+            jerk=jerk,
+            events=list(events),
+            stage1=np.array(stage1, dtype=float),
+            corrected=self.safety.corrected.copy() if self.safety.corrected_any else None,
+            program=program,
+            joints=self.safety.joint_out,
+            requested=target,
+        )
+        if frame.corrected is not None:  # what the net changed, and which limits it enforced
+            frame.net = net_correction(frame, self.embodiment, self.safety.joints, *self._past)
+        self._past = ((target, *self._past[0][:2]), (self.safety.joint_out, *self._past[1][:2]))
+        self.last_frame = frame
+        self.seq += 1
+        self.t = self.seq * dt
+        self.ticks += 1
+        if self.ctx.events:
+            notes, self.ctx.events = self.ctx.events, []
+            for note in notes:
+                self._notify(note)
+        for fn in self._observers:
+            fn(frame)
+        for sink in self._sinks:
+            sink.offer(frame)
+        self.tick_cost.add(time.perf_counter() - t0)
+        self.tick_cpu.add(time.thread_time() - cpu0)
+        return frame
 
     def _notify(self, note: dict[str, Any]) -> None:
         for fn in self._listeners:
@@ -446,54 +478,17 @@ class Engine:
         """Time one tick in `every` block by block, keeping the last `window` timed ticks (for this
         program and the ones loaded after it). `nutty run --profile` times every tick."""
         self.profile_every, self.profile_window = int(every), int(window)
-
-        def apply() -> None:
-            if self.apu is not None:
-                self.apu.cook = CookTimes(
-                    self.apu.cook.node_ids, self.apu.cook.types, self.profile_every, self.profile_window
-                )
-
-        self.call(apply)
+        self.call(lambda: runtime_stats.retime(self.apu, self.profile_every, self.profile_window))
 
     def reset_stats(self) -> None:
         """Start a new measurement window: tick cost, period, lateness and the program's cook times
         forget their samples (the counters of ticks, overruns and lost ticks go on)."""
-        for ring in (self.tick_cost, self.tick_cpu, self.period, self.lateness):
-            ring.reset()
-        apu = self.apu
-        if apu is not None:
-            apu.cook.reset()
+        runtime_stats.reset(self)
 
     def profile(self) -> dict[str, Any]:
         """Per-node cook times of the running program (`backend.engine.profile.CookTimes.summary`)."""
-        apu = self.apu
-        if apu is None:
-            return CookTimes([], []).summary()
-        return apu.cook.summary()
+        return (self.apu.cook if self.apu is not None else CookTimes([], [])).summary()
 
     def stats(self) -> dict[str, Any]:
-        return {
-            "rate": self.rate,
-            "ticks": self.ticks,
-            "t": self.t,
-            "level": self.apu.level if self.apu else None,
-            "max_level": self.max_level,
-            "running": self.running,
-            "overruns": self.overruns,
-            "lost_ticks": self.lost_ticks,
-            "swaps": self.swaps,
-            "safety": self.safety.stats(),
-            "tick_cost": self.tick_cost.summary(),
-            "tick_cpu": self.tick_cpu.summary(),
-            "period": self.period.summary(),
-            "jitter": self.lateness.summary(),
-            "started_at": self.started_at,
-            "clock_priority": None
-            if self.clock_priority is None
-            else {
-                "switch_interval_ms": self.clock_priority.interval * 1e3,
-                "nice": self.clock_priority.nice,
-                "realtime": self.clock_priority.realtime,
-            },
-            "sinks": [s.stats() for s in self.sinks],
-        }
+        """The clock's statistics (`backend.engine.runtime_stats.engine_stats`)."""
+        return runtime_stats.engine_stats(self)

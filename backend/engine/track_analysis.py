@@ -20,7 +20,7 @@ import numpy as np
 
 from backend.engine import trajectory
 from backend.engine.blocks.base import BlockContext
-from backend.engine.blocks.motion_filter import MotionFilterStage2
+from backend.engine.blocks.motion_filter import MotionFilterStage2, Stage2Params
 from backend.engine.embodiment import DofType, Embodiment
 
 if TYPE_CHECKING:
@@ -160,9 +160,9 @@ def filter_matrix(
 ) -> np.ndarray:
     """Samples `x` (T, n) of channels `ch` at `rate` Hz through the stage-2 motion filter (see
     `filter_tracks`), as a (T, n) array."""
-    stage2 = MotionFilterStage2(
-        params, BlockContext(emb, rate)
-    )  # the robot's limits, as the engine sets them
+    # the robot's limits, as the engine sets them (a program's stage 2 may skip DoFs: its params say)
+    stage2_params = params if isinstance(params, Stage2Params) else Stage2Params(**params.model_dump())
+    stage2 = MotionFilterStage2(stage2_params, BlockContext(emb, rate))
     mf = stage2.filter
     if mf is None:  # nothing to filter (not so while a continuous DoF is posted): the samples as given
         return x.copy()

@@ -16,6 +16,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, RootModel, SkipValidation
 
 from backend import control
+from backend.behaviours.format import Behaviour
 from backend.engine.clips import Clip
 from backend.engine.library import Posture
 from backend.graph.schema import Program, Subgraph
@@ -65,3 +66,16 @@ PostureDoc = SkipValidation[Posture]
 SubgraphDoc = SkipValidation[Subgraph]
 ParamValues = SkipValidation[dict[str, Any]]
 ToolArguments = SkipValidation[dict[str, Any]]  # checked by the tool (its enums) and its command's model
+BehaviourDoc = SkipValidation[Behaviour]  # checked by backend.behaviours (every error on its item)
+
+
+class BehaviourRequest(BaseModel):
+    """Body of POST /api/behaviours/plan and /api/behaviours/render: a behaviour (the stored one named
+    `behaviour`, or an unsaved `document`) and its parameters."""
+
+    behaviour: str | None = Field(default=None, description="name of a stored behaviour")
+    document: SkipValidation[dict[str, Any]] | None = Field(
+        default=None, description="an unsaved behaviour (nutty-behaviour/1), checked item by item"
+    )
+    params: SkipValidation[dict[str, Any]] | None = Field(default=None, description="parameter name -> value")
+    rate: float = Field(default=30.0, ge=5.0, le=100.0, description="render: frames per second sent back")

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from backend.control.ai import Choice
+from backend.control.behaviours import behaviour_choices
 
 # A command's tool declaration lists its values as Choices, so the class lives beside the declaration.
 from backend.control.session_view import CommandSession
@@ -41,6 +42,8 @@ class Live:
     sounds: list[Choice] = field(default_factory=list)
     channels: set[str] = field(default_factory=set)  # event DoF kinds: speech, sound
     gaze_range: dict[str, tuple[float, float]] = field(default_factory=dict)  # yaw/pitch -> (min, max) rad
+    behaviours: list[Choice] = field(default_factory=list)
+    behaviour_params: dict[str, dict[str, Any]] = field(default_factory=dict)  # name -> declared params
 
     def has(self, *block_types: str) -> bool:
         return any(self.blocks.get(t) for t in block_types)
@@ -89,6 +92,7 @@ def read_live(session: CommandSession) -> Live:
         if dof.kind == "sound":
             live.sounds += [Choice(s) for s in dof.sounds or ()]
     live.gaze_range = _gaze_range(emb)
+    live.behaviours, live.behaviour_params = behaviour_choices(session)
     return live
 
 

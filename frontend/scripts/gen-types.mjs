@@ -42,6 +42,7 @@ const targets = [
   { file: "program.schema.json", name: "Program" },
   { file: "commands.schema.json", name: "Command" },
   { file: "clip.schema.json", name: "Clip" },
+  { file: "behaviour.schema.json", name: "Behaviour" },
   { file: "api.schema.json", name: "NuttyApi", header: apiImports, options: { unreachableDefinitions: true } },
 ];
 const stale = [];

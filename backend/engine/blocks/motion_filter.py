@@ -106,6 +106,14 @@ class MotionFilterParams(FilterParams):
     dofs: DofSelection = Field(default=["stationary:*", "spatial:*"])
 
 
+class Stage2Params(FilterParams):
+    skip: DofSelection = Field(
+        default=[],
+        description="DoFs the filter passes through untouched (the safety net still bounds them): e.g. "
+        "a lip-sync mouth on a screen, which must follow speech without the filter's lag",
+    )
+
+
 FP = TypeVar("FP", bound=FilterParams)
 
 
@@ -313,12 +321,13 @@ class MotionFilterBlock(_FilterBlock[MotionFilterParams]):
         return channel_mask(self.emb, self.params.dofs, continuous_only=True)
 
 
-class MotionFilterStage2(_FilterBlock[FilterParams]):
+class MotionFilterStage2(_FilterBlock[Stage2Params]):
     """The Nutty Motion Filter on every continuous DoF and colour, as the last stage before the robot.
 
     The paper's Level 3 post-processor: whatever the layers produce, every DoF reaches the robot within
     its velocity, acceleration and jerk limits (the embodiment's, scaled by `limit_scale`), shaped by σ
-    and ρ. Its input is the *ghost* the Pre-Viz shows beside the filtered robot.
+    and ρ; DoFs in `skip` pass untouched (the engine's safety net still bounds them). Its input is the
+    *ghost* the Pre-Viz shows beside the filtered robot.
     """
 
     type_name = "nmf_stage2"
@@ -327,4 +336,7 @@ class MotionFilterStage2(_FilterBlock[FilterParams]):
     role = Role.stage2
 
     def selection(self) -> np.ndarray:
-        return self.emb.channel_kind != ChannelKind.enum
+        filtered = self.emb.channel_kind != ChannelKind.enum
+        if self.params.skip:
+            filtered &= ~channel_mask(self.emb, self.params.skip)
+        return filtered

@@ -79,6 +79,10 @@ export type Tools =
  * Shapes of the Nutty API the editor reads (backend/api_types).
  */
 export interface NuttyApi {
+  BehaviourIssue?: BehaviourIssue;
+  BehaviourPlanned?: BehaviourPlanned;
+  BehaviourRendered?: BehaviourRendered;
+  BehaviourSummary?: BehaviourSummary;
   BlockEntry?: BlockEntry;
   BlockPorts?: BlockPorts;
   CommandAccepted?: CommandAccepted;
@@ -104,6 +108,8 @@ export interface NuttyApi {
   RunningProgram?: RunningProgram;
   Saved?: Saved;
   ServerStatus?: ServerStatus;
+  SoundEntry?: SoundEntry;
+  StoredBehaviour?: StoredBehaviour;
   StoredClip?: StoredClip;
   StoredPosture?: StoredPosture;
   StoredProgram?: StoredProgram;
@@ -117,6 +123,142 @@ export interface NuttyApi {
   Tools?: Tools;
   TrackAnalysis?: TrackAnalysis;
   ValidationReport?: ValidationReport;
+}
+/**
+ * One error of a behaviour: the item and field at fault (`path` in the document).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "BehaviourIssue".
+ */
+export interface BehaviourIssue {
+  /**
+   * the item's field (`start.anchor`, `clip`, ...)
+   */
+  field?: string | null;
+  /**
+   * id of the item (`#i` when it has none)
+   */
+  item?: string | null;
+  message: string;
+  path?: string | null;
+  /**
+   * index of the track holding the item
+   */
+  track?: number | null;
+}
+/**
+ * POST /api/behaviours/plan: every item's time, or every error (`valid` false).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "BehaviourPlanned".
+ */
+export interface BehaviourPlanned {
+  duration: number;
+  errors: BehaviourIssue[];
+  items: PlannedItemInfo[];
+  params: {
+    [k: string]: unknown;
+  };
+  valid: boolean;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PlannedItemInfo".
+ */
+export interface PlannedItemInfo {
+  /**
+   * clip anchor -> s from the start
+   */
+  anchors?: {
+    [k: string]: number;
+  };
+  end: number;
+  /**
+   * look_at: the exposed input it follows
+   */
+  follow?: string | null;
+  id: string;
+  kind: string;
+  /**
+   * s from the behaviour's start
+   */
+  start: number;
+  track: number;
+}
+/**
+ * POST /api/behaviours/render: the behaviour played offline through the running program.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "BehaviourRendered".
+ */
+export interface BehaviourRendered {
+  /**
+   * the DoFs of each frame's values, in order
+   */
+  dofs: string[];
+  duration: number;
+  events: RenderedEvent[];
+  /**
+   * per frame, each DoF's value (rad, m, colour, option)
+   */
+  frames: unknown[][];
+  /**
+   * the behaviour's item events, with `t`
+   */
+  item_events: {
+    [k: string]: unknown;
+  }[];
+  items: PlannedItemInfo[];
+  /**
+   * frames per second of `frames`
+   */
+  rate: number;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "RenderedEvent".
+ */
+export interface RenderedEvent {
+  dof: string;
+  kind: string;
+  payload: {
+    [k: string]: unknown;
+  };
+  /**
+   * s from the behaviour's start
+   */
+  t: number;
+}
+/**
+ * GET /api/behaviours (each): what a behaviour is for and what it takes.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "BehaviourSummary".
+ */
+export interface BehaviourSummary {
+  description: string;
+  /**
+   * s with the default parameters (None: it has errors)
+   */
+  duration: number | null;
+  /**
+   * what keeps it from playing now
+   */
+  errors?: BehaviourIssue[];
+  name: string;
+  params: {
+    [k: string]: BehaviourParamInfo;
+  };
+}
+/**
+ * A declared parameter (the format's `Param`). Open: it is the document's own declaration.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "BehaviourParamInfo".
+ */
+export interface BehaviourParamInfo {
+  type: string;
+  [k: string]: unknown;
 }
 /**
  * One block type of GET /api/blocks (and generated/blocks.json).
@@ -896,6 +1038,42 @@ export interface SinkStats {
   last_error: string | null;
   name: string;
   offered: number;
+  [k: string]: unknown;
+}
+/**
+ * GET /api/sounds (each), PUT /api/sounds/{name}: one sound file of the robot.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "SoundEntry".
+ */
+export interface SoundEntry {
+  bytes: number;
+  channels: number;
+  /**
+   * s
+   */
+  duration: number;
+  /**
+   * wav, ogg or flac
+   */
+  format: string;
+  name: string;
+  /**
+   * Hz
+   */
+  samplerate: number;
+  /**
+   * where to fetch it (relative to the server)
+   */
+  url: string;
+}
+/**
+ * GET /api/behaviours/{name}: a behaviour (nutty-behaviour/1).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "StoredBehaviour".
+ */
+export interface StoredBehaviour {
   [k: string]: unknown;
 }
 /**

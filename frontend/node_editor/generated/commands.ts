@@ -3,6 +3,7 @@
 export type Command =
   | Cancel
   | GoPosture
+  | PlayBehaviour
   | PlayClip
   | PlaySound
   | Puppet
@@ -53,6 +54,31 @@ export type Node = string | null;
 export type Posture = string;
 export type Type1 = "go_posture";
 /**
+ * name of a behaviour of the robot
+ */
+export type Behaviour = string;
+/**
+ * an unsaved behaviour (nutty-behaviour/1) to play under the name `behaviour`: the editor's working copy
+ */
+export type Document = {
+  [k: string]: unknown;
+} | null;
+/**
+ * client-chosen id (echoed in acks and events)
+ */
+export type Id2 = string | null;
+/**
+ * while another behaviour plays: replace it (default), queue behind it, or reject this
+ */
+export type IfBusy = ("replace" | "queue" | "reject") | null;
+/**
+ * parameter name -> value
+ */
+export type Params = {
+  [k: string]: unknown;
+} | null;
+export type Type2 = "play_behaviour";
+/**
  * anchor name -> time (s) it must land at
  */
 export type Anchors = {
@@ -69,17 +95,17 @@ export type Crossfade = number | null;
 /**
  * an unsaved clip (nutty-clip/1) to play under the name `clip` instead of the library's: the clip editor's working copy on the robot
  */
-export type Document = {
+export type Document1 = {
   [k: string]: unknown;
 } | null;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id2 = string | null;
+export type Id3 = string | null;
 /**
  * while another clip plays on this player: replace it (crossfade; default), queue behind it, or reject this play
  */
-export type IfBusy = ("replace" | "queue" | "reject") | null;
+export type IfBusy1 = ("replace" | "queue" | "reject") | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -100,11 +126,11 @@ export type Speed = number | null;
  * clip time to start from (s; default 0)
  */
 export type Start = number | null;
-export type Type2 = "play_clip";
+export type Type3 = "play_clip";
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id3 = string | null;
+export type Id4 = string | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -117,11 +143,11 @@ export type Node2 = string | null;
  * name of one of the robot's sounds
  */
 export type Sound = string;
-export type Type3 = "play_sound";
+export type Type4 = "play_sound";
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id4 = string | null;
+export type Id5 = string | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -134,17 +160,21 @@ export type Node3 = string | null;
  * end the stream now: the layer fades out (give no values)
  */
 export type Release = boolean;
-export type Type4 = "puppet";
+export type Type5 = "puppet";
 export type Fade = number;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id5 = string | null;
-export type Type5 = "reset";
+export type Id6 = string | null;
+export type Type6 = "reset";
+/**
+ * one of the robot's sounds: a recording of the text, played instead of the voice; the mouth follows its loudness
+ */
+export type Audio = string | null;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id6 = string | null;
+export type Id7 = string | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -157,11 +187,11 @@ export type Node4 = string | null;
  * what to say
  */
 export type Text = string;
-export type Type6 = "say";
+export type Type7 = "say";
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id7 = string | null;
+export type Id8 = string | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -174,13 +204,13 @@ export type Node5 = string | null;
  * time in the clip (s)
  */
 export type T = number;
-export type Type7 = "seek_clip";
+export type Type8 = "seek_clip";
 export type Arousal = number;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id8 = string | null;
-export type Type8 = "set_emotion";
+export type Id9 = string | null;
+export type Type9 = "set_emotion";
 export type Valence = number;
 /**
  * enum display DoF; default: the robot's first
@@ -193,12 +223,12 @@ export type Expression = string;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id9 = string | null;
-export type Type9 = "set_face";
+export type Id10 = string | null;
+export type Type10 = "set_face";
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id10 = string | null;
+export type Id11 = string | null;
 /**
  * [x, y, z] (m) in the robot's base frame: x forward, y left, z up; each within +-20 m
  *
@@ -206,19 +236,19 @@ export type Id10 = string | null;
  * @maxItems 3
  */
 export type Target1 = [unknown, unknown, unknown];
-export type Type10 = "set_gaze";
-/**
- * client-chosen id (echoed in acks and events)
- */
-export type Id11 = string | null;
-export type Name = string;
-export type Type11 = "set_input";
-export type Value = unknown;
+export type Type11 = "set_gaze";
 /**
  * client-chosen id (echoed in acks and events)
  */
 export type Id12 = string | null;
-export type Type12 = "set_inputs";
+export type Name = string;
+export type Type12 = "set_input";
+export type Value = unknown;
+/**
+ * client-chosen id (echoed in acks and events)
+ */
+export type Id13 = string | null;
+export type Type13 = "set_inputs";
 /**
  * on (true) or off
  */
@@ -230,7 +260,7 @@ export type Fade1 = number | null;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id13 = string | null;
+export type Id14 = string | null;
 /**
  * name of a layer of the program's layer mixer
  */
@@ -239,7 +269,7 @@ export type Layer6 = string;
  * mixer node id; default: the mixer that has this layer
  */
 export type Mixer = string | null;
-export type Type13 = "set_layer";
+export type Type14 = "set_layer";
 /**
  * [r, g, b], each within 0..1
  *
@@ -254,13 +284,13 @@ export type Dof1 = string | null;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id14 = string | null;
-export type Type14 = "set_led";
+export type Id15 = string | null;
+export type Type15 = "set_led";
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id15 = string | null;
-export type Type15 = "stop_all";
+export type Id16 = string | null;
+export type Type16 = "stop_all";
 /**
  * fade-out time (s; default: the player's release)
  */
@@ -268,7 +298,7 @@ export type Fade2 = number | null;
 /**
  * client-chosen id (echoed in acks and events)
  */
-export type Id16 = string | null;
+export type Id17 = string | null;
 /**
  * layer whose chain holds the target block (optional)
  */
@@ -277,7 +307,7 @@ export type Layer7 = string | null;
  * node id of the target block (optional)
  */
 export type Node6 = string | null;
-export type Type16 = "stop_clip";
+export type Type17 = "stop_clip";
 
 /**
  * Cancel a long action by the id it was given.
@@ -300,6 +330,20 @@ export interface GoPosture {
   type?: Type1;
 }
 /**
+ * Play a behaviour of the robot's library (`robots/<robot>/behaviours/<name>.json`) with
+ * parameters. One behaviour plays at a time: while one plays, `if_busy` decides: `replace` (default;
+ * the playing one is cancelled), `queue` (it starts when the playing ones end; acked `queued`) or
+ * `reject` (code `busy`, naming the playing behaviour's id).
+ */
+export interface PlayBehaviour {
+  behaviour: Behaviour;
+  document?: Document;
+  id?: Id2;
+  if_busy?: IfBusy;
+  params?: Params;
+  type?: Type2;
+}
+/**
  * Play a clip on a clip player (e.g. the one on layer 'gesture').
  *
  * While that player plays another clip, `if_busy` decides: `replace` (default) crossfades to this clip
@@ -311,25 +355,25 @@ export interface PlayClip {
   anchors?: Anchors;
   clip: Clip;
   crossfade?: Crossfade;
-  document?: Document;
-  id?: Id2;
-  if_busy?: IfBusy;
+  document?: Document1;
+  id?: Id3;
+  if_busy?: IfBusy1;
   layer?: Layer1;
   mode?: Mode;
   node?: Node1;
   speed?: Speed;
   start?: Start;
-  type?: Type2;
+  type?: Type3;
 }
 /**
  * Play a sound clip: through the program's play_sound block, else as a sound event.
  */
 export interface PlaySound {
-  id?: Id3;
+  id?: Id4;
   layer?: Layer2;
   node?: Node2;
   sound: Sound;
-  type?: Type3;
+  type?: Type4;
 }
 /**
  * One message of a live stream: set the puppet layer's targets for the named DoFs.
@@ -341,11 +385,11 @@ export interface PlaySound {
  * DoF or one the block may not set is refused (the field names it) and nothing changes.
  */
 export interface Puppet {
-  id?: Id4;
+  id?: Id5;
   layer?: Layer3;
   node?: Node3;
   release?: Release;
-  type?: Type4;
+  type?: Type5;
   values?: Values;
 }
 /**
@@ -361,36 +405,37 @@ export interface Values {
  */
 export interface Reset {
   fade?: Fade;
-  id?: Id5;
-  type?: Type5;
+  id?: Id6;
+  type?: Type6;
 }
 /**
  * Say a text: through the program's say block (lip flap, started/completed), else as a speech event.
  */
 export interface Say {
-  id?: Id6;
+  audio?: Audio;
+  id?: Id7;
   layer?: Layer4;
   node?: Node4;
   text: Text;
-  type?: Type6;
+  type?: Type7;
 }
 /**
  * Jump the playing clip of a clip player to time `t`.
  */
 export interface SeekClip {
-  id?: Id7;
+  id?: Id8;
   layer?: Layer5;
   node?: Node5;
   t: T;
-  type?: Type7;
+  type?: Type8;
 }
 /**
  * Set the program's `valence` and `arousal` inputs (-1..1).
  */
 export interface SetEmotion {
   arousal: Arousal;
-  id?: Id8;
-  type?: Type8;
+  id?: Id9;
+  type?: Type9;
   valence: Valence;
 }
 /**
@@ -399,8 +444,8 @@ export interface SetEmotion {
 export interface SetFace {
   dof?: Dof;
   expression: Expression;
-  id?: Id9;
-  type?: Type9;
+  id?: Id10;
+  type?: Type10;
 }
 /**
  * Look at a point (m, robot base frame): sets the program's `gaze_target` input. A long action: it
@@ -408,25 +453,25 @@ export interface SetFace {
  * completes when the gaze has arrived, or stopped at its limit (`reached` says which).
  */
 export interface SetGaze {
-  id?: Id10;
+  id?: Id11;
   target: Target1;
-  type?: Type10;
+  type?: Type11;
 }
 /**
  * Set one exposed input of the running program.
  */
 export interface SetInput {
-  id?: Id11;
+  id?: Id12;
   name: Name;
-  type?: Type11;
+  type?: Type12;
   value: Value;
 }
 /**
  * Set several exposed inputs at the same tick.
  */
 export interface SetInputs {
-  id?: Id12;
-  type?: Type12;
+  id?: Id13;
+  type?: Type13;
   values: Values1;
 }
 export interface Values1 {
@@ -438,10 +483,10 @@ export interface Values1 {
 export interface SetLayer {
   active?: Active;
   fade?: Fade1;
-  id?: Id13;
+  id?: Id14;
   layer: Layer6;
   mixer?: Mixer;
-  type?: Type13;
+  type?: Type14;
 }
 /**
  * Set a colour DoF (an LED or LED group) to an RGB colour in [0, 1].
@@ -449,23 +494,24 @@ export interface SetLayer {
 export interface SetLed {
   colour: Colour;
   dof?: Dof1;
-  id?: Id14;
-  type?: Type14;
-}
-/**
- * Stop everything now: clips, pending actions, overrides; exposed inputs back to their defaults.
- */
-export interface StopAll {
   id?: Id15;
   type?: Type15;
+}
+/**
+ * Stop everything now: behaviours, clips, pending actions, overrides; exposed inputs back to their
+ * defaults.
+ */
+export interface StopAll {
+  id?: Id16;
+  type?: Type16;
 }
 /**
  * Stop the clip a clip player plays, fading out over `fade` seconds (default: the block's).
  */
 export interface StopClip {
   fade?: Fade2;
-  id?: Id16;
+  id?: Id17;
   layer?: Layer7;
   node?: Node6;
-  type?: Type16;
+  type?: Type17;
 }
