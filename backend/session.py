@@ -26,6 +26,7 @@ from backend.engine.blocks.base import Block, BlockContext, BlockParams
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.library import RobotLibrary
+from backend.engine.recent_events import RecentEvents
 from backend.engine.runtime import Engine
 from backend.errors import DomainError
 from backend.graph.compiler import Compiled, Issue, ValidationReport, compile_program
@@ -98,6 +99,8 @@ class EngineSession:
         self._note_listeners: list[Callable[[dict[str, Any]], None]] = []
         engine.add_listener(self._on_note)
         self.behaviours = BehaviourPlayer(self)  # behaviours play on the clock (backend.behaviours)
+        self.recent_events = RecentEvents()  # for telemetry, which samples the frames
+        engine.add_frame_observer(self.recent_events.observe)
 
     # --- construction ---------------------------------------------------------------------------
     @classmethod

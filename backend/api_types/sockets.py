@@ -115,6 +115,18 @@ class TelemetryFrame(Shape):
     net_totals: NetTotals | None = None
 
 
+class FrameEventEntry(Shape):
+    """An event of a frame: speech, a sound (its payload has `url`, `t` and `duration` when it plays a
+    file of the robot's sounds/), a one-shot display change."""
+
+    seq: int = Field(..., description="the frame's sequence number")
+    index: int = Field(..., description="the event's place among its frame's events")
+    t: float = Field(..., description="the frame's time (s)")
+    dof: str
+    kind: str
+    payload: dict[str, Any]
+
+
 class Telemetry(Shape):
     type: Literal["telemetry"]
     t: float
@@ -123,6 +135,11 @@ class Telemetry(Shape):
         default=None, description="'node.port' -> value (frames as {mask, values})"
     )
     frame: TelemetryFrame | None = None
+    events: list[FrameEventEntry] | None = Field(
+        default=None,
+        description="the frames' events of the last 2 s (with frames on): speech, sounds (with `url`); "
+        "several messages carry the same event, which `seq` and `index` identify",
+    )
     layers: dict[str, list[LayerState]] | None = None
     profile: Profile | None = None
 

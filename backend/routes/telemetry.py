@@ -242,6 +242,9 @@ class Subscription:
             msg["signals"] = dict(zip(self.signal_keys, signals_json(emb, values)))
         if self.frames:
             msg["frame"] = frame_json(emb, frame, session.engine.safety)
+            events = session.recent_events.recent(frame.t)
+            if events:  # every event of the last seconds: the client plays each once (by seq, index)
+                msg["events"] = events
         if apu is not None:
             msg["layers"] = {
                 s.node_id: s.block.layer_states() for s in apu.steps if isinstance(s.block, LayerMixer)

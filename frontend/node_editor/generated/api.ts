@@ -1280,6 +1280,10 @@ export interface TakeStatus {
  * via the `definition` "Telemetry".
  */
 export interface Telemetry {
+  /**
+   * the frames' events of the last 2 s (with frames on): speech, sounds (with `url`); several messages carry the same event, which `seq` and `index` identify
+   */
+  events?: FrameEventEntry[] | null;
   frame?: TelemetryFrame | null;
   layers?: {
     [k: string]: LayerState[];
@@ -1294,6 +1298,32 @@ export interface Telemetry {
   } | null;
   t: number;
   type: "telemetry";
+}
+/**
+ * An event of a frame: speech, a sound (its payload has `url`, `t` and `duration` when it plays a
+ * file of the robot's sounds/), a one-shot display change.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "FrameEventEntry".
+ */
+export interface FrameEventEntry {
+  dof: string;
+  /**
+   * the event's place among its frame's events
+   */
+  index: number;
+  kind: string;
+  payload: {
+    [k: string]: unknown;
+  };
+  /**
+   * the frame's sequence number
+   */
+  seq: number;
+  /**
+   * the frame's time (s)
+   */
+  t: number;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
