@@ -161,6 +161,8 @@ class Hub:
         """Block notifications arrive on the clock thread: record them and hand them to the event loop.
         A long action's `completed` waits in `actions` until the robot's motion has ended."""
         cid = note.get("command_id")
+        if self.session.behaviours.owns(cid):
+            return  # a behaviour's item command: the behaviour reports it as an `item` event
         event = note.get("event")
         entry = self.commands.get(cid)
         if (

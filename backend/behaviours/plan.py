@@ -37,6 +37,7 @@ class PlannedItem:
     anchors: dict[str, float] = field(default_factory=dict)  # clip anchor -> s from the behaviour's start
     follow: str | None = None  # look_at: the exposed input followed while the item lasts
     path: str = ""  # where the item is in the document (`tracks.1.items.0`)
+    faulty: bool = False  # it has errors: items timed from it are not blamed for them again
 
     def to_dict(self) -> dict[str, Any]:
         out = {
@@ -78,7 +79,7 @@ def parse(doc: Any) -> tuple[Behaviour | None, list[Issue]]:
     try:
         return Behaviour.model_validate(doc), []
     except ValidationError as exc:
-        return None, [_located(doc, e) for e in exc.errors()]
+        return None, _one_per_field([_located(doc, e) for e in exc.errors()])
 
 
 def _located(doc: dict[str, Any], err: Any) -> Issue:
@@ -91,10 +92,28 @@ def _located(doc: dict[str, Any], err: Any) -> Issue:
         rest = [str(p) for p in loc[4:]]
         if rest and raw.get("kind") == rest[0]:
             rest = rest[1:]  # the union's tag
-        rest = [p for p in rest if p not in ("float", "str", "tuple[float, float, float]")]  # union members
+        rest = [p for p in rest if not _union_member(p)]
         item_id = raw.get("id") if isinstance(raw.get("id"), str) else f"#{i}"
         return Issue(message, path, track=t, item=item_id, field=".".join(rest) or None)
     return Issue(message, path, field=str(loc[-1]) if loc else None)
+
+
+def _union_member(part: str) -> bool:
+    """Whether a location part names a member of a union (`constrained-float`, `str`), not a field."""
+    return "-" in part or "[" in part or part in ("float", "str", "int", "bool")
+
+
+def _one_per_field(issues: list[Issue]) -> list[Issue]:
+    """A value that fits no member of a union fails each: the first member's error (a number's range,
+    not the `{param}` pattern's) says enough."""
+    seen: set[tuple[Any, ...]] = set()
+    out = []
+    for i in issues:
+        key = (i.track, i.item, i.field)
+        if i.item is None or key not in seen:
+            out.append(i)
+        seen.add(key)
+    return out
 
 
 def _raw_item(doc: dict[str, Any], t: int, i: int) -> dict[str, Any]:
@@ -129,7 +148,7 @@ def plan(beh: Behaviour, given: Any, vocab: Vocabulary, strict: bool = True) -> 
     planned: dict[str, PlannedItem | None] = {}  # None: it cannot be timed (its errors are reported once)
     for _, _, item in entries:
         if by_id.get(item.id, (None, None, None))[2] is item:
-            _plan_item(item.id, by_id, values, vocab, planned, issues, [])
+            _plan_item(item.id, by_id, values, vocab, planned, issues, [], frozenset(beh.params))
     order = {id(item): k for k, (_, _, item) in enumerate(entries)}
     timed = [p for p in planned.values() if p is not None]
     items = sorted(timed, key=lambda p: (p.start, order[id(by_id[p.id][2])]))
@@ -144,6 +163,7 @@ def _plan_item(
     planned: dict[str, PlannedItem | None],
     issues: list[Issue],
     chain: list[str],
+    declared: frozenset[str],
 ) -> PlannedItem | None:
     """Plan one item (after the item it is timed from); None when it cannot be timed."""
     if item_id in planned:
@@ -154,21 +174,24 @@ def _plan_item(
         cycle = " -> ".join([*chain[chain.index(item_id) :], item_id])
         issues.append(Issue(f"timing goes round in a circle: {cycle}", f"{where}.start", t, item_id, "start"))
         return None
-    start = _start(item, where, t, by_id, values, vocab, planned, issues, [*chain, item_id])
+    start = _start(item, where, t, by_id, values, vocab, planned, issues, [*chain, item_id], declared)
     if start is None:
         planned[item_id] = None
         return None
     spec = substitute(item.model_dump(mode="json", exclude_none=True), values)
-    length, anchors, follow = _extent(item, spec, values, vocab, where, t, issues)
+    before = len(issues)
+    length, anchors, follow = _extent(item, spec, declared, vocab, where, t, issues)
     if start + length > 2 * MAX_TIME:
         issues.append(Issue("the item ends too late", f"{where}.start", t, item_id, "start"))
     anchors = {k: start + v for k, v in anchors.items()}
-    p = PlannedItem(item_id, t, item.kind, start, start + length, spec, anchors, follow, where)
+    p = PlannedItem(
+        item_id, t, item.kind, start, start + length, spec, anchors, follow, where, len(issues) > before
+    )
     planned[item_id] = p
     return p
 
 
-def _start(item, where, t, by_id, values, vocab, planned, issues, chain) -> float | None:
+def _start(item, where, t, by_id, values, vocab, planned, issues, chain, declared) -> float | None:
     ref = item.start
     if not isinstance(ref, StartRef):
         return float(ref)
@@ -178,9 +201,11 @@ def _start(item, where, t, by_id, values, vocab, planned, issues, chain) -> floa
             Issue(f"no item '{ref.item}' to be timed from", f"{field}.item", t, item.id, "start.item")
         )
         return None
-    base = _plan_item(ref.item, by_id, values, vocab, planned, issues, chain)
+    base = _plan_item(ref.item, by_id, values, vocab, planned, issues, chain, declared)
     if base is None:
         return None
+    if base.faulty and ref.at != "start":
+        return None  # its end or anchors are not known: its own errors say why
     if ref.at == "start":
         moment = base.start
     elif ref.at == "end":
@@ -216,7 +241,7 @@ def _start(item, where, t, by_id, values, vocab, planned, issues, chain) -> floa
 
 
 def _extent(
-    item, spec, values, vocab: Vocabulary, where, t, issues
+    item, spec, declared, vocab: Vocabulary, where, t, issues
 ) -> tuple[float, dict[str, float], str | None]:
     """(length in s, anchor -> s after the item's start, followed input) of one item; its field errors."""
 
@@ -248,7 +273,7 @@ def _extent(
                 bad(f"'{target}' is no exposed vec3 input of the running program", "target")
         return _seconds(spec["duration"], 0.0), {}, follow
     if kind == "say":
-        unknown = [n for n in INSIDE.findall(spec["text"]) if n not in values]
+        unknown = [n for n in INSIDE.findall(spec["text"]) if n not in declared]
         if unknown and not pending:
             bad(f"the text names {{{unknown[0]}}}, which is no parameter", "text")
         if spec.get("audio"):

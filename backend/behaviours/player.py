@@ -273,14 +273,15 @@ class BehaviourPlayer:
             p = item.plan
             if p.kind not in ("set_led", "set_face") or item.state == "waiting":
                 continue
-            if blocks_of(self.session, ("led",) if p.kind == "set_led" else ("face",)):
-                continue
             want = "colour" if p.kind == "set_led" else "enum"
             dof = (
                 emb.dof(p.spec["dof"])
                 if p.spec.get("dof")
                 else next(d for d in emb.dofs if d.type.value == want)
             )
+            blocks = blocks_of(self.session, ("led",) if p.kind == "set_led" else ("face",))
+            if any(getattr(getattr(b, "dof", None), "name", None) == dof.name for b in blocks):
+                continue  # the program's own block showed it: nothing is held on top of the program
             mask[dof.channels] = True
         if mask.any():
             self.session.engine.release_override(mask)

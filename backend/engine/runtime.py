@@ -154,13 +154,18 @@ class Engine:
 
         `timeout` (s) only bounds a wait on a clock that is stuck: the next tick boundary normally comes
         within one period, but a machine under heavy load can hold the clock thread off for a while.
-        Called from inside a tick (a tick hook, a listener), `fn` runs at once: that thread is the clock."""
+        Called from inside a tick or another call (a tick hook, a listener, a command a behaviour runs),
+        `fn` runs at once: that thread holds the tick lock already."""
         if self._ticking == threading.get_ident():
             return fn()
         if not self.running:
             with self._tick_lock:
-                self._drain_pending()
-                return fn()
+                self._ticking = threading.get_ident()
+                try:
+                    self._drain_pending()
+                    return fn()
+                finally:
+                    self._ticking = None
         return self.call_soon(fn).result(timeout)
 
     def load(
