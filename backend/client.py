@@ -76,6 +76,11 @@ class NuttyClient:
     def look_at(self, x: float, y: float, z: float) -> dict[str, Any]:
         return self.command("set_gaze", target=[x, y, z])
 
+    def behaviour(self, name: str, if_busy: str | None = None, **params: Any) -> dict[str, Any]:
+        """Play one of the robot's behaviours with these parameters (`play_behaviour`)."""
+        extra = {"if_busy": if_busy} if if_busy else {}
+        return self.command("play_behaviour", behaviour=name, params=params, **extra)
+
     def say(self, text: str) -> dict[str, Any]:
         return self.command("say", text=text)
 

@@ -2,6 +2,8 @@
 // registered panels in their areas. The side bars and the bottom panels fold away (their toggle) and
 // resize (drag their inner edge); the page remembers both.
 import { useCallback, useEffect, useState, type CSSProperties, type PointerEvent as ReactPointerEvent } from "react";
+import { BehaviourBrowser } from "./behaviour_editor/BehaviourBrowser";
+import { BehaviourEditor } from "./behaviour_editor/BehaviourEditor";
 import { ClipBrowser } from "./clip_editor/ClipBrowser";
 import { ClipEditor } from "./clip_editor/ClipEditor";
 import { GraphView } from "./GraphView";
@@ -62,17 +64,21 @@ function Resizer({ side, resize }: { side: Side; resize: (side: Side, size: numb
   return <div className="panel-resize" data-testid={`resize-${side}`} onPointerDown={start} />;
 }
 
-/** The graph's area: a tab strip "Program | Clips | Clip: <name>" over the program's graph, the clip
- * library and the open clip's editor. The graph stays mounted (hidden) so its view is kept. */
+/** The graph's area: a tab strip "Program | Clips | Clip: <name> | Behaviours | Behaviour: <name>" over
+ * the program's graph, the clip library, the open clip's editor, the behaviour library and the open
+ * behaviour's editor. The graph stays mounted (hidden) so its view is kept. */
 function GraphArea() {
   const { state, dispatch } = useEditor();
-  const { clip, clipTab } = state;
+  const { clip, clipTab, behaviour } = state;
   const show = (tab: typeof clipTab) => () => dispatch({ type: "clipTabShown", tab });
   const pane = (tab: typeof clipTab) => (clipTab === tab ? "" : "pane-hidden");
   // the deep link /?clip=<name> opens that clip at load; the address then follows the open clip
   useEffect(() => {
     const name = new URLSearchParams(location.search).get("clip");
     if (name) dispatch({ type: "clipRequested", name });
+    // and /?behaviour=<name> that behaviour
+    const behaviourName = new URLSearchParams(location.search).get("behaviour");
+    if (behaviourName) dispatch({ type: "behaviourRequested", name: behaviourName });
   }, [dispatch]);
   const openName = clip && !clip.fresh ? clip.name : null;
   useEffect(() => {
@@ -82,6 +88,14 @@ function GraphArea() {
     else url.searchParams.delete("clip");
     history.replaceState(history.state, "", url.toString());
   }, [openName]);
+  const openBehaviour = behaviour && !behaviour.fresh ? behaviour.name : null;
+  useEffect(() => {
+    const url = new URL(location.href);
+    if ((url.searchParams.get("behaviour") ?? null) === openBehaviour) return;
+    if (openBehaviour) url.searchParams.set("behaviour", openBehaviour);
+    else url.searchParams.delete("behaviour");
+    history.replaceState(history.state, "", url.toString());
+  }, [openBehaviour]);
   return (
     <div className="graph-area">
       <nav className="graph-tabs" role="tablist">
@@ -95,11 +109,21 @@ function GraphArea() {
           <button className="tab-close" data-testid="tab-clip-close" aria-label={`close the clip ${clip.name}`}
                   onClick={() => dispatch({ type: "clipCloseRequested" })}>×</button>
         </>}
+        <button role="tab" data-testid="tab-behaviours" className={clipTab === "behaviours" ? "on" : ""} aria-selected={clipTab === "behaviours"}
+                onClick={show("behaviours")}>Behaviours</button>
+        {behaviour && <>
+          <button role="tab" data-testid="tab-behaviour" className={clipTab === "behaviour" ? "on" : ""} aria-selected={clipTab === "behaviour"}
+                  onClick={show("behaviour")}>Behaviour: {behaviour.name}</button>
+          <button className="tab-close" data-testid="tab-behaviour-close" aria-label={`close the behaviour ${behaviour.name}`}
+                  onClick={() => dispatch({ type: "behaviourCloseRequested" })}>×</button>
+        </>}
       </nav>
       <div className="graph-panes">
         <div className={pane("program")}><GraphView /></div>
         {clipTab === "library" && <ClipBrowser />}
         {clip && <div className={pane("clip")}><ClipEditor active={clipTab === "clip"} /></div>}
+        {clipTab === "behaviours" && <BehaviourBrowser />}
+        {behaviour && <div className={pane("behaviour")}><BehaviourEditor active={clipTab === "behaviour"} /></div>}
       </div>
     </div>
   );

@@ -34,6 +34,8 @@ export function unlock(): Promise<void> {
 }
 
 export const audioRunning = () => context?.state === "running";
+// the browser tests wait for audio to run before they listen for it
+(globalThis as { __nuttyAudioState?: () => string }).__nuttyAudioState = () => context?.state ?? "none";
 
 export function setMuted(value: boolean): void {
   muted = value;

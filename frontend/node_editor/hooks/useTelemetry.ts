@@ -2,6 +2,7 @@
 // reconnects when the server goes away, and accumulates values and frames (../telemetry).
 import { useEffect, useMemo, useRef, useState } from "react";
 import { wsUrl, type SignalRef, type TelemetryMessage } from "../api";
+import { onTelemetry } from "../audio/liveAudio";
 import type { FlowNode } from "../graph";
 import { emptyLive, emptySamples, nextLive, nextSamples, subscription } from "../telemetry";
 
@@ -29,6 +30,7 @@ export function useTelemetry(signals: SignalRef[]) {
       ws.onmessage = (ev) => {
         const msg = JSON.parse(ev.data) as TelemetryMessage;
         if (msg.type !== "telemetry") return;
+        if (msg.frame) onTelemetry(msg.t, msg.events);  // the robot's speech and sounds, heard in step
         setLive((prev) => nextLive(prev, msg));
         if (msg.frame) setSamples((prev) => nextSamples(prev, msg));
       };

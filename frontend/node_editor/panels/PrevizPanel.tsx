@@ -1,9 +1,10 @@
 // The 3D Pre-Viz (the server's viser page) with its ghost toggle (the stage-1 pose). Embedded, the page
 // is asked (`?embed=1`) to hide viser's own control panel and notices, which would cover the robot; it
 // can be enlarged over the graph, or popped out into its own window (with viser's panel). Its scene's
-// background follows the editor's theme.
+// background follows the editor's theme; its sound switch plays the robot's speech and sounds.
 import { useEffect, useState } from "react";
 import { api, withToken } from "../api";
+import { SoundToggle } from "../audio/SoundToggle";
 import { useActions, useEditor } from "../store/EditorStore";
 import { useTheme } from "../theme";
 
@@ -38,6 +39,7 @@ export function PrevizPanel() {
         <span className="previz-tools">
           <label><input type="checkbox" checked={previz?.ghost ?? false} disabled={url === null}
                         onChange={(e) => setGhost(e.target.checked)} /> ghost</label>
+          <SoundToggle />
           <button type="button" data-testid="previz-enlarge" aria-pressed={big} title={big ? "back to the corner (Esc)" : "enlarge over the graph"}
                   onClick={() => setBig(!big)}>{big ? "⤡ shrink" : "⤢ enlarge"}</button>
           <button type="button" data-testid="previz-popout" disabled={url === null} title="open the Pre-Viz in its own window"

@@ -38,6 +38,7 @@ export function clipReducer(state: EditorState, action: ClipAction): EditorState
     case "clipSaved":
       return state.clip?.fresh ? { ...state, clip: { ...state.clip, fresh: false } } : state;
     case "clipTabShown":
+      if (action.tab === "behaviour" && !state.behaviour) return { ...state, clipTab: "behaviours" };
       return { ...state, clipTab: action.tab === "clip" && !state.clip ? "library" : action.tab };
   }
 }

@@ -12,6 +12,7 @@ import { firstInputFor, firstOutputFor, replacingProblem, withoutOccupant, type 
 import { renameNode } from "../rename";
 import { organise, type OrganiseAction } from "../subgraphs";
 import { ungroupNode } from "../ungroup";
+import { behaviourReducer, type BehaviourAction } from "./behaviourState";
 import { clipReducer, type ClipAction } from "./clipState";
 import { editCommand, type EditCommand } from "./editCommands";
 import type { Connection, EditorState, Graph, Position } from "./types";
@@ -58,6 +59,7 @@ export type Action =
   | EditCommand
   // the clip editor: which clip is open (./clipState)
   | ClipAction
+  | BehaviourAction
   // the canvas: a node renamed in place (F2), a subgraph node replaced by its blocks
   | { type: "nodeRenamed"; from: string; to: string }
   | { type: "ungrouped"; node: string }
@@ -72,6 +74,7 @@ export const initialState: EditorState = {
   syncing: false, dirty: false, libName: null, library: [], clips: [], inputs: { decls: [], values: {} },
   toast: null, consoleLines: [], loaded: { count: 0, fromServer: false }, lastParamEdit: null,
   live: false, runningName: null, overlay: null, clip: null, clipTab: "program", clipRequest: null,
+  behaviour: null, behaviourRequest: null,
 };
 
 /** The program's structure (no positions): what the server must have; equal keys need no sync. */
@@ -354,6 +357,12 @@ export function reducer(state: EditorState, action: Action): EditorState {
     case "clipTabShown":
     case "clipSaved":
       return clipReducer(state, action);
+    case "behaviourRequested":
+    case "behaviourCloseRequested":
+    case "behaviourRequestGranted":
+    case "behaviourRequestDropped":
+    case "behaviourSaved":
+      return behaviourReducer(state, action);
     default:
       return organise(state, action);  // subgraphs, comment frames, reroutes (../subgraphs)
   }

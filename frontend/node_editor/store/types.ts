@@ -42,6 +42,10 @@ export interface EditorState {
   clip: OpenClip | null;
   clipTab: ClipTab;
   clipRequest: ClipRequest | null;
+  /** The behaviour open in the behaviour editor and a pending open or close it has yet to grant
+   * (./behaviourState; the same shapes as the clip's). */
+  behaviour: OpenClip | null;
+  behaviourRequest: ClipRequest | null;
 }
 
 /** The clip the clip editor has open (./clipState). */
@@ -55,5 +59,6 @@ export interface OpenClip {
 
 export type ClipRequest = { kind: "open"; name: string; fresh: boolean } | { kind: "close" };
 
-/** What the graph's area shows: the program, the clip library, or the open clip. */
-export type ClipTab = "program" | "library" | "clip";
+/** What the graph's area shows: the program, the clip library, the open clip, the behaviour library or
+ * the open behaviour. */
+export type ClipTab = "program" | "library" | "clip" | "behaviours" | "behaviour";
