@@ -129,6 +129,31 @@ def test_the_documented_client_lists_plays_waits_cancels_and_sees_the_tools_chan
             library = await client.read_resource("nutty://library")
             assert '"peek"' in library.contents[0].text
 
+            behaviours = sorted(p.stem for p in (server.folder / "behaviours").glob("*.json"))
+            assert tools["play_behaviour"].input_schema["properties"]["behaviour"]["enum"] == behaviours
+            changed.clear()
+            quick = {
+                "description": "A nod and a word.",
+                "tracks": [
+                    {
+                        "name": "t",
+                        "items": [
+                            {"id": "n", "kind": "play_clip", "clip": "nod"},
+                            {"id": "s", "kind": "say", "text": "yes"},
+                        ],
+                    }
+                ],
+            }
+            async with httpx.AsyncClient(base_url=server.url) as http:
+                assert (await http.put("/api/behaviours/yes_nod", json=quick)).status_code == 200
+            await asyncio.wait_for(changed.wait(), TIMEOUT)
+            tools = {t.name: t for t in (await client.list_tools()).tools}
+            assert "yes_nod" in tools["play_behaviour"].input_schema["properties"]["behaviour"]["enum"]
+            played = await client.call_tool(
+                "play_behaviour", {"behaviour": "yes_nod", "wait": True, "timeout": TIMEOUT}
+            )
+            assert played.structured_content["status"] == "completed", text_of(played)
+
     asyncio.run(main())
 
 

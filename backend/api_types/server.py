@@ -188,9 +188,18 @@ class PostureChoice(Shape):
     description: str
 
 
+class BehaviourChoice(Shape):
+    name: str
+    description: str
+    duration: float | None = Field(..., description="s with the default parameters")
+    params: dict[str, Any] = Field(..., description="parameter name -> declaration (type, default, ...)")
+
+
 class ToolLibrary(Shape):
     clips: list[ClipChoice]
     postures: list[PostureChoice]
+    behaviours: list[BehaviourChoice] = Field(default_factory=list)
+    sounds: list[str] = Field(default_factory=list)
 
 
 class ToolSet(Shape):

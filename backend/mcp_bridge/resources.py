@@ -39,7 +39,13 @@ RESOURCES = (  # uri, name, description, server path (None: from the tools' libr
         "The running Animation Program: blocks, wires, exposed inputs, level.",
         "/api/program",
     ),
-    (LIBRARY, "library", "The robot's clips (description, duration in s) and postures (description).", None),
+    (
+        LIBRARY,
+        "library",
+        "The robot's clips (description, duration in s), postures (description), behaviours "
+        "(description, parameters) and sounds.",
+        None,
+    ),
     (
         STATUS,
         "status",
@@ -91,6 +97,12 @@ def _parts(robot: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _behaviour_line(b: dict[str, Any]) -> str:
+    """`- greet(name: string, target: vec3) (3.2 s): what it does`"""
+    params = ", ".join(f"{name}: {p.get('type')}" for name, p in b.get("params", {}).items())
+    return f"- {b['name']}({params}) ({b.get('duration') or 0:g} s): {b.get('description', '')}"
+
+
 def brief(robot: dict[str, Any], library: dict[str, Any]) -> str:
     """The `robot_brief` prompt's text, from GET /api/robot and the tools' library section."""
     postures = [p if isinstance(p, str) else p.get("name", "") for p in robot.get("postures", [])]
@@ -110,9 +122,14 @@ def brief(robot: dict[str, Any], library: dict[str, Any]) -> str:
             for c in library.get("clips", [])
         ],
         "",
-        "Behaviours: none yet (sequence clips, postures and speech with the tools).",
+        "Behaviours (play_behaviour: whole performances an animator timed, with parameters):",
+        *(
+            [_behaviour_line(b) for b in library.get("behaviours", [])]
+            or ["- none yet (sequence clips, postures and speech with the tools)"]
+        ),
         "",
-        "How the tools act: long actions (play_clip, set_posture, look_at, say, play_sound) answer at once "
+        "How the tools act: long actions (play_behaviour, play_clip, set_posture, look_at, say, play_sound) "
+        "answer at once "
         "with an id; pass wait: true to answer when the motion has ended, follow it with get_status(id), "
         "stop it with cancel(id). Give each call a request_id so a retry never repeats a gesture. look_at "
         "takes a point in metres in the robot's base frame (x forward, y left, z up) and says whether it "

@@ -1,7 +1,7 @@
 """The generated tools written for each function-calling dialect.
 
 - `plain` (default): `{"format": "nutty-tools/1", "robot", "program", "revision", "tools": [{name,
-  description, parameters, command, long_action}], "library": {clips, postures}}`;
+  description, parameters, command, long_action}], "library": {clips, postures, behaviours, sounds}}`;
 - `openai`: the Chat Completions `tools` list, `[{"type": "function", "function": {name, description,
   parameters}}]`;
 - `anthropic`: the Messages API `tools` list, `[{name, description, input_schema}]`;
@@ -104,6 +104,16 @@ def render(toolset: ToolSet, fmt: str = "plain", *, strict: bool = False, api: s
                     {"name": c.name, "description": c.description, "duration": c.duration} for c in live.clips
                 ],
                 "postures": [{"name": c.name, "description": c.description} for c in live.postures],
+                "behaviours": [
+                    {
+                        "name": c.name,
+                        "description": c.description,
+                        "duration": c.duration,
+                        "params": live.behaviour_params.get(c.name, {}),
+                    }
+                    for c in live.behaviours
+                ],
+                "sounds": [c.name for c in live.sounds],
             },
         }
     raise ValueError(f"format must be one of {list(FORMATS)}, got {fmt!r}")

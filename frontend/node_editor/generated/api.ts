@@ -1570,8 +1570,28 @@ export interface ToolSet {
  * via the `definition` "ToolLibrary".
  */
 export interface ToolLibrary {
+  behaviours?: BehaviourChoice[];
   clips: ClipChoice[];
   postures: PostureChoice[];
+  sounds?: string[];
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "BehaviourChoice".
+ */
+export interface BehaviourChoice {
+  description: string;
+  /**
+   * s with the default parameters
+   */
+  duration: number | null;
+  name: string;
+  /**
+   * parameter name -> declaration (type, default, ...)
+   */
+  params: {
+    [k: string]: unknown;
+  };
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
