@@ -115,6 +115,13 @@ class PlaySound(_Audible):
     type: Literal["play_sound"] = "play_sound"
     sound: str = Field(..., min_length=1, max_length=80, description="name of one of the robot's sounds")
 
+    def run(self, ctx: CommandContext) -> Any:
+        # the robot's list first, whoever plays it: a block's own refusal would not name the field
+        players = [d for d in ctx.session.embodiment.event_dofs if d.kind == "sound"]
+        if players and not any(not d.sounds or self.sound in d.sounds for d in players):
+            self.check_channel(players[0])
+        return super().run(ctx)
+
     def check_channel(self, dof: Any) -> None:
         if dof.sounds and self.sound not in dof.sounds:
             raise CommandError(f"unknown sound '{self.sound}' (one of {list(dof.sounds)})", field="sound")
