@@ -227,9 +227,10 @@ def test_exported_clip_played_by_the_engine_matches_blender_within_0_1_deg(
         ("sound", 9),
         ("sound", 59),
     ]
+    first_sound = emb.dof("sound").sounds[0]  # the sound DoF keyed to 1: the robot's first sound
     assert [e["payload"] for e in doc["events"]] == [
         {"text": "hello there"},
-        {"clip": "chirp"},
+        {"clip": first_sound},
         {"clip": "beep"},
     ]
     mouth = doc["tracks"]["mouth"][1]

@@ -71,7 +71,7 @@ def _accepts_null(node) -> bool:
 def test_openai_strict_follows_the_strict_mode_rules(client):
     plain = {t["name"]: t for t in client.get("/api/tools").json()["tools"]}
     tools = client.get("/api/tools", params={"format": "openai", "strict": "true"}).json()
-    assert len(tools) == len(plain) == 14
+    assert len(tools) == len(plain) == 15
     enum_values = 0
     for tool in tools:
         assert tool["type"] == "function"
@@ -123,7 +123,7 @@ def test_gemini_declarations_follow_its_schema_subset(client):
     entries = client.get("/api/tools", params={"format": "gemini"}).json()
     assert len(entries) == 1
     parsed = genai.Tool.model_validate(entries[0])  # Google's own types: an unknown field is refused
-    assert parsed.function_declarations and len(parsed.function_declarations) == 14
+    assert parsed.function_declarations and len(parsed.function_declarations) == 15
     for decl in entries[0]["functionDeclarations"]:
         assert NAME.match(decl["name"]) and decl["parameters"]["type"] == "OBJECT"
         for node, _ in _nodes(decl["parameters"]):

@@ -62,6 +62,7 @@ def test_tools_come_from_the_robot_program_and_library(client, robot):
     )
     tools = {t["name"]: t for t in doc["tools"]}
     assert list(tools) == [
+        "play_behaviour",
         "play_clip",
         "set_posture",
         "look_at",
@@ -119,7 +120,7 @@ def test_every_dialect_is_valid_json_schema(client, fmt):
         schemas = {t["name"]: t["input_schema"] for t in body}
     else:
         schemas = {t["name"]: t["parameters"] for t in body["tools"]}
-    assert len(schemas) == 14
+    assert len(schemas) == 15
     for name, schema in schemas.items():
         assert schema["type"] == "object", name
         Draft202012Validator.check_schema(schema)
@@ -229,8 +230,10 @@ def test_tools_change_with_the_library_and_program(client, session):
         assert call(client, "play_clip", clip="peek", wait=True, timeout=20)["status"] == "completed"
         assert client.put("/api/program", json=builtin_idle("nutty_desk")).status_code == 200
         msg = next_tools_changed(ws)
-        # The built-in idle program has no clip player and no gaze input: no such tools.
+        # The built-in idle program has no clip player and no gaze input: no such tools, and of the
+        # behaviours only sleepy (a posture, the mood, speech and a sound) is offered.
         assert msg["tools"] == [
+            "play_behaviour",
             "set_posture",
             "set_emotion",
             "set_inputs",
@@ -247,6 +250,8 @@ def test_tools_change_with_the_library_and_program(client, session):
     assert (
         client.post("/api/tools/play_clip", json={"clip": "nod"}).json()["detail"]["code"] == "unknown_tool"
     )
+    tools = {t["name"]: t for t in client.get("/api/tools").json()["tools"]}
+    assert tools["play_behaviour"]["parameters"]["properties"]["behaviour"]["enum"] == ["sleepy"]
 
 
 def test_get_status_reports_layers_gaze_mood_and_health(client):

@@ -146,9 +146,10 @@ def _invalid(exc: Any) -> CommandError:
 
 
 def behaviour_choices(session: CommandSession) -> tuple[list[Choice], dict[str, dict[str, Any]]]:
-    """The behaviours AIs may play (those that parse), with descriptions and lengths, and their
-    parameters (name -> declared parameters)."""
+    """The behaviours AIs may play (those the running program can carry out with their defaults), with
+    descriptions and lengths, and their parameters (name -> declared parameters)."""
     from backend.behaviours import parse, plan, vocabulary_of  # as in PlayBehaviour.run
+    from backend.behaviours.items import preflight
 
     choices, params = [], {}
     vocab = None
@@ -161,7 +162,8 @@ def behaviour_choices(session: CommandSession) -> tuple[list[Choice], dict[str, 
             continue
         vocab = vocab or vocabulary_of(session)
         planned, issues = plan(beh, None, vocab, strict=False)
-        duration = round(planned.duration, 3) if not issues else None
-        choices.append(Choice(name, " ".join(beh.description.split()), duration))
+        if issues or preflight(session, planned):
+            continue  # it would fail: the editor's list says why (GET /api/behaviours)
+        choices.append(Choice(name, " ".join(beh.description.split()), round(planned.duration, 3)))
         params[name] = {k: p.model_dump(exclude_none=True) for k, p in beh.params.items()}
     return choices, params

@@ -129,7 +129,7 @@ export function useBehaviourPreview(opts: {
   }, [running, now]);
 
   // the Pre-Viz shows the frame under the playhead while previewing or scrubbing; cleared after
-  const label = `Preview: ${name}`;
+  const label = `behaviour ${name}`;  // the Pre-Viz says "Preview: … (the robot is not moved)"
   // a plain function: usePoseStream keeps the newest one
   const pose = () => {
     if (!rendered) return null;
