@@ -1,19 +1,10 @@
 // The behaviour editor's toolbar: the name and dirty mark, undo/redo, save, adding tracks and items (a
 // kind menu), deleting the selected item, the browser preview and playing on the robot, and the status.
+import type { DocumentBarProps } from "../clip_editor/documentBar";
 import { useState } from "react";
 import { ITEM_KINDS, KIND_ORDER, type ItemKind } from "./model/types";
 
-export interface BehaviourToolbarProps {
-  name: string;
-  dirty: boolean;
-  canUndo: boolean;
-  canRedo: boolean;
-  undoLabel: string;
-  redoLabel: string;
-  undo: () => void;
-  redo: () => void;
-  save: () => void;
-  saving: boolean;
+export interface BehaviourToolbarProps extends DocumentBarProps {
   addTrack: () => void;
   addItem: (kind: ItemKind) => void;
   canDelete: boolean;

@@ -1,19 +1,10 @@
 // The clip editor's top toolbar: the clip's name and dirty mark, history, save, transport, "On robot",
 // the ghost's source, keying the pose, saving it as a posture, recording, closing, and the errors.
+import type { DocumentBarProps } from "./documentBar";
 import type { ReactNode } from "react";
 import type { GhostSource } from "./useServerSync";
 
-export interface ClipToolbarProps {
-  name: string;
-  dirty: boolean;
-  canUndo: boolean;
-  canRedo: boolean;
-  undoLabel: string;
-  redoLabel: string;
-  undo: () => void;
-  redo: () => void;
-  save: () => void;
-  saving: boolean;
+export interface ClipToolbarProps extends DocumentBarProps {
   playing: boolean;
   togglePlay: () => void;
   loop: boolean;

@@ -1,35 +1,12 @@
 // The behaviour editor's model types: the document (the generated `Behaviour`), its items and start
 // references, the server's plan (every item's exact start/end) and issues, and the item kinds with the
 // label and colour variable each is drawn with. Types only, plus the constant kind table.
-import type {
-  Behaviour,
-  GoPostureItem,
-  LookAtItem,
-  PlayClipItem,
-  PlaySoundItem,
-  RampItem,
-  SayItem,
-  SetEmotionItem,
-  SetFaceItem,
-  SetLedItem,
-  StartRef as GeneratedStartRef,
-  Track,
-  WaitItem,
-} from "../../generated/behaviour";
+import type { Behaviour, Items, StartRef as GeneratedStartRef, Track } from "../../generated/behaviour";
 
 export type BehaviourDoc = Behaviour;
 export type TrackDoc = Track;
-export type ItemDoc =
-  | PlayClipItem
-  | GoPostureItem
-  | LookAtItem
-  | SayItem
-  | PlaySoundItem
-  | SetLedItem
-  | SetFaceItem
-  | SetEmotionItem
-  | RampItem
-  | WaitItem;
+/** One item: the generated union of the item kinds (the format's `Item`). */
+export type ItemDoc = Items[number];
 export type StartRef = GeneratedStartRef;
 export type ItemKind = NonNullable<ItemDoc["kind"]>;
 export type At = "start" | "end" | "anchor";
