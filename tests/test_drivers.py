@@ -49,6 +49,7 @@ def test_osc_driver_sends_bundles(desk):
     port = rx.getsockname()[1]
     session = EngineSession.create(desk, rate=50, program=steps_program(False))
     drv = session.engine.add_sink(OscDriver(desk, "127.0.0.1", port))
+    session.execute({"type": "play_sound", "sound": "yawn"})
     sent = list(session.run_headless(3))
     data, _ = rx.recvfrom(65536)
     session.engine.close()
@@ -57,6 +58,8 @@ def test_osc_driver_sends_bundles(desk):
     addresses = {m.address: m.params for m in bundle}
     assert "/nutty/head_yaw" in addresses and len(addresses["/nutty/eye_leds"]) == 3
     assert isinstance(addresses["/nutty/mouth"][0], int)
+    # a sound with a file: its name, where to fetch it and when it starts (frame time)
+    assert addresses["/nutty/sound/sound"] == ["yawn", "/api/sounds/yawn", pytest.approx(sent[0].t)]
     # Every bundle says which frame it is and carries a real time tag (not OSC's "immediately").
     seq, _t, dt = addresses["/nutty/frame"]
     assert isinstance(seq, int) and dt == pytest.approx(1 / 50)

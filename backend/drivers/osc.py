@@ -7,7 +7,9 @@ One OSC bundle per frame, time-tagged with the wall-clock time it is sent (NTP, 
 - `<prefix>/joint/<joint> <value>` for each actuated URDF joint (rad or m): what a motor must get,
   symbolic DoFs resolved and limited by the engine's safety net (a joint that only symbolic DoFs
   drive is limited here and nowhere in the channels);
-- `<prefix>/<dof>/<kind> <payload>` for events (speech text, sound name).
+- `<prefix>/<dof>/<kind> <payload>` for events (speech text, sound name); an event that plays a file
+  of the robot's sounds adds `<url> <t>`: where to fetch it (relative to the server) and its start in
+  frame time (s) (docs/drivers.md, *Audio events*).
 """
 
 from __future__ import annotations
@@ -74,5 +76,8 @@ class OscDriver(Sink[AnimationFrame]):
             msg.add_arg(
                 str(ev.payload.get("text") or ev.payload.get("clip") or ev.payload.get("sound") or "")
             )
+            if isinstance(ev.payload.get("url"), str):
+                msg.add_arg(ev.payload["url"])
+                msg.add_arg(float(ev.payload.get("t", frame.t)))
             bundle.add_content(msg.build())
         self.client.send(bundle.build())
