@@ -105,6 +105,12 @@ def test_a_new_behaviour_saved_in_the_browser_becomes_an_ai_tool_choice(tmp_path
         play = next(t for t in tools["tools"] if t["name"] == "play_behaviour")
         assert "hello_nod" in play["parameters"]["properties"]["behaviour"]["enum"]
 
+        # played on the robot, and stopped from the editor while it plays
+        page.get_by_test_id("behaviour-play-robot").click()
+        page.get_by_test_id("behaviour-status").filter(has_text="Playing on the robot").wait_for()
+        page.get_by_test_id("behaviour-play-robot").click()
+        page.get_by_test_id("behaviour-status").filter(has_text="Stopped on the robot").wait_for()
+
 
 def test_the_live_robots_sounds_are_heard_in_step_with_the_motion(tmp_path_factory):
     with editor_server(tmp_path_factory) as server, editor_page(server["url"]) as page:
