@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from joint_truth import joint_truth
 
 from backend.session import EngineSession
 
@@ -34,6 +35,12 @@ def play(desk, behaviour, **params):
     assert set(items.values()) == {"completed"}, items  # every item ended as planned
     vel = np.array([f.velocity for f in frames])[:, desk.continuous_mask]
     assert np.all(np.abs(vel) <= desk.vel_limit[desk.continuous_mask] * (1 + 1e-6) + 1e-9)
+    # the joints the motors get (own DoF plus the symbolic gaze and blink), recomposed from the robot's
+    # own files, within the URDF's range and every limit
+    truth = joint_truth(DESK)
+    truth.assert_within(
+        truth.compose(desk, np.array([f.position for f in frames])), session.engine.rate, name
+    )
     events = [(round(f.t - frames[0].t, 2), e.kind, e.payload) for f in frames for e in f.events]
     return session, before, frames, events, items
 
