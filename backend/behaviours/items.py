@@ -11,8 +11,6 @@ from backend.behaviours.plan import Plan, PlannedItem
 
 #: items whose block reports their end (started/completed/cancelled under the item's command id)
 REPORTED = frozenset({"play_clip", "go_posture", "say", "play_sound"})
-#: items the player itself carries out over their duration (no command)
-PLAYED = frozenset({"ramp", "wait"})
 
 
 def command_for(item: PlannedItem, target: Any = None) -> dict[str, Any] | None:

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from backend.behaviours.items import PLAYED, REPORTED, command_for
+from backend.behaviours.items import REPORTED, command_for
 from backend.behaviours.plan import Plan, PlannedItem
 
 log = logging.getLogger(__name__)
@@ -46,6 +46,7 @@ class _Item:
     sub: str  # the command id of the item's command
     state: str = "waiting"  # waiting, started, completed, cancelled, failed
     origin: Any = None  # a ramp's value at its start
+    reported: bool = False  # its block reports its end (else it ends at its planned end)
 
 
 @dataclass
@@ -110,19 +111,6 @@ class BehaviourPlayer:
         with self._lock:
             return isinstance(cid, str) and cid in self._subs
 
-    def status(self) -> dict[str, Any] | None:
-        run = self.current
-        if run is None:
-            return None
-        t = self.session.engine.t - run.t0 if run.t0 is not None else 0.0
-        return {
-            "id": run.cid,
-            "behaviour": run.name,
-            "t": round(t, 4),
-            "duration": round(run.plan.duration, 4),
-            "queued": [q.cid for q in self.queue],
-        }
-
     # --- the clock thread ------------------------------------------------------------------------------
     def _tick(self, t: float) -> None:
         if self.current is None:
@@ -166,8 +154,7 @@ class BehaviourPlayer:
                 self._item_note(run, item, "failed", now, error=str(exc))
                 self._abort(run, "failed", error=f"item '{p.id}' ({p.kind}): {exc}", item=p.id)
                 return
-        reported = p.kind in REPORTED and not (isinstance(result, dict) and result.get("done"))
-        item.origin = item.origin if p.kind in PLAYED else ("reported" if reported else None)
+        item.reported = p.kind in REPORTED and not (isinstance(result, dict) and result.get("done"))
         self._item_note(run, item, "started", now)
 
     def _advance(self, run: _Run, item: _Item, now: float) -> None:
@@ -180,7 +167,7 @@ class BehaviourPlayer:
             if value is not None:
                 with contextlib.suppress(ValueError, TypeError):
                     self._set_inputs({"gaze_target": list(value)})
-        if item.origin == "reported":  # its block reports its end (see _on_note), or it is lost
+        if item.reported:  # its block reports its end (see _on_note), or it is lost
             if now >= p.end + REPORT_GRACE + 0.2 * (p.end - p.start):
                 item.state = "completed"
                 self._item_note(run, item, "completed", now, unconfirmed=True)
@@ -210,7 +197,7 @@ class BehaviourPlayer:
             return
         run, item = found
         event = note.get("event")
-        if event == "completed" and item.origin != "reported":
+        if event == "completed" and not item.reported:
             return  # a look_at's gaze arriving: the item lasts its duration all the same
         if event in ("completed", "cancelled", "failed") and item.state == "started":
             item.state = event
