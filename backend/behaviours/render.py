@@ -41,7 +41,7 @@ def render(session: Any, plan: Plan, name: str, rate: float = 30.0) -> dict[str,
         if k % every == 0:
             frames.append([_value(d, frame.position) for d in dofs])
     items = [
-        {**{k: v for k, v in n.items() if k not in ("node", "event", "command_id")}}
+        {k: v for k, v in n.items() if k not in ("node", "event", "command_id")}
         for n in scratch.notes
         if n.get("node") == "behaviour" and n.get("event") == "item"
     ]

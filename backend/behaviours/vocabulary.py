@@ -64,7 +64,7 @@ def vocabulary_of(session: Any) -> Vocabulary:
             return False
 
     def sound_seconds(name: str) -> float | None:
-        info = library.sounds.info(name) if library.sounds.has(name) else None
+        info = library.sounds.find(name)
         if info is not None:
             return info.duration
         return SOUND_SECONDS if name in names else None

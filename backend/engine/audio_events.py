@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from backend.engine.asset_errors import LibraryError
 from backend.engine.frames import FrameEvent
 from backend.engine.sounds import SoundLibrary, sound_url
 
@@ -18,12 +17,9 @@ def stamp_audio(sounds: SoundLibrary, events: list[FrameEvent], t: float) -> lis
             continue
         payload = {**ev.payload, "t": round(t, 6)}
         name = payload.get("clip") if ev.kind == "sound" else payload.get("audio")
-        if isinstance(name, str):
-            try:
-                info = sounds.info(name)
-            except LibraryError:  # a sound the robot plays by name: no file to point at
-                info = None
-            if info is not None:
-                payload.update(sound=name, url=sound_url(name), duration=round(info.duration, 4))
+        # none: a sound the robot plays by name, with no file to point at
+        info = sounds.find(name) if isinstance(name, str) else None
+        if info is not None:
+            payload.update(sound=info.name, url=sound_url(info.name), duration=round(info.duration, 4))
         out.append(FrameEvent(ev.dof, ev.kind, payload))
     return out

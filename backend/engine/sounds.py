@@ -135,12 +135,15 @@ class SoundLibrary:
     def list(self) -> list[str]:
         return sorted(self._files())
 
-    def has(self, name: str) -> bool:
+    def find(self, name: str) -> SoundInfo | None:
+        """The sound's facts, or None when there is no such (readable) file."""
         try:
-            self.info(name)
-            return True
+            return self.info(name)
         except LibraryError:
-            return False
+            return None
+
+    def has(self, name: str) -> bool:
+        return self.find(name) is not None
 
     def info(self, name: str) -> SoundInfo:
         """The sound's facts (cached until its file changes); NotFound, or SoundError for a broken file."""

@@ -138,10 +138,10 @@ class Say(Source[SayParams]):
     def _recording(self, name: str) -> dict[str, Any]:
         """The recorded speech `name`: its length (s) and loudness per tick, or BlockCommandError."""
         sounds = getattr(self.ctx.resources, "sounds", None)
-        if sounds is None or not sounds.has(name):
+        info = sounds.find(name) if sounds is not None else None
+        if sounds is None or info is None:
             known = sounds.list() if sounds is not None else []
             raise BlockCommandError(f"say: no sound '{name}' to speak from (sounds: {known})")
-        info = sounds.info(name)
         return {"audio": name, "length": info.duration, "envelope": sounds.envelope(name, self.ctx.rate)}
 
     def _cancel(self) -> None:
@@ -258,9 +258,8 @@ class PlaySound(Source[PlaySoundParams]):
     def length(self, name: str) -> float:
         """s: the sound file's length, else the `duration` parameter (a sound the robot plays by name)."""
         sounds = getattr(self.ctx.resources, "sounds", None)
-        if sounds is not None and sounds.has(name):
-            return sounds.info(name).duration
-        return self.params.duration
+        info = sounds.find(name) if sounds is not None else None
+        return info.duration if info is not None else self.params.duration
 
     def _check(self, name: Any, error: type[Exception]) -> str:
         if not isinstance(name, str) or not name or (self.sounds and name not in self.sounds):
