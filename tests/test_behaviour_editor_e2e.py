@@ -70,21 +70,32 @@ def test_the_timeline_edits_previews_and_plays_a_behaviour(tmp_path_factory):
         page.keyboard.press("Control+z")
         wait_until(lambda: page.get_by_test_id("behaviour-error").count() == 0, 5, "undo the error")
 
-        # the preview plays the sounds and speech at their times on the behaviour's clock
+        # the preview plays the sounds and speaks the text-only line
         sound_on(page)
         page.get_by_test_id("behaviour-preview").click()
-        wait_until(lambda: len(audio_log(page)) >= 2, 15, "the preview's audio")
-        log = audio_log(page)
-        chirp = next(e for e in log if e["what"] == "chirp")
-        speech = next(e for e in log if e["kind"] == "speech")
-        assert speech["what"] == "Hello friend!"
-        # heard as far apart as they are in the behaviour (the wave's chirp, then the word on the beat)
-        assert abs((speech["at"] - chirp["at"]) - (speech["t"] - chirp["t"]) * 1000) <= 50
+        wait_until(lambda: {"chirp", "Hello friend!"} <= {e["what"] for e in audio_log(page)}, 15, "audio")
         page.get_by_test_id("behaviour-status").filter(has_text="valid ·").wait_for(timeout=15000)
 
         # on the robot: its events drive the editor's status
         page.get_by_test_id("behaviour-play-robot").click()
-        page.get_by_test_id("behaviour-status").filter(has_text="completed").wait_for(timeout=20000)
+        ended = page.get_by_test_id("behaviour-status").filter(has_text="On the robot: greet completed")
+        ended.wait_for(timeout=20000)
+
+        # the preview's sounds keep the behaviour's timing: think's recorded words, then its purr
+        page.get_by_test_id("tab-behaviours").click()
+        page.get_by_test_id("behaviour-row-think").click()
+        page.get_by_test_id("behaviour-editor").and_(page.locator("[data-behaviour=think]")).wait_for()
+        words_bar = page.get_by_test_id("behaviour-item-words")
+        wait_until(lambda: words_bar.get_attribute("data-start") is not None, 10, "think's plan")
+        page.screenshot(path=str(ARTIFACTS / "behaviour-think.png"))
+        page.evaluate("window.__nuttyAudio.length = 0")
+        page.get_by_test_id("behaviour-preview").click()
+        wait_until(lambda: {"speech_thinking", "purr"} <= {e["what"] for e in audio_log(page)}, 20, "sounds")
+        heard = {e["what"]: e for e in audio_log(page)}
+        words, purr = heard["speech_thinking"], heard["purr"]
+        # when each sound's first sample is heard (one started part-way began that much earlier)
+        zero = {k: e["at"] - e["offset"] * 1000 for k, e in heard.items()}
+        assert abs((zero["purr"] - zero["speech_thinking"]) - (purr["t"] - words["t"]) * 1000) <= 50
 
 
 def test_a_new_behaviour_saved_in_the_browser_becomes_an_ai_tool_choice(tmp_path_factory):

@@ -1,8 +1,8 @@
 // The browser's preview of the working copy: POST /api/behaviours/render, then the playhead runs in
 // real time from where it stands, the frame under it goes to the Pre-Viz (~15 Hz, under the preview
-// lease), and each sound / recorded speech / spoken text plays as the playhead passes its event (sounds
-// preloaded first so they start on time). Stopped, a render of the working copy is kept so scrubbing
-// shows that frame's pose too.
+// lease), and each sound / recorded speech / spoken text plays at its event's time (sounds preloaded,
+// then scheduled a little ahead on the audio clock, so they start on time whatever the frame rate).
+// Stopped, a render of the working copy is kept so scrubbing shows that frame's pose too.
 import { useCallback, useEffect, useRef, useState } from "react";
 import { isMuted, loadSound, playBuffer, speak, stopAll, unlock } from "../audio/soundPlayer";
 import { clipApi } from "../clip_editor/clipApi";
@@ -14,6 +14,9 @@ import { audioUrl, audioUrls, eventsBetween, frameAt, soundingAt, spokenText } f
 
 /** Poses go to the Pre-Viz at this rate (Hz): the playhead's time is quantised to it. */
 export const PREVIEW_POSE_HZ = 15;
+/** Audio is scheduled this far (s) ahead of the playhead on the audio clock, so an animation frame
+ * that comes late does not make a sound late. */
+const LOOKAHEAD = 0.15;
 /** The kept render follows edits this long (ms) after they pause. */
 const RENDER_DEBOUNCE_MS = 300;
 
@@ -97,6 +100,7 @@ export function useBehaviourPreview(opts: {
     const from = now.current.playhead >= r.duration ? 0 : now.current.playhead;
     const started = performance.now();
     const stops: (() => void)[] = [];
+    // `offset`: s into the event now (negative: it is due that long from now)
     const fire = (e: RenderEvent, offset: number) => {
       const url = audioUrl(e);
       if (url) {
@@ -106,7 +110,13 @@ export function useBehaviourPreview(opts: {
         return;
       }
       const text = spokenText(e);
-      if (text) stops.push(speak(text, e.t));
+      if (!text) return;
+      if (offset >= 0) {
+        stops.push(speak(text, e.t));
+        return;
+      }
+      const timer = window.setTimeout(() => { if (run.current === mine) stops.push(speak(text, e.t)); }, -offset * 1000);
+      stops.push(() => window.clearTimeout(timer));
     };
     for (const { event, offset } of soundingAt(r.events, from)) fire(event, offset);
     let prev = from;
@@ -114,8 +124,9 @@ export function useBehaviourPreview(opts: {
     const tick = (time: number) => {
       const t = Math.min(r.duration, from + Math.max(0, time - started) / 1000);
       const end = t >= r.duration;
-      for (const e of eventsBetween(r.events, prev, end ? Infinity : t)) fire(e, Math.max(0, t - e.t));
-      prev = t;
+      const horizon = end ? Infinity : t + LOOKAHEAD;
+      for (const e of eventsBetween(r.events, prev, horizon)) fire(e, t - e.t);
+      prev = horizon;
       now.current.setPlayhead(t);
       if (end) { setPreviewing(false); setShowPose(false); return; }
       frame = requestAnimationFrame(tick);

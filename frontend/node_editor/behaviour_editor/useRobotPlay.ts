@@ -110,12 +110,13 @@ export function useRobotPlay(name: string, doc: BehaviourDoc, params: Record<str
     now.current.onEnded("Stopped on the robot");
   }, [finish, now]);
 
-  // closing the editor while the robot plays stops it
+  // closing the editor, or opening another behaviour in it, while the robot plays stops it (the
+  // timeline and the status would otherwise follow a behaviour no longer shown)
   useEffect(() => () => {
     const id = session.current?.id;
     if (id) void behaviourApi.cancel(id).catch(() => undefined);
     finish();
-  }, [finish]);
+  }, [name, finish]);
 
   const toggle = useCallback(() => (session.current ? stop() : start()), [start, stop]);
   return { playing, status, active, toggle };
