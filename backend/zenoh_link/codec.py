@@ -24,9 +24,9 @@ import numpy as np
 from backend.engine.dofs import DofType
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, FrameEvent
-from backend.safe_json import JsonSafetyError, dumps, loads
+from backend.remote_commands import decode_json
+from backend.safe_json import dumps
 
-MAX_MESSAGE = 64_000  # bytes per JSON message (commands, as on /ws/control)
 MAX_FRAME = 1_000_000  # bytes per frame message
 REPLY_LIMIT = 1_000_000  # bytes of one answer to a query (a program can be large)
 STAMP = struct.Struct("<d")
@@ -40,13 +40,6 @@ def payload_bytes(payload: Any) -> bytes:
 
 def encode_json(value: Any) -> bytes:
     return dumps(value).encode("utf-8")
-
-
-def decode_json(payload: bytes, max_bytes: int = MAX_MESSAGE) -> Any:
-    """The JSON value of a message; JsonSafetyError (code too_large, invalid_unicode, malformed_json, ...)."""
-    if len(payload) > max_bytes:
-        raise JsonSafetyError(f"message over {max_bytes} bytes", "too_large", status=413)
-    return loads(payload, max_bytes=None)
 
 
 def encode_frame(frame: AnimationFrame, embodiment: Embodiment) -> bytes:

@@ -24,7 +24,6 @@ Who may publish commands is Zenoh's business: access control and TLS in the Zeno
 from __future__ import annotations
 
 import logging
-import queue
 import secrets
 import threading
 import time
@@ -33,15 +32,12 @@ from typing import Any
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
-from backend.errors import DomainError
-from backend.routes.errors import error_detail, http_status
+from backend.remote_commands import CommandWorker, error_reply, server_status
 from backend.routes.program import get_program
 from backend.routes.robot import robot
-from backend.safe_json import JsonSafetyError
 from backend.zenoh_link import keys
 from backend.zenoh_link.codec import (
     SESSION_BYTES,
-    decode_json,
     encode_frame,
     encode_json,
     payload_bytes,
@@ -50,8 +46,6 @@ from backend.zenoh_link.codec import (
 from backend.zenoh_link.session import ZenohOptions, ZenohSetupError, settle
 
 STATUS_PERIOD = 1.0  # s between status publications
-COMMAND_QUEUE = 64  # commands waiting for the worker; more are refused with `busy`
-SHUTTING_DOWN = "the server is shutting down: the robot is going to rest"
 log = logging.getLogger(__name__)
 
 
@@ -74,11 +68,6 @@ class FramePublisher(Sink[Any]):  # offered frames, queued as (frame, stamp) pai
     def consume(self, frame: Any) -> None:
         frame, sent = frame
         self.publisher.put(encode_frame(frame, self.emb), attachment=stamp(sent, self.session))
-
-
-def error_reply(status: int, code: str, message: str, **extra: Any) -> dict[str, Any]:
-    """An error answer: the /ws/control error shape plus the HTTP `status` REST would have used."""
-    return {"type": "error", "status": status, "code": code, "message": message, **extra}
 
 
 class EngineLink:
@@ -109,7 +98,8 @@ class EngineLink:
                 keys.PROGRAM,
             )
         }
-        self.counts = {"commands": 0, "errors": 0, "queries": 0, "busy": 0}
+        self.commands = CommandWorker("zenoh", self._answer)
+        self._queries = 0
         #: This run's session id: frames carry it, a liveliness token names it (bridges follow only it).
         self.session_id = secrets.token_bytes(SESSION_BYTES)
         self._declared: list[Any] = []
@@ -117,7 +107,6 @@ class EngineLink:
         self._session_token: Any = None
         self._frames: FramePublisher | None = None
         self._events: Sink | None = None
-        self._work: queue.Queue = queue.Queue(maxsize=COMMAND_QUEUE)
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
         self._closed = False
@@ -171,10 +160,10 @@ class EngineLink:
         self._frames = hub.session.engine.add_sink(
             FramePublisher(frames, hub.session.embodiment, session=self.session_id)
         )
-        for name, target in (("zenoh-commands", self._work_loop), ("zenoh-status", self._status_loop)):
-            t = threading.Thread(target=target, name=name, daemon=True)
-            t.start()
-            self._threads.append(t)
+        self.commands.start(hub, closing)
+        t = threading.Thread(target=self._status_loop, name="zenoh-status", daemon=True)
+        t.start()
+        self._threads.append(t)
         self._session_token = s.liveliness().declare_token(
             keys.session_key(self.robot_id, self.session_id.hex())
         )
@@ -199,53 +188,17 @@ class EngineLink:
             return
         self._enqueue(payload_bytes(query.payload), query)
 
-    def _enqueue(self, payload: bytes, query: Any) -> None:
-        try:
-            self._work.put_nowait((payload, query))
-        except queue.Full:
-            self.counts["busy"] += 1
-            self._answer(
-                query, error_reply(503, "busy", f"more than {COMMAND_QUEUE} commands are waiting; try again")
-            )
+    @property
+    def counts(self) -> dict[str, int]:
+        """Commands run, refused (`errors`), refused for a full queue (`busy`), and read queries."""
+        return {**self.commands.counts, "queries": self._queries}
 
-    def _work_loop(self) -> None:
-        while not self._stop.is_set():
-            try:
-                payload, query = self._work.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            try:
-                reply = self.run(payload)
-            except Exception:  # never let one message stop the worker
-                log.exception("Zenoh command worker: a message failed")
-                reply = error_reply(500, "internal_error", "the server could not handle this message")
-            self._answer(query, reply)
+    def _enqueue(self, payload: bytes, query: Any) -> None:
+        self.commands.submit(payload, query)
 
     def run(self, payload: bytes) -> dict[str, Any]:
-        """Carry out one command message; the ack or error answer (the /ws/control shapes)."""
-        self.counts["commands"] += 1
-        if self.closing is not None and self.closing.is_set():
-            return self._failed(error_reply(503, "shutting_down", SHUTTING_DOWN))
-        try:
-            data = decode_json(payload)
-        except JsonSafetyError as exc:
-            extra = {"field": exc.field} if exc.field else {}
-            return self._failed(error_reply(exc.status, exc.code, str(exc), **extra))
-        cid = data.get("id") if isinstance(data, dict) and isinstance(data.get("id"), str) else None
-        try:
-            ack = self.hub.run_command(data)
-        except DomainError as exc:
-            return self._failed(error_reply(http_status(exc), **error_detail(exc, id=cid)))
-        except Exception:  # a fault of the server, not of the message: say so, keep the worker
-            log.exception("Zenoh command %r failed", cid)
-            return self._failed(
-                error_reply(500, "internal_error", "the server could not carry out this command", id=cid)
-            )
-        return {"type": "ack", **ack}
-
-    def _failed(self, reply: dict[str, Any]) -> dict[str, Any]:
-        self.counts["errors"] += 1
-        return reply
+        """Carry out one command message; the ack or error answer (backend/remote_commands.py)."""
+        return self.commands.run(payload)
 
     def _answer(self, query: Any, reply: dict[str, Any]) -> None:
         """A query's reply, or (for a put) a message on `events` for whoever watches."""
@@ -260,7 +213,7 @@ class EngineLink:
 
     # --- reads ------------------------------------------------------------------------------------
     def _on_read_query(self, query: Any, leaf: str) -> None:
-        self.counts["queries"] += 1
+        self._queries += 1
         try:
             reply = self.read(leaf)
         except Exception as exc:  # the asker gets an error answer; the queryable stays
@@ -286,17 +239,9 @@ class EngineLink:
     def status(self) -> dict[str, Any]:
         """`GET /api/status` without the Pre-Viz's URLs (they depend on the HTTP request), plus the
         robot id and this link's counters."""
-        hub = self.hub
-        stats = hub.session.engine.stats()
-        stats["clients"] = dict(hub.clients)
-        stats["program"] = hub.session.program.name if hub.session.program else None
-        stats["previz"] = (
-            {"frames_shown": hub.previz.frames_shown, "ghost": hub.previz.ghost_visible}
-            if hub.previz
-            else None
-        )
+        stats = server_status(self.hub)
         stats["robot_id"] = self.robot_id
-        stats["zenoh"] = dict(self.counts)
+        stats["zenoh"] = self.counts
         return stats
 
     def _status_loop(self) -> None:
@@ -326,14 +271,9 @@ class EngineLink:
 
     def _stop_threads(self) -> None:
         self._stop.set()
+        self.commands.stop()  # commands that never ran: their askers get a clear no
         for t in self._threads:
             t.join(3.0)
-        while True:  # commands that never ran: their askers get a clear no
-            try:
-                _, query = self._work.get_nowait()
-            except queue.Empty:
-                break
-            self._answer(query, error_reply(503, "shutting_down", SHUTTING_DOWN))
 
     def _detach(self) -> None:
         if self.hub is not None:
