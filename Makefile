@@ -53,7 +53,7 @@ $(VENV)/bin/activate:
 	$(PIP) install -q --upgrade pip
 
 deps-python: $(VENV)/bin/activate
-	$(PIP) install -q -e ".[test,bench,robots]"
+	$(PIP) install -q -e ".[test,bench,robots,ros2,mcap,foxglove]"
 	@# Blender as a module (tests that make glTF files with real Blender). bpy 5.0 pins numpy<2 in its
 	@# metadata but runs with numpy 2, so it is installed without its pins (its other needs are listed).
 	@$(PY) -c "import bpy" 2>/dev/null || $(PIP) install -q --no-deps "bpy==5.0.*" cython requests zstandard

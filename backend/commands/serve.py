@@ -11,6 +11,7 @@ from backend.drivers import add_driver_options, build_drivers
 from backend.engine.embodiment import DEFAULT_ROBOT, EmbodimentError, load_embodiment, resolve_robot_path
 from backend.engine.gil import collector_paused, settle_heap
 from backend.logs import add_logging_options
+from backend.ros2.options import add_ros2_options, check_ros2_options
 
 # The shutdown machinery lives in backend.shutdown; its public names stay importable from here.
 from backend.shutdown import (  # noqa: F401 (re-exported: callers import them from here)
@@ -93,6 +94,7 @@ def register(sub) -> None:
         f"{EXIT_BOUND:g} s)",
     )
     add_zenoh_options(p)  # --zenoh, --robot-id, --zenoh-connect/-listen/-mode/-config (backend/zenoh_link)
+    add_ros2_options(p)  # --ros2, --ros2-namespace, --ros2-controller, ... (backend/ros2/options.py)
     add_logging_options(p)  # --log-level, --log-json (backend/logs.py)
     p.set_defaults(func=run)
 
@@ -171,10 +173,14 @@ def run(args) -> int:
     if isinstance(loaded, int):
         return loaded
     emb, session, label = loaded
+    zenoh = None
     try:
         attach_drivers(session, args)
         zenoh = open_for_serve(args, emb)  # joins Zenoh before the clock starts: a taken id changes nothing
-    except ValueError as exc:
+        ros2 = open_ros2(args, emb)  # joins ROS 2 before the clock starts, likewise
+    except (ValueError, RuntimeError) as exc:
+        if zenoh is not None:
+            zenoh.close()
         session.engine.close()
         return fail(str(exc))
     settle_heap()  # before the clock starts: the robot's program, kernels and imports never walked again
@@ -210,11 +216,16 @@ def run(args) -> int:
             # Zenoh commands are refused from the first signal on, as REST's
             zenoh.start(hub, shutdown.closing)
             print(zenoh_banner(zenoh), flush=True)
+        if ros2 is not None:
+            ros2.start(hub, shutdown.closing)
+            print(ros2_banner(ros2), flush=True)
         server.run()
     finally:
-        code = shutdown.finish(previz)  # the park's frames went out on Zenoh too
+        code = shutdown.finish(previz)  # the park's frames went out on Zenoh and ROS 2 too
         if zenoh is not None:
             zenoh.close()  # a Zenoh session left open keeps the process from exiting
+        if ros2 is not None:
+            ros2.close()
         restore_signals()
     return code
 
@@ -228,7 +239,30 @@ def check_options(args) -> str | None:
             f"--shutdown-timeout must be within (0, {MAX_SHUTDOWN_TIMEOUT:g}] seconds, "
             f"got {args.shutdown_timeout:g}"
         )
-    return None
+    return check_ros2_options(args)
+
+
+def open_ros2(args, emb):
+    """The ROS 2 link the options ask for, joined (not started), or None; ValueError or Ros2Unavailable
+    (a RuntimeError) saying why not."""
+    if not args.ros2:
+        return None
+    from backend.ros2.link import Ros2Link  # lazy: rclpy loads only with --ros2
+    from backend.ros2.options import controller_of  # lazy: a fast `nutty --help`
+
+    link = Ros2Link(
+        args.ros2_namespace,
+        controller=controller_of(args, emb),
+        read_only=args.ros2_read_only,
+        hold=args.ros2_trajectory_hold,
+    )
+    return link.open()
+
+
+def ros2_banner(link) -> str:
+    from backend.ros2.options import banner  # lazy: a fast `nutty --help`
+
+    return banner(link)
 
 
 def load_session(args):
