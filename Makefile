@@ -47,6 +47,17 @@ deps-system:
 	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium chromium-driver; \
 	  else echo "warning: /usr/bin/chromium missing and not root; browser tests will be skipped"; fi; \
 	fi
+	@# A C/C++ compiler builds tf2_msgs, which the ROS 2 wheels lack (backend/ros2/interfaces.py).
+	@if ! command -v gcc >/dev/null || ! command -v g++ >/dev/null; then \
+	  if [ "$$(id -u)" = "0" ]; then \
+	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q build-essential; \
+	  else echo "warning: gcc/g++ missing and not root; tf2_msgs (ROS 2 /tf) cannot be built"; fi; \
+	fi
+	@if ! $(PYTHON) -c "import os, sysconfig; raise SystemExit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))"; then \
+	  if [ "$$(id -u)" = "0" ]; then \
+	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q python3-dev; \
+	  else echo "warning: Python.h missing and not root; tf2_msgs (ROS 2 /tf) cannot be built"; fi; \
+	fi
 
 $(VENV)/bin/activate:
 	$(PYTHON) -m venv $(VENV)
@@ -54,6 +65,8 @@ $(VENV)/bin/activate:
 
 deps-python: $(VENV)/bin/activate
 	$(PIP) install -q -e ".[test,bench,robots,ros2,mcap,foxglove]"
+	@# tf2_msgs (ROS 2 /tf) has no wheel: generate and compile it into the venv (~3 s, once).
+	@$(PY) -c "import tf2_msgs.msg" 2>/dev/null || $(PY) -m backend.ros2.interfaces build
 	@# Blender as a module (tests that make glTF files with real Blender). bpy 5.0 pins numpy<2 in its
 	@# metadata but runs with numpy 2, so it is installed without its pins (its other needs are listed).
 	@$(PY) -c "import bpy" 2>/dev/null || $(PIP) install -q --no-deps "bpy==5.0.*" cython requests zstandard
