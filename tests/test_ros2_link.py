@@ -24,6 +24,7 @@ pytest.importorskip("rclpy", reason="the [ros2] extra (make test installs it)")
 
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
+from tf2_msgs.msg import TFMessage
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from tests.ros_probe import RosProbe
@@ -49,6 +50,7 @@ def served(domain):
     probe.listen("/joint_states", JointState)
     probe.listen("/nutty/events", String)
     probe.listen("/nutty/status", String)
+    probe.listen("/tf", TFMessage)
     try:
         with server_process("--no-previz", "--ros2", "--rate", str(RATE)) as server:
             yield server, probe
@@ -128,6 +130,25 @@ def test_joint_states_match_the_recorded_frames(domain, tmp_path):
     assert matched > 100
     moving = np.ptp(q, axis=0)
     assert moving[emb.joint_names.index("head_pitch")] > 0.02  # the nod is in it
+
+
+def test_the_base_moves_on_tf(served):
+    server, probe = served
+    first = probe.wait_for("/tf", timeout=30).transforms[0]
+    assert (first.header.frame_id, first.child_frame_id) == ("odom", "base_link")
+    for _ in range(40):  # a puppet stream (its layer fades out 0.5 s after the last message)
+        server.client.command("puppet", values={"base_x": 0.2, "base_y": -0.1})
+        time.sleep(0.1)
+
+    def moved(m):
+        t = m.transforms[0].transform.translation
+        return abs(t.x - 0.2) < 1e-3 and abs(t.y + 0.1) < 1e-3
+
+    # the base glides there within its limits, and /tf follows the frames
+    t = probe.wait_for("/tf", moved, timeout=15).transforms[0]
+    assert t.transform.rotation.w == pytest.approx(1.0) and t.transform.translation.z == 0.0
+    stamp = t.header.stamp.sec + t.header.stamp.nanosec * 1e-9
+    assert abs(stamp - time.time()) < 2.0
 
 
 def test_status_and_command_events(served):

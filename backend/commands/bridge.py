@@ -13,6 +13,7 @@ from backend.bridge import DEFAULT_TIMEOUT, MAX_TIMEOUT, MIN_TIMEOUT
 from backend.commands._common import fail
 from backend.drivers import DRIVER_OPTIONS, add_driver_options
 from backend.logs import add_logging_options
+from backend.ros2.options import add_ros2_options, check_ros2_options
 from backend.shutdown import DEFAULT_SHUTDOWN_TIMEOUT, SHUTDOWN_SIGNALS
 from backend.zenoh_link.keys import robot_id_arg
 from backend.zenoh_link.session import add_zenoh_options
@@ -38,11 +39,11 @@ def register(sub) -> None:
     p.add_argument(
         "--driver",
         action="append",
-        required=True,
+        default=[],
         choices=sorted(DRIVER_OPTIONS),
         metavar="NAME",
         help=f"a driver to feed ({', '.join(sorted(DRIVER_OPTIONS))}; repeatable); its option below "
-        "says where (e.g. --driver osc --osc 10.0.0.5:9000)",
+        "says where (e.g. --driver osc --osc 10.0.0.5:9000); at least one, or --ros2",
     )
     add_driver_options(p)  # every driver's own option, from the registry: a new driver needs no edit here
     p.add_argument(
@@ -83,6 +84,7 @@ def register(sub) -> None:
         help=f"on SIGTERM/SIGINT, give the robot this long to reach rest (default {DEFAULT_SHUTDOWN_TIMEOUT:g})",
     )
     add_zenoh_options(p)
+    add_ros2_options(p, serve=False)  # --ros2: the relayed frames on ROS 2 too (backend/ros2/options.py)
     add_logging_options(p)  # --log-level, --log-json (backend/logs.py)
     p.set_defaults(func=run)
 
@@ -116,7 +118,9 @@ def _check(args: argparse.Namespace) -> str | None:
             return f"{flag} must be within (0, 600] seconds, got {value:g}"
     if not 0 <= args.report <= 3600:
         return f"--report must be within 0..3600 seconds, got {args.report:g}"
-    return None
+    if not args.driver and not args.ros2:
+        return "say where the frames go: --driver NAME (with its option) and/or --ros2"
+    return check_ros2_options(args)
 
 
 def run(args) -> int:
@@ -147,7 +151,7 @@ def _follow(session, args, drivers, robot) -> int:
 
     signals = _Signals()
     restore = signals.install()
-    relay = subscriber = None
+    relay = subscriber = ros = None
     sinks = []
     try:
         try:
@@ -157,8 +161,11 @@ def _follow(session, args, drivers, robot) -> int:
             if signals.first.is_set():  # stopped while waiting: nothing was ever sent
                 return 0
             sinks = [DRIVER_OPTIONS[name].build(robot, value) for name, value in drivers]
+            if args.ros2:
+                ros = _ros2_sink(args, robot)
+                sinks.append(ros[1])
             relay = FrameRelay(robot, rate, sinks, timeout=args.timeout)
-        except (TimeoutError, ValueError, OSError) as exc:
+        except (TimeoutError, ValueError, OSError, RuntimeError) as exc:
             return fail(str(exc), 1)
         relay.start()
         subscriber = follow_frames(session, args.robot_id, relay.receive, relay.reject)
@@ -187,7 +194,32 @@ def _follow(session, args, drivers, robot) -> int:
             print("nutty bridge: summary " + json.dumps(summary), flush=True)
         for sink in sinks:
             sink.close()
+        if ros is not None:
+            ros[0].close()
         restore()
+
+
+def _ros2_sink(args, robot):
+    """(the ROS node, a sink publishing the relayed frames: /joint_states, /tf, the controller's topic,
+    frame events on NS/events); Ros2Unavailable (a RuntimeError) or ValueError saying why not."""
+    import time  # lazy: only with --ros2
+
+    from backend.ros2.link import event_publisher  # lazy: rclpy loads only with --ros2
+    from backend.ros2.node import RosNode  # lazy: as above
+    from backend.ros2.options import controller_of  # lazy: a fast `nutty --help`
+    from backend.ros2.outputs import FramePublisher, message_types  # lazy: as above
+
+    controller = controller_of(args, robot)
+    message_types()  # every message package there, or say which is missing
+    node = RosNode("nutty_bridge")
+    try:
+        events = event_publisher(node.node, args.ros2_namespace)
+        sink = FramePublisher(robot, node.node, epoch=time.time(), controller=controller, events=events)
+    except Exception:
+        node.close()
+        raise
+    log.info("ROS 2: publishing the relayed frames (%s)", ", ".join(sink.topics()))
+    return node, sink
 
 
 class _Signals:

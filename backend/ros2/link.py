@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 import math
 import threading
+from collections.abc import Callable
 from typing import Any
 
 from backend.control.errors import CommandError
@@ -40,6 +41,14 @@ from backend.safe_json import dumps
 log = logging.getLogger(__name__)
 STATUS_PERIOD = 1.0  # s between status messages
 _refusals = Throttle(every=10.0)  # a misconfigured perception node refuses at 30 Hz: log once per 10 s
+
+
+def event_publisher(node: Any, namespace: str) -> Callable[[str], None]:
+    """A function publishing one JSON text on `<namespace>/events` (std_msgs/String)."""
+    from std_msgs.msg import String  # lazy: ROS message packages load with the link
+
+    pub = node.create_publisher(String, topic(namespace, "events"), 100)
+    return lambda text: pub.publish(String(data=text))
 
 
 class Ros2Link:
@@ -82,11 +91,9 @@ class Ros2Link:
             raise RuntimeError("ROS 2 node missing after open()")
         node, types = ros.node, message_types()
         self.view = FrameView(session.embodiment)
-        events_pub = node.create_publisher(types["String"], topic(self.namespace, "events"), 100)
         self._status_pub = node.create_publisher(types["String"], topic(self.namespace, "status"), 10)
-        self.events = Sink(
-            "ros2-events", lambda text: events_pub.publish(types["String"](data=text)), max_queue=256
-        )
+        # one thread publishes every event, whichever thread (the clock's too) produced it
+        self.events = Sink("ros2-events", event_publisher(node, self.namespace), max_queue=256)
         hub.listeners.append(self.publish_event)
         self.frames = session.engine.add_sink(
             FramePublisher(

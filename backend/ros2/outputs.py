@@ -138,6 +138,11 @@ class FramePublisher(Sink[AnimationFrame]):
         self._controller = self._controller_publisher(node, emb) if controller is not None else None
         super().__init__(name, max_queue=FRAME_QUEUE)
 
+    def topics(self) -> list[str]:
+        """The topics this publisher writes frames to."""
+        names = ["/joint_states"] + (["/tf"] if self._tf is not None else [])
+        return names + ([self.controller.topic] if self.controller is not None else [])
+
     @property
     def publishes_tf(self) -> bool:
         return self._tf is not None
