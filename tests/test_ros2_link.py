@@ -86,7 +86,7 @@ def test_joint_states_are_the_joints_the_motors_get(served, tmp_path):
     steps = np.diff(stamps)
     assert np.allclose(steps[steps < 0.05], 1 / RATE, atol=1e-6)
     assert np.median(steps) == pytest.approx(1 / RATE, abs=1e-6)
-    assert abs(stamps[-1] - time.time()) < 2.0
+    assert abs(stamps[-1] - time.time()) < 0.5  # the stamps follow the wall clock
     q = np.array([list(m.position) for m in msgs])
     truth = joint_truth("robots/nutty_desk")
     assert np.all(q >= truth.lower - 1e-12) and np.all(q <= truth.upper + 1e-12)

@@ -202,8 +202,6 @@ def _follow(session, args, drivers, robot) -> int:
 def _ros2_sink(args, robot):
     """(the ROS node, a sink publishing the relayed frames: /joint_states, /tf, the controller's topic,
     frame events on NS/events); Ros2Unavailable (a RuntimeError) or ValueError saying why not."""
-    import time  # lazy: only with --ros2
-
     from backend.ros2.link import event_publisher  # lazy: rclpy loads only with --ros2
     from backend.ros2.node import RosNode  # lazy: as above
     from backend.ros2.options import controller_of  # lazy: a fast `nutty --help`
@@ -214,7 +212,7 @@ def _ros2_sink(args, robot):
     node = RosNode("nutty_bridge")
     try:
         events = event_publisher(node.node, args.ros2_namespace)
-        sink = FramePublisher(robot, node.node, epoch=time.time(), controller=controller, events=events)
+        sink = FramePublisher(robot, node.node, controller=controller, events=events)
     except Exception:
         node.close()
         raise

@@ -99,7 +99,6 @@ class Ros2Link:
             FramePublisher(
                 session.embodiment,
                 node,
-                epoch=session.engine.started_at or 0.0,
                 controller=self.controller,
                 events=self.events.offer,
             )

@@ -17,6 +17,7 @@ from __future__ import annotations
 import array
 import importlib
 import logging
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -102,7 +103,7 @@ def _doubles(values: np.ndarray) -> array.array:
     return array.array("d", np.ascontiguousarray(values, dtype=np.float64).tobytes())
 
 
-class FramePublisher(Sink[AnimationFrame]):
+class FramePublisher(Sink[Any]):  # offered frames, queued with the time they were made
     """Publishes each frame (module doc) from its own thread. `node` is an rclpy node; `events` a
     callable given each frame event's JSON text (the link's events publisher), or None."""
 
@@ -111,7 +112,7 @@ class FramePublisher(Sink[AnimationFrame]):
         emb: Embodiment,
         node: Any,
         *,
-        epoch: float,
+        epoch: float = 0.0,
         controller: ControllerOutput | None = None,
         events: Callable[[str], None] | None = None,
         name: str = "ros2",
@@ -156,19 +157,27 @@ class FramePublisher(Sink[AnimationFrame]):
         kind = self.types["Float64MultiArray"] if ctl.kind == FORWARD else self.types["JointTrajectory"]
         return node.create_publisher(kind, ctl.topic, 10)
 
-    def consume(self, frame: AnimationFrame) -> None:
+    def offer(self, frame: AnimationFrame) -> None:
+        # the time the frame is made (in the tick) travels with it: the stamps follow the wall clock
+        super().offer((frame, time.time()))
+
+    def consume(self, frame: Any) -> None:  # (AnimationFrame, the wall time it was made), from offer()
+        made: float
+        f: AnimationFrame
+        f, made = frame
         view, js = self.view, self._js
-        q, qd = view.joints(frame)
-        stamp = view.stamp(frame)
+        view.follow_wall(f, made)
+        q, qd = view.joints(f)
+        stamp = view.stamp(f)
         js.header.stamp.sec, js.header.stamp.nanosec = stamp.sec, stamp.nanosec
         js.position, js.velocity = _doubles(q), _doubles(qd)
         self._joint_state.publish(js)
         if self._tf is not None:
-            self._tf.publish(self._tf_message(frame, stamp))
+            self._tf.publish(self._tf_message(f, stamp))
         if self._controller is not None:
-            self._controller.publish(self._controller_message(frame, q, qd))
-        if self.events is not None and frame.events:
-            for event in view.events(frame):
+            self._controller.publish(self._controller_message(f, q, qd))
+        if self.events is not None and f.events:
+            for event in view.events(f):
                 self.events(dumps(event))
         self.published += 1
 

@@ -18,6 +18,8 @@ from backend.engine.kinematics import root_link
 
 #: The fixed frame the base moves in when a robot has spatial DoFs (REP 105's name for it).
 ODOM_FRAME = "odom"
+#: How far (s) a frame's stamp may drift from when it was made before the epoch is set again.
+DRIFT = 0.02
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,6 +85,13 @@ class FrameView:
 
     def stamp(self, frame: AnimationFrame) -> Stamp:
         return Stamp.of(self.epoch + frame.t)
+
+    def follow_wall(self, frame: AnimationFrame, wall: float) -> None:
+        """Keep the epoch on the wall clock: `wall` (Unix s) is when the frame was made. A clock that
+        falls behind skips ticks and its frame time then lags the wall, so when the stamp would be off
+        by more than DRIFT the epoch is set again (stamps stay one tick apart between such steps)."""
+        if not self.epoch or abs(wall - (self.epoch + frame.t)) > DRIFT:
+            self.epoch = wall - frame.t
 
     def joints(self, frame: AnimationFrame) -> tuple[np.ndarray, np.ndarray]:
         """(positions, velocities) of the actuated joints (rad or m, per s): what the motors get.
