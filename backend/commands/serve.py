@@ -178,7 +178,7 @@ def run(args) -> int:
         attach_drivers(session, args)
         zenoh = open_for_serve(args, emb)  # joins Zenoh before the clock starts: a taken id changes nothing
         ros2 = open_ros2(args, emb)  # joins ROS 2 before the clock starts, likewise
-    except (ValueError, RuntimeError) as exc:
+    except (ValueError, RuntimeError, OSError) as exc:  # a driver's port taken, Zenoh or ROS 2 refusing
         if zenoh is not None:
             zenoh.close()
         session.engine.close()
