@@ -41,7 +41,8 @@ from typing import Any
 import numpy as np
 
 from backend.engine.embodiment import Embodiment
-from backend.engine.frames import AnimationFrame, FrameEvent
+from backend.engine.frames import FrameEvent
+from backend.engine.net_frames import NetFrames
 from backend.engine.runtime import RingStats, Sink
 from backend.engine.safety import SafetyNet
 from backend.zenoh_link.codec import FrameDoc
@@ -98,7 +99,7 @@ class FrameRelay:
         self._pending = False  # a received frame is not delivered yet
         self._holding = False  # the last delivery was a held step (no frame had come)
         self._last_sent: float | None = None  # clock time of the last delivery
-        self._pos, self._vel, self._acc = emb.rest.copy(), np.zeros(emb.n_channels), np.zeros(emb.n_channels)
+        self.out = NetFrames(emb)  # the delivered state, and the frames made from the net's output
         self.t, self.seq = 0.0, 0  # of the frames sent (s; count)
         self.session: str | None = None  # the engine session followed
         self.last_seq: int | None = None
@@ -165,7 +166,7 @@ class FrameRelay:
                     logging.INFO,
                     f"the engine now ticks at {1.0 / frame.dt:g} Hz (was {self.rate:g}): following it",
                 )
-                self._set_rate(1.0 / frame.dt, self._pos)
+                self._set_rate(1.0 / frame.dt, self.out.pos)
             if self.mode in (RESTING, AT_REST):
                 self.counts["resumes"] += 1
                 self._note(
@@ -274,9 +275,7 @@ class FrameRelay:
 
     def at_rest(self) -> bool:
         """Whether the last frame sent is the rest pose exactly, standing still."""
-        return (
-            bool(np.array_equal(self._pos, self.emb.rest)) and not np.any(self._vel) and not np.any(self._acc)
-        )
+        return self.out.at_rest()
 
     def start(self) -> FrameRelay:
         """Run `tick` on a thread when something is due (late ticks stretch time: never faster than the rate)."""
@@ -327,24 +326,9 @@ class FrameRelay:
     def _send(self, out: np.ndarray, events: list[FrameEvent], program: np.ndarray) -> None:
         dt = self.h
         first = self.counts["sent"] == 0
-        vel = np.zeros_like(out) if first else (out - self._pos) / dt
-        acc = np.zeros_like(out) if first else (vel - self._vel) / dt
-        jerk = np.zeros_like(out) if first else (acc - self._acc) / dt
-        self._pos, self._vel, self._acc = out, vel, acc
         self.t = self.t + dt if not first else 0.0
-        frame = AnimationFrame(
-            embodiment=self.emb.name,
-            t=self.t,
-            dt=dt,
-            seq=self.seq,
-            position=out,
-            velocity=vel,
-            acceleration=acc,
-            jerk=jerk,
-            events=list(events),
-            corrected=self.net.corrected.copy() if self.net.corrected_any else None,
-            program=np.array(program, dtype=float),
-            joints=self.net.joint_out,
+        frame = self.out.frame(
+            self.net, out, t=self.t, dt=dt, seq=self.seq, first=first, events=events, program=program
         )
         self.seq += 1
         self.counts["sent"] += 1

@@ -134,7 +134,8 @@ def pct(values, q) -> float:
 # --------------------------------------------------------------------------------------------------
 
 
-def follow_ws(port: int, arrivals: dict, stop: threading.Event) -> None:
+def follow_ws(port: int, arrivals: dict, stop: threading.Event, times: dict | None = None) -> None:
+    """Arrival time (Unix s) of each /ws/frames frame by seq, and its frame time `t` into `times`."""
     import msgpack
     from websockets.sync.client import connect
 
@@ -144,7 +145,10 @@ def follow_ws(port: int, arrivals: dict, stop: threading.Event) -> None:
                 data = ws.recv(timeout=0.5)
             except TimeoutError:
                 continue
-            arrivals[msgpack.unpackb(data)["seq"]] = time.time()
+            doc = msgpack.unpackb(data)
+            arrivals[doc["seq"]] = time.time()
+            if times is not None:
+                times[doc["seq"]] = doc["t"]
 
 
 def latency(config: str) -> None:

@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("ROS_DOMAIN_ID", "117")
 
-from bench_fleet import free_port
+from bench_fleet import follow_ws, free_port
 from results import recorded
 
 from backend.engine.embodiment import load_embodiment
@@ -136,7 +136,7 @@ def latency() -> None:
         ws_at: dict[int, float] = {}
         ws_t: dict[int, float] = {}
         stop = threading.Event()
-        t = threading.Thread(target=follow_ws_t, args=(port, ws_at, ws_t, stop), daemon=True)
+        t = threading.Thread(target=follow_ws, args=(port, ws_at, stop, ws_t), daemon=True)
         t.start()
         time.sleep(1.0)
         ros_at.clear()
@@ -159,21 +159,6 @@ def latency() -> None:
     print(
         f"  ratio ROS 2 / WebSocket: p50 {np.median(r) / np.median(w):.2f}, p99 {np.percentile(r, 99) / np.percentile(w, 99):.2f}"
     )
-
-
-def follow_ws_t(port: int, arrivals: dict, times: dict, stop: threading.Event) -> None:
-    import msgpack  # lazy: only the latency run needs it
-    from websockets.sync.client import connect
-
-    with connect(f"ws://127.0.0.1:{port}/ws/frames?format=msgpack", max_size=None) as ws:
-        while not stop.is_set():
-            try:
-                data = ws.recv(timeout=0.5)
-            except TimeoutError:
-                continue
-            doc = msgpack.unpackb(data)
-            arrivals[doc["seq"]] = time.time()
-            times[doc["seq"]] = doc["t"]
 
 
 def main() -> None:

@@ -84,8 +84,8 @@ def test_joint_states_are_the_joints_the_motors_get(served, tmp_path):
     stamps = np.array([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in msgs])
     # stamped from the frames: one tick apart at the engine's rate, near the wall clock
     steps = np.diff(stamps)
-    assert np.allclose(steps[steps < 0.05], 1 / RATE, atol=1e-6)
-    assert np.median(steps) == pytest.approx(1 / RATE, abs=1e-6)
+    assert np.mean(np.isclose(steps, 1 / RATE, atol=1e-6)) > 0.9
+    assert np.all(steps > 0)
     assert abs(stamps[-1] - time.time()) < 0.5  # the stamps follow the wall clock
     q = np.array([list(m.position) for m in msgs])
     truth = joint_truth("robots/nutty_desk")

@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 
 from backend.engine.embodiment import Embodiment
-from backend.engine.frames import AnimationFrame, FrameEvent
+from backend.engine.frames import FrameEvent
+from backend.engine.net_frames import NetFrames
 from backend.engine.runtime import Sink
 from backend.engine.safety import SafetyNet
 from backend.recording.playback import Recording
@@ -141,8 +142,7 @@ class Player:
         self.net = SafetyNet(emb, 1.0 / self.h, start=emb.rest)
         self.run_up = run_up(emb, rec.positions, self.h, self.net.mask)
         self.stats = PlayStats()
-        n = emb.n_channels
-        self._pos, self._vel, self._acc = emb.rest.copy(), np.zeros(n), np.zeros(n)
+        self.out = NetFrames(emb)  # the delivered state, and the frames made from the net's output
         self.t, self.seq = 0.0, 0
         self._due: float | None = None
         self._warm()
@@ -177,9 +177,7 @@ class Player:
 
     def at_rest(self) -> bool:
         """Whether the last frame sent is the rest pose exactly, standing still."""
-        return (
-            bool(np.array_equal(self._pos, self.emb.rest)) and not np.any(self._vel) and not np.any(self._acc)
-        )
+        return self.out.at_rest()
 
     def _play(self) -> bool:
         """The recorded frames through the net; False when stopped before the end."""
@@ -198,7 +196,7 @@ class Player:
         """Step the net toward `target` until the output (channels and joints) has stood still for
         STILL_TICKS ticks, `interrupt` is set, or SETTLE_SECONDS pass; returns the ticks sent."""
         still, ticks = 0, 0
-        last = np.concatenate([self._pos, self.net.joint_out])
+        last = np.concatenate([self.out.pos, self.net.joint_out])
         limit = round(SETTLE_SECONDS / self.h)
         while still < STILL_TICKS and ticks < limit and not interrupt.is_set():
             out = self.net.step(target)
@@ -213,24 +211,8 @@ class Player:
         """One frame of one tick to every sink, at its time (after waiting for it)."""
         self._wait()
         h = self.h
-        first = self.seq == 0
-        vel = np.zeros_like(out) if first else (out - self._pos) / h
-        acc = np.zeros_like(out) if first else (vel - self._vel) / h
-        jerk = np.zeros_like(out) if first else (acc - self._acc) / h
-        self._pos, self._vel, self._acc = out, vel, acc
-        frame = AnimationFrame(
-            embodiment=self.emb.name,
-            t=self.t,
-            dt=h,
-            seq=self.seq,
-            position=out,
-            velocity=vel,
-            acceleration=acc,
-            jerk=jerk,
-            events=list(events),
-            corrected=self.net.corrected.copy() if self.net.corrected_any else None,
-            program=np.array(program, dtype=float),
-            joints=self.net.joint_out.copy(),
+        frame = self.out.frame(
+            self.net, out, t=self.t, dt=h, seq=self.seq, first=self.seq == 0, events=events, program=program
         )
         for sink in self.sinks:
             sink.offer(frame)

@@ -31,8 +31,10 @@ class Stamp:
 
     @classmethod
     def of(cls, seconds: float) -> Stamp:
-        ns = round(seconds * 1e9)
-        return cls(ns // 1_000_000_000, ns % 1_000_000_000)
+        # whole seconds first: seconds * 1e9 of a Unix time would round the nanoseconds to ~256 ns
+        sec = math.floor(seconds)
+        ns = round((seconds - sec) * 1e9)
+        return cls(sec + ns // 1_000_000_000, ns % 1_000_000_000)
 
     @property
     def nanoseconds(self) -> int:
@@ -87,11 +89,13 @@ class FrameView:
         return Stamp.of(self.epoch + frame.t)
 
     def follow_wall(self, frame: AnimationFrame, wall: float) -> None:
-        """Keep the epoch on the wall clock: `wall` (Unix s) is when the frame was made. A clock that
-        falls behind skips ticks and its frame time then lags the wall, so when the stamp would be off
-        by more than DRIFT the epoch is set again (stamps stay one tick apart between such steps)."""
-        if not self.epoch or abs(wall - (self.epoch + frame.t)) > DRIFT:
-            self.epoch = wall - frame.t
+        """Keep the epoch on the wall clock: `wall` (Unix s) is when the frame was made, never before the
+        time it is for, so the smallest `wall - t` seen is the epoch (less the clock's least lateness).
+        A clock that falls behind skips ticks and its frame time then lags the wall: when a frame is
+        made more than DRIFT later than its stamp says, the epoch moves up to it."""
+        offset = wall - frame.t
+        if not self.epoch or offset < self.epoch or offset - self.epoch > DRIFT:
+            self.epoch = offset
 
     def joints(self, frame: AnimationFrame) -> tuple[np.ndarray, np.ndarray]:
         """(positions, velocities) of the actuated joints (rad or m, per s): what the motors get.
