@@ -137,6 +137,8 @@ class FramePublisher(Sink[Any]):  # offered frames, queued with the time they we
             else None
         )
         self._controller = self._controller_publisher(node, emb) if controller is not None else None
+        self._tf_msg: Any = None
+        self._ctl_msg: Any = None
         super().__init__(name, max_queue=FRAME_QUEUE)
 
     def topics(self) -> list[str]:
@@ -182,25 +184,35 @@ class FramePublisher(Sink[Any]):  # offered frames, queued with the time they we
         self.published += 1
 
     def _tf_message(self, frame: AnimationFrame, stamp: Any) -> Any:
+        # one message, refilled each frame: building rclpy messages costs more than publishing them
+        msg = self._tf_msg
+        if msg is None:
+            msg = self._tf_msg = self.types["TFMessage"](transforms=[self.types["TransformStamped"]()])
         pose = self.view.base(frame)
-        t = self.types["TransformStamped"]()
+        t = msg.transforms[0]
         t.header.stamp.sec, t.header.stamp.nanosec = stamp.sec, stamp.nanosec
         if pose is not None:
             t.header.frame_id, t.child_frame_id = pose.parent, pose.child
-            t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = pose.translation
-            r = t.transform.rotation
+            v, r = t.transform.translation, t.transform.rotation
+            v.x, v.y, v.z = pose.translation
             r.x, r.y, r.z, r.w = pose.rotation
-        return self.types["TFMessage"](transforms=[t])
+        return msg
 
     def _controller_message(self, frame: AnimationFrame, q: np.ndarray, qd: np.ndarray) -> Any:
-        ctl = self.controller
-        if ctl is not None and ctl.kind == FORWARD:
-            return self.types["Float64MultiArray"](data=_doubles(q[self._order]))
-        point = self.types["JointTrajectoryPoint"]()
+        ctl, msg = self.controller, self._ctl_msg
+        if ctl is None:
+            return None
+        if ctl.kind == FORWARD:
+            if msg is None:
+                msg = self._ctl_msg = self.types["Float64MultiArray"]()
+            msg.data = _doubles(q[self._order])
+            return msg
+        if msg is None:
+            msg = self._ctl_msg = self.types["JointTrajectory"]()
+            msg.joint_names = list(ctl.joints)
+            msg.points = [self.types["JointTrajectoryPoint"]()]
+        point = msg.points[0]
         point.positions, point.velocities = _doubles(q[self._order]), _doubles(qd[self._order])
         ns = round(frame.dt * 1e9)  # due one tick from now: the controller interpolates to it
-        point.time_from_start = self.types["Duration"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-        msg = self.types["JointTrajectory"]()
-        msg.joint_names = list(ctl.joints if ctl is not None else ())
-        msg.points = [point]
+        point.time_from_start.sec, point.time_from_start.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
         return msg
