@@ -16,6 +16,8 @@ FRONTEND := frontend
 # one worker: the browser modules are stories whose tests build on each other's state (one server and
 # one page per module), which split over two workers started twice and broke when split.
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+# ROS 2 (the --ros2 tests, bench_ros2) discovers on this machine only; each test adds its own domain id.
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 
 .PHONY: run test test-fast lint deps deps-python deps-system deps-frontend frontend-build test-python test-frontend bench bench-long \
 	soak figures blender-addon clean

@@ -10,12 +10,17 @@ from __future__ import annotations
 
 import functools
 import inspect
+import os
 import re
 from pathlib import Path
 
 import pytest
 
 from backend.engine.embodiment import load_embodiment
+
+# ROS 2 in any test (and any process a test starts) discovers on this machine only; the ROS tests also
+# take a domain of their own (tests/ros_env.py).
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 
 # What in a test's (or its fixtures') source says it starts a process or a server.
 _SERVER = re.compile(
