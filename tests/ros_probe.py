@@ -47,6 +47,13 @@ class RosProbe:
         self.node.create_subscription(msg_type, topic, keep, qos if qos is not None else depth)
         return got
 
+    def clear(self) -> None:
+        """Forget every message heard so far (the subscriptions stay)."""
+        with self._lock:
+            for topic in self.messages:
+                self.messages[topic].clear()
+                self.arrivals[topic].clear()
+
     def publisher(self, topic: str, msg_type: Any) -> Any:
         return self.node.create_publisher(msg_type, topic, 10)
 

@@ -73,6 +73,7 @@ def test_bridge_relays_to_ros2_and_rests_when_the_engine_dies(tmp_path, monkeypa
     step = np.diff(stamps)
     consecutive = np.isclose(step, 1 / RATE, atol=1e-6)
     assert consecutive.mean() > 0.8  # one frame per tick, stamped from the relay's frames
+    consecutive[:50] = False  # the first stamps, while the epoch is still refined (backend/ros2/view.py)
     v = (np.diff(q, axis=0) * RATE)[consecutive]
     truth = joint_truth("robots/nutty_desk")
     assert np.all(np.abs(v) <= truth.velocity * (1 + 1e-6) + 1e-9)

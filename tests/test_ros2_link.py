@@ -31,31 +31,49 @@ from tests.ros_probe import RosProbe
 
 pytestmark = [pytest.mark.server, pytest.mark.slow]
 RATE = 100.0
+STARTUP = 50  # messages at the start whose stamps the epoch may still be refined on (backend/ros2/view.py)
 
 
-@pytest.fixture
-def domain(monkeypatch):
-    """This test's ROS domain, in this process's environment (inherited by the server it starts)."""
+def _use_domain(patch: pytest.MonkeyPatch) -> int:
+    """A ROS domain of its own, in this process's environment (inherited by the servers it starts)."""
     d = ros_domain()
     for key, value in ros_environ(d).items():
         if key.startswith(("ROS_", "RMW_")):
-            monkeypatch.setenv(key, value)
+            patch.setenv(key, value)
     return d
 
 
 @pytest.fixture
-def served(domain):
-    """(server, probe) with `nutty serve --ros2`: the probe listens to what the server publishes."""
-    probe = RosProbe(domain)
-    probe.listen("/joint_states", JointState)
-    probe.listen("/nutty/events", String)
-    probe.listen("/nutty/status", String)
-    probe.listen("/tf", TFMessage)
-    try:
-        with server_process("--no-previz", "--ros2", "--rate", str(RATE)) as server:
-            yield server, probe
-    finally:
-        probe.close()
+def domain(monkeypatch):
+    """This test's ROS domain."""
+    return _use_domain(monkeypatch)
+
+
+@pytest.fixture(scope="module")
+def _served_module():
+    """One `nutty serve --ros2` and one probe for the tests that share them (a server per test would
+    spend most of the module's time starting servers)."""
+    with pytest.MonkeyPatch.context() as patch:
+        probe = RosProbe(_use_domain(patch))
+        probe.listen("/joint_states", JointState)
+        probe.listen("/nutty/events", String)
+        probe.listen("/nutty/status", String)
+        probe.listen("/tf", TFMessage)
+        try:
+            with server_process("--no-previz", "--ros2", "--rate", str(RATE)) as server:
+                yield server, probe
+        finally:
+            probe.close()
+
+
+@pytest.fixture
+def served(_served_module):
+    """(server, probe): the shared server, idle, and a probe that has heard nothing yet."""
+    server, probe = _served_module
+    server.client.command("reset", fade=0.3)  # inputs, layers and actions as the program declares them
+    time.sleep(1.0)  # the robot has blended back and the last test's events have arrived
+    probe.clear()
+    return server, probe
 
 
 def _events(probe: RosProbe) -> list[dict]:
@@ -92,6 +110,7 @@ def test_joint_states_are_the_joints_the_motors_get(served, tmp_path):
     assert np.all(q >= truth.lower - 1e-12) and np.all(q <= truth.upper + 1e-12)
     # consecutive messages: velocities are the finite differences of the positions
     consecutive = np.isclose(steps, 1 / RATE, atol=1e-6)
+    consecutive[:STARTUP] = False  # (see the trajectory test)
     qd = np.array([list(m.velocity) for m in msgs])
     fd = np.diff(q, axis=0) * RATE
     assert np.allclose(qd[1:][consecutive], fd[consecutive], atol=1e-9)
@@ -120,14 +139,21 @@ def test_joint_states_match_the_recorded_frames(domain, tmp_path):
     msgs = list(probe.messages["/joint_states"])
     stamps = np.array([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in msgs])
     q = np.array([list(m.position) for m in msgs])
+    # The stamp says which frame a message is (to within a tick or two: the epoch is refined by
+    # sub-millisecond steps as earlier-made frames are seen); its joints must be that frame's exactly.
     epoch = stamps[len(stamps) // 2] - times[np.argmin(np.abs(recorded - q[len(q) // 2]).sum(axis=1))]
-    matched = 0
+    considered = matched = 0
     for s, row in zip(stamps, q, strict=True):
         k = round((s - epoch) * RATE)
-        if 0 <= k < len(times) and abs(times[k] - (s - epoch)) < 1e-6:
-            assert np.allclose(row, recorded[k], atol=1e-9), (k, row, recorded[k])
-            matched += 1
-    assert matched > 100
+        near = [j for j in range(k - 2, k + 3) if 0 <= j < len(times)]
+        if len(near) < 5:
+            continue  # before the recording started or after it ended
+        considered += 1
+        matched += any(np.allclose(row, recorded[j], atol=1e-9) for j in near)
+        # whatever the stamps, every message is some recorded frame's joints, exactly
+        assert np.any(np.all(np.abs(recorded - row) <= 1e-9, axis=1)), row
+    # a clock that lost ticks under load moves the epoch up: a few messages then map further away
+    assert considered > 100 and matched >= 0.9 * considered, (matched, considered)
     moving = np.ptp(q, axis=0)
     assert moving[emb.joint_names.index("head_pitch")] > 0.02  # the nod is in it
 
@@ -248,7 +274,10 @@ def test_joint_trajectory_drives_the_puppet_layer_within_limits(served):
     msgs = list(probe.messages["/joint_states"])
     q = np.array([list(m.position) for m in msgs])
     stamps = np.array([m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in msgs])
+    # after the first frames (whose stamps the epoch is still refined on), one tick apart by stamp is one
+    # tick apart in the engine
     consecutive = np.isclose(np.diff(stamps), 1 / RATE, atol=1e-6)
+    consecutive[:STARTUP] = False
     v = (np.diff(q, axis=0) * RATE)[consecutive]
     truth = joint_truth("robots/nutty_desk")
     assert np.all(np.abs(v) <= truth.velocity * (1 + 1e-9) + 1e-9)
