@@ -19,24 +19,16 @@ from typing import Any
 
 from backend.errors import DomainError
 from backend.routes.errors import error_detail, http_status
-from backend.safe_json import JsonSafetyError, loads
+from backend.safe_json import JsonSafetyError, decode_message
 from backend.shutdown import SHUTTING_DOWN
 
 COMMAND_QUEUE = 64  # commands waiting for the worker; more are refused with `busy`
-MAX_MESSAGE = 64_000  # bytes per command message (as on /ws/control)
 log = logging.getLogger(__name__)
 
 
 def error_reply(status: int, code: str, message: str, **extra: Any) -> dict[str, Any]:
     """An error answer: the /ws/control error shape plus the HTTP `status` REST would have used."""
     return {"type": "error", "status": status, "code": code, "message": message, **extra}
-
-
-def decode_json(payload: bytes, max_bytes: int = MAX_MESSAGE) -> Any:
-    """The JSON value of a message; JsonSafetyError (code too_large, invalid_unicode, malformed_json, ...)."""
-    if len(payload) > max_bytes:
-        raise JsonSafetyError(f"message over {max_bytes} bytes", "too_large", status=413)
-    return loads(payload, max_bytes=None)
 
 
 def server_status(hub: Any) -> dict[str, Any]:
@@ -103,7 +95,7 @@ class CommandWorker:
         if self.closing is not None and self.closing.is_set():
             return self._failed(error_reply(503, "shutting_down", SHUTTING_DOWN))
         try:
-            data = decode_json(payload)
+            data = decode_message(payload)
         except JsonSafetyError as exc:
             extra = {"field": exc.field} if exc.field else {}
             return self._failed(error_reply(exc.status, exc.code, str(exc), **extra))

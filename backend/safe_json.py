@@ -22,6 +22,7 @@ import numpy as np
 import orjson
 
 MAX_BODY = 1_000_000  # bytes per request body
+MAX_MESSAGE = 64_000  # bytes per command message on a bus or /ws/control
 MAX_DEPTH = 64  # nesting of JSON arrays/objects
 MAX_INT = 2**63  # |int| limit: larger integers overflow floats and fixed-width fields downstream
 
@@ -218,6 +219,14 @@ def loads(
         raise JsonSafetyError(f"malformed JSON: {safe_text(str(exc))[:200]}", "malformed_json") from None
     check_json(value, max_depth=max_depth)
     return value
+
+
+def decode_message(payload: bytes, max_bytes: int = MAX_MESSAGE) -> Any:
+    """The JSON value of one bus message (a Zenoh or ROS 2 command, a reply); JsonSafetyError (code
+    too_large, invalid_unicode, malformed_json, ...) as `loads` raises it."""
+    if len(payload) > max_bytes:
+        raise JsonSafetyError(f"message over {max_bytes} bytes", "too_large", status=413)
+    return loads(payload, max_bytes=None)
 
 
 def validation_bytes(value: Any) -> bytes:

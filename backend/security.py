@@ -37,6 +37,7 @@ from backend.safe_json import (  # noqa: F401 (re-exported: the names were impor
     MAX_BODY,
     MAX_DEPTH,
     MAX_INT,
+    MAX_MESSAGE,
     JsonSafetyError,
     check_json,
     dumps,
@@ -46,7 +47,7 @@ from backend.safe_json import (  # noqa: F401 (re-exported: the names were impor
     sanitize,
 )
 
-MAX_WS_MESSAGE = 64_000  # bytes per WebSocket message
+MAX_WS_MESSAGE = MAX_MESSAGE  # bytes per WebSocket message: one limit for every command message
 MUTATING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})

@@ -24,8 +24,7 @@ import numpy as np
 from backend.engine.dofs import DofType
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, FrameEvent
-from backend.remote_commands import decode_json
-from backend.safe_json import dumps
+from backend.safe_json import decode_message, dumps
 
 MAX_FRAME = 1_000_000  # bytes per frame message
 REPLY_LIMIT = 1_000_000  # bytes of one answer to a query (a program can be large)
@@ -64,7 +63,7 @@ def decode_frame(payload: bytes) -> dict[str, Any]:
 
 def json_of(sample: Any) -> Any:
     """The JSON value a Zenoh sample (an answer, an event, a status) carries; ValueError if it carries none."""
-    return decode_json(payload_bytes(sample.payload), max_bytes=REPLY_LIMIT)
+    return decode_message(payload_bytes(sample.payload), max_bytes=REPLY_LIMIT)
 
 
 def frame_of(sample: Any) -> tuple[dict[str, Any], float | None]:
