@@ -43,12 +43,17 @@ STATUS_PERIOD = 1.0  # s between status messages
 _refusals = Throttle(every=10.0)  # a misconfigured perception node refuses at 30 Hz: log once per 10 s
 
 
-def event_publisher(node: Any, namespace: str) -> Callable[[str], None]:
-    """A function publishing one JSON text on `<namespace>/events` (std_msgs/String)."""
+def text_publisher(node: Any, name: str, depth: int = 100) -> Callable[[str], None]:
+    """A function publishing one text (JSON) as std_msgs/String on topic `name`."""
     from std_msgs.msg import String  # lazy: ROS message packages load with the link
 
-    pub = node.create_publisher(String, topic(namespace, "events"), 100)
+    pub = node.create_publisher(String, name, depth)
     return lambda text: pub.publish(String(data=text))
+
+
+def event_publisher(node: Any, namespace: str) -> Callable[[str], None]:
+    """A function publishing one JSON text on `<namespace>/events`."""
+    return text_publisher(node, topic(namespace, "events"))
 
 
 class Ros2Link:
@@ -78,20 +83,21 @@ class Ros2Link:
     def open(self) -> Ros2Link:
         """Join ROS 2 (before the clock starts: a missing package or a refusing RMW stops the server
         before the robot moves); Ros2Unavailable saying why."""
+        self._join()
+        return self
+
+    def _join(self) -> RosNode:
         if self.ros is None:
             message_types()  # every message package there, or say which is missing
             self.ros = RosNode()
-        return self
+        return self.ros
 
     def start(self, hub: Any, closing: threading.Event | None = None) -> Ros2Link:
         self.hub = hub
         session = hub.session
-        ros = self.open().ros
-        if ros is None:  # open() made it
-            raise RuntimeError("ROS 2 node missing after open()")
-        node, types = ros.node, message_types()
+        node = self._join().node
         self.view = FrameView(session.embodiment)
-        self._status_pub = node.create_publisher(types["String"], topic(self.namespace, "status"), 10)
+        self._status = text_publisher(node, topic(self.namespace, "status"), depth=10)
         # one thread publishes every event, whichever thread (the clock's too) produced it
         self.events = Sink("ros2-events", event_publisher(node, self.namespace), max_queue=256)
         hub.listeners.append(self.publish_event)
@@ -148,10 +154,8 @@ class Ros2Link:
         return stats
 
     def _publish_status(self) -> None:
-        from std_msgs.msg import String  # lazy: loaded with the link (already imported by then)
-
         try:
-            self._status_pub.publish(String(data=dumps(self.status())))
+            self._status(dumps(self.status()))
         except Exception:  # closing: the next period tries again, or never comes
             log.debug("ROS 2: publishing the status failed", exc_info=True)
 
