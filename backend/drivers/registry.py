@@ -113,11 +113,13 @@ def build_drivers(embodiment: Embodiment, args: argparse.Namespace) -> list[Sink
     return sinks
 
 
-def host_port(text: str) -> tuple[str, int]:
-    """Parse `HOST:PORT` (port 1..65535) for network drivers."""
+def host_port(text: str, default_host: str | None = None) -> tuple[str, int]:
+    """Parse `HOST:PORT` (port 1..65535) for network drivers; with `default_host`, `PORT` alone too."""
     host, _, port = text.rpartition(":")
+    host = host or (default_host or "")
     if not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise argparse.ArgumentTypeError(f"expected HOST:PORT with a port within 1..65535, got '{text}'")
+        wanted = "PORT or HOST:PORT" if default_host else "HOST:PORT"
+        raise argparse.ArgumentTypeError(f"expected {wanted} with a port within 1..65535, got '{text}'")
     return host, int(port)
 
 

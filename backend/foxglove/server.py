@@ -23,12 +23,11 @@ that has some. Message log times are the frames' stamps (ns since the Unix epoch
 
 from __future__ import annotations
 
-import argparse
 import logging
 import time
 from typing import Any
 
-from backend.drivers.registry import DriverOption
+from backend.drivers.registry import DriverOption, host_port
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.runtime import Sink
@@ -57,14 +56,9 @@ EVENT_SCHEMA = {
 
 
 def parse_address(text: str) -> tuple[str, int]:
-    """`PORT` (on 127.0.0.1) or `HOST:PORT`; the port within 1..65535."""
-    host, _, port = text.rpartition(":")
-    host = host.strip("[]") or DEFAULT_HOST
-    if not port.isdigit() or not 0 < int(port) < 65536:
-        raise argparse.ArgumentTypeError(
-            f"expected PORT or HOST:PORT with a port within 1..65535, got '{text}'"
-        )
-    return host, int(port)
+    """`PORT` (on 127.0.0.1) or `HOST:PORT`; the port within 1..65535; an IPv6 host may be bracketed."""
+    host, port = host_port(text, default_host=DEFAULT_HOST)
+    return host.strip("[]") or DEFAULT_HOST, port
 
 
 def _sdk() -> Any:
