@@ -23,8 +23,7 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import dataclass
-from queue import Empty, SimpleQueue
+from queue import SimpleQueue
 from typing import Any
 
 import numpy as np
@@ -40,6 +39,7 @@ from backend.engine.compiled.frames import DERIVATIVES_SIG, derivatives
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, net_correction
 from backend.engine.gil import ClockPriority
+from backend.engine.pending import Pending, drain
 from backend.engine.profile import SAMPLE_EVERY, WINDOW, CookTimes
 from backend.engine.safety import SafetyNet
 from backend.engine.sinks import Sink
@@ -52,12 +52,6 @@ log = logging.getLogger(__name__)
 _faults = Throttle(every=10.0)  # a faulty block or listener fails on every tick: logged once per 10 s
 
 __all__ = ["MAX_RATE", "MIN_RATE", "Clock", "Engine", "RingStats", "Sink", "WallClock"]
-
-
-@dataclass
-class _Pending:
-    fn: Callable[[], Any]
-    future: Future
 
 
 class Engine:
@@ -102,7 +96,7 @@ class Engine:
         self.apu: APU | None = None
         self.seq = 0
         self.t = 0.0
-        self._pending: SimpleQueue[_Pending] = SimpleQueue()
+        self._pending: SimpleQueue[Pending] = SimpleQueue()
         self._sinks: list[Sink] = []
         self._sinks_lock = threading.Lock()
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
@@ -146,7 +140,7 @@ class Engine:
     def call_soon(self, fn: Callable[[], Any]) -> Future:
         """Run `fn` in the clock thread at the next tick boundary; the Future gets its result or error."""
         fut: Future = Future()
-        self._pending.put(_Pending(fn, fut))
+        self._pending.put(Pending(fn, fut))
         return fut
 
     def call(self, fn: Callable[[], Any], timeout: float = 10.0) -> Any:
@@ -229,6 +223,21 @@ class Engine:
 
         return swap
 
+    def start_from(
+        self, position: np.ndarray, joints: np.ndarray | None = None, seconds: float | None = None
+    ) -> None:
+        """Before the first tick: the robot stands at `position` (C,) with its joints at `joints` (over
+        `joint_names`, NaN: not measured; backend.engine.start_pose). The first frames blend from there
+        to the program over at least `seconds` (None: as fast as the limits allow), within every limit."""
+        if self.seq:
+            raise RuntimeError("start_from is for an engine that has not ticked yet")
+        self.safety.reset(position, joints)
+        self._pos = np.array(position, dtype=float)
+        self._past = ((self._pos,) * 3, (self.safety.joint_out,) * 3)
+        self._transition = Transition.start(
+            self.embodiment, self._pos, np.zeros_like(self._pos), self.rate, seconds
+        )
+
     def park(self, timeout: float = 3.0) -> dict[str, Any]:
         """Bring the robot to its exact rest pose within its limits (`backend.engine.parking.park`)."""
         return parking.park(self, timeout)
@@ -303,18 +312,7 @@ class Engine:
 
     # --- ticking --------------------------------------------------------------------------------
     def _drain_pending(self) -> None:
-        pending = self._pending
-        while not pending.empty():  # (callers hold the tick lock: nobody else takes items meanwhile)
-            try:
-                item = pending.get_nowait()
-            except Empty:
-                return
-            if not item.future.set_running_or_notify_cancel():
-                continue
-            try:
-                item.future.set_result(item.fn())
-            except BaseException as exc:  # noqa: BLE001 (not swallowed: the caller's future re-raises it)
-                item.future.set_exception(exc)
+        drain(self._pending)
 
     def tick(self) -> AnimationFrame:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""

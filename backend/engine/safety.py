@@ -376,28 +376,17 @@ class SafetyNet:
         self.corrected_any = False
         self.reset(emb.rest if start is None else start)
 
-    @property
-    def lo(self) -> np.ndarray:
-        return self.limits[LIM_LO]
+    # The limits of the governed channels (rows of `limits`), by name: position, velocity, acceleration, jerk.
+    lo = property(lambda self: self.limits[LIM_LO])
+    hi = property(lambda self: self.limits[LIM_HI])
+    V = property(lambda self: self.limits[LIM_V])
+    A = property(lambda self: self.limits[LIM_A])
+    J = property(lambda self: self.limits[LIM_J])
 
-    @property
-    def hi(self) -> np.ndarray:
-        return self.limits[LIM_HI]
-
-    @property
-    def V(self) -> np.ndarray:
-        return self.limits[LIM_V]
-
-    @property
-    def A(self) -> np.ndarray:
-        return self.limits[LIM_A]
-
-    @property
-    def J(self) -> np.ndarray:
-        return self.limits[LIM_J]
-
-    def reset(self, position: np.ndarray) -> None:
-        """Start from `position` at rest (zero velocity and acceleration)."""
+    def reset(self, position: np.ndarray, joints: np.ndarray | None = None) -> None:
+        """Start from `position` (C,) at rest (zero velocity and acceleration); `joints` (over
+        `emb.joint_names`, NaN: not known) where the joints really stand when the channels cannot say
+        (a joint that symbolic DoFs alone drive, measured by a servo), so the joint stage starts there."""
         position = np.asarray(position, dtype=float)
         self.state = rest_state(position[self.idx], self.lo, self.hi)
         self._locked = np.ones(len(self.idx), dtype=bool)
@@ -405,6 +394,8 @@ class SafetyNet:
         start = np.array(position)
         start[self.idx] = self.state[ROW_P]
         q = self.joints.compose(start)
+        if joints is not None:
+            q = np.where(np.isfinite(joints), joints, q)
         jl = self._jlimits
         self._jstate = rest_state(q[self._jidx], jl[LIM_LO], jl[LIM_HI])
         self._jlocked = np.ones(len(self._jidx), dtype=bool)
