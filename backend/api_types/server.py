@@ -73,6 +73,45 @@ class PrevizStatus(Shape):
     ghost: bool
 
 
+class JointReading(Shape):
+    """One joint as a driver that reads its motors sees it (servos, a physics preview)."""
+
+    commanded: float = Field(..., description="the goal last sent (rad or m)")
+    measured: float | None = Field(..., description="the joint's read position (rad or m; null: not read)")
+    error: float | None = Field(..., description="commanded - measured (rad or m; null: not read)")
+    effort: float | None = Field(
+        ...,
+        description="the load: a fraction of the motor's maximum torque for servos (-1..1; null: unknown)",
+    )
+    saturated: bool = Field(..., description="the motor is at its torque (or speed) limit")
+
+
+class ServoFault(Shape):
+    joint: str
+    id: int = Field(..., description="the servo's bus id (PWM: its channel)")
+    bus: str = Field(..., description="where the bus is (its port)")
+    fault: Literal["overload", "overheat", "voltage", "encoder", "electrical", "no_answer"]
+    t: float = Field(..., description="engine time of the fault (s)")
+
+
+class BusStatus(OpenShape):
+    driver: str = Field(..., description="the bus kind: dynamixel, feetech, pca9685, ...")
+    port: str
+    joints: list[str]
+    writes: int = Field(..., description="goal transactions sent since the start")
+    reads: int = Field(..., description="position reads completed since the start")
+    read_hz: float = Field(..., description="position reads per second over the last second")
+    missed_reads: int = Field(..., description="servo replies missing or corrupt since the start")
+
+
+class HardwareStatus(OpenShape):
+    file: str | None = Field(..., description="the hardware.yaml in use")
+    state: Literal["starting", "running", "faulted", "parking", "stopped"]
+    buses: list[BusStatus]
+    faults: list[ServoFault] = Field(..., description="the servo faults since the start (the joints held)")
+    torque_on_exit: bool
+
+
 class ServerStatus(OpenShape):
     """GET /api/status: the engine's statistics (tick, APU level, safety net, sinks with drop counts),
     the clients and the Pre-Viz. Open: the engine's statistics are a diagnostic document that grows;
@@ -98,6 +137,14 @@ class ServerStatus(OpenShape):
     clients: ClientCounts
     program: str | None = Field(..., description="the running program's name")
     previz: PrevizStatus | None
+    joints: dict[str, JointReading] | None = Field(
+        default=None,
+        description="URDF joint -> commanded vs measured, from the drivers that read their motors "
+        "(null: none does)",
+    )
+    hardware: HardwareStatus | None = Field(
+        default=None, description="the real servos (`--hardware`; null: none configured)"
+    )
 
 
 # --- the trajectory-helper and the ghost -----------------------------------------------------------------

@@ -9,6 +9,7 @@ from pydantic import Field, RootModel
 
 from backend.api_types.base import OpenShape, Shape
 from backend.api_types.editor import CommandStatus
+from backend.api_types.server import JointReading
 from backend.engine.blend import BlendMode
 
 # --- WebSockets --------------------------------------------------------------------------------------
@@ -142,6 +143,11 @@ class Telemetry(Shape):
     )
     layers: dict[str, list[LayerState]] | None = None
     profile: Profile | None = None
+    measured: dict[str, JointReading] | None = Field(
+        default=None,
+        description="URDF joint -> commanded vs measured at the motors (with frames on, when a driver "
+        "reads its motors: servos, a physics preview)",
+    )
 
 
 class SocketError(OpenShape):

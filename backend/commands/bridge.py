@@ -12,6 +12,7 @@ import threading
 from backend.bridge import DEFAULT_TIMEOUT, MAX_TIMEOUT, MIN_TIMEOUT
 from backend.commands._common import fail
 from backend.drivers import DRIVER_OPTIONS, add_driver_options
+from backend.drivers.registry import engine_only
 from backend.logs import add_logging_options
 from backend.ros2.options import add_ros2_options, check_ros2_options
 from backend.shutdown import DEFAULT_SHUTDOWN_TIMEOUT, SHUTDOWN_SIGNALS
@@ -94,6 +95,9 @@ def chosen_drivers(args: argparse.Namespace) -> list[tuple[str, object]]:
     given for a driver not chosen."""
     names = list(dict.fromkeys(args.driver))
     out = []
+    refused = engine_only(args, "`nutty bridge`")
+    if refused:
+        raise ValueError(refused)
     for name in names:
         opt = DRIVER_OPTIONS[name]
         value = getattr(args, opt.dest, None)

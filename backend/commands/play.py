@@ -17,6 +17,7 @@ from pathlib import Path
 
 from backend.commands._common import fail
 from backend.drivers import add_driver_options, build_drivers
+from backend.drivers.registry import engine_only
 from backend.logs import add_logging_options
 from backend.shutdown import SHUTDOWN_SIGNALS
 
@@ -63,7 +64,7 @@ def _check(args: argparse.Namespace) -> str | None:
         return f"a recording is FILE.mcap or FILE.jsonl, got '{args.recording}'"
     if not path.is_file():
         return f"no recording at '{args.recording}'"
-    return None
+    return engine_only(args, "`nutty play`")
 
 
 def run(args) -> int:

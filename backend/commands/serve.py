@@ -363,6 +363,11 @@ def server_config(uvicorn, app, args, shutdown):
 
 
 def attach_drivers(session, args) -> None:
-    """The drivers the command line asks for (each driver declares its own option: backend/drivers)."""
+    """The drivers the command line asks for (each driver declares its own option: backend/drivers).
+    A driver with `prepare(engine)` (real servos: connect, start from the measured pose) gets it before
+    the clock's first tick; its error stops the start."""
     for sink in build_drivers(session.embodiment, args):
         session.engine.add_sink(sink)
+        prepare = getattr(sink, "prepare", None)
+        if callable(prepare):
+            prepare(session.engine)

@@ -47,6 +47,9 @@ class DriverOption:
     default: Any = None
     enabled: Callable[[Any], bool] = bool
     build: Callable[[Embodiment, Any], Sink] = _unregistered
+    #: The driver starts the engine itself (`prepare(engine)`, e.g. real servos: from the measured
+    #: pose), so only `nutty serve` can run it, not the engine-less bridge or player.
+    needs_engine: bool = False
 
     @property
     def dest(self) -> str:
@@ -111,6 +114,17 @@ def build_drivers(embodiment: Embodiment, args: argparse.Namespace) -> list[Sink
         if value is not None and opt.enabled(value):
             sinks.append(opt.build(embodiment, value))
     return sinks
+
+
+def engine_only(args: argparse.Namespace, tool: str) -> str | None:
+    """Why `tool` (an engine-less command: the bridge, the player) cannot run the drivers `args` asks
+    for, or None: a driver that starts the engine itself runs only in `nutty serve`."""
+    for name in sorted(DRIVER_OPTIONS):
+        opt = DRIVER_OPTIONS[name]
+        value = getattr(args, opt.dest, opt.default)
+        if opt.needs_engine and value is not None and opt.enabled(value):
+            return f"--{name} runs only in `nutty serve` (it starts the engine from where the robot stands), not in {tool}"
+    return None
 
 
 def host_port(text: str, default_host: str | None = None) -> tuple[str, int]:

@@ -10,6 +10,7 @@ from fastapi.responses import RedirectResponse, Response
 
 from backend import security
 from backend.api_types import GhostSet, PrevizInfo, Profile, ServerStatus, ThemeSet
+from backend.drivers.readings import hardware_status, joint_readings
 from backend.errors import DomainError
 from backend.hub import Hub
 from backend.routes.bodies import GhostToggle, ThemeChoice
@@ -51,6 +52,9 @@ def status(request: Request, hub: HubDep) -> dict[str, Any]:
         if hub.previz
         else None
     )
+    sinks = session.engine.sinks
+    stats["joints"] = joint_readings(sinks)
+    stats["hardware"] = hardware_status(sinks)
     return stats
 
 

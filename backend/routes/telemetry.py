@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from backend import security
+from backend.drivers.readings import joint_readings
 from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import LIMIT_NAMES, AnimationFrame, PartialFrame
@@ -245,6 +246,9 @@ class Subscription:
             events = session.recent_events.recent(frame.t)
             if events:  # every event of the last seconds: the client plays each once (by seq, index)
                 msg["events"] = events
+            measured = joint_readings(session.engine.sinks)
+            if measured:
+                msg["measured"] = measured
         if apu is not None:
             msg["layers"] = {
                 s.node_id: s.block.layer_states() for s in apu.steps if isinstance(s.block, LayerMixer)

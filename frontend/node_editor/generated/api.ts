@@ -899,7 +899,17 @@ export interface Saved {
 export interface ServerStatus {
   clients: ClientCounts;
   clock_priority: ClockPriority | null;
+  /**
+   * the real servos (`--hardware`; null: none configured)
+   */
+  hardware?: HardwareStatus | null;
   jitter: TimingSummary;
+  /**
+   * URDF joint -> commanded vs measured, from the drivers that read their motors (null: none does)
+   */
+  joints?: {
+    [k: string]: JointReading;
+  } | null;
   /**
    * the running program's APU level (null: none runs)
    */
@@ -965,6 +975,73 @@ export interface ClockPriority {
   switch_interval_ms: number;
 }
 /**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "HardwareStatus".
+ */
+export interface HardwareStatus {
+  buses: BusStatus[];
+  /**
+   * the servo faults since the start (the joints held)
+   */
+  faults: ServoFault[];
+  /**
+   * the hardware.yaml in use
+   */
+  file: string | null;
+  state: "starting" | "running" | "faulted" | "parking" | "stopped";
+  torque_on_exit: boolean;
+  [k: string]: unknown;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "BusStatus".
+ */
+export interface BusStatus {
+  /**
+   * the bus kind: dynamixel, feetech, pca9685, ...
+   */
+  driver: string;
+  joints: string[];
+  /**
+   * servo replies missing or corrupt since the start
+   */
+  missed_reads: number;
+  port: string;
+  /**
+   * position reads per second over the last second
+   */
+  read_hz: number;
+  /**
+   * position reads completed since the start
+   */
+  reads: number;
+  /**
+   * goal transactions sent since the start
+   */
+  writes: number;
+  [k: string]: unknown;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ServoFault".
+ */
+export interface ServoFault {
+  /**
+   * where the bus is (its port)
+   */
+  bus: string;
+  fault: "overload" | "overheat" | "voltage" | "encoder" | "electrical" | "no_answer";
+  /**
+   * the servo's bus id (PWM: its channel)
+   */
+  id: number;
+  joint: string;
+  /**
+   * engine time of the fault (s)
+   */
+  t: number;
+}
+/**
  * Figures of a duration over the engine's recent ticks, in ms.
  *
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -975,6 +1052,34 @@ export interface TimingSummary {
   p50_ms: number;
   p99_ms: number;
   samples: number;
+}
+/**
+ * One joint as a driver that reads its motors sees it (servos, a physics preview).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "JointReading".
+ */
+export interface JointReading {
+  /**
+   * the goal last sent (rad or m)
+   */
+  commanded: number;
+  /**
+   * the load: a fraction of the motor's maximum torque for servos (-1..1; null: unknown)
+   */
+  effort: number | null;
+  /**
+   * commanded - measured (rad or m; null: not read)
+   */
+  error: number | null;
+  /**
+   * the joint's read position (rad or m; null: not read)
+   */
+  measured: number | null;
+  /**
+   * the motor is at its torque (or speed) limit
+   */
+  saturated: boolean;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -1287,6 +1392,12 @@ export interface Telemetry {
   frame?: TelemetryFrame | null;
   layers?: {
     [k: string]: LayerState[];
+  } | null;
+  /**
+   * URDF joint -> commanded vs measured at the motors (with frames on, when a driver reads its motors: servos, a physics preview)
+   */
+  measured?: {
+    [k: string]: JointReading;
   } | null;
   profile?: Profile | null;
   seq: number;
