@@ -1,6 +1,7 @@
 // What the editor keeps of the telemetry stream: the live value and short history of every
 // subscribed output, the mixers' layer states, the safety net's totals, and the last minute of frames
-// for the curve panel (what the program asked, what the robot got, what the safety net changed).
+// for the curve panel (what the program asked, what the robot got, what the safety net changed, what the
+// motors read when a driver reads them).
 // Pure functions of the previous state and one message (tested with vitest).
 import type { LayerState, NetTotals, Profile, SignalRef, Telemetry, TelemetrySubscribe } from "./api";
 
@@ -40,10 +41,19 @@ export interface Samples {
   classes: Record<string, number>[];
   /** Per sample, the net's corrections: series key -> [limit code (LIMIT_CODE), |requested - delivered|]. */
   net: Record<string, [number, number]>[];
+  /** Read at the motors, by joint key, when a driver reads them (servos, a physics preview); null where
+   * a sample had no reading (a gap: a missed read is not a position of zero). */
+  measured: Record<string, (number | null)[]>;
+  /** The tracking error at the motors (commanded - read) by joint key; null where not read. */
+  error: Record<string, (number | null)[]>;
+  /** Whether the motor was at its torque (or speed) limit, by joint key; null where no reading came. */
+  saturated: Record<string, (boolean | null)[]>;
 }
 
 export const emptyLive: Live = { values: {}, history: {}, layers: {}, t: 0, profile: null, net: null };
-export const emptySamples: Samples = { t: [], final: {}, requested: {}, stage1: {}, classes: [], net: [] };
+export const emptySamples: Samples = {
+  t: [], final: {}, requested: {}, stage1: {}, classes: [], net: [], measured: {}, error: {}, saturated: {},
+};
 
 export function subscription(signals: SignalRef[]): TelemetrySubscribe {
   return { type: "subscribe", signals, frames: true, rate: TELEMETRY_HZ };
@@ -79,9 +89,9 @@ function push<T>(list: T[], value: T, keep: number) {
 
 /** Append each series' value of this sample (in place); a series first seen now starts with gaps, one
  * missing now gets a gap, so every series stays aligned with `t`. */
-function pushAll(series: Record<string, (number | null)[]>, values: Record<string, number | null>, n: number, keep: number) {
+function pushAll<T>(series: Record<string, (T | null)[]>, values: Record<string, T | null>, n: number, keep: number) {
   for (const [k, v] of Object.entries(values)) {
-    series[k] ??= new Array<number | null>(Math.max(0, Math.min(n, keep) - 1)).fill(null);
+    series[k] ??= new Array<T | null>(Math.max(0, Math.min(n, keep) - 1)).fill(null);
     push(series[k], v, keep);
   }
   for (const [k, list] of Object.entries(series)) if (!(k in values)) push(list, null, keep);
@@ -118,11 +128,18 @@ export function nextSamples(prev: Samples, msg: Telemetry, keep = CURVE_SECONDS 
   pushAll(s.stage1, keyed(frame.stage1, dofKey), n, keep);
   push(s.classes, frame.classes ?? {}, keep);
   push(s.net, net, keep);
+  const readings = Object.entries(msg.measured ?? {});
+  pushAll(s.measured, Object.fromEntries(readings.map(([j, r]) => [jointKey(j), r.measured])), n, keep);
+  pushAll(s.error, Object.fromEntries(readings.map(([j, r]) => [jointKey(j), r.error])), n, keep);
+  pushAll(s.saturated, Object.fromEntries(readings.map(([j, r]) => [jointKey(j), r.saturated])), n, keep);
   return s;
 }
 
 /** A copy of the samples that later messages do not change (the curve panel's pause). */
 export function snapshot(s: Samples): Samples {
-  const copy = (r: Record<string, (number | null)[]>) => Object.fromEntries(Object.entries(r).map(([k, v]) => [k, [...v]]));
-  return { t: [...s.t], final: copy(s.final), requested: copy(s.requested), stage1: copy(s.stage1), classes: [...s.classes], net: [...s.net] };
+  const copy = <T>(r: Record<string, T[]>) => Object.fromEntries(Object.entries(r).map(([k, v]) => [k, [...v]]));
+  return {
+    t: [...s.t], final: copy(s.final), requested: copy(s.requested), stage1: copy(s.stage1), classes: [...s.classes], net: [...s.net],
+    measured: copy(s.measured), error: copy(s.error), saturated: copy(s.saturated),
+  };
 }

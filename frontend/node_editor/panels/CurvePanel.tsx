@@ -2,7 +2,9 @@
 // safety net, dashed) and what the robot got (after it, solid; joints in joint space), each correction
 // of the net marked where it happens in the colour of the limit it enforced (velocity orange,
 // acceleration pink, jerk red, position purple), the position limits on the y axis. The legend counts
-// the delivered frames in view. Pause keeps the last minute; the slider then scrubs through it.
+// the delivered frames in view. A joint read at its motors (servos, a physics preview) also shows what
+// they measured (dotted), and the legend its peak tracking error and saturation in view. Pause keeps the
+// last minute; the slider then scrubs through it.
 // The series are the robot's first continuous DoF until the user (or the top bar's safety indicator,
 // ../live/liveUi `showCurves`) picks others.
 import { useContext, useEffect, useMemo, useRef, useState } from "react";
@@ -16,6 +18,7 @@ import { ticks } from "../live/logic";
 import { drawOverlay, type Overlay } from "../live/curveDraw";
 import { legendText, netCounts, seriesOf, viewWindow, yRange, type SeriesInfo } from "../live/net";
 import { setCurves, useLiveUi } from "../live/liveUi";
+import { measuredKeys, trackingInView, trackingText } from "../live/measured";
 
 const AXIS_FONT_PX = 7;  // about one character of the axis font
 /** The plot's height, and its width before its box is measured. */
@@ -50,10 +53,13 @@ export function CurvePanel() {
   const [from, to] = viewWindow(samples.t, VIEW_SECONDS, paused ? back : 0);
   const span = samples.t.length ? samples.t[samples.t.length - 1] - samples.t[0] : 0;
   const counts = netCounts(samples, keys, from, to);
+  const tracking = trackingInView(samples, series, from, to);
+  const read = useMemo(() => measuredKeys(live), [live]);
   const pause = () => { setPaused(paused ? null : snapshot(live)); setBack(0); };
   return (
     <div className="curves" data-testid="curve-panel" data-span={span.toFixed(2)} ref={panel}>
-      <CurveHead all={all} series={series} onSeries={setCurves} paused={!!paused} onPause={pause} />
+      <CurveHead all={all} series={series} onSeries={setCurves} paused={!!paused} onPause={pause} read={read}
+                 measured={tracking.length > 0} />
       <div className="curve-legend" data-testid="curve-legend">
         <span data-testid="curve-frames">{counts.frames} frames</span>
         <span className="net-count" data-testid="net-legend" style={{ color: counts.corrected ? "#ffb36b" : undefined }}>
@@ -63,6 +69,12 @@ export function CurvePanel() {
         {CLASS_NAMES.map((n, i) => (
           <span key={n} className="cls" style={{ color: CLASS_COLOURS[i] }}>● {n} {counts.delivered[i]}</span>
         ))}
+        {tracking.length > 0 && (
+          <span className="measured" data-testid="curve-measured"
+                style={{ color: tracking.some((t) => t.saturated) ? "#ffb36b" : undefined }}>
+            {tracking.map(trackingText).join(" · ")}
+          </span>
+        )}
       </div>
       {paused && (
         <label className="scrub">
@@ -72,19 +84,24 @@ export function CurvePanel() {
                  onChange={(e) => setBack(Math.max(0, span - VIEW_SECONDS) - Number(e.target.value))} />
         </label>
       )}
-      <CurvePlot samples={samples} from={from} to={to} series={series} />
+      <CurvePlot samples={samples} from={from} to={to} series={series} measured={tracking.map((t) => t.key)} />
     </div>
   );
 }
 
-function CurveHead({ all, series, onSeries, paused, onPause }: {
+function CurveHead({ all, series, onSeries, paused, onPause, read, measured }: {
   all: SeriesInfo[]; series: SeriesInfo[]; onSeries: (keys: string[]) => void; paused: boolean; onPause: () => void;
+  /** the joints read at their motors (marked, so they can be found) */
+  read: Set<string>;
+  /** whether a measured line is in view (the legend then explains it) */
+  measured: boolean;
 }) {
   const keys = series.map((s) => s.key);
+  const option = (s: SeriesInfo) => <option key={s.key} value={s.key}>{s.label}{read.has(s.key) ? " ●measured" : ""}</option>;
   const options = (
     <>
-      <optgroup label="DoFs">{all.filter((s) => s.key.startsWith("dof:")).map((s) => <option key={s.key} value={s.key}>{s.label}</option>)}</optgroup>
-      <optgroup label="joints">{all.filter((s) => s.key.startsWith("joint:")).map((s) => <option key={s.key} value={s.key}>{s.label}</option>)}</optgroup>
+      <optgroup label="DoFs">{all.filter((s) => s.key.startsWith("dof:")).map(option)}</optgroup>
+      <optgroup label="joints">{all.filter((s) => s.key.startsWith("joint:")).map(option)}</optgroup>
     </>
   );
   return (
@@ -103,7 +120,9 @@ function CurveHead({ all, series, onSeries, paused, onPause }: {
           )}
         </span>
       ))}
-      <span className="legend"><i className="dash" /> asked <i className="solid" /> delivered</span>
+      <span className="legend">
+        <i className="dash" /> asked <i className="solid" /> delivered{measured && <> <i className="dot" /> measured</>}
+      </span>
       <button className="pause" data-testid="curve-pause" onClick={onPause}
               title={paused ? "follow the robot again" : "hold the last minute, to scrub through it"}>
         {paused ? "▶ Live" : "❚❚ Pause"}
@@ -141,12 +160,20 @@ function plotOptions(width: number, series: SeriesInfo[], overlay: { current: Ov
           { label: `${s.label} delivered`, stroke: colour, width: 2, points: { show: false } },
         ];
       }),
+      // after all the asked/delivered pairs: curveDraw finds those pairs by index
+      ...series.map((s, i) => (
+        { label: `${s.label} measured`, stroke: SERIES_COLOURS[i % SERIES_COLOURS.length], width: 1.5, dash: [1, 3], cap: "round" as const, points: { show: false } }
+      )),
     ],
     hooks: { draw: [drawOverlay(overlay)] },
   };
 }
 
-function CurvePlot({ samples, from, to, series }: { samples: Samples; from: number; to: number; series: SeriesInfo[] }) {
+function CurvePlot({ samples, from, to, series, measured }: {
+  samples: Samples; from: number; to: number; series: SeriesInfo[];
+  /** the series with a measured line in view */
+  measured: string[];
+}) {
   const box = useRef<HTMLDivElement>(null);
   const plot = useRef<uPlot | null>(null);
   const overlay = useRef<Overlay>({ series: [], colours: [], net: [] });
@@ -157,7 +184,7 @@ function CurvePlot({ samples, from, to, series }: { samples: Samples; from: numb
     if (!box.current) return;
     const el = box.current;
     plot.current = new uPlot(plotOptions(el.clientWidth || FALLBACK_WIDTH, series, overlay, range, el),
-      [[], ...series.flatMap(() => [[], []])], el);
+      [[], ...series.flatMap(() => [[], []]), ...series.map(() => [])], el);
     const ro = new ResizeObserver(() => plot.current?.setSize({ width: el.clientWidth, height: PLOT_HEIGHT }));
     ro.observe(el);
     return () => { ro.disconnect(); plot.current?.destroy(); plot.current = null; };
@@ -168,9 +195,14 @@ function CurvePlot({ samples, from, to, series }: { samples: Samples; from: numb
       (samples.requested[s.key] ?? []).slice(from, to), (samples.final[s.key] ?? []).slice(from, to),
     ]);
     overlay.current = { series, colours: series.map((_, i) => SERIES_COLOURS[i % SERIES_COLOURS.length]), net: samples.net.slice(from, to) };
-    range.current = yRange(data, series.flatMap((s) => [s.lo, s.hi]));
-    plot.current?.setData([samples.t.slice(from, to), ...data] as uPlot.AlignedData);
+    // nulls for a series never read: uPlot wants every series as long as the x values
+    const read = series.map((s) => samples.measured[s.key]?.slice(from, to) ?? new Array<null>(to - from).fill(null));
+    range.current = yRange([...data, ...read], series.flatMap((s) => [s.lo, s.hi]));
+    plot.current?.setData([samples.t.slice(from, to), ...data, ...read] as uPlot.AlignedData);
   }, [samples, from, to, series]);
 
-  return <div ref={box} className="plot" data-testid="curve-plot" data-series={series.map((s) => s.key).join(" ")} />;
+  return (
+    <div ref={box} className="plot" data-testid="curve-plot" data-series={series.map((s) => s.key).join(" ")}
+         data-measured={measured.join(" ")} />
+  );
 }
