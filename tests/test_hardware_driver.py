@@ -10,7 +10,9 @@ import time
 
 import numpy as np
 import pytest
+from fastapi.testclient import TestClient
 
+from backend.api import create_app
 from backend.engine.embodiment import load_embodiment
 from backend.hardware.bus import HardwareError
 from backend.hardware.config import check_against, parse_hardware
@@ -162,7 +164,7 @@ def test_an_overload_holds_the_joint_fades_the_rest_to_rest_and_is_reported(emb,
         dxl.set_fault(HEAD["head_yaw"], "overload")
         assert wait_for(lambda: driver.faults, 2.0), "the overload was never seen"
         fault = driver.faults[0]
-        assert (fault["joint"], fault["id"], fault["fault"], fault["bus"]) == (
+        assert (fault["joint"], fault["servo"], fault["fault"], fault["bus"]) == (
             "head_yaw",
             3,
             "overload",
@@ -219,3 +221,26 @@ def test_stop_parks_at_rest_then_switches_torque_off_unless_kept(emb, keep):
     rest = emb.joint_positions(emb.rest)[list(emb.joint_names).index("head_yaw")]
     assert dxl.position(HEAD["head_yaw"]) == pytest.approx(2048 + rest * TICKS_PER_RAD, abs=3)
     assert driver.hardware_status()["state"] == "stopped"
+
+
+def test_a_servo_fault_reaches_control_clients_as_an_event(emb):
+    session, driver = make(emb)
+    try:
+        driver.prepare(session.engine)
+        session.engine.start()
+        with TestClient(create_app(session, frontend_dir=None)) as client:
+            with client.websocket_connect("/ws/control") as ws:
+                time.sleep(0.3)
+                driver.emulators[1].set_fault(2, "overheat")  # ear_right, on the Feetech bus
+                for _ in range(200):
+                    message = ws.receive_json()
+                    if message.get("event") == "servo_fault":
+                        break
+            assert (
+                message["joint"] == "ear_right" and message["servo"] == 2 and message["fault"] == "overheat"
+            )
+            status = client.get("/api/status").json()
+            assert status["hardware"]["state"] == "faulted"
+            assert [f["joint"] for f in status["hardware"]["faults"]] == ["ear_right"]
+    finally:
+        session.engine.close()

@@ -88,7 +88,7 @@ class JointReading(Shape):
 
 class ServoFault(Shape):
     joint: str
-    id: int = Field(..., description="the servo's bus id (PWM: its channel)")
+    servo: int = Field(..., description="the servo's bus id (PWM: its channel)")
     bus: str = Field(..., description="where the bus is (its port)")
     fault: Literal["overload", "overheat", "voltage", "encoder", "electrical", "no_answer"]
     t: float = Field(..., description="engine time of the fault (s)")

@@ -158,7 +158,7 @@ class HardwareDriver(Sink[AnimationFrame]):
         joint = worker.map.names[k]
         entry = {
             "joint": joint,
-            "id": worker.map.ids[k],
+            "servo": worker.map.ids[k],
             "bus": worker.bus.where,
             "fault": fault,
             "t": round(t, 4),
@@ -169,7 +169,7 @@ class HardwareDriver(Sink[AnimationFrame]):
         log.error(
             "servo fault on %s (id %d, %s): %s; holding it, the rest of the robot goes to rest",
             joint,
-            entry["id"],
+            entry["servo"],
             entry["bus"],
             fault,
         )

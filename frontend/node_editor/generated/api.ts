@@ -1031,11 +1031,11 @@ export interface ServoFault {
    */
   bus: string;
   fault: "overload" | "overheat" | "voltage" | "encoder" | "electrical" | "no_answer";
+  joint: string;
   /**
    * the servo's bus id (PWM: its channel)
    */
-  id: number;
-  joint: string;
+  servo: number;
   /**
    * engine time of the fault (s)
    */

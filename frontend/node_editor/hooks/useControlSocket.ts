@@ -9,6 +9,8 @@ const RECONNECT_MS = 1000;
 export function describeControlMessage(m: ControlMessage): string {
   switch (m.type) {
     case "event":
+      if (m.event === "servo_fault")  // the robot stopped its show: say which servo and why
+        return `servo fault: ${String(m.joint)} (servo ${String(m.servo)} on ${String(m.bus)}): ${String(m.fault)}; held, the rest of the robot went to rest`;
       return `event ${m.event}${m.command ? " " + m.command : ""}${m.id ? " #" + m.id : ""}${m.node ? " @" + m.node : ""}`;
     case "ack":
       return `ack #${m.id} ${m.status}`;

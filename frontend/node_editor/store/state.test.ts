@@ -143,6 +143,8 @@ describe("reports and notices", () => {
       .toBe("event started play_clip #7 @gesture");
     expect(describeControlMessage({ type: "ack", id: "7", status: "started", result: null })).toBe("ack #7 started");
     expect(describeControlMessage({ type: "error", code: "no_target", message: "no clip player" })).toBe("error no_target: no clip player");
+    expect(describeControlMessage({ type: "event", event: "servo_fault", id: null, joint: "head_yaw", servo: 3, bus: "/dev/ttyUSB0", fault: "overload", t: 4.2 }))
+      .toBe("servo fault: head_yaw (servo 3 on /dev/ttyUSB0): overload; held, the rest of the robot went to rest");
   });
 });
 
