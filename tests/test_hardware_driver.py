@@ -62,8 +62,9 @@ def truth():
     return joint_truth(ROBOTS / "nutty_desk")
 
 
-def make(emb, **settings):
-    hardware = parse_hardware(hardware_file(**settings))
+def make(emb, buses=None, **settings):
+    data = hardware_file(**settings)
+    hardware = parse_hardware({**data, "buses": buses} if buses else data)
     check_against(hardware, emb)
     session = EngineSession.create(emb, rate=100.0)
     session.load_program((ROBOTS / "nutty_desk" / "programs" / "interactive.json").read_text())
@@ -242,5 +243,33 @@ def test_a_servo_fault_reaches_control_clients_as_an_event(emb):
             status = client.get("/api/status").json()
             assert status["hardware"]["state"] == "faulted"
             assert [f["joint"] for f in status["hardware"]["faults"]] == ["ear_right"]
+    finally:
+        session.engine.close()
+
+
+def test_a_pwm_board_that_stops_answering_is_a_fault_of_its_joints(emb):
+    pwm = {
+        "driver": "pca9685",
+        "joints": {
+            "eyelid_left": {"channel": 0, "pulse_us": {0.0: 1000, 1.3: 1830}},
+            "eyelid_right": {"channel": 1, "pulse_us": {0.0: 2000, 1.3: 1170}},
+        },
+    }
+    session, driver = make(emb, buses=[pwm], no_answer_ms=150)
+    chip = driver.emulators[0]
+    try:
+        driver.prepare(session.engine)
+        session.engine.start()
+        assert wait_for(lambda: driver.workers[0].reads >= 10, 3.0)
+        assert driver.faults == [] and driver.workers[0].missed == 0
+        assert chip.pulse_us(0) == pytest.approx(
+            1000 + 0.15 * 830 / 1.3, abs=6
+        )  # the eyelid's rest, 0.15 rad
+        chip.present = False
+        assert wait_for(lambda: len(driver.faults) == 2, 3.0)
+        assert {(f["joint"], f["fault"]) for f in driver.faults} == {
+            ("eyelid_left", "no_answer"),
+            ("eyelid_right", "no_answer"),
+        }
     finally:
         session.engine.close()

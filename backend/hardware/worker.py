@@ -85,7 +85,7 @@ class BusWorker(Sink[tuple[float, np.ndarray]]):
         with self._lock:
             self.commanded = np.where(active, joints[self.map.index], self.commanded)
         now = time.monotonic()
-        if self.bus.reads_position and now >= self._next_read:
+        if now >= self._next_read:
             # on the read grid, not `now + period`: goals come at the engine's rate, and a read waiting
             # for the next goal after its due time would otherwise lose up to a goal period every time
             self._next_read = max(self._next_read + self.read_period, now)
@@ -101,21 +101,26 @@ class BusWorker(Sink[tuple[float, np.ndarray]]):
         except Exception as exc:  # noqa: BLE001 (any SDK error: as if no servo answered)
             self._log_bus_error("read", exc)
             reading = BusReading(np.full(len(ids), np.nan), np.full(len(ids), np.nan))
+        position_of = {servo: k for k, servo in enumerate(ids)}
+        flagged = {position_of[s]: f for s, f in reading.faults.items() if s in position_of}
+        # A servo that cannot report its position (PWM) has answered unless its board did not: its
+        # `no_answer` flag, like a serial servo's missing reply, becomes a fault only after `no_answer` s.
+        silent_now = np.zeros(len(ids), dtype=bool)
+        silent_now[[k for k, f in flagged.items() if f == "no_answer"]] = True
         ok = np.isfinite(reading.position)
+        answered = ok if self.bus.reads_position else ~silent_now
         with self._lock:
             self.measured = np.where(ok, self.map.to_joints(reading.position), self.measured)
             self.effort = np.where(ok, reading.effort, self.effort)
-            self._last_answer[ok] = now
+            self._last_answer[answered] = now
         self.reads += 1
-        self.missed += int(ok.size - np.count_nonzero(ok))
+        self.missed += int(answered.size - np.count_nonzero(answered))
         self._read_at.append(now)
         silent = (now - self._last_answer) > self.no_answer
         for k in np.flatnonzero(self.active & silent):
             self._fault(int(k), "no_answer", t)
-        position_of = {servo: k for k, servo in enumerate(ids)}
-        for servo, fault in reading.faults.items():
-            k = position_of.get(servo)
-            if k is not None and self.active[k]:
+        for k, fault in flagged.items():
+            if fault != "no_answer" and self.active[k]:
                 self._fault(k, fault, t)
         return reading
 
