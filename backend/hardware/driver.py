@@ -201,10 +201,6 @@ class HardwareDriver(Sink[AnimationFrame]):
             out.update(worker.readings())
         return out
 
-    def measured(self) -> dict[str, dict[str, Any]]:
-        """The AI's get_status `measured`: the same readings, by joint."""
-        return self.joint_readings()
-
     def hardware_status(self) -> dict[str, Any]:
         path = self.hardware.path
         with self._lock:
