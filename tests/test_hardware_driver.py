@@ -273,3 +273,18 @@ def test_a_pwm_board_that_stops_answering_is_a_fault_of_its_joints(emb):
         }
     finally:
         session.engine.close()
+
+
+def test_a_servo_whose_position_limits_cut_the_urdf_range_stops_the_start(emb):
+    session, driver = make(emb)
+    dxl = driver.emulators[0]
+    dxl.write_table(HEAD["body_yaw"], 48, (3000).to_bytes(4, "little"))  # Max Position Limit
+    try:
+        with pytest.raises(HardwareError) as info:
+            driver.prepare(session.engine)
+        message = str(info.value)
+        assert message.startswith(f"body_yaw (id 1) on {dxl.path}: its URDF range needs ticks [353, 3743]")
+        assert "accepts only [0, 3000]" in message
+        assert not any(dxl.torque(i) for i in HEAD.values())
+    finally:
+        session.engine.close()

@@ -59,6 +59,8 @@ class HardwareDriver(Sink[AnimationFrame]):
         self.emb, self.hardware = embodiment, hardware
         self.buses = buses if buses is not None else [BUSES[c.driver](c) for c in hardware.buses]
         self.maps = [JointMap(c, embodiment) for c in hardware.buses]
+        self._lower = np.array([j.lower for j in embodiment.joints], dtype=float)
+        self._upper = np.array([j.upper for j in embodiment.joints], dtype=float)
         self.workers: list[BusWorker] = []
         self.state = "starting"
         self.faults: list[dict[str, Any]] = []
@@ -126,14 +128,23 @@ class HardwareDriver(Sink[AnimationFrame]):
         HardwareError with one line per servo that did not answer."""
         missing: list[str] = []
         raw: list[np.ndarray] = []
-        for bus, jmap in zip(self.buses, self.maps):
+        needs = self._raw_ranges()
+        for bus, jmap, (lo, hi) in zip(self.buses, self.maps, needs):
             found = bus.ping(jmap.ids)
             positions = np.full(len(jmap.ids), np.nan)
             for k, servo in enumerate(jmap.ids):
                 info = found.get(servo)
                 if info is None:
                     missing.append(f"{jmap.names[k]}: no answer from id {servo} on {bus.where}")
-                elif info.position is not None:
+                    continue
+                if lo[k] < info.raw_min - 0.5 or hi[k] > info.raw_max + 0.5:
+                    raise HardwareError(
+                        f"{jmap.describe(k)} on {bus.where}: its URDF range needs {bus.raw_unit} "
+                        f"[{lo[k]:.0f}, {hi[k]:.0f}], but the {info.model_name} accepts only "
+                        f"[{info.raw_min:.0f}, {info.raw_max:.0f}] (its position limits): widen them on the "
+                        "servo, or check zero, direction and gear"
+                    )
+                if info.position is not None:
                     positions[k] = info.position
             if bus.reads_position:  # a ping's position may be stale or absent: read them all at once
                 reading = bus.read_state(jmap.ids)
@@ -146,6 +157,19 @@ class HardwareDriver(Sink[AnimationFrame]):
             if bus.reads_position and unread:
                 raise HardwareError(f"could not read the position of {', '.join(unread)} on {bus.where}")
         return raw
+
+    def _raw_ranges(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per bus, the raw goals each servo must accept to cover its joint's whole URDF range."""
+        out = []
+        for jmap in self.maps:
+            ends = np.stack(
+                [
+                    jmap.offset + jmap.scale * self._lower[jmap.index],
+                    jmap.offset + jmap.scale * self._upper[jmap.index],
+                ]
+            )
+            out.append((ends.min(axis=0), ends.max(axis=0)))
+        return out
 
     # --- run --------------------------------------------------------------------------------------
     def consume(self, frame: AnimationFrame) -> None:
