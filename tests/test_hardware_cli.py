@@ -130,3 +130,8 @@ def test_the_engine_less_player_and_bridge_refuse_real_servos(tmp_path, capsys):
     code = main([*bridge, "--hardware-emulator", str(HARDWARE)])
     assert code != 0
     assert "--hardware-emulator runs only in `nutty serve`" in capsys.readouterr().err
+
+
+def test_real_servos_never_run_without_the_safety_net(capsys):
+    assert main(["serve", "--no-previz", "--hardware", str(HARDWARE), "--unsafe-no-limits"]) == 2
+    assert "--unsafe-no-limits is refused with --hardware" in capsys.readouterr().err

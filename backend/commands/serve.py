@@ -239,6 +239,8 @@ def check_options(args) -> str | None:
             f"--shutdown-timeout must be within (0, {MAX_SHUTDOWN_TIMEOUT:g}] seconds, "
             f"got {args.shutdown_timeout:g}"
         )
+    if args.unsafe_no_limits and getattr(args, "hardware", None):
+        return "--unsafe-no-limits is refused with --hardware: real servos always get the safety net's frames"
     return check_ros2_options(args)
 
 
