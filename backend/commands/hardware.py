@@ -96,13 +96,14 @@ def run_check(args) -> int:
     if isinstance(loaded, int):
         return loaded
     emb, hardware = loaded
+    from backend.hardware.config import raw_unit  # lazy: a fast `nutty --help`
     from backend.hardware.mapping import JointMap  # lazy: a fast `nutty --help`
 
     limits = {j.name: j for j in emb.joints}
     print(f"{args.file}: {len(hardware.buses)} bus(es) for {emb.name}")
     for config in hardware.buses:
         jmap = JointMap(config, emb)
-        unit = "µs" if config.driver == "pca9685" else "ticks"
+        unit = raw_unit(config)
         print(f"  {config.driver} on {getattr(config, 'port', '?')}")
         for k, name in enumerate(jmap.names):
             lo, hi = limits[name].lower, limits[name].upper

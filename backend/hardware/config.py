@@ -232,6 +232,14 @@ def parse_hardware(data: Any, path: Path | None = None) -> Hardware:
     return Hardware(file, buses, path)
 
 
+def raw_unit(bus: BusConfig) -> str:
+    """The name of a bus's raw units, for messages: `ticks`, `µs`."""
+    from backend.hardware.registry import BUSES  # lazy: the registry imports every bus kind's module
+
+    kind = BUSES.get(bus.driver)
+    return kind.raw_unit if kind is not None else "raw units"
+
+
 def check_against(hardware: Hardware, emb: Embodiment) -> None:
     """Every configured joint is an actuated joint of the robot, configured once, and its servo reaches
     its whole URDF range; HardwareConfigError otherwise."""
@@ -252,9 +260,8 @@ def check_against(hardware: Hardware, emb: Embodiment) -> None:
             j = joints[name]
             ends = sorted((offset + scale * j.lower, offset + scale * j.upper))
             if ends[0] < lo_raw - 1e-9 or ends[1] > hi_raw + 1e-9:
-                unit = "µs" if bus.driver == "pca9685" else "ticks"
                 raise HardwareConfigError(
-                    f"{where}: the joint's URDF range [{j.lower:g}, {j.upper:g}] needs {unit} "
+                    f"{where}: the joint's URDF range [{j.lower:g}, {j.upper:g}] needs {raw_unit(bus)} "
                     f"[{ends[0]:.0f}, {ends[1]:.0f}], beyond what the servo accepts [{lo_raw:g}, {hi_raw:g}]: "
                     "check zero, direction and gear"
                 )
