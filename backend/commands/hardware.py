@@ -99,17 +99,16 @@ def run_check(args) -> int:
     from backend.hardware.config import raw_unit  # lazy: a fast `nutty --help`
     from backend.hardware.mapping import JointMap  # lazy: a fast `nutty --help`
 
-    limits = {j.name: j for j in emb.joints}
     print(f"{args.file}: {len(hardware.buses)} bus(es) for {emb.name}")
     for config in hardware.buses:
         jmap = JointMap(config, emb)
         unit = raw_unit(config)
         print(f"  {config.driver} on {getattr(config, 'port', '?')}")
+        lo, hi = jmap.urdf_span()
         for k, name in enumerate(jmap.names):
-            lo, hi = limits[name].lower, limits[name].upper
-            ends = sorted((jmap.offset[k] + jmap.scale[k] * lo, jmap.offset[k] + jmap.scale[k] * hi))
             print(
-                f"    {name:<14s} id {jmap.ids[k]:3d}  [{lo:g}, {hi:g}] rad -> [{ends[0]:.0f}, {ends[1]:.0f}] {unit}"
+                f"    {name:<14s} id {jmap.ids[k]:3d}  [{jmap.lower[k]:g}, {jmap.upper[k]:g}] rad -> "
+                f"[{lo[k]:.0f}, {hi[k]:.0f}] {unit}"
             )
     return 0
 

@@ -24,10 +24,12 @@ import math
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from backend.engine.embodiment import Embodiment
+from backend.hardware.mapping import JointMap
 
 
 class HardwareConfigError(ValueError):
@@ -243,11 +245,10 @@ def raw_unit(bus: BusConfig) -> str:
 def check_against(hardware: Hardware, emb: Embodiment) -> None:
     """Every configured joint is an actuated joint of the robot, configured once, and its servo reaches
     its whole URDF range; HardwareConfigError otherwise."""
-    joints = {j.name: j for j in emb.joints}
+    joints = set(emb.joint_names)
     owner: dict[str, str] = {}
     for i, bus in enumerate(hardware.buses):
-        lo_raw, hi_raw = bus.raw_range()
-        for name, (_, offset, scale) in bus.joint_map().items():
+        for name in bus.joint_map():
             where = f"buses[{i}].joints.{name}"
             if name not in joints:
                 known = ", ".join(emb.joint_names)
@@ -257,14 +258,16 @@ def check_against(hardware: Hardware, emb: Embodiment) -> None:
             if name in owner:
                 raise HardwareConfigError(f"{where}: the joint is already configured at {owner[name]}")
             owner[name] = where
-            j = joints[name]
-            ends = sorted((offset + scale * j.lower, offset + scale * j.upper))
-            if ends[0] < lo_raw - 1e-9 or ends[1] > hi_raw + 1e-9:
-                raise HardwareConfigError(
-                    f"{where}: the joint's URDF range [{j.lower:g}, {j.upper:g}] needs {raw_unit(bus)} "
-                    f"[{ends[0]:.0f}, {ends[1]:.0f}], beyond what the servo accepts [{lo_raw:g}, {hi_raw:g}]: "
-                    "check zero, direction and gear"
-                )
+        jmap = JointMap(bus, emb)
+        lo, hi = jmap.urdf_span()
+        beyond = np.flatnonzero((lo < jmap.raw_lo - 1e-9) | (hi > jmap.raw_hi + 1e-9))
+        if beyond.size:
+            k = int(beyond[0])
+            raise HardwareConfigError(
+                f"buses[{i}].joints.{jmap.names[k]}: the joint's URDF range [{jmap.lower[k]:g}, "
+                f"{jmap.upper[k]:g}] needs {raw_unit(bus)} [{lo[k]:.0f}, {hi[k]:.0f}], beyond what the servo "
+                f"accepts [{jmap.raw_lo:g}, {jmap.raw_hi:g}]: check zero, direction and gear"
+            )
 
 
 def load_hardware(path: str | Path, emb: Embodiment) -> Hardware:

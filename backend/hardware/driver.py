@@ -59,8 +59,6 @@ class HardwareDriver(Sink[AnimationFrame]):
         self.emb, self.hardware = embodiment, hardware
         self.buses = buses if buses is not None else [BUSES[c.driver](c) for c in hardware.buses]
         self.maps = [JointMap(c, embodiment) for c in hardware.buses]
-        self._lower = np.array([j.lower for j in embodiment.joints], dtype=float)
-        self._upper = np.array([j.upper for j in embodiment.joints], dtype=float)
         self.workers: list[BusWorker] = []
         self.state = "starting"
         self.faults: list[dict[str, Any]] = []
@@ -128,8 +126,8 @@ class HardwareDriver(Sink[AnimationFrame]):
         HardwareError with one line per servo that did not answer."""
         missing: list[str] = []
         raw: list[np.ndarray] = []
-        needs = self._raw_ranges()
-        for bus, jmap, (lo, hi) in zip(self.buses, self.maps, needs):
+        for bus, jmap in zip(self.buses, self.maps):
+            lo, hi = jmap.urdf_span()
             found = bus.ping(jmap.ids)
             positions = np.full(len(jmap.ids), np.nan)
             for k, servo in enumerate(jmap.ids):
@@ -157,19 +155,6 @@ class HardwareDriver(Sink[AnimationFrame]):
             if bus.reads_position and unread:
                 raise HardwareError(f"could not read the position of {', '.join(unread)} on {bus.where}")
         return raw
-
-    def _raw_ranges(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Per bus, the raw goals each servo must accept to cover its joint's whole URDF range."""
-        out = []
-        for jmap in self.maps:
-            ends = np.stack(
-                [
-                    jmap.offset + jmap.scale * self._lower[jmap.index],
-                    jmap.offset + jmap.scale * self._upper[jmap.index],
-                ]
-            )
-            out.append((ends.min(axis=0), ends.max(axis=0)))
-        return out
 
     # --- run --------------------------------------------------------------------------------------
     def consume(self, frame: AnimationFrame) -> None:

@@ -5,10 +5,14 @@ the configuration check (`config.check_against`) has shown covers every joint's 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from backend.engine.embodiment import Embodiment
-from backend.hardware.config import BusConfig
+
+if TYPE_CHECKING:  # config checks files with this class; only its type is needed here
+    from backend.hardware.config import BusConfig
 
 
 class JointMap:
@@ -28,6 +32,15 @@ class JointMap:
         self.offset = np.array([mapping[n][1] for n in self.names], dtype=float)
         self.scale = np.array([mapping[n][2] for n in self.names], dtype=float)
         self.raw_lo, self.raw_hi = config.raw_range()
+        limits = {j.name: j for j in emb.joints}
+        #: The URDF range of each joint (rad or m).
+        self.lower = np.array([limits[n].lower for n in self.names], dtype=float)
+        self.upper = np.array([limits[n].upper for n in self.names], dtype=float)
+
+    def urdf_span(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lowest, highest) raw goal each servo needs to cover its joint's whole URDF range."""
+        ends = np.stack([self.offset + self.scale * self.lower, self.offset + self.scale * self.upper])
+        return ends.min(axis=0), ends.max(axis=0)
 
     def to_raw(self, joints: np.ndarray) -> np.ndarray:
         """Goals (raw units) for a whole joint vector (over `emb.joint_names`, rad or m)."""
