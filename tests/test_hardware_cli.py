@@ -16,6 +16,7 @@ from websockets.sync.client import connect
 from backend.cli import main
 from backend.hardware.emulator.dynamixel import DynamixelEmulator
 from backend.hardware.emulator.feetech import FeetechEmulator
+from tests.emulated_hardware import emulated_hardware_file
 from tests.joint_truth import ROBOTS
 from tests.server_process import server_process
 
@@ -24,8 +25,9 @@ TICKS_PER_RAD = 4096 / (2 * math.pi)
 
 
 @pytest.mark.server
-def test_serve_with_emulated_servos_reports_them_and_parks_then_powers_off():
-    with server_process("--hardware-emulator", str(HARDWARE), "--no-previz") as server:
+def test_serve_with_emulated_servos_reports_them_and_parks_then_powers_off(tmp_path):
+    hardware = emulated_hardware_file(tmp_path)
+    with server_process("--hardware-emulator", str(hardware), "--no-previz") as server:
         status = server.client.status()
         hardware = status["hardware"]
         assert hardware["state"] == "running" and hardware["emulated"] is True

@@ -7,13 +7,13 @@ import pytest
 from editor_browser import ARTIFACTS, editor_page, wait_until
 from server_process import running_server
 
-from tests.joint_truth import ROBOTS
+from tests.emulated_hardware import emulated_hardware_file
 
 pytestmark = [pytest.mark.browser, pytest.mark.server]
 
 
-def test_the_curve_panel_plots_what_the_servos_measured_beside_what_they_were_sent():
-    hardware = ROBOTS / "nutty_desk" / "hardware.yaml"
+def test_the_curve_panel_plots_what_the_servos_measured_beside_what_they_were_sent(tmp_path):
+    hardware = emulated_hardware_file(tmp_path)
     with running_server("--hardware-emulator", str(hardware), "--no-previz") as (url, _, client):
         with editor_page(url) as page:
             panel = page.get_by_test_id("curve-panel")

@@ -215,16 +215,26 @@ class DynamixelBus(ServoBus):
         return ServoInfo(dxl_id, model, name, float(value(PRESENT_POSITION, 4)), float(lo), float(hi), 4096)
 
     def scan(self, ids: Iterable[int] = range(253)) -> list[ServoInfo]:
-        """Every X-series servo among `ids`: one broadcast PING finds who is there (~0.8 s at 1 Mbps
+        """Every X-series servo among `ids`: broadcast PINGs find who is there (~0.8 s each at 1 Mbps
         whatever the number of ids), then each is pinged for its details."""
         self._need_open()
         wanted = list(ids)
         if len(wanted) > 8:
-            found, result = self._ph.broadcastPing(self._port)
-            if result == self._sdk.COMM_RX_TIMEOUT:
+            # `attempts` rounds, their answers united: a reply lost in one round (a busy adapter, a
+            # late servo) is found in another
+            seen: set[int] = set()
+            results = []
+            for _ in range(self.attempts):
+                found, result = self._ph.broadcastPing(self._port)
+                results.append(result)
+                if result == self._sdk.COMM_SUCCESS:
+                    seen.update(found)
+            if all(r == self._sdk.COMM_RX_TIMEOUT for r in results):
                 return []
-            if result == self._sdk.COMM_SUCCESS:
-                wanted = [i for i in wanted if i in found]
+            if self._sdk.COMM_SUCCESS in results and all(
+                r in (self._sdk.COMM_SUCCESS, self._sdk.COMM_RX_TIMEOUT) for r in results
+            ):
+                wanted = [i for i in wanted if i in seen]
             # otherwise replies collided or were corrupt: ask every id in turn
         return [info for info in self.ping(wanted).values() if info is not None]
 
