@@ -188,7 +188,7 @@ def test_an_overload_holds_the_joint_fades_the_rest_to_rest_and_is_reported(emb,
 
 
 def test_a_silent_servo_is_a_no_answer_fault_but_a_corrupt_reply_is_not(emb):
-    session, driver = make(emb, no_answer_ms=150)
+    session, driver = make(emb)
     dxl = driver.emulators[0]
     try:
         driver.prepare(session.engine)
@@ -255,7 +255,7 @@ def test_a_pwm_board_that_stops_answering_is_a_fault_of_its_joints(emb):
             "eyelid_right": {"channel": 1, "pulse_us": {0.0: 2000, 1.3: 1170}},
         },
     }
-    session, driver = make(emb, buses=[pwm], no_answer_ms=150)
+    session, driver = make(emb, buses=[pwm])
     chip = driver.emulators[0]
     try:
         driver.prepare(session.engine)
