@@ -252,7 +252,7 @@ def test_live_joint_states_transforms_and_events(live, desk):
     states = [cdr.decode(p, cdr.JOINT_STATE) for _, p in by_topic["/joint_states"]]
     assert len(states) > 50  # ~100 Hz for ~1.5 s, minus what a busy machine drops
     assert list(states[0].name) == list(desk.joint_names)
-    by_t = {round(f.t, 6): f for f in frames.values()}
+    by_t = {round(f.t, 6): f for f in frames.copy().values()}  # a copy: the clock thread still adds
     epoch = server.view.epoch
     matched = 0
     for state in states:

@@ -312,9 +312,10 @@ def test_ros2_control_outputs(domain, controller):
     try:
         args = ("--no-previz", "--ros2", "--ros2-controller", controller, "--ros2-joints", ",".join(order))
         with server_process(*args) as server:
-            server.client.play("shake")
             probe.wait_for(topic, timeout=30)
-            time.sleep(1.5)
+            # after the probe hears the topic: on a busy machine discovery can outlast the shake
+            server.client.play("shake")
+            time.sleep(2.0)
     finally:
         probe.close()
     emb = load_embodiment("nutty_desk")
