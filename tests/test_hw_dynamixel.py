@@ -238,7 +238,7 @@ def test_one_sync_write_per_call_and_positions_follow_goals(rig):
 
 def test_write_goals_rejects_bad_input(rig):
     _, bus = rig
-    with pytest.raises(ValueError, match=r"raw\[1\] \(servo 2\) is nan"):
+    with pytest.raises(ValueError, match=r"raw\[1\] \(servo id 2\) is nan"):
         bus.write_goals([1, 2], np.array([1.0, np.nan]))
     with pytest.raises(ValueError, match="shape"):
         bus.write_goals([1, 2], np.array([1.0]))

@@ -20,6 +20,12 @@ import numpy as np
 FAULTS = ("overload", "overheat", "voltage", "encoder", "electrical", "no_answer")
 
 
+#: pyserial's read timeout (s) while a vendor SDK waits for a reply. Both SDKs open the port
+#: non-blocking and poll it in a tight loop while they wait, holding a core and the interpreter lock
+#: the engine's clock needs; 1 ms makes each poll sleep in the kernel, adding at most 1 ms to a timeout.
+SERIAL_TIMEOUT_S = 0.001
+
+
 class HardwareError(RuntimeError):
     """A bus or servo that cannot be used; the message names the port, the id and the joint if known,
     and is meant to be shown as one line."""
@@ -112,3 +118,29 @@ class ServoBus(ABC):
     def read_state(self, ids: Sequence[int]) -> BusReading:
         """Present positions, loads and fault flags of `ids`, in one transaction where the protocol has
         one (SYNC READ). Never raises for a servo that does not answer: its position is NaN."""
+
+
+def open_serial(port: Any, baudrate: int, where: str) -> None:
+    """Open a vendor SDK's PortHandler (Dynamixel's and Feetech's share its API) at `baudrate`, with
+    SERIAL_TIMEOUT_S as its read timeout; HardwareError naming `where` when it cannot."""
+    try:
+        opened = port.setBaudRate(baudrate)  # opens the port at that rate
+    except (OSError, ValueError) as exc:  # pyserial's SerialException is an OSError
+        raise HardwareError(f"{where}: cannot open the port: {exc}") from None
+    if not opened:
+        raise HardwareError(f"{where}: cannot open the port at {baudrate} baud, not a rate the SDK supports")
+    port.ser.timeout = SERIAL_TIMEOUT_S
+
+
+def goal_vector(ids: Sequence[int], raw: Any) -> np.ndarray:
+    """`write_goals`' goals as floats, one finite position per id; ValueError naming the servo if not."""
+    goals = np.asarray(raw, dtype=float)
+    if goals.shape != (len(ids),):
+        raise ValueError(
+            f"write_goals: raw has shape {goals.shape}, expected ({len(ids)},) for ids {tuple(ids)}"
+        )
+    bad = ~np.isfinite(goals)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"write_goals: raw[{i}] (servo id {ids[i]}) is {goals[i]}, not a finite position")
+    return goals

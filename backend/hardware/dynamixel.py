@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from backend.hardware.bus import BusReading, HardwareError, ServoBus, ServoInfo
+from backend.hardware.bus import BusReading, HardwareError, ServoBus, ServoInfo, goal_vector, open_serial
 from backend.hardware.config import DynamixelBusConfig
 
 # Control table addresses (X-series, Protocol 2.0) and sizes (bytes).
@@ -101,9 +101,6 @@ class DynamixelBus(ServoBus):
     config_model: ClassVar[type[Any]] = DynamixelBusConfig
     #: USB latency assumed when sysfs does not give it (ms): CDC-ACM boards and ptys answer within ~1 ms.
     default_latency_ms: ClassVar[float] = 4.0
-    #: pyserial's read timeout (s) while waiting for a reply: short, so a missing reply costs at most
-    #: this beyond the SDK's own timeout, and long enough that waiting does not spin a core.
-    serial_timeout_s: ClassVar[float] = 0.001
     #: Tries of a PING or a torque WRITE before a servo counts as not answering: one lost reply should
     #: not stop the robot from starting.
     attempts: ClassVar[int] = 2
@@ -131,13 +128,7 @@ class DynamixelBus(ServoBus):
         sdk = self._sdk = _sdk()
         latency = self.latency_ms if self.latency_ms is not None else usb_latency_ms(self.config.port)
         port = _port_handler(sdk, self.config.port, self.default_latency_ms if latency is None else latency)
-        try:
-            opened = port.setBaudRate(self.config.baudrate)  # opens the port at that rate
-        except (OSError, ValueError) as exc:  # pyserial's SerialException is an OSError
-            raise HardwareError(f"{self.where}: cannot open the port: {exc}") from None
-        if not opened:
-            raise HardwareError(f"{self.where}: baud rate {self.config.baudrate} is not one the SDK supports")
-        port.ser.timeout = self.serial_timeout_s
+        open_serial(port, self.config.baudrate, self.where)
         self._port, self._ph = port, sdk.PacketHandler(2.0)
         self._writers.clear()
         self._readers.clear()
@@ -277,17 +268,9 @@ class DynamixelBus(ServoBus):
         which a servo would otherwise answer by ignoring the goal)."""
         self._need_open()
         key = tuple(ids)
-        goals = np.asarray(raw, dtype=float)
-        if goals.shape != (len(key),):
-            raise ValueError(
-                f"write_goals: raw has shape {goals.shape}, expected ({len(key)},) for ids {key}"
-            )
+        goals = goal_vector(key, raw)
         if not key:
             return
-        bad = ~np.isfinite(goals)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise ValueError(f"write_goals: raw[{i}] (servo {key[i]}) is {goals[i]}, not a finite position")
         group, lo, hi = self._writer(key)
         rows = np.clip(np.rint(goals), lo, hi).astype("<i4").view(np.uint8).reshape(-1, 4).tolist()
         for dxl_id, row in zip(key, rows, strict=True):

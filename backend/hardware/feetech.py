@@ -17,7 +17,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from backend.hardware.bus import BusReading, HardwareError, ServoBus, ServoInfo
+from backend.hardware.bus import BusReading, HardwareError, ServoBus, ServoInfo, goal_vector, open_serial
 from backend.hardware.config import FeetechBusConfig
 
 #: model number (at address 3) -> (name, series).
@@ -85,10 +85,6 @@ def fault_of(error: int) -> str | None:
     return next((name for name, bit in FAULT_BITS if error & bit), None)
 
 
-#: pyserial's read timeout while the SDK waits for a reply (s): see `FeetechBus.open`.
-SERIAL_TIMEOUT_S = 0.001
-
-
 class FeetechBus(ServoBus):
     """A serial bus of Feetech servos of one series (`series: sts|scs` in hardware.yaml)."""
 
@@ -123,16 +119,7 @@ class FeetechBus(ServoBus):
                 f"{self.where}: baudrate {self.config.baudrate} is not a Feetech rate ({rates})"
             )
         port = _port_handler(sdk, self.config.port, self.reply_timeout_ms)
-        try:
-            opened = port.setBaudRate(self.config.baudrate)
-        except (OSError, ValueError) as exc:  # serial.SerialException is an OSError
-            raise HardwareError(f"{self.where}: cannot open the port: {exc}") from None
-        if not opened:
-            raise HardwareError(f"{self.where}: cannot open the port at {self.config.baudrate} baud")
-        # The SDK opens the port non-blocking and polls it in a tight loop while it waits for a reply,
-        # holding a core and the interpreter lock the engine's clock needs; a 1 ms read timeout makes
-        # each poll sleep in the kernel instead, adding at most 1 ms to a timeout.
-        port.ser.timeout = SERIAL_TIMEOUT_S
+        open_serial(port, self.config.baudrate, self.where)
         self._port = port
         self._packets = sdk.protocol_packet_handler(port, 0 if self.series == "sts" else 1)
 
@@ -209,12 +196,7 @@ class FeetechBus(ServoBus):
 
     def write_goals(self, ids: Sequence[int], raw: np.ndarray) -> None:
         packets = self._handler()
-        goals = np.asarray(raw, dtype=float)
-        if goals.shape != (len(ids),):
-            raise ValueError(f"write_goals: {goals.shape[0] if goals.ndim else 0} goals for {len(ids)} ids")
-        bad = ~np.isfinite(goals)
-        if bad.any():
-            raise ValueError(f"write_goals: the goal of servo id {ids[int(np.argmax(bad))]} is not a number")
+        goals = goal_vector(ids, raw)
         key = tuple(ids)
         writer = self._writers.get(key)
         if writer is None:
