@@ -55,6 +55,16 @@ class ServoJoint(_Strict):
     )
 
 
+def _one_joint_each(joints: dict[str, Any], field: str) -> None:
+    """ValueError when two joints name the same servo (`field`: its `id`, or its PWM `channel`)."""
+    seen: dict[int, str] = {}
+    for name, joint in joints.items():
+        value = getattr(joint, field)
+        if value in seen:
+            raise ValueError(f"joints {seen[value]} and {name} both use {field} {value}")
+        seen[value] = name
+
+
 class BusConfig(_Strict):
     """What every bus entry has: its `driver` (the bus kind) and its joints."""
 
@@ -78,11 +88,7 @@ class SerialBusConfig(BusConfig):
 
     @model_validator(mode="after")
     def _unique_ids(self) -> SerialBusConfig:
-        seen: dict[int, str] = {}
-        for name, joint in self.joints.items():
-            if joint.id in seen:
-                raise ValueError(f"joints {seen[joint.id]} and {name} both use id {joint.id}")
-            seen[joint.id] = name
+        _one_joint_each(self.joints, "id")
         return self
 
     def ticks_per_turn(self) -> float:
@@ -152,11 +158,7 @@ class Pca9685BusConfig(BusConfig):
             raise ValueError(f"min_us ({self.min_us:g}) must be below max_us ({self.max_us:g})")
         if self.max_us >= 1e6 / self.frequency:
             raise ValueError(f"max_us {self.max_us:g} does not fit a {self.frequency:g} Hz period")
-        seen: dict[int, str] = {}
-        for name, joint in self.joints.items():
-            if joint.channel in seen:
-                raise ValueError(f"joints {seen[joint.channel]} and {name} both use channel {joint.channel}")
-            seen[joint.channel] = name
+        _one_joint_each(self.joints, "channel")
         return self
 
     @property

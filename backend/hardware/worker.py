@@ -56,6 +56,7 @@ class BusWorker(Sink[tuple[float, np.ndarray]]):
         self.on_fault = on_fault
         self.writes = self.reads = self.missed = 0
         self._ids = list(joint_map.ids)  # the ids goals go to (the active ones)
+        self._index_of = {servo: k for k, servo in enumerate(joint_map.ids)}  # servo id -> joint k
         self._last_answer = np.full(n, time.monotonic())
         self._next_read = 0.0
         self.t = 0.0  # the engine time (s) of the last goals: what a fault is stamped with
@@ -101,8 +102,8 @@ class BusWorker(Sink[tuple[float, np.ndarray]]):
         except Exception as exc:  # noqa: BLE001 (any SDK error: as if no servo answered)
             self._log_bus_error("read", exc)
             reading = BusReading(np.full(len(ids), np.nan), np.full(len(ids), np.nan))
-        position_of = {servo: k for k, servo in enumerate(ids)}
-        flagged = {position_of[s]: f for s, f in reading.faults.items() if s in position_of}
+        index_of = self._index_of
+        flagged = {index_of[s]: f for s, f in reading.faults.items() if s in index_of}
         # A servo that cannot report its position (PWM) has answered unless its board did not: its
         # `no_answer` flag, like a serial servo's missing reply, becomes a fault only after `no_answer` s.
         silent_now = np.zeros(len(ids), dtype=bool)

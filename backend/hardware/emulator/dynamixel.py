@@ -22,7 +22,7 @@ import time
 from collections import Counter
 from collections.abc import Iterable, Mapping
 
-from backend.hardware.emulator.pty_port import PtyPort
+from backend.hardware.emulator.pty_port import OnPty, PtyPort
 
 HEADER = b"\xff\xff\xfd\x00"
 BROADCAST_ID = 0xFE
@@ -170,7 +170,7 @@ class _Servo:
         self.table[MOVING] = int(velocity != 0.0)
 
 
-class DynamixelEmulator:
+class DynamixelEmulator(OnPty):
     """DYNAMIXEL X-series servos on one Protocol 2.0 bus, answering on a pty (`path`).
 
     servos: id -> model number (e.g. 1020) or name (`XM430-W350`); an unknown number is emulated as a
@@ -211,25 +211,6 @@ class DynamixelEmulator:
         self._buf = bytearray()
         self._last_rx = 0.0
         self._port = PtyPort(self._on_bytes, name)
-
-    # -- lifecycle ---------------------------------------------------------------------------------
-    @property
-    def path(self) -> str:
-        """The serial device a driver opens (the pty's slave end)."""
-        return self._port.path
-
-    def start(self) -> DynamixelEmulator:
-        self._port.start()
-        return self
-
-    def close(self) -> None:
-        self._port.close()
-
-    def __enter__(self) -> DynamixelEmulator:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     # -- servo state (thread-safe) -----------------------------------------------------------------
     def _servo(self, dxl_id: int) -> _Servo:

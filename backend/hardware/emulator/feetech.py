@@ -23,7 +23,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
-from backend.hardware.emulator.pty_port import PtyPort
+from backend.hardware.emulator.pty_port import OnPty, PtyPort
 
 HEADER = b"\xff\xff"
 BROADCAST = 0xFE
@@ -152,7 +152,7 @@ class _Servo:
         return new_id
 
 
-class FeetechEmulator:
+class FeetechEmulator(OnPty):
     """Feetech servos answering on a pty (`path`), from `servos`: id -> model number or name (e.g.
     `{1: "STS3215", 2: 777}`). All servos share `series` ("sts" or "scs"); `speed` is the motor model's
     top speed (ticks/s; default two turns a second); `position` where they all start (ticks; default
@@ -189,7 +189,6 @@ class FeetechEmulator:
         self._buf = bytearray()
         self._last_rx = 0.0
         self._port = PtyPort(self._on_bytes, name=f"feetech-{series}")
-        self.path = self._port.path
 
     def _model_number(self, model: int | str) -> int:
         if isinstance(model, int):
@@ -200,20 +199,6 @@ class FeetechEmulator:
         if series != self.series:
             raise ValueError(f"servos: {model} is an {series.upper()} servo, not {self.series.upper()}")
         return number
-
-    # -- lifecycle -----------------------------------------------------------------------------------
-    def start(self) -> FeetechEmulator:
-        self._port.start()
-        return self
-
-    def close(self) -> None:
-        self._port.close()
-
-    def __enter__(self) -> FeetechEmulator:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     # -- inspection and fault injection (thread-safe) ------------------------------------------------
     @property

@@ -10,6 +10,7 @@ import select
 import threading
 import tty
 from collections.abc import Callable
+from typing import Self
 
 
 class PtyPort:
@@ -56,6 +57,31 @@ class PtyPort:
                 os.close(fd)
 
     def __enter__(self) -> PtyPort:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class OnPty:
+    """What a serial-bus emulator listening on a `PtyPort` (its `_port`) offers for its lifetime: the
+    `path` a driver opens, `start`, `close`, and use as a context."""
+
+    _port: PtyPort
+
+    @property
+    def path(self) -> str:
+        """The serial device a driver opens (the pty's slave end)."""
+        return self._port.path
+
+    def start(self) -> Self:
+        self._port.start()
+        return self
+
+    def close(self) -> None:
+        self._port.close()
+
+    def __enter__(self) -> Self:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:
