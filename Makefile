@@ -66,7 +66,7 @@ $(VENV)/bin/activate:
 	$(PIP) install -q --upgrade pip
 
 deps-python: $(VENV)/bin/activate
-	$(PIP) install -q -e ".[test,bench,robots,ros2,mcap,foxglove,hardware]"
+	$(PIP) install -q -e ".[test,bench,robots,ros2,mcap,foxglove,hardware,sim]"
 	@# tf2_msgs (ROS 2 /tf) has no wheel: generate and compile it into the venv (~3 s, once).
 	@$(PY) -c "import tf2_msgs.msg" 2>/dev/null || $(PY) -m backend.ros2.interfaces build
 	@# Blender as a module (tests that make glTF files with real Blender). bpy 5.0 pins numpy<2 in its

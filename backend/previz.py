@@ -5,6 +5,8 @@
 - Display DoFs are visible: LED colours as lit spheres at their links, the face expression as a label.
 - Speech and sounds appear as captions for a few seconds.
 - The paper's *ghost*: a translucent second robot shows the stage-1 (unfiltered) pose; switchable.
+- With a physics preview (`--sim mujoco`), a warm *physics* ghost shows the simulated robot and flashes
+  links in contact (`backend.previz_physics`); switchable.
 - The clip editor's preview pose takes the solid robot while its lease runs (the ghost then shows the
   live robot), and a link can be turned about its joint to pose it (`backend.previz_posing`).
 - A draggable gaze target sets the program's `gaze_target` input when the program declares one.
@@ -35,10 +37,13 @@ from typing import Any
 
 import numpy as np
 
+from backend.drivers.readings import physics_source
 from backend.engine.embodiment import DofType
 from backend.engine.frames import AnimationFrame
+from backend.engine.kinematics import yaw_pitch_roll_quat
 from backend.engine.runtime import Sink
 from backend.errors import DomainError
+from backend.previz_physics import PhysicsGhost
 from backend.previz_pose import UrdfPoser
 from backend.previz_posing import PreviewPosing
 
@@ -68,18 +73,6 @@ CAPTION_SECONDS = 4.0
 GHOST_COLOUR = (0.45, 0.75, 1.0, 0.35)
 # The Pre-Viz background per editor theme: the editor's page background (--bg) in each (RGB, 0..255).
 THEME_BACKGROUNDS = {"dark": (20, 23, 28), "light": (243, 244, 246)}
-
-
-def _yaw_pitch_roll_to_wxyz(yaw: float, pitch: float, roll: float) -> tuple[float, float, float, float]:
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    return (
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    )
 
 
 def framing(
@@ -221,6 +214,10 @@ class PreViz:
             np.array([index[n] for n in names], dtype=int) if all(n in index for n in names) else None
         )
         self._posers = {id(vu): _poser(vu) for vu in (self.robot, self.ghost)}
+        #: The simulated robot (`nutty serve --sim`): built on the first simulated pose it is given.
+        self.physics = PhysicsGhost(self.server, str(self.emb.urdf_path), self._order)
+        #: Where an in-process Pre-Viz reads the simulated pose: () -> (joints, touching links) | None.
+        self.physics_source: Any = physics_source(getattr(getattr(session, "engine", None), "sinks", ()))
         self._leds = self._add_leds()
         self._face = self._add_face_label()
         self._caption = self.server.scene.add_label(
@@ -419,7 +416,8 @@ class PreViz:
     def shown(self) -> dict[str, Any]:
         """What the Pre-Viz displays now, read back from its scene: {"joints": {joint: position (rad
         or m)} of the solid robot, "leds": {colour DoF: (r, g, b), 0..255}, "face": the expression
-        label or None, "caption": the caption text ("" when none), "ghost": whether the ghost shows}."""
+        label or None, "caption": the caption text ("" when none), "ghost": whether the ghost shows,
+        "physics": whether the physics ghost shows, "touching": the links it flashes}."""
         with self._lock:
             cfg = self._cfg_now
             names = self.robot.get_actuated_joint_names()
@@ -429,6 +427,8 @@ class PreViz:
                 "face": self._face[2].text if self._face is not None else None,
                 "caption": self._caption.text,
                 "ghost": self.ghost_visible,
+                "physics": self.physics.visible,
+                "touching": list(self.physics.touching),
             }
 
     def show(self, frame: AnimationFrame) -> None:
@@ -442,9 +442,13 @@ class PreViz:
             self._pose(self.robot, self._cfg_now)
             base = self.emb.base_pose(position)
             _set_if_changed(self.base, "position", (base["x"], base["y"], base["z"]))
-            _set_if_changed(
-                self.base, "wxyz", _yaw_pitch_roll_to_wxyz(base["yaw"], base["pitch"], base["roll"])
-            )
+            _set_if_changed(self.base, "wxyz", yaw_pitch_roll_quat(base["yaw"], base["pitch"], base["roll"]))
+            physics = getattr(frame, "physics", None)
+            if physics is None and self.physics_source is not None:
+                physics = self.physics_source()
+            if physics is not None:
+                wxyz = yaw_pitch_roll_quat(base["yaw"], base["pitch"], base["roll"])
+                self.physics.show(physics[0], physics[1], ((base["x"], base["y"], base["z"]), wxyz))
             if self.ghost_visible and ghost is not None:
                 self._pose(self.ghost, self._cfg(ghost, frame.joints if preview is not None else None))
                 gb = self.emb.base_pose(ghost)

@@ -36,6 +36,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from backend.drivers.readings import physics_source
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, FrameEvent
 from backend.engine.runtime import Sink
@@ -63,6 +64,7 @@ class _Shown:
     stage1: np.ndarray | None
     events: list[FrameEvent] = field(default_factory=list)
     joints: np.ndarray | None = None
+    physics: tuple[np.ndarray, tuple[str, ...]] | None = None
 
 
 class _Remote:
@@ -149,11 +151,10 @@ def _child_main(
                     return
                 ready = conn.poll()
             if latest is not None:
-                _, position, stage1, events, joints = latest
+                _, position, stage1, events, joints, physics = latest
                 # duck-typed: show() reads only the position, stage1, events and joints of a frame
-                pv.show(
-                    cast(AnimationFrame, _Shown(position, stage1, [FrameEvent(*e) for e in events], joints))
-                )
+                shown = _Shown(position, stage1, [FrameEvent(*e) for e in events], joints, physics)
+                pv.show(cast(AnimationFrame, shown))
             state = (pv.frames_shown, pv.ghost_visible, tuple(sorted(pv.trusted_clients)))
             now = time.monotonic()
             if state != reported and (state[1:] != reported[1:] or now - reported_at >= STATE_PERIOD):
@@ -190,6 +191,8 @@ class PreVizProcess:
         self.proxy_secret = secrets.token_urlsafe(24)
         self.start_timeout = start_timeout
         self.frames_shown = 0
+        #: The physics preview's simulated pose, shown as the physics ghost (none without `--sim`).
+        self.physics_source = physics_source(session.engine.sinks)
         self._ghost = True
         self._trusted: frozenset[int] = frozenset()
         self._port: int | None = None
@@ -333,9 +336,10 @@ class PreVizProcess:
         """Send one frame to the child (on the Pre-Viz sink's thread)."""
         events = [(e.dof, e.kind, dict(e.payload)) for e in frame.events]
         stage1 = frame.stage1 if self._ghost else None
+        physics = self.physics_source() if self.physics_source is not None else None
         # a Pre-Viz that has gone shows nothing; the engine and the API go on
         with contextlib.suppress(PreVizUnavailable):
-            self._send(("frame", frame.position, stage1, events, frame.joints), CALL_TIMEOUT)
+            self._send(("frame", frame.position, stage1, events, frame.joints, physics), CALL_TIMEOUT)
 
     def start(self) -> PreVizProcess:
         self._sink = attach_previz_sink(self.session, self.show)

@@ -9,6 +9,7 @@ from pydantic import Field, RootModel
 
 from backend.api_types.base import OpenShape, Shape
 from backend.api_types.editor import CommandEntry, CommandStatus
+from backend.api_types.physics import PhysicsReport
 
 # --- how the server is doing ---------------------------------------------------------------------------
 
@@ -81,9 +82,13 @@ class JointReading(Shape):
     error: float | None = Field(..., description="commanded - measured (rad or m; null: not read)")
     effort: float | None = Field(
         ...,
-        description="the load: a fraction of the motor's maximum torque for servos (-1..1; null: unknown)",
+        description="the load: a fraction of the motor's maximum torque (-1..1; null: unknown), for servos "
+        "and the physics preview alike",
     )
     saturated: bool = Field(..., description="the motor is at its torque (or speed) limit")
+    torque: float | None = Field(
+        default=None, description="the motor's torque (N·m; N for a slide), where known: the physics preview"
+    )
 
 
 class ServoFault(Shape):
@@ -110,6 +115,34 @@ class HardwareStatus(OpenShape):
     buses: list[BusStatus]
     faults: list[ServoFault] = Field(..., description="the servo faults since the start (the joints held)")
     torque_on_exit: bool
+
+
+class SimContact(Shape):
+    """Two links touching in the physics preview (not parent and child), or a link and a plane."""
+
+    links: list[str] = Field(..., description="the two links, sorted ('floor' or 'table' for a plane)")
+    t: float | None = Field(default=None, description="engine time the contact began (s)")
+    depth: float = Field(..., description="the deepest penetration (m)")
+    position: list[float] | None = Field(default=None, description="where, in the world frame (m)")
+
+
+class SimulationStatus(OpenShape):
+    engine: Literal["mujoco"]
+    state: Literal["waiting", "running"]
+    rate: float = Field(..., description="physics steps per second (Hz)")
+    time: float = Field(..., description="simulated time (s)")
+    steps: int
+    gains: str = Field(..., description="where the motors' gains came from: a hardware.yaml, or 'urdf'")
+    cpu_per_frame_ms: float = Field(..., description="median CPU time to follow one frame (ms)")
+    cpu_share: float = Field(..., description="mean CPU time over the frame period: a share of one core")
+    contacts: list[SimContact] = Field(..., description="the contacts now")
+    recent_contacts: list[SimContact] = Field(..., description="the last contacts that began (oldest first)")
+    contacts_total: int
+    stop_on_contact: bool
+    stops: int = Field(..., description="how often a contact stopped the program")
+    floor_z: float = Field(..., description="the floor's height in the world frame (m)")
+    table_z: float | None
+    notes: list[str] = Field(..., description="what the model assumed where the URDF is silent")
 
 
 class ServerStatus(OpenShape):
@@ -144,6 +177,9 @@ class ServerStatus(OpenShape):
     )
     hardware: HardwareStatus | None = Field(
         default=None, description="the real servos (`--hardware`; null: none configured)"
+    )
+    simulation: SimulationStatus | None = Field(
+        default=None, description="the physics preview (`--sim mujoco`; null: not simulated)"
     )
 
 
@@ -201,6 +237,10 @@ class TrackAnalysis(Shape):
     ranges: list[LimitRange] = Field(..., description="by first sample, then DoF")
     dofs: dict[str, TrackSummary]
     colours: dict[str, str] = Field(..., description="class -> the editor's colour (#rrggbb)")
+    physics: PhysicsReport | None = Field(
+        default=None,
+        description="with `physics: true`: the clip raw and filtered in MuJoCo (docs/simulation.md)",
+    )
 
 
 class FilteredTracks(Shape):

@@ -11,7 +11,7 @@ import threading
 
 from backend.bridge import DEFAULT_TIMEOUT, MAX_TIMEOUT, MIN_TIMEOUT
 from backend.commands._common import fail
-from backend.drivers import DRIVER_OPTIONS, add_driver_options
+from backend.drivers import DRIVER_OPTIONS, add_driver_options, build_driver
 from backend.drivers.registry import engine_only
 from backend.logs import add_logging_options
 from backend.ros2.options import add_ros2_options, check_ros2_options
@@ -164,7 +164,7 @@ def _follow(session, args, drivers, robot) -> int:
             )
             if signals.first.is_set():  # stopped while waiting: nothing was ever sent
                 return 0
-            sinks = [DRIVER_OPTIONS[name].build(robot, value) for name, value in drivers]
+            sinks = [build_driver(DRIVER_OPTIONS[name], robot, value, args) for name, value in drivers]
             if args.ros2:
                 ros = _ros2_sink(args, robot)
                 sinks.append(ros[1])

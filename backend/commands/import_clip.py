@@ -169,7 +169,31 @@ def _add_check_options(p) -> None:
         help="slow the clip down uniformly by the factor that fits the robot's velocity, "
         "acceleration and jerk limits",
     )
+    p.add_argument(
+        "--physics",
+        action="store_true",
+        help="also play the clip in physics (MuJoCo, through the robot's default program) and report "
+        "tracking error, effort and contacts, raw and filtered (docs/simulation.md)",
+    )
     p.add_argument("--json", action="store_true", help="print the whole report as JSON")
+
+
+def _add_physics(args, emb, doc: dict, report: dict) -> str | None:
+    """Put the clip's physics report in `report["physics"]`; an error message, or None."""
+    from backend.commands.serve import default_program_path  # lazy: a fast `nutty --help`
+    from backend.sim.analysis import clip_physics  # lazy: MuJoCo is an optional extra
+    from backend.sim.availability import SimUnavailable
+    from backend.sim.model import SimError
+    from backend.sim.motions import MotionError, read_document
+
+    folder = emb.urdf_path.parent if emb.urdf_path is not None else None
+    try:
+        program_path = default_program_path(folder)
+        program = read_document(program_path) if program_path is not None else None
+        report["physics"] = clip_physics(emb, doc, program, rate=args.rate)
+    except (SimUnavailable, MotionError, SimError) as exc:
+        return f"physics: {exc}"
+    return None
 
 
 def run(args) -> int:
@@ -206,6 +230,10 @@ def run(args) -> int:
         # a file malformed in a way no check above caught: still one short message, no traceback
         msg = str(exc).splitlines()[0][:300] if str(exc) else ""
         return fail(f"cannot import '{path.name}': {type(exc).__name__}: {msg}")
+    if args.physics:
+        problem = _add_physics(args, emb, doc, report)
+        if problem:
+            return fail(problem)
     out = Path(args.out)
     warnings = report.get("warnings", [])
     if args.strict and warnings:
@@ -228,5 +256,9 @@ def run(args) -> int:
             print(f"nutty: warning: {w['message']}", file=sys.stderr)
     else:
         print(format_report(report))
+        if "physics" in report:
+            from backend.sim.report import format_report as format_physics  # lazy: only with --physics
+
+            print("\n" + format_physics("physics", report["physics"]))
         print(f"wrote {out}")
     return 0

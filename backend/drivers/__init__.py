@@ -13,8 +13,11 @@ from backend.drivers.osc import OscDriver
 from backend.drivers.recorder import FrameRecorder, read_recording
 from backend.drivers.registry import (
     DRIVER_OPTIONS,
+    DriverArgs,
     DriverOption,
+    DriverSetting,
     add_driver_options,
+    build_driver,
     build_drivers,
     register_driver,
     reload,
@@ -25,11 +28,14 @@ reload()
 
 __all__ = [
     "DRIVER_OPTIONS",
+    "DriverArgs",
     "DriverOption",
+    "DriverSetting",
     "FrameRecorder",
     "OscDriver",
     "SimulatedServos",
     "add_driver_options",
+    "build_driver",
     "build_drivers",
     "read_recording",
     "register_driver",

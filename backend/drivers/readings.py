@@ -7,13 +7,17 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+#: |effort| at or above this fraction of a motor's maximum torque counts as saturated (servos and the
+#: physics preview alike).
+SATURATED_EFFORT = 0.95
+
 
 def joint_readings(sinks: Iterable[Any]) -> dict[str, dict[str, Any]] | None:
-    """Every reading driver's joints merged (a joint read by two drivers: the later one's), or None when
-    no sink reads its motors."""
+    """Every reading driver's joints merged, or None when no sink reads its motors. A joint read by two
+    drivers: a real one's reading over a simulation's (`simulated = True`), else the later one's."""
     out: dict[str, dict[str, Any]] = {}
     found = False
-    for sink in sinks:
+    for sink in sorted(sinks, key=lambda s: not getattr(s, "simulated", False)):  # stable: real ones last
         read = getattr(sink, "joint_readings", None)
         if callable(read):
             found = True
@@ -29,4 +33,24 @@ def hardware_status(sinks: Iterable[Any]) -> dict[str, Any] | None:
         if callable(status):
             result: Any = status()
             return result
+    return None
+
+
+def simulation_status(sinks: Iterable[Any]) -> dict[str, Any] | None:
+    """The physics preview's status (api_types.SimulationStatus) of the first sink that simulates, or None."""
+    for sink in sinks:
+        status = getattr(sink, "simulation_status", None)
+        if callable(status):
+            result: Any = status()
+            return result
+    return None
+
+
+def physics_source(sinks: Iterable[Any]) -> Any:
+    """The physics preview's `physics_pose` (() -> (joints, links in contact) | None) of the first sink
+    that simulates, for the Pre-Viz's physics ghost; None without one."""
+    for sink in sinks:
+        pose = getattr(sink, "physics_pose", None)
+        if callable(pose):
+            return pose
     return None

@@ -30,6 +30,33 @@ def _unregistered(embodiment: Embodiment, value: Any) -> Sink:
 
 
 @dataclass(frozen=True)
+class DriverSetting:
+    """A further flag of a driver (`--<name>`), e.g. `--sim-table 0.1` beside `--sim mujoco`: `parse`
+    converts the text (argparse type); `flag=True` makes a switch that takes no value."""
+
+    name: str
+    metavar: str | None
+    help: str
+    parse: Callable[[str], Any] = str
+    flag: bool = False
+
+    @property
+    def dest(self) -> str:
+        return self.name.replace("-", "_")
+
+
+@dataclass(frozen=True)
+class DriverArgs:
+    """What `from_option` gets for a driver that declares settings: its option's value and every
+    setting's value by dest (None, or False for a switch, when not given), plus the whole command line
+    (`args`) for a driver that reads another's option."""
+
+    value: Any
+    settings: dict[str, Any]
+    args: argparse.Namespace
+
+
+@dataclass(frozen=True)
 class DriverOption:
     """How one driver appears on the command line.
 
@@ -50,6 +77,8 @@ class DriverOption:
     #: The driver starts the engine itself (`prepare(engine)`, e.g. real servos: from the measured
     #: pose), so only `nutty serve` can run it, not the engine-less bridge or player.
     needs_engine: bool = False
+    #: Further flags (`DriverSetting`); a driver that declares any gets a `DriverArgs` in `from_option`.
+    settings: tuple[DriverSetting, ...] = ()
 
     @property
     def dest(self) -> str:
@@ -103,6 +132,20 @@ def add_driver_options(parser: argparse.ArgumentParser) -> None:
             default=opt.default,
             help=opt.help,
         )
+        for setting in opt.settings:
+            if setting.flag:
+                parser.add_argument(
+                    f"--{setting.name}", dest=setting.dest, action="store_true", help=setting.help
+                )
+            else:
+                parser.add_argument(
+                    f"--{setting.name}",
+                    dest=setting.dest,
+                    metavar=setting.metavar,
+                    type=setting.parse,
+                    default=None,
+                    help=setting.help,
+                )
 
 
 def build_drivers(embodiment: Embodiment, args: argparse.Namespace) -> list[Sink]:
@@ -112,8 +155,20 @@ def build_drivers(embodiment: Embodiment, args: argparse.Namespace) -> list[Sink
         opt = DRIVER_OPTIONS[name]
         value = getattr(args, opt.dest, opt.default)
         if value is not None and opt.enabled(value):
-            sinks.append(opt.build(embodiment, value))
+            sinks.append(build_driver(opt, embodiment, value, args))
+            continue
+        for setting in opt.settings:  # a setting alone would be silently ignored: say so instead
+            if getattr(args, setting.dest, None) not in (None, False):
+                raise ValueError(f"--{setting.name} needs --{opt.name}")
     return sinks
+
+
+def build_driver(opt: DriverOption, embodiment: Embodiment, value: Any, args: argparse.Namespace) -> Sink:
+    """One driver's sink from its option's value (with its settings, when it declares any)."""
+    if opt.settings:
+        settings = {st.dest: getattr(args, st.dest, None) for st in opt.settings}
+        return opt.build(embodiment, DriverArgs(value, settings, args))
+    return opt.build(embodiment, value)
 
 
 def engine_only(args: argparse.Namespace, tool: str) -> str | None:

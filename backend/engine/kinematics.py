@@ -17,6 +17,7 @@ link's frame expressed in the base link's frame.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -128,6 +129,20 @@ def _model(source: Any) -> _UrdfModel:
     if hasattr(source, "robot") and hasattr(source.robot, "joints"):  # a yourdfpy.URDF
         return _model_from_robot(source.robot)
     raise TypeError(f"cannot build kinematics from {type(source).__name__}")
+
+
+def yaw_pitch_roll_quat(yaw: float, pitch: float, roll: float) -> tuple[float, float, float, float]:
+    """The unit quaternion (w, x, y, z) of a base orientation given as yaw, pitch, roll (rad; Z-Y-X
+    intrinsic, as the spatial DoFs turn the base)."""
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    return (
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    )
 
 
 def rotations(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from backend.drivers.readings import SATURATED_EFFORT
 from backend.engine.sinks import Sink
 from backend.hardware.bus import BusReading, ServoBus
 from backend.hardware.mapping import JointMap
@@ -27,9 +28,6 @@ from backend.logs import Throttle
 
 log = logging.getLogger(__name__)
 _bus_faults = Throttle(every=10.0)  # an unplugged adapter fails on every tick: logged once per 10 s
-
-#: |effort| at or above this fraction of the servo's maximum torque counts as saturated.
-SATURATED_EFFORT = 0.95
 
 FaultHandler = Callable[["BusWorker", int, str, float], None]
 

@@ -63,6 +63,12 @@ class AnalyzeBody(TracksBody):
         description="clips: also search the slow-down that fits (`fit_scale`, `suggestion`); false answers "
         "the ranges alone, several times faster",
     )
+    physics: bool = Field(
+        default=False,
+        description="clips: also play the clip in MuJoCo through the running program and answer what the "
+        "motors make of it, raw and filtered (`physics`: tracking error, effort, contacts; "
+        "docs/simulation.md). Needs the `sim` extra",
+    )
 
 
 class FilterBody(TracksBody):
@@ -85,19 +91,43 @@ async def analyze(body: AnalyzeBody, session: SessionDep) -> dict[str, Any]:
     """Per DoF, ranges of samples over the velocity (orange), acceleration (pink) or jerk (red) limit,
     or outside the position limits, each with its worst ratio to the limit; a clip also gets the
     slow-down that fits. See backend/engine/clip_preview.py and track_analysis.py."""
+    if body.physics and body.clip is None:
+        raise DomainError(
+            "`physics` needs a clip: send `clip`, not `tracks`", code="invalid", field="physics"
+        )
     try:
-        if body.clip is not None:
-            return await asyncio.to_thread(
-                clip_preview.analyze_clip,
-                session.embodiment,
-                session.engine.rate,
-                body.clip,
-                body.rate,
-                body.fit,
-            )
-        return await asyncio.to_thread(analyze_tracks, session.embodiment, body.rate, body.tracks or {})
+        if body.clip is None:
+            return await asyncio.to_thread(analyze_tracks, session.embodiment, body.rate, body.tracks or {})
+        answer = await asyncio.to_thread(
+            clip_preview.analyze_clip,
+            session.embodiment,
+            session.engine.rate,
+            body.clip,
+            body.rate,
+            body.fit,
+        )
     except TrackError as exc:
         raise _track_error(exc) from exc
+    if body.physics:
+        answer["physics"] = await asyncio.to_thread(_clip_physics, session, body.clip)
+    return answer
+
+
+def _clip_physics(session: Any, clip: dict[str, Any]) -> dict[str, Any]:
+    """The clip in MuJoCo through the running program (backend/sim/analysis.py); a DomainError when
+    MuJoCo is missing or cannot model the robot."""
+    from backend.sim.analysis import clip_physics  # lazy: MuJoCo is an optional extra
+    from backend.sim.availability import SimUnavailable
+    from backend.sim.model import SimError
+    from backend.sim.motions import MotionError
+
+    program = session.program.to_json_dict() if session.program is not None else None
+    try:
+        return clip_physics(session.embodiment, clip, program, session.engine.rate, session.engine.sinks)
+    except SimUnavailable as exc:
+        raise DomainError(str(exc), code="sim_unavailable", field="physics") from exc
+    except (SimError, MotionError) as exc:
+        raise DomainError(f"physics: {exc}", code="invalid", field="physics") from exc
 
 
 @router.post(

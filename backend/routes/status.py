@@ -10,7 +10,7 @@ from fastapi.responses import RedirectResponse, Response
 
 from backend import security
 from backend.api_types import GhostSet, PrevizInfo, Profile, ServerStatus, ThemeSet
-from backend.drivers.readings import hardware_status, joint_readings
+from backend.drivers.readings import hardware_status, joint_readings, simulation_status
 from backend.errors import DomainError
 from backend.hub import Hub
 from backend.routes.bodies import GhostToggle, ThemeChoice
@@ -55,6 +55,7 @@ def status(request: Request, hub: HubDep) -> dict[str, Any]:
     sinks = session.engine.sinks
     stats["joints"] = joint_readings(sinks)
     stats["hardware"] = hardware_status(sinks)
+    stats["simulation"] = simulation_status(sinks)
     return stats
 
 

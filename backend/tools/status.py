@@ -13,7 +13,7 @@ from typing import Any
 
 from backend.control.session_view import CommandSession
 from backend.control.targets import blocks_of, layer_members, layers_of, mixers
-from backend.drivers.readings import hardware_status, joint_readings
+from backend.drivers.readings import hardware_status, joint_readings, simulation_status
 from backend.engine.blocks.clip_player import ClipPlayer
 from backend.engine.blocks.posture import Posture as PostureBlock
 from backend.tools.observe import gaze_now, measured
@@ -71,6 +71,7 @@ def robot_status(session: CommandSession) -> dict[str, Any]:
         "measured": measured(session),
         "joints": joint_readings(session.engine.sinks),
         "hardware": hardware_status(session.engine.sinks),
+        "simulation": simulation_status(session.engine.sinks),
         "mood": {n: inputs[n] for n in ("valence", "arousal") if n in declared and n in inputs} or None,
         "inputs": inputs,
         "layers": layers,

@@ -929,6 +929,10 @@ export interface ServerStatus {
   rate: number;
   running: boolean;
   safety: SafetyStats;
+  /**
+   * the physics preview (`--sim mujoco`; null: not simulated)
+   */
+  simulation?: SimulationStatus | null;
   sinks: SinkStats[];
   /**
    * when the clock started (Unix time, s)
@@ -1065,7 +1069,7 @@ export interface JointReading {
    */
   commanded: number;
   /**
-   * the load: a fraction of the motor's maximum torque for servos (-1..1; null: unknown)
+   * the load: a fraction of the motor's maximum torque (-1..1; null: unknown), for servos and the physics preview alike
    */
   effort: number | null;
   /**
@@ -1080,6 +1084,10 @@ export interface JointReading {
    * the motor is at its torque (or speed) limit
    */
   saturated: boolean;
+  /**
+   * the motor's torque (N·m; N for a slide), where known: the physics preview
+   */
+  torque?: number | null;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -1127,6 +1135,83 @@ export interface SafetyStats {
    */
   joints_governed: string[];
   [k: string]: unknown;
+}
+/**
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "SimulationStatus".
+ */
+export interface SimulationStatus {
+  /**
+   * the contacts now
+   */
+  contacts: SimContact[];
+  contacts_total: number;
+  /**
+   * median CPU time to follow one frame (ms)
+   */
+  cpu_per_frame_ms: number;
+  /**
+   * mean CPU time over the frame period: a share of one core
+   */
+  cpu_share: number;
+  engine: "mujoco";
+  /**
+   * the floor's height in the world frame (m)
+   */
+  floor_z: number;
+  /**
+   * where the motors' gains came from: a hardware.yaml, or 'urdf'
+   */
+  gains: string;
+  /**
+   * what the model assumed where the URDF is silent
+   */
+  notes: string[];
+  /**
+   * physics steps per second (Hz)
+   */
+  rate: number;
+  /**
+   * the last contacts that began (oldest first)
+   */
+  recent_contacts: SimContact[];
+  state: "waiting" | "running";
+  steps: number;
+  stop_on_contact: boolean;
+  /**
+   * how often a contact stopped the program
+   */
+  stops: number;
+  table_z: number | null;
+  /**
+   * simulated time (s)
+   */
+  time: number;
+  [k: string]: unknown;
+}
+/**
+ * Two links touching in the physics preview (not parent and child), or a link and a plane.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "SimContact".
+ */
+export interface SimContact {
+  /**
+   * the deepest penetration (m)
+   */
+  depth: number;
+  /**
+   * the two links, sorted ('floor' or 'table' for a plane)
+   */
+  links: string[];
+  /**
+   * where, in the world frame (m)
+   */
+  position?: number[] | null;
+  /**
+   * engine time the contact began (s)
+   */
+  t?: number | null;
 }
 /**
  * One frame consumer of the engine (a driver, a socket, the Pre-Viz). Open: a driver adds its own
@@ -1278,6 +1363,10 @@ export interface TrackAnalysis {
    */
   ok: boolean;
   /**
+   * with `physics: true`: the clip raw and filtered in MuJoCo (docs/simulation.md)
+   */
+  physics?: PhysicsReport | null;
+  /**
    * by first sample, then DoF
    */
   ranges: LimitRange[];
@@ -1319,6 +1408,134 @@ export interface TrackLimits {
   max: number;
   min: number;
   velocity: number;
+}
+/**
+ * A motion raw (before stage 2 and the safety net) and filtered (what the motors get), in MuJoCo.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PhysicsReport".
+ */
+export interface PhysicsReport {
+  filtered: PhysicsRun;
+  /**
+   * where the motors' gains came from: a hardware.yaml, or 'urdf'
+   */
+  gains: string;
+  /**
+   * `nutty sim report`: what ran
+   */
+  kind?: ("clip" | "program") | null;
+  /**
+   * what the model guessed (inertia from geometry, visual shapes colliding)
+   */
+  notes: string[];
+  /**
+   * physics steps per second (Hz)
+   */
+  physics_rate: number;
+  /**
+   * engine ticks per second of both motions (Hz)
+   */
+  rate: number;
+  raw: PhysicsRun;
+  /**
+   * `nutty sim report`: the robot
+   */
+  robot?: string | null;
+  /**
+   * how long was simulated (s)
+   */
+  seconds: number;
+  /**
+   * `nutty sim report`: the clip or program file
+   */
+  target?: string | null;
+}
+/**
+ * One motion (raw or filtered) in physics.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PhysicsRun".
+ */
+export interface PhysicsRun {
+  /**
+   * by first touch
+   */
+  contacts: PhysicsContact[];
+  /**
+   * URDF joint -> figures
+   */
+  joints: {
+    [k: string]: PhysicsJoint;
+  };
+  /**
+   * that joint's peak error (rad or m)
+   */
+  peak_error: number;
+  /**
+   * joints that reached their effort limit
+   */
+  saturated_joints: string[];
+  /**
+   * the joint with the largest peak error
+   */
+  worst_joint: string | null;
+}
+/**
+ * Two links that touched during a simulated motion.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PhysicsContact".
+ */
+export interface PhysicsContact {
+  /**
+   * the deepest penetration (m)
+   */
+  depth: number;
+  /**
+   * when they first touched (s from the start)
+   */
+  first: number;
+  /**
+   * the two links, sorted ('floor' or 'table' for a plane)
+   */
+  links: string[];
+  /**
+   * for how long they touched, in all (s)
+   */
+  seconds: number;
+}
+/**
+ * One joint of one simulated motion.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "PhysicsJoint".
+ */
+export interface PhysicsJoint {
+  /**
+   * the motor's limit (N·m or N)
+   */
+  effort_limit: number;
+  /**
+   * largest |motor force| as a fraction of its limit (0..1)
+   */
+  peak_effort: number;
+  /**
+   * largest |goal - simulated position| (rad or m)
+   */
+  peak_error: number;
+  /**
+   * largest |motor force| (N·m, or N for a slide joint)
+   */
+  peak_torque: number;
+  /**
+   * root-mean-square tracking error (rad or m)
+   */
+  rms_error: number;
+  /**
+   * time spent at the effort limit (s)
+   */
+  saturated: number;
 }
 /**
  * A run of samples of one DoF over a limit.

@@ -11,6 +11,11 @@ export function describeControlMessage(m: ControlMessage): string {
     case "event":
       if (m.event === "servo_fault")  // the robot stopped its show: say which servo and why
         return `servo fault: ${String(m.joint)} (servo ${String(m.servo)} on ${String(m.bus)}): ${String(m.fault)}; held, the rest of the robot went to rest`;
+      if (m.event === "sim_contact") {  // the physics preview saw two links (or a link and the floor) touch
+        const [a, b] = (m.links as string[] | undefined) ?? ["?", "?"];
+        const depth = (1000 * Number(m.depth)).toFixed(1);
+        return `contact in simulation: ${a} / ${b} at t=${Number(m.t).toFixed(2)} s, ${depth} mm deep${m.stopped ? "; the program's motion stopped" : ""}`;
+      }
       return `event ${m.event}${m.command ? " " + m.command : ""}${m.id ? " #" + m.id : ""}${m.node ? " @" + m.node : ""}`;
     case "ack":
       return `ack #${m.id} ${m.status}`;

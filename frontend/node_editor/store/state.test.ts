@@ -145,6 +145,8 @@ describe("reports and notices", () => {
     expect(describeControlMessage({ type: "error", code: "no_target", message: "no clip player" })).toBe("error no_target: no clip player");
     expect(describeControlMessage({ type: "event", event: "servo_fault", id: null, joint: "head_yaw", servo: 3, bus: "/dev/ttyUSB0", fault: "overload", t: 4.2 }))
       .toBe("servo fault: head_yaw (servo 3 on /dev/ttyUSB0): overload; held, the rest of the robot went to rest");
+    expect(describeControlMessage({ type: "event", event: "sim_contact", id: null, links: ["left_arm", "right_arm"], t: 0.39, depth: 0.0039, position: [0.2, 0, 0.12], stopped: true }))
+      .toBe("contact in simulation: left_arm / right_arm at t=0.39 s, 3.9 mm deep; the program's motion stopped");
   });
 });
 
