@@ -97,6 +97,7 @@ bench: deps-python
 	$(PY) benchmarks/bench_previews.py
 	$(PY) benchmarks/bench_ros2.py
 	$(PY) benchmarks/bench_hardware.py
+	$(PY) benchmarks/bench_sim.py
 
 # The served steadiness target: bench_engine's runs plus `nutty serve` at 500 Hz for 60 s.
 bench-long: deps-python

@@ -335,6 +335,35 @@ def test_check_limits_marks_the_frames_where_the_clip_breaks_a_limit_at_the_engi
     assert answer["fit_scale"] is None
 
 
+def test_check_limits_with_physics_says_what_the_motors_make_of_the_clip(blender, server):
+    """With the Physics switch, the same check also asks the server for the clip in MuJoCo; the panel
+    says it in the add-on's words, from the server's own answer."""
+    load_rig(blender, server.url)
+    got = blender.run(
+        """
+        rig = bpy.data.objects["nutty_desk"]
+        scene = bpy.context.scene
+        scene.frame_start, scene.frame_end = 1, 36
+        key(rig, "neck_pitch", [(1, 0.0), (12, 0.35), (24, -0.2), (36, 0.0)])
+        scene.nutty.check_physics = True
+        bpy.ops.nutty.check_limits()
+        summary = scene.nutty.physics_summary
+        clip, _ = nutty_blender.clip.export_clip(rig, nutty_blender.rig.plan_of(rig), scene, "probe")
+        scene.nutty.check_physics = False
+        bpy.ops.nutty.check_limits()
+        result = {"summary": summary, "after": scene.nutty.physics_summary, "clip": clip}
+    """
+    )
+    answer = httpx.post(
+        f"{server.url}/api/analyze", json={"rate": FPS, "clip": got["clip"], "fit": False, "physics": True}
+    ).json()["physics"]
+    worst = answer["filtered"]["worst_joint"]
+    assert worst == "neck_pitch" and answer["filtered"]["joints"][worst]["peak_error"] > 0
+    assert got["summary"].startswith(f"physics: {worst} off by ") and "filtered" in got["summary"]
+    assert f"{answer['filtered']['joints'][worst]['peak_error']:.3f} filtered" in got["summary"]
+    assert got["after"] == ""  # switched off: no physics asked, the last verdict cleared
+
+
 # --- 4. the ghost -------------------------------------------------------------------------------------
 
 

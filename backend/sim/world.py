@@ -1,9 +1,10 @@
 """One simulated robot following joint goals: MuJoCo stepped at its own rate between Animation Frames.
 
 `SimWorld.follow(goals, seconds)` holds the goals for `seconds` (as a servo bus does between frames: a
-zero-order hold) and steps the physics; every step with contacts is scanned for contacts between links
-that MuJoCo does not filter (parent and child, and links welded by fixed joints, never collide), and
-with the floor or table plane. What the motors do is read after the last step: positions, actuator
+zero-order hold) and steps the physics; after the steps, contacts are read between links that MuJoCo
+does not filter (parent and child, and links welded by fixed joints, never collide), and with the floor
+or table plane — once per followed frame (every 10 ms at 100 Hz), so a touch shorter than a frame can
+pass unseen. What the motors do is read after the last step: positions, actuator
 forces, and the effort as a fraction of each joint's limit (the servo drivers' unit).
 """
 
@@ -83,17 +84,18 @@ class SimWorld:
             self.data.mocap_quat[self.sim.base_mocap] = quat
 
     def follow(self, goals: np.ndarray, seconds: float) -> list[Contact]:
-        """Hold `goals` for `seconds` (at most MAX_CATCH_UP) and step; the contacts seen meanwhile."""
+        """Hold `goals` for `seconds` (at most MAX_CATCH_UP) and step; the contacts at the end."""
         self.goals = np.asarray(goals, dtype=float)
         self.data.ctrl[:] = self.goals
         n = max(1, round(min(seconds, MAX_CATCH_UP) / self.model.opt.timestep))
-        seen: dict[tuple[str, str], Contact] = {}
-        m, d = self.model, self.data
-        for _ in range(n):
-            mujoco.mj_step(m, d)
-            if d.ncon:
-                self._scan(seen)
+        # One call for all the steps: MuJoCo lets go of the interpreter lock for each call, and in a
+        # served process (clock, API) every hand-back costs a wait: beside one busy Python thread, ten
+        # single steps measured 1.1 ms of CPU per 10 ms frame, one ten-step call 0.19 ms.
+        mujoco.mj_step(self.model, self.data, nstep=n)
         self.steps += n
+        seen: dict[tuple[str, str], Contact] = {}
+        if self.data.ncon:
+            self._scan(seen)
         return list(seen.values())
 
     def _scan(self, seen: dict[tuple[str, str], Contact]) -> None:

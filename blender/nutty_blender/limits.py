@@ -5,6 +5,11 @@ bones and F-curves in the editor's colours (velocity orange, acceleration pink, 
 purple), the list in the Nutty panel (bone, kind, frames, worst ratio, every limit broken), and the
 server's suggestion (e.g. "play it 1.8x slower (2 s -> 3.6 s) to fit every limit"; an older server
 gives none).
+
+With the panel's Physics switch the server also plays the clip in MuJoCo (`physics: true`,
+docs/simulation.md): the panel says what the motors made of it, raw and through the program's filter
+(the worst tracking error, the motors that saturated), and every contact gets a marker
+(`nutty:contact <link>/<link>`) where it begins.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ def clear(scene: Any, rig_ob: Any | None) -> None:
     scene.nutty.ranges.clear()
     scene.nutty.check_summary = ""
     scene.nutty.suggestion = ""
+    scene.nutty.physics_summary = ""
     if rig_ob is None:
         return
     for pb in rig_ob.pose.bones:
@@ -43,9 +49,39 @@ def check_limits(context: Any, client: Client, rig_ob: Any) -> tuple[dict[str, A
     notes."""
     plan = rig.plan_of(rig_ob)
     timing = clip.Timing.of(context.scene)
-    result, notes = preview.post(client, "/api/analyze", context.scene, rig_ob, plan)
+    extra = {"physics": True} if context.scene.nutty.check_physics else None
+    result, notes = preview.post(client, "/api/analyze", context.scene, rig_ob, plan, extra)
     show(context.scene, rig_ob, plan, timing, result)
+    show_physics(context.scene, timing, result.get("physics"))
     return result, notes
+
+
+def physics_text(report: dict[str, Any]) -> str:
+    """`physics: head_pitch off by 0.026 rad raw, 0.009 filtered; saturated: neck (raw); 1 contact`."""
+    raw, filtered = report["raw"], report["filtered"]
+    worst = filtered["worst_joint"] or raw["worst_joint"]
+    parts = []
+    if worst:
+        parts.append(
+            f"{worst} off by {raw['joints'][worst]['peak_error']:.3f} raw, "
+            f"{filtered['joints'][worst]['peak_error']:.3f} filtered"
+        )
+    for label, run in (("raw", raw), ("filtered", filtered)):
+        if run["saturated_joints"]:
+            parts.append(f"saturated: {', '.join(run['saturated_joints'])} ({label})")
+    n = len(filtered["contacts"])
+    parts.append(f"{n} contact{'s' if n != 1 else ''}" if n else "no contacts")
+    return "physics: " + "; ".join(parts)
+
+
+def show_physics(scene: Any, timing: clip.Timing, report: dict[str, Any] | None) -> None:
+    """The physics verdict in the panel, and a marker where each contact of the filtered clip begins."""
+    if not report:
+        return
+    scene.nutty.physics_summary = physics_text(report)
+    for c in report["filtered"]["contacts"]:
+        frame = int(timing.start) + round(c["first"] * timing.fps)
+        scene.timeline_markers.new(f"{MARKER_PREFIX}contact {'/'.join(c['links'])}", frame=frame)
 
 
 def _limits_text(r: dict[str, Any]) -> str:

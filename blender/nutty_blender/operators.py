@@ -171,6 +171,7 @@ class NUTTY_OT_check_limits(_NuttyOperator):
             f"Nutty limits{where}: {s.check_summary}"
             + (f" ({', '.join(kinds)})" if kinds else "")
             + (f"; {s.suggestion}" if s.suggestion else "")
+            + (f"; {s.physics_summary}" if s.physics_summary else "")
         )
 
 

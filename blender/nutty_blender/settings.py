@@ -3,6 +3,7 @@
 # (no `from __future__ import annotations`: Blender reads the property annotations as objects)
 import bpy
 from bpy.props import (
+    BoolProperty,
     CollectionProperty,
     EnumProperty,
     FloatProperty,
@@ -69,6 +70,13 @@ class NuttySettings(bpy.types.PropertyGroup):
     ranges: CollectionProperty(type=NuttyRange)
     ranges_index: IntProperty()
     check_summary: StringProperty(name="Limits")
+    check_physics: BoolProperty(
+        name="Physics",
+        default=False,
+        description="Check limits also plays the clip in physics on the server (MuJoCo: gravity, motor "
+        "strength, self-collision) and shows the tracking error, saturated motors and contacts",
+    )
+    physics_summary: StringProperty(name="Physics", description="what the motors made of the clip")
     suggestion: StringProperty(
         name="Suggestion", description="the server's advice to fit every limit (e.g. play it slower)"
     )

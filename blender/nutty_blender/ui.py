@@ -84,9 +84,12 @@ class NUTTY_PT_panel(bpy.types.Panel):
         box = layout.box()
         row = box.row(align=True)
         row.operator("nutty.check_limits", icon="ERROR")
+        row.prop(s, "check_physics", text="", icon="PHYSICS")
         row.operator("nutty.clear_limits", text="", icon="X")
         if s.check_summary:
             box.label(text=s.check_summary)
+        if s.physics_summary:
+            box.label(text=s.physics_summary, icon="PHYSICS")
         if s.suggestion:
             box.label(text=s.suggestion, icon="TIME")
         if len(s.ranges):
