@@ -3,7 +3,8 @@
 One MuJoCo body per URDF link (a fixed joint makes a child body with no joint of its own, so MuJoCo
 welds it to its parent), one hinge or slide joint per moving URDF joint with the URDF's range as a hard
 stop, one position actuator per actuated joint, gravity along -Z, and a floor plane under the robot's
-lowest point at rest. Mimic joints follow their leader through a joint equality.
+lowest point at rest. Mimic joints follow their leader through a joint equality. Links in contact are
+reported unless they are parent and child, or joined through links without shapes (a gimbal).
 
 What the URDF does not say is assumed, and `SimModel.notes` says so (the log repeats it):
 
@@ -141,6 +142,7 @@ def build(
     builder.add_link(body, root)
     if spatial:  # a mocap body is not welded to the world: keep the base's own contact with it out
         spec.add_exclude(bodyname1="world", bodyname2=root)
+    builder.exclude_gimbals()
     for name in emb.joint_names:
         builder.add_actuator(name)
     builder.add_mimics()
@@ -195,6 +197,7 @@ class _Builder:
             self.children.setdefault(joint.parent, []).append(joint)
         self.parents: dict[str, str | None] = {}
         self.ranges: dict[str, tuple[float, float]] = {}  # joint -> its URDF range, where bounded
+        self.shaped: set[str] = set()  # links with shapes
         self._guessed_mass: list[str] = []
         self._visual_shapes: list[str] = []
         self._meshes = 0
@@ -210,6 +213,8 @@ class _Builder:
     def add_link(self, body: Any, name: str) -> None:
         link = self.urdf.link_map[name]
         shapes = link.collisions or link.visuals
+        if shapes:
+            self.shaped.add(name)
         if shapes and not link.collisions:
             self._visual_shapes.append(name)
         for k, shape in enumerate(shapes):
@@ -235,6 +240,22 @@ class _Builder:
             self.add_link(child, joint.child)
         if self.parents[name] is None:
             self._say()
+
+    def exclude_gimbals(self) -> None:
+        """Links joined through shapeless links (a 3-axis neck's gimbal: neck -> yaw -> pitch -> head)
+        touch where the joints are, like parent and child: MuJoCo filters only a body's own parent,
+        so such pairs are excluded too, and said in the notes."""
+        pairs = []
+        for name in sorted(self.shaped):
+            above = self.parents.get(name)
+            skipped = False
+            while above is not None and above not in self.shaped:
+                above, skipped = self.parents.get(above), True
+            if skipped and above is not None:
+                self.spec.add_exclude(bodyname1=above, bodyname2=name)
+                pairs.append(f"{above} / {name}")
+        if pairs:
+            self.notes.append(f"adjacent through shapeless links, never in contact: {', '.join(pairs)}")
 
     def _add_joint(self, body: Any, joint: Any) -> None:
         kinds = {"revolute": mujoco.mjtJoint.mjJNT_HINGE, "continuous": mujoco.mjtJoint.mjJNT_HINGE}
