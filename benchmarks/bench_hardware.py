@@ -15,19 +15,17 @@ Run: .venv/bin/python benchmarks/bench_hardware.py
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import time
 from pathlib import Path
 
-import httpx
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_fleet import free_port
 from results import recorded
+from serve_window import served_status
 
 from backend.engine.embodiment import load_embodiment
 from backend.hardware.config import load_hardware
@@ -93,36 +91,9 @@ def bus_ticks() -> None:
         print(f"  {kind} tick / engine tick: {cost / p50:.2f}x (on the bus's own thread, not the clock's)")
 
 
-def served(extra: list[str]) -> dict:
-    port = free_port()
-    cmd = [sys.executable, "-m", "backend.cli", "serve", "--no-previz", "--port", str(port), *extra]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.time() + 120
-        while True:
-            try:
-                if httpx.get(f"{url}/api/status", timeout=1).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                if time.time() > deadline:
-                    raise
-            time.sleep(0.2)
-        time.sleep(WARMUP)
-        httpx.delete(f"{url}/api/profile", timeout=5)
-        before = httpx.get(f"{url}/api/status", timeout=5).json()
-        time.sleep(SECONDS)
-        after = httpx.get(f"{url}/api/status", timeout=5).json()
-        after["overruns_in_window"] = after["overruns"] - before["overruns"]
-        return after
-    finally:
-        proc.terminate()
-        proc.wait(20)
-
-
 def served_pair() -> None:
-    plain = served([])
-    with_hw = served(["--hardware-emulator", str(HARDWARE)])
+    plain = served_status([], SECONDS, WARMUP)
+    with_hw = served_status(["--hardware-emulator", str(HARDWARE)], SECONDS, WARMUP)
     for label, s in (("without hardware", plain), ("--hardware-emulator", with_hw)):
         tick = s["tick_cost"]
         print(

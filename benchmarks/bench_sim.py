@@ -17,19 +17,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import time
 from pathlib import Path
 
-import httpx
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_fleet import free_port
 from results import recorded
+from serve_window import served_status
 
 from backend.drivers.registry import DriverArgs
 from backend.engine.embodiment import load_embodiment
@@ -73,32 +71,8 @@ def follow_cost() -> None:
     print(f"  peer: engine.tick() (interactive) {peer:.0f} µs p50; follow / tick: {p50 / peer:.2f}x")
 
 
-def served(extra: list[str]) -> dict:
-    port = free_port()
-    cmd = [sys.executable, "-m", "backend.cli", "serve", "--no-previz", "--port", str(port), *extra]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.time() + 120
-        while True:
-            try:
-                if httpx.get(f"{url}/api/status", timeout=1).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                if time.time() > deadline:
-                    raise
-            time.sleep(0.2)
-        time.sleep(WARMUP)
-        httpx.delete(f"{url}/api/profile", timeout=5)
-        time.sleep(SECONDS)
-        return httpx.get(f"{url}/api/status", timeout=5).json()
-    finally:
-        proc.terminate()
-        proc.wait(20)
-
-
 def served_pair() -> None:
-    plain, sim = served([]), served(["--sim", "mujoco"])
+    plain, sim = served_status([], SECONDS, WARMUP), served_status(["--sim", "mujoco"], SECONDS, WARMUP)
     for label, s in (("without --sim", plain), ("--sim mujoco", sim)):
         tick = s["tick_cost"]
         print(f"  {label:<14s} tick {tick['p50_ms']:.3f} ms p50, {tick['p99_ms']:.3f} ms p99")
