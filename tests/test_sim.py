@@ -107,3 +107,19 @@ def test_the_bundled_idle_program_tracks_within_0_05_rad(desk):
     worst = {name: j["peak_error"] for name, j in report["filtered"]["joints"].items()}
     assert max(worst.values()) < 0.05, worst
     assert report["filtered"]["contacts"] == [] and report["filtered"]["saturated_joints"] == []
+
+
+def test_a_table_plane_counts_contacts_but_never_with_the_base():
+    """heavy_head's head (a 7 cm ball 0.22 m up) clears a table 0.14 m up at rest; nodded 0.8 rad
+    forward it would sink 4 cm into the table, which holds it up instead. The base, under the table
+    too, is welded to the world."""
+    emb = load_embodiment(ASSETS / "heavy_head")
+    sim = build(emb, gains_for(emb, None), table=0.14)
+    assert sim.table_z == pytest.approx(sim.floor_z + 0.14)
+    world = SimWorld(sim)
+    world.reset(np.zeros(1))
+    assert world.follow(np.zeros(1), 0.5) == []
+    (hit,) = world.follow(np.array([0.8]), 1.0)
+    assert hit.links == ("head", "table") and 0 < hit.depth < 0.005
+    # resting on the table (touching from 0.41 rad: 0.1 + 0.12 cos q - 0.07 = 0.14), short of the goal
+    assert 0.38 < world.positions()[0] < 0.6

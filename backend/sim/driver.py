@@ -73,7 +73,7 @@ class MujocoDriver(Sink[AnimationFrame]):
             DriverSetting(
                 "sim-table",
                 "HEIGHT",
-                "add a table plane HEIGHT m above the floor (contacts with it count)",
+                "add a table plane HEIGHT m above the floor that links other than the base touch (contacts count)",
                 _height,
             ),
             DriverSetting(
