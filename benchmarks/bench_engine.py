@@ -8,6 +8,9 @@ or a fast machine compare.
 1. Headless: `engine.tick()` timed one by one while the scripted AI (tests/scripted_ai.py) sends its
    commands; tick p50/p99 per program and rate. The interactive program also on the numpy reference
    path (NUTTY_REFERENCE / `Engine(compiled=False)`) for comparison.
+   Then the wake pattern (benchmarks/wake.py): the interactive program and 1000-DoF breathe-anything
+   against one Ruckig-25 update, both timed back to back (hot) and after each sleep of the tick's
+   period (woken: what a real clock finds), interleaved.
 2. Served: `nutty serve` with the Pre-Viz on (in its own process) and its page open, 4 editor telemetry clients, a 100 Hz
    driver and the scripted AI over REST (benchmarks/served.py): tick p50/p99 (and the tick's own CPU
    time), lateness p99 (the period jitter: how late a tick starts), overruns, lost ticks, and the
@@ -48,6 +51,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 import contextlib
 
 import scripted_ai
+import wake
 from bench_nmf import time_ruckig
 from results import recorded
 
@@ -186,6 +190,31 @@ def run_headless(peer: Peer) -> dict[str, float]:
         p50, p99 = np.percentile(costs, [50, 99])
         print(f"{name:<34} {rate:>6g} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)}")
     return {rate: float(np.percentile(c, 50)) for name, rate, c in rows if name == "interactive"}
+
+
+WAKE_PATTERNS = (("hot", 0.0), ("woken at 500 Hz", 0.002), ("woken at 100 Hz", 0.01))
+
+
+def run_wake(peer: Peer) -> None:
+    """The interactive program and 1000-DoF breathe-anything against Ruckig-25, hot and woken
+    (benchmarks/wake.py)."""
+    desk = load_embodiment("nutty_desk")
+    engines = [EngineSession.create(desk, rate=100.0, program=program("interactive")).engine]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "many.urdf"
+        path.write_text(synthetic_urdf(1000))
+        many = load_embodiment(path)
+    engines.append(EngineSession.create(many, rate=100.0, program=program("breathe-anything")).engine)
+    for engine in engines:
+        engine.run_ticks(WARM_UP)
+    ticks = {
+        "interactive": lambda k: engines[0].tick(),
+        f"breathe-anything, {many.n_channels} DoFs": lambda k: engines[1].tick(),
+    }
+    rows = wake.wake_rows(ticks, wake.ruckig_step(RUCKIG_DOFS, peer.targets, 0.01), WAKE_PATTERNS)
+    for engine in engines:
+        engine.close()
+    wake.print_wake(rows, RUCKIG_DOFS)
 
 
 def clock_alone(rate: float, seconds: float) -> dict:
@@ -342,6 +371,7 @@ def main() -> None:
     args = ap.parse_args()
     peer = Peer()
     headless = run_headless(peer)
+    run_wake(peer)
     if not args.no_server:
         run_served(peer, args.seconds, RATES, headless)
         if args.long:
