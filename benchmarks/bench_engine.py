@@ -53,7 +53,7 @@ import contextlib
 import scripted_ai
 import wake
 from bench_nmf import time_ruckig
-from results import recorded
+from results import headline, recorded
 
 from backend.engine.compiled import REFERENCE_ENV
 from backend.engine.embodiment import load_embodiment
@@ -189,6 +189,15 @@ def run_headless(peer: Peer) -> dict[str, float]:
     for name, rate, costs in rows:
         p50, p99 = np.percentile(costs, [50, 99])
         print(f"{name:<34} {rate:>6g} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)}")
+    for name, rate, costs in rows:
+        if (name, rate) in (("interactive", 100.0), ("interactive (numpy reference)", 100.0)) or (
+            name.endswith("DoFs") and rate == 100.0
+        ):
+            p50 = float(np.percentile(costs, 50))
+            headline(
+                f"headless {name} at 100 Hz under the scripted AI: tick {p50:.0f} µs p50 = {p50 / us:.2f}× "
+                f"one Ruckig-25 update ({us:.1f} µs)"
+            )
     return {rate: float(np.percentile(c, 50)) for name, rate, c in rows if name == "interactive"}
 
 
@@ -215,6 +224,13 @@ def run_wake(peer: Peer) -> None:
     for engine in engines:
         engine.close()
     wake.print_wake(rows, RUCKIG_DOFS)
+    for name, label, a, b in rows:
+        if label != "woken at 500 Hz":
+            a50, b50 = float(np.percentile(a, 50)), float(np.percentile(b, 50))
+            headline(
+                f"{name}, {label}: tick {a50:.0f} µs p50 against Ruckig-25 {b50:.0f} µs timed alike = "
+                f"{a50 / b50:.2f}×"
+            )
 
 
 def clock_alone(rate: float, seconds: float) -> dict:
@@ -287,6 +303,14 @@ def run_served(
             f"  {r['rate']:g} Hz load delivered: {c['telemetry']} telemetry messages, {c['frames']} driver frames, "
             f"{c['previz']} Pre-Viz messages ({c['previz_reconnects']} reconnects), {c['commands']} commands"
         )
+    for r in results:
+        st = r["status"]
+        headline(
+            f"served at {r['rate']:g} Hz for {r['seconds']:.0f} s (Pre-Viz, 4 telemetry clients, a driver, the "
+            f"AI): tick {st['tick_cost']['p50_ms'] * 1e3:.0f} µs p50 (CPU {st['tick_cpu']['p50_ms'] * 1e3:.0f} µs) "
+            f"= {st['tick_cost']['p50_ms'] * 1e3 / us:.2f}× Ruckig-25 hot; lateness p99 "
+            f"{st['jitter']['p99_ms']:.2f} ms; {r['overruns']} overruns"
+        )
     top = sorted(results[0]["profile"]["nodes"], key=lambda n: -n["mean_us"])[:6]
     print(
         "  most expensive nodes in the server (mean µs): "
@@ -348,6 +372,7 @@ def run_startup(cold: bool) -> None:
         ):  # an empty cache: every kernel compiles, as on a fresh clone
             line += f", cold numba cache {served.startup(tmp):.2f} s"
     print(line)
+    headline(f"`nutty serve` to its first frame, warm caches: {warm:.2f} s")
 
 
 def main() -> None:

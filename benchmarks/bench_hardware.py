@@ -24,7 +24,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from results import recorded
+from results import headline, recorded
 from serve_window import served_status
 
 from backend.engine.embodiment import load_embodiment
@@ -70,6 +70,9 @@ def bus_ticks() -> None:
                 f"  {bus.kind:<10s} {len(jmap.ids)} servos: write + read {p50:7.0f} µs p50, {p99:7.0f} µs p99"
             )
             costs[bus.kind] = p50
+            headline(
+                f"{bus.kind} bus, {len(jmap.ids)} servos: goals + reads {p50:.0f} µs p50 per tick (emulator)"
+            )
         for bus, jmap in zip(buses, maps):
             bus.torque(jmap.ids, False)
             bus.close()
@@ -107,6 +110,10 @@ def served_pair() -> None:
         )
     ratio = with_hw["tick_cost"]["p50_ms"] / plain["tick_cost"]["p50_ms"]
     print(f"  served tick p50, with / without: {ratio:.2f}x")
+    headline(
+        f"served at 100 Hz with --hardware-emulator: tick {with_hw['tick_cost']['p50_ms']:.2f} ms p50, "
+        f"{with_hw['overruns_in_window']} overruns; {ratio:.2f}× without"
+    )
 
 
 def main() -> None:

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import httpx
-from results import recorded
+from results import headline, recorded
 from served import ROOT, Server
 
 CLIP = json.loads((ROOT / "robots" / "nutty_desk" / "clips" / "wave.json").read_text())
@@ -52,6 +52,11 @@ def main() -> None:
                     f"{label:10}  {route:13}  first {first[route] * 1000:7.0f} ms   "
                     f"warm {warm[route] * 1000:6.1f} ms   first / warm {first[route] / warm[route]:6.1f}x"
                 )
+                if label == "warm cache":
+                    headline(
+                        f"{route} after `nutty serve` starts: first answer {first[route] * 1000:.0f} ms, "
+                        f"then {warm[route] * 1000:.1f} ms"
+                    )
 
 
 if __name__ == "__main__":

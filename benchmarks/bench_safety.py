@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from results import recorded
+from results import headline, recorded
 
 from backend.engine.embodiment import load_embodiment
 from backend.engine.safety import SafetyNet
@@ -118,6 +118,10 @@ def main() -> None:
     for label, on in (("before (no transition, no net)", False), ("after (transition + net)", True)):
         r = swap_jumps(desk, on)
         print(f"  {label:32s} v {r['v']:7.2f}x  a {r['a']:8.2f}x  j {r['j']:9.2f}x")
+        headline(
+            f"a program swap with the gaze turned, {label}: worst velocity {r['v']:.2f}×, acceleration "
+            f"{r['a']:.2f}×, jerk {r['j']:.2f}× the limits"
+        )
     print("re-lock after a 0.5 rad step on the neck (s from the step to bit-exact pass-through)")
     for rate in (30.0, 100.0, 1000.0):
         print(f"  {rate:6.0f} Hz  {relock_seconds(desk, rate):.2f} s")
@@ -132,6 +136,7 @@ def main() -> None:
             else ""
         )
         print(f"  {kind:8s} {us:6.1f} us{ratio}")
+        headline(f"safety net on nutty_desk, {kind}: {us:.1f} µs per tick{ratio.replace('x one', '× one')}")
     joint_stage(desk)
 
 
