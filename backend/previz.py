@@ -44,7 +44,7 @@ from backend.engine.kinematics import yaw_pitch_roll_quat
 from backend.engine.runtime import Sink
 from backend.errors import DomainError
 from backend.previz_physics import PhysicsGhost
-from backend.previz_pose import UrdfPoser
+from backend.previz_pose import poser_for, set_if_changed
 from backend.previz_posing import PreviewPosing
 
 # The API's /previz/ proxy lives in backend.previz_proxy; its names stay importable from here.
@@ -141,27 +141,6 @@ def set_gaze_input(session: EngineSession, target: list[float]) -> bool:
     return True
 
 
-def _poser(robot: Any) -> UrdfPoser | None:
-    """A cheap poser for a ViserUrdf (its joints and frames, as it made them); None when this viser
-    version keeps them elsewhere (its own `update_cfg` is used then)."""
-    joints, handles = getattr(robot, "_joint_map_values", None), getattr(robot, "_joint_frames", None)
-    if not joints or not handles or len(joints) != len(handles):
-        return None
-    return UrdfPoser(joints, handles, list(robot.get_actuated_joint_names()), getattr(robot, "_scale", 1.0))
-
-
-def _set_if_changed(handle: Any, name: str, value: Any) -> None:
-    """Assign a scene property only when it differs (viser's setters compare arrays with allclose, and
-    queue a message when it does differ: both cost far more than this comparison)."""
-    current = getattr(handle, name)
-    if isinstance(current, np.ndarray):
-        if current.shape == (len(value),) and current.tolist() == list(value):
-            return
-    elif current == value:
-        return
-    setattr(handle, name, value)
-
-
 class PreViz:
     """A viser server showing a session's robot. `start()` attaches it to the engine as a sink."""
 
@@ -213,7 +192,7 @@ class PreViz:
         self._order = (
             np.array([index[n] for n in names], dtype=int) if all(n in index for n in names) else None
         )
-        self._posers = {id(vu): _poser(vu) for vu in (self.robot, self.ghost)}
+        self._posers = {id(vu): poser_for(vu) for vu in (self.robot, self.ghost)}
         #: The simulated robot (`nutty serve --sim`): built on the first simulated pose it is given.
         self.physics = PhysicsGhost(self.server, str(self.emb.urdf_path), self._order)
         #: Where an in-process Pre-Viz reads the simulated pose: () -> (joints, touching links) | None.
@@ -441,8 +420,8 @@ class PreViz:
             self._cfg_now = self._cfg(position, frame.joints if preview is None else None)
             self._pose(self.robot, self._cfg_now)
             base = self.emb.base_pose(position)
-            _set_if_changed(self.base, "position", (base["x"], base["y"], base["z"]))
-            _set_if_changed(self.base, "wxyz", yaw_pitch_roll_quat(base["yaw"], base["pitch"], base["roll"]))
+            set_if_changed(self.base, "position", (base["x"], base["y"], base["z"]))
+            set_if_changed(self.base, "wxyz", yaw_pitch_roll_quat(base["yaw"], base["pitch"], base["roll"]))
             physics = getattr(frame, "physics", None)
             if physics is None and self.physics_source is not None:
                 physics = self.physics_source()
@@ -452,16 +431,16 @@ class PreViz:
             if self.ghost_visible and ghost is not None:
                 self._pose(self.ghost, self._cfg(ghost, frame.joints if preview is not None else None))
                 gb = self.emb.base_pose(ghost)
-                _set_if_changed(self.ghost_base, "position", (gb["x"], gb["y"], gb["z"]))
+                set_if_changed(self.ghost_base, "position", (gb["x"], gb["y"], gb["z"]))
             position = position.tolist()
             for _, channels, handles in self._leds:
                 rgb = tuple(round(255 * min(max(c, 0.0), 1.0)) for c in position[channels])
                 for h in handles:
-                    _set_if_changed(h, "color", rgb)
+                    set_if_changed(h, "color", rgb)
             if self._face is not None:
                 channels, options, label = self._face
                 k = round(position[channels.start])
-                _set_if_changed(label, "text", options[min(max(k, 0), len(options) - 1)])
+                set_if_changed(label, "text", options[min(max(k, 0), len(options) - 1)])
             now = time.monotonic()
             for ev in frame.events:
                 text = ev.payload.get("text") or ev.payload.get("clip") or ev.kind

@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from backend.previz_pose import UrdfPoser, poser_for, set_if_changed
+
 #: The physics ghost's colour (RGB 0..1) and opacity: warm, so it reads apart from the blue stage-1 ghost.
 PHYSICS_COLOUR = (1.0, 0.62, 0.2)
 PHYSICS_OPACITY = 0.45
@@ -32,6 +34,7 @@ class PhysicsGhost:
         self._urdf_path = urdf_path
         self._order = order  # emb.joint_names index per viser joint, or None when they agree
         self._robot: Any = None
+        self._poser: UrdfPoser | None = None
         self._base: Any = None
         self._meshes: list[tuple[Any, str]] = []  # (handle, link)
         self._touching: frozenset[str] = frozenset()
@@ -68,6 +71,7 @@ class PhysicsGhost:
             root_node_name="/physics/body",
             mesh_color_override=(*PHYSICS_COLOUR, PHYSICS_OPACITY),
         )
+        self._poser = poser_for(self._robot)  # ViserUrdf's own update_cfg costs ~14 ms a frame
         # ViserUrdf names a link's mesh node after the link's frame: ".../<link>/<geometry>"
         self._meshes = [(mesh, mesh.name.rsplit("/", 2)[-2]) for mesh in self._robot._meshes]
         self._toggle = self._server.gui.add_checkbox("Show physics (simulated)", initial_value=True)
@@ -81,11 +85,14 @@ class PhysicsGhost:
         if not self.visible:
             return
         q = np.asarray(joints, dtype=float)
-        robot.update_cfg(q[self._order] if self._order is not None else q)
+        cfg = q[self._order] if self._order is not None else q
+        if self._poser is not None:
+            self._poser.update(cfg)
+        else:
+            robot.update_cfg(cfg)
         if base is not None:
-            position, wxyz = base
-            if not np.allclose(self._base.position, position) or not np.allclose(self._base.wxyz, wxyz):
-                self._base.position, self._base.wxyz = position, wxyz
+            set_if_changed(self._base, "position", base[0])
+            set_if_changed(self._base, "wxyz", base[1])
         now = frozenset(touching)
         if now != self._touching:
             calm = _rgb255(PHYSICS_COLOUR)

@@ -125,3 +125,24 @@ class UrdfPoser:
             if first or self.sliding[k]:  # a rotating joint's origin never moves
                 handle.position = points[k]
         return int(changed.sum())
+
+
+def poser_for(robot: Any) -> UrdfPoser | None:
+    """A cheap poser for a ViserUrdf (its joints and frames, as it made them); None when this viser
+    version keeps them elsewhere (its own `update_cfg` is used then)."""
+    joints, handles = getattr(robot, "_joint_map_values", None), getattr(robot, "_joint_frames", None)
+    if not joints or not handles or len(joints) != len(handles):
+        return None
+    return UrdfPoser(joints, handles, list(robot.get_actuated_joint_names()), getattr(robot, "_scale", 1.0))
+
+
+def set_if_changed(handle: Any, name: str, value: Any) -> None:
+    """Assign a scene property only when it differs (viser's setters compare arrays with allclose, and
+    queue a message when it does differ: both cost far more than this comparison)."""
+    current = getattr(handle, name)
+    if isinstance(current, np.ndarray):
+        if current.shape == (len(value),) and current.tolist() == list(value):
+            return
+    elif current == value:
+        return
+    setattr(handle, name, value)

@@ -98,6 +98,9 @@ def test_the_previz_shows_the_physics_ghost_and_flashes_contacts():
         pv.show(frame)
         shown = pv.shown()
         assert shown["physics"] and shown["touching"] == ["left_arm", "right_arm"]
+        # posed by the Pre-Viz's cheap poser: the left arm's frame turned -0.5 rad about its yaw axis (z)
+        frames = {h.name.rsplit("/", 1)[-1]: h for h in pv.physics._poser.handles}
+        assert np.allclose(frames["left_arm"].wxyz, [np.cos(-0.25), 0, 0, np.sin(-0.25)], atol=1e-9)
         flashed = {link for mesh, link in pv.physics._meshes if tuple(mesh.color) == (235, 40, 40)}
         assert flashed == {"left_arm", "right_arm"}
         pv.physics.set_visible(False)
