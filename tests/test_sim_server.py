@@ -22,10 +22,11 @@ from fastapi.testclient import TestClient
 from backend.api import create_app
 from backend.api_types import ServerStatus
 from backend.api_types.physics import PhysicsReport
-from backend.drivers import add_driver_options, build_drivers
+from backend.drivers import DriverArgs, add_driver_options, build_drivers
 from backend.engine.embodiment import load_embodiment
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
+from backend.sim.driver import MujocoDriver
 
 ASSETS = Path(__file__).parent / "assets" / "robots"
 NUTTY = (sys.executable, "-m", "backend.cli")
@@ -157,6 +158,12 @@ def test_analyze_answers_physics_for_a_clip(desk):
         assert physics.gains == "urdf" and physics.filtered.joints["head_pitch"].peak_error > 0
         plain = client.post("/api/analyze", json={"rate": 24, "clip": clip, "fit": False}).json()
         assert plain.get("physics") is None
+        # a server simulating with hardware.yaml's motors analyses with those motors too
+        hardware = Path(__file__).parent.parent / "robots" / "nutty_desk" / "hardware.yaml"
+        args = DriverArgs("mujoco", {"sim_hardware": str(hardware)}, argparse.Namespace())
+        session.engine.add_sink(MujocoDriver.from_option(desk, args))
+        served = client.post("/api/analyze", json={"rate": 24, "clip": clip, "fit": False, "physics": True})
+        assert PhysicsReport.model_validate(served.json()["physics"]).gains == str(hardware)
         tracks = client.post(
             "/api/analyze", json={"rate": 24, "tracks": {"head_pitch": [0.0, 0.1]}, "physics": True}
         )

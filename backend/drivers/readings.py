@@ -26,31 +26,28 @@ def joint_readings(sinks: Iterable[Any]) -> dict[str, dict[str, Any]] | None:
     return out if found else None
 
 
+def first_method(sinks: Iterable[Any], name: str) -> Any:
+    """Method `name` of the first sink that has it (a driver's optional capability), or None."""
+    for sink in sinks:
+        method = getattr(sink, name, None)
+        if callable(method):
+            return method
+    return None
+
+
 def hardware_status(sinks: Iterable[Any]) -> dict[str, Any] | None:
     """The real servos' status (api_types.HardwareStatus) of the first sink that drives them, or None."""
-    for sink in sinks:
-        status = getattr(sink, "hardware_status", None)
-        if callable(status):
-            result: Any = status()
-            return result
-    return None
+    status = first_method(sinks, "hardware_status")
+    return None if status is None else status()
 
 
 def simulation_status(sinks: Iterable[Any]) -> dict[str, Any] | None:
     """The physics preview's status (api_types.SimulationStatus) of the first sink that simulates, or None."""
-    for sink in sinks:
-        status = getattr(sink, "simulation_status", None)
-        if callable(status):
-            result: Any = status()
-            return result
-    return None
+    status = first_method(sinks, "simulation_status")
+    return None if status is None else status()
 
 
 def physics_source(sinks: Iterable[Any]) -> Any:
     """The physics preview's `physics_pose` (() -> (joints, links in contact) | None) of the first sink
     that simulates, for the Pre-Viz's physics ghost; None without one."""
-    for sink in sinks:
-        pose = getattr(sink, "physics_pose", None)
-        if callable(pose):
-            return pose
-    return None
+    return first_method(sinks, "physics_pose")

@@ -10,17 +10,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from backend.drivers.readings import first_method
 from backend.engine.embodiment import Embodiment
 from backend.sim.availability import require_mujoco
-
-
-def _running_model(sinks: Any) -> tuple[Any, str] | None:
-    """(SimModel, gain source) of a running `--sim` driver, or None."""
-    for sink in sinks:
-        sim, source = getattr(sink, "sim", None), getattr(sink, "gain_source", None)
-        if sim is not None and source is not None:
-            return sim, source
-    return None
 
 
 def clip_physics(
@@ -39,9 +31,9 @@ def clip_physics(
     from backend.sim.motions import clip_motion
     from backend.sim.report import physics_report
 
-    running = _running_model(sinks)
+    running = first_method(sinks, "physics_model")
     if running is not None:
-        sim, gains = running
+        sim, gains = running()
     else:
         sim, gains = build(emb, gains_for(emb, hardware)), "hardware.yaml" if hardware else "urdf"
     stage = program if program is not None and _plays_clips(program) else None

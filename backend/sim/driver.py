@@ -236,6 +236,11 @@ class MujocoDriver(Sink[AnimationFrame]):
                 return None
             return self._pose.copy(), self._touching
 
+    def physics_model(self) -> tuple[SimModel, str]:
+        """The compiled model (read-only: MuJoCo data is per user) and where its gains came from, so an
+        offline analysis on this server simulates the same motors."""
+        return self.sim, self.gain_source
+
     def simulation_status(self) -> dict[str, Any]:
         """api_types.SimulationStatus."""
         cpu = np.array(self._cpu) if self._cpu else np.zeros(1)
