@@ -123,3 +123,13 @@ def test_a_table_plane_counts_contacts_but_never_with_the_base():
     assert hit.links == ("head", "table") and 0 < hit.depth < 0.005
     # resting on the table (touching from 0.41 rad: 0.1 + 0.12 cos q - 0.07 = 0.14), short of the goal
     assert 0.38 < world.positions()[0] < 0.6
+
+
+def test_a_clip_from_anywhere_plays_in_its_robots_default_program(desk):
+    """The robot's program (as `nutty serve` picks it), wherever the clip file lies; none: the built-in
+    stage."""
+    from backend.commands.sim import clip_stage_program  # lazy: a command module
+
+    interactive = json.loads((ROBOTS / "nutty_desk" / "programs" / "interactive.json").read_text())
+    assert clip_stage_program(desk) == interactive
+    assert clip_stage_program(load_embodiment(ASSETS / "heavy_head")) is None

@@ -180,17 +180,14 @@ def _add_check_options(p) -> None:
 
 def _add_physics(args, emb, doc: dict, report: dict) -> str | None:
     """Put the clip's physics report in `report["physics"]`; an error message, or None."""
-    from backend.commands.serve import default_program_path  # lazy: a fast `nutty --help`
+    from backend.commands.sim import clip_stage_program  # lazy: a fast `nutty --help`
     from backend.sim.analysis import clip_physics  # lazy: MuJoCo is an optional extra
     from backend.sim.availability import SimUnavailable
     from backend.sim.model import SimError
-    from backend.sim.motions import MotionError, read_document
+    from backend.sim.motions import MotionError
 
-    folder = emb.urdf_path.parent if emb.urdf_path is not None else None
     try:
-        program_path = default_program_path(folder)
-        program = read_document(program_path) if program_path is not None else None
-        report["physics"] = clip_physics(emb, doc, program, rate=args.rate)
+        report["physics"] = clip_physics(emb, doc, clip_stage_program(emb), rate=args.rate)
     except (SimUnavailable, MotionError, SimError) as exc:
         return f"physics: {exc}"
     return None

@@ -51,6 +51,17 @@ def register(sub) -> None:
     report.set_defaults(func=run_report)
 
 
+def clip_stage_program(emb, program: str | None = None) -> dict | None:
+    """The program a clip plays in for a physics report: `program` (a file), else the robot's default
+    (as `nutty serve` picks it), else None (the built-in clip stage). MotionError when unreadable."""
+    from backend.commands.serve import default_program_path  # lazy: a fast `nutty --help`
+    from backend.sim.motions import read_document
+
+    folder = emb.urdf_path.parent if emb.urdf_path is not None else None
+    path = Path(program) if program else default_program_path(folder)
+    return read_document(path) if path is not None else None
+
+
 def run_report(args) -> int:
     from backend.sim import SimUnavailable, require_mujoco  # lazy: a fast `nutty --help`
 
@@ -58,7 +69,6 @@ def run_report(args) -> int:
         require_mujoco()
     except SimUnavailable as exc:
         return fail(str(exc))
-    from backend.commands.serve import default_program_path  # lazy: as above
     from backend.hardware.config import HardwareConfigError, load_hardware
     from backend.sim.model import SimError, build, gains_for
     from backend.sim.motions import MotionError, clip_motion, find_target, program_motion, read_document
@@ -71,9 +81,7 @@ def run_report(args) -> int:
         hardware = load_hardware(args.hardware, emb) if args.hardware else None
         sim = build(emb, gains_for(emb, hardware), table=args.table)
         if doc["format"] == "nutty-clip/1":
-            program_path = Path(args.program) if args.program else default_program_path(path.parent.parent)
-            program = read_document(program_path) if program_path is not None else None
-            motion = clip_motion(emb, path.stem, doc, program, args.seconds)
+            motion = clip_motion(emb, path.stem, doc, clip_stage_program(emb, args.program), args.seconds)
         else:
             motion = program_motion(emb, path.stem, doc, 10.0 if args.seconds is None else args.seconds)
     except (EmbodimentError, MotionError, SimError, HardwareConfigError) as exc:
