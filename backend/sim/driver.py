@@ -30,7 +30,7 @@ from backend.sim.availability import require_mujoco
 
 if TYPE_CHECKING:
     from backend.sim.model import SimModel
-    from backend.sim.world import Contact
+    from backend.sim.world import Contact, Snapshot
 
 log = logging.getLogger(__name__)
 
@@ -106,8 +106,7 @@ class MujocoDriver(Sink[AnimationFrame]):
         self.recent: deque[dict[str, Any]] = deque(maxlen=RECENT_CONTACTS)
         self.contacts_total = 0
         self.stops = 0
-        self._readings: dict[str, dict[str, Any]] = {}
-        self._pose: np.ndarray | None = None
+        self._snapshot: Snapshot | None = None  # the motors after the last frame (never written after)
         self._touching: tuple[str, ...] = ()
         self._cpu = deque(maxlen=500)  # CPU seconds per frame followed
         self._frame_dt = deque(maxlen=500)  # frame periods (s)
@@ -152,11 +151,10 @@ class MujocoDriver(Sink[AnimationFrame]):
             dt = frame.t - self._last_t
         self._last_t = frame.t
         hits = self.world.follow(goals, dt) if dt > 0 else []
-        readings = self.world.readings()
+        snapshot = self.world.snapshot()
         new = self._note_contacts(hits, frame.t)
         with self._lock:
-            self._readings = readings
-            self._pose = self.world.positions()
+            self._snapshot = snapshot
             self._touching = tuple(sorted({name for c in self._active for name in c["links"]}))
             self.state = "running"
         self._cpu.append(time.thread_time() - start)
@@ -226,15 +224,16 @@ class MujocoDriver(Sink[AnimationFrame]):
     # --- what it reports --------------------------------------------------------------------------
     def joint_readings(self) -> dict[str, dict[str, Any]]:
         with self._lock:
-            return {name: dict(r) for name, r in self._readings.items()}
+            snapshot = self._snapshot
+        return {} if snapshot is None else self.world.readings(snapshot)
 
     def physics_pose(self) -> tuple[np.ndarray, tuple[str, ...]] | None:
         """The simulated joints (emb.joint_names order, rad or m) and the links now in contact; None
         before the first frame."""
         with self._lock:
-            if self._pose is None:
+            if self._snapshot is None:
                 return None
-            return self._pose.copy(), self._touching
+            return self._snapshot[1], self._touching
 
     def physics_model(self) -> tuple[SimModel, str]:
         """The compiled model (read-only: MuJoCo data is per user) and where its gains came from, so an

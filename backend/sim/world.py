@@ -27,6 +27,10 @@ MIN_DEPTH = 2e-4
 MAX_CATCH_UP = 0.25
 
 
+#: (goals, positions (rad or m), efforts (fraction of the limit), torques (N·m or N)), per joint.
+Snapshot = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
 @dataclass(frozen=True)
 class Contact:
     """Two links in contact (sorted names; "floor" or "table" for the planes), the deepest penetration
@@ -124,11 +128,17 @@ class SimWorld:
         """Each motor's force as a fraction of its limit (-1..1), as servos report their load."""
         return self.data.actuator_force / self.sim.effort
 
-    def readings(self) -> dict[str, dict[str, Any]]:
-        """Per joint {commanded, measured, error, effort, saturated, torque} (api_types.JointReading)."""
-        q, effort, torque = self.positions(), self.efforts(), self.torques()
+    def snapshot(self) -> Snapshot:
+        """What the motors do now, kept as arrays (copies): cheap to take every frame, turned into
+        per-joint readings only when asked (`readings`)."""
+        return self.goals.copy(), self.positions(), self.efforts(), self.torques()
+
+    def readings(self, snapshot: Snapshot | None = None) -> dict[str, dict[str, Any]]:
+        """Per joint {commanded, measured, error, effort, saturated, torque} (api_types.JointReading), of
+        `snapshot` (default: now)."""
+        goals, q, effort, torque = snapshot if snapshot is not None else self.snapshot()
         out: dict[str, dict[str, Any]] = {}
-        rows = zip(self.sim.joints, self.goals.tolist(), q.tolist(), effort.tolist(), torque.tolist())
+        rows = zip(self.sim.joints, goals.tolist(), q.tolist(), effort.tolist(), torque.tolist())
         for name, goal, measured, e, tau in rows:
             out[name] = {
                 "commanded": goal,
