@@ -69,7 +69,7 @@ def run_report(args) -> int:
         require_mujoco()
     except SimUnavailable as exc:
         return fail(str(exc))
-    from backend.hardware.config import HardwareConfigError, load_hardware
+    from backend.hardware.config import HardwareConfigError, load_hardware  # lazy: as above
     from backend.sim.model import SimError, build, gains_for
     from backend.sim.motions import MotionError, clip_motion, find_target, program_motion, read_document
     from backend.sim.report import format_report, physics_report
