@@ -2,7 +2,10 @@
 
 Each sub-command lives in its own module under `backend.commands` and exposes
 `register(subparsers)`, which adds its parser and sets `func(args) -> int` as the handler.
-Modules are discovered, so adding a command never touches this file.
+Modules are discovered, so adding a command never touches this file. A module is named after its
+command (`serve.py`), or after it and a suffix when the name is taken (`import_clip.py` for `import`):
+`nutty serve` then imports the serve module alone, so the robot's first frame never waits for the
+imports of every other command (the full parser, for `--help` or a mistyped command, imports them all).
 
 The long-running commands (`serve`, `bridge`, `mcp`) take `--log-level` and `--log-json` after their
 name (`nutty serve --log-level debug`); `main` configures logging from them (backend/logs.py).
@@ -20,7 +23,23 @@ from backend import commands as _commands_pkg
 from backend.logs import configure_from_args
 
 
-def build_parser() -> argparse.ArgumentParser:
+def command_modules(word: str | None = None) -> list[str]:
+    """The command modules' names: all of them, or those that may define the command `word` (named
+    `word` or `word_...`)."""
+    names = sorted(m.name for m in pkgutil.iter_modules(_commands_pkg.__path__) if not m.name.startswith("_"))
+    if word is None:
+        return names
+    return [n for n in names if n == word or n.startswith(f"{word}_")]
+
+
+def build_parser(word: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser: with every command, or (`word`) with the commands of the modules that
+    may define it."""
+    return _parser(word)[0]
+
+
+def _parser(word: str | None) -> tuple[argparse.ArgumentParser, set[str]]:
+    """build_parser's parser, and the commands it knows."""
     parser = argparse.ArgumentParser(
         prog="nutty",
         description="Nutty robot animation engine: run Animation Programs on a robot's embodiment.",
@@ -29,16 +48,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"nutty {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for info in sorted(pkgutil.iter_modules(_commands_pkg.__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"{_commands_pkg.__name__}.{info.name}")
-        module.register(sub)
-    return parser
+    for name in command_modules(word):
+        importlib.import_module(f"{_commands_pkg.__name__}.{name}").register(sub)
+    return parser, set(sub.choices)
+
+
+def parser_for(argv: list[str]) -> argparse.ArgumentParser:
+    """The parser for `argv`: only the named command's module when that module defines it, else all."""
+    word = argv[0] if argv and not argv[0].startswith("-") else None
+    if word is not None:
+        lean, known = _parser(word)
+        if word in known:
+            return lean
+    return build_parser()
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    parser = parser_for(argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from backend.engine.urdf_table import UrdfReadError, UrdfTable, table_of_robot, urdf_table
+
 if TYPE_CHECKING:
     from backend.engine.embodiment import Embodiment
 
@@ -58,41 +60,35 @@ class _UrdfModel:
 
 @lru_cache(maxsize=16)
 def _load_model(path: str) -> _UrdfModel:
-    import yourdfpy  # local import: only needed when a robot is loaded
-
     try:
-        urdf = yourdfpy.URDF.load(
-            path, build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False
-        )
-    except Exception as exc:  # yourdfpy raises many types for malformed files
-        raise KinematicsError(f"cannot read URDF '{path}': {exc}") from exc
-    return _model_from_robot(urdf.robot)
+        return _model_from_table(urdf_table(path))
+    except UrdfReadError as exc:
+        raise KinematicsError(str(exc)) from exc
 
 
-def _model_from_robot(robot: Any) -> _UrdfModel:
+def _model_from_table(table: UrdfTable) -> _UrdfModel:
     joints: dict[str, _UrdfJoint] = {}
-    for j in robot.joints:
-        origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+    for j in table.joints:
+        origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float).reshape(4, 4)
         axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, dtype=float)
         norm = float(np.linalg.norm(axis))
         axis = axis / norm if norm > 0 else np.array([1.0, 0.0, 0.0])
-        lim = j.limit
-        lower = lim.lower if lim is not None and lim.lower is not None else None
-        upper = lim.upper if lim is not None and lim.upper is not None else None
+        lower, upper = j.lower, j.upper
         if j.type == "continuous" or lower is None or upper is None or not lower < upper:
             lower, upper = -2 * np.pi, 2 * np.pi
         mimic = None
         if j.mimic is not None:
+            leader, multiplier, offset = j.mimic
             mimic = (
-                j.mimic.joint,
-                float(j.mimic.multiplier if j.mimic.multiplier is not None else 1.0),
-                float(j.mimic.offset if j.mimic.offset is not None else 0.0),
+                leader,
+                float(multiplier if multiplier is not None else 1.0),
+                float(offset if offset is not None else 0.0),
             )
         joints[j.name] = _UrdfJoint(
             j.name, j.type, j.parent, j.child, origin, axis, float(lower), float(upper), mimic
         )
     by_child = {j.child: j for j in joints.values()}
-    links = tuple(link.name for link in robot.links)
+    links = table.links
     roots = [name for name in links if name not in by_child]
     if not roots:
         raise KinematicsError("URDF has no root link")
@@ -127,7 +123,7 @@ def _model(source: Any) -> _UrdfModel:
     if isinstance(source, (str, Path)):
         return _load_model(str(Path(source).resolve()))
     if hasattr(source, "robot") and hasattr(source.robot, "joints"):  # a yourdfpy.URDF
-        return _model_from_robot(source.robot)
+        return _model_from_table(table_of_robot(source.robot))
     raise TypeError(f"cannot build kinematics from {type(source).__name__}")
 
 

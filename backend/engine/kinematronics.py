@@ -28,6 +28,7 @@ from backend.engine.dofs import (
     EmbodimentError,
     UrdfJoint,
 )
+from backend.engine.urdf_table import UrdfReadError, urdf_table
 
 
 class _Model(BaseModel):
@@ -161,32 +162,22 @@ def _described(pose: dict[str, Any]) -> bool:
 
 def read_urdf_joints(urdf_path: Path) -> tuple[list[UrdfJoint], dict[str, Any]]:
     """Actuated joints (non-fixed, not mimic) of a URDF, with their limits; plus the mimic table."""
-    import yourdfpy  # local import: loading yourdfpy is only needed when a robot is loaded
-
     try:
-        urdf = yourdfpy.URDF.load(
-            str(urdf_path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False
-        )
-    except Exception as exc:  # yourdfpy raises many types for malformed files
-        raise EmbodimentError(f"cannot read URDF '{urdf_path}': {exc}") from exc
+        table = urdf_table(urdf_path)
+    except UrdfReadError as exc:
+        raise EmbodimentError(str(exc)) from exc
     joints: list[UrdfJoint] = []
     mimics: dict[str, Any] = {}
-    for j in urdf.robot.joints:
+    for j in table.joints:
         if j.type == "fixed" or j.type == "floating" or j.type == "planar":
             continue
         if j.mimic is not None:
-            mimics[j.name] = {
-                "joint": j.mimic.joint,
-                "multiplier": j.mimic.multiplier,
-                "offset": j.mimic.offset,
-            }
+            mimics[j.name] = {"joint": j.mimic[0], "multiplier": j.mimic[1], "offset": j.mimic[2]}
             continue
-        lim = j.limit
-        lower = lim.lower if lim is not None and lim.lower is not None else None
-        upper = lim.upper if lim is not None and lim.upper is not None else None
+        lower, upper = j.lower, j.upper
         if j.type == "continuous" or lower is None or upper is None or not lower < upper:
             lower, upper = -2 * math.pi, 2 * math.pi
-        velocity = lim.velocity if lim is not None and lim.velocity else DEFAULT_VELOCITY.get(j.type, 2.0)
+        velocity = j.velocity if j.velocity else DEFAULT_VELOCITY.get(j.type, 2.0)
         joints.append(UrdfJoint(j.name, j.type, float(lower), float(upper), float(velocity), j.child))
     return joints, mimics
 

@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
 from backend.zenoh_link import keys
-from backend.zenoh_link.engine import EngineLink
 from backend.zenoh_link.session import SECURITY_DOCS, ZenohOptions, ZenohSetupError, add_zenoh_options, given
+
+if TYPE_CHECKING:  # the link pulls in the API's routes: `nutty serve` imports it only with --zenoh
+    from backend.zenoh_link.engine import EngineLink
 
 
 def add_serve_options(parser: argparse.ArgumentParser) -> None:
@@ -49,6 +52,8 @@ def open_for_serve(args: argparse.Namespace, embodiment) -> EngineLink | None:
     warning = options.exposure_warning()
     if warning:
         print(f"nutty serve: warning: {warning}", file=sys.stderr, flush=True)
+    from backend.zenoh_link.engine import EngineLink  # lazy: the API's routes, only with --zenoh
+
     return EngineLink.open(options, robot_id)
 
 
