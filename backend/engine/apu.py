@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from backend.engine.blocks.base import Block, Role
+from backend.engine.core.program import CoreProgram
 from backend.engine.frames import FrameEvent, PartialFrame
 from backend.engine.profile import CookTimes
 
@@ -86,6 +87,11 @@ class APU:
         self._plan = tuple((i, s.block, wires) for i, (s, wires) in enumerate(zip(steps, self._wires)))
         self.cook = CookTimes([s.node_id for s in steps], [s.type_name for s in steps])
         self._untimed = 0  # ticks since the last timed one
+        # The compiled core (backend/engine/core): the compiled blocks as a few kernel calls per tick.
+        self.core = CoreProgram.build(self)
+        self._core_results = self.core is not None  # whether `results` holds the core's frames
+        if self.core is not None:
+            self.core.restore_results(self.results)
 
     def block(self, node_id: str) -> Block:
         return self.steps[self.index[node_id]].block
@@ -97,9 +103,18 @@ class APU:
         """Run every step once. Returns (final positions (C,), stage-1 positions (C,), events)."""
         results = self.results
         self._untimed += 1
+        core = self.core
         if self._untimed >= self.cook.every:
             self._untimed = 0
-            self._tick_timed(dt)
+            self._tick_timed(dt)  # block by block, each its own tick (on the same state as the core's)
+            if core is not None:
+                core.verify()
+                self._core_results = False
+        elif core is not None:
+            if not self._core_results:
+                core.restore_results(results)
+                self._core_results = True
+            core.tick(dt, results)
         else:
             for i, block, wires in self._plan:
                 inputs = {}

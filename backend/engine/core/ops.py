@@ -1,0 +1,350 @@
+"""How each compiled block type becomes a row of the core's op table (backend/engine/core/vm.py).
+
+An op binds its block's arrays (state and derived constants) into the table, writes the scalars the
+kernel reads each tick (`pre`, in Python: the drivable parameters, a breath's phase, a noise block's
+random draws) and passes the events along (`post`), which the kernel does not see. The block keeps
+its state: the kernel writes into the block's own arrays, so the block's own tick (which the APU runs
+to time blocks one by one) and the core step the same state.
+
+An op is bound again when its block may have replaced the arrays it listed: new parameters (a live
+edit), a new state object (reset, a hot swap's adopted state) or, for the ops that say so, after their
+`pre` changed the block's configuration (a driven NMF character).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
+
+import numpy as np
+
+from backend.engine.blocks.base import Block
+from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter
+from backend.engine.blocks.idle import Breathe, Noise
+from backend.engine.blocks.mixer import LayerMixer
+from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterStage2
+from backend.engine.core import vm
+from backend.engine.frames import FrameEvent, PartialFrame
+from backend.engine.nmf import MotionFilter
+
+if TYPE_CHECKING:
+    from backend.engine.core.program import Arena, Refs
+
+NO_EVENTS: list[FrameEvent] = []
+
+B = TypeVar("B", bound=Block)
+
+
+class Op(Generic[B]):
+    """One compiled step. `frame` is what Python readers of its output see (values: its arena row)."""
+
+    code: ClassVar[int] = vm.NOP
+    n_scalars: ClassVar[int] = 0
+    needs_kernel: ClassVar[bool] = True  # compiled only when the block runs its own compiled tick
+    pre_when: ClassVar[str] = "wired"  # when `pre` runs: "always", "wired" (a signal input is), "never"
+    passes_events: ClassVar[bool] = True  # whether `post` runs (sources have no events to pass)
+    frame_inputs: ClassVar[tuple[str, ...]] = ("in",)  # the frame ports, in the order rows are listed
+
+    def __init__(self, k: int, step: int, block: B, arena: Arena, out: int, srcs: list[Any]):
+        self.k, self.step, self.block, self.arena, self.out = k, step, block, arena, out
+        self.row = out
+        self.refs: Refs | None = None
+        self.srcs = srcs  # per frame input: the object whose `.frame` is that input's frame (or None)
+        self.s = arena.scalar_slots(self.n_scalars)
+        self.signal_ports: tuple[tuple[str, int, str], ...] = ()  # (port, source step, source port)
+        self.frame = PartialFrame(arena.V[out], arena.P[out].copy(), NO_EVENTS)
+        self.result: dict[str, Any] = {"out": self.frame}
+        self._params: Any = None
+        self._state: Any = None
+
+    # --- binding ------------------------------------------------------------------------------------
+    def stale(self) -> bool:
+        b = self.block
+        return b.params is not self._params or getattr(b, "state", None) is not self._state
+
+    def bind(self, refs: Refs) -> None:
+        """List the block's arrays (again) and write its constant scalars."""
+        b = self.block
+        self.refs = refs
+        self._params, self._state = b.params, getattr(b, "state", None)
+        row = self.arena.ops[self.k]
+        row[:] = -1
+        row[0], row[1], row[3] = self.code, self.out, self.s
+        src = self.srcs[0] if self.srcs and self.frame_inputs == ("in",) else None
+        row[2] = -1 if src is None else src.row
+        for col, array in enumerate(self.arrays(), start=4):
+            row[col] = refs.put(self.k, col, array)
+        self.bound_extra()
+
+    def bound_extra(self) -> None:
+        """What an op remembers of its block beyond params and state, to know when it is stale."""
+
+    def rebind_if_stale(self) -> None:
+        if self.refs is not None and self.stale():
+            self.bind(self.refs)
+
+    def arrays(self) -> list[np.ndarray]:
+        """The arrays the kernel reads, in the op's column order (see vm.py)."""
+        return []
+
+    def listed(self) -> list[np.ndarray]:
+        """The arrays as the block holds them now (what `bind` would list): for `verify`."""
+        return self.arrays()
+
+    # --- ticking ------------------------------------------------------------------------------------
+    def inputs(self, results: list[dict[str, Any]]) -> dict[str, Any]:
+        """The block's wired signal inputs this tick, as its own tick would get them."""
+        inputs = {}
+        for port, src, src_port in self.signal_ports:
+            inputs[port] = results[src].get(src_port)
+        return inputs
+
+    def needs_pre(self) -> bool:
+        return self.pre_when == "always" or (self.pre_when == "wired" and bool(self.signal_ports))
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        """Python's part before the kernel runs (scalars, random draws)."""
+
+    def post(self) -> None:
+        """Python's part after: the events the frame out carries."""
+        src = self.srcs[0].frame if self.srcs else None
+        self.frame.events = src.events if src is not None else NO_EVENTS
+
+
+class RestOp(Op[RestPose]):
+    frame_inputs = ()
+    needs_kernel = False
+    pre_when = "never"
+    passes_events = False
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        b, a = self.block, self.arena
+        a.V[self.out] = b.emb.rest
+        a.M[self.out] = b.mask
+        a.A[self.out] = True
+
+
+class BreatheOp(Op[Breathe]):
+    code = vm.BREATHE
+    n_scalars = 4
+    frame_inputs = ()
+    pre_when = "always"  # the phase is a float of the block's state
+    passes_events = False
+
+    def arrays(self) -> list[np.ndarray]:
+        b = self.block
+        return [b.offset_cycles, b.amp_values, b.amp_override, b.mask]
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        self._scalars(self.block.driven({}))
+
+    def _scalars(self, d: Any) -> None:
+        p, S, s = self.block.params, self.arena.S, self.s  # as Breathe.tick's compiled branch
+        S[s] = d.amplitude / p.amplitude if p.amplitude > 0 else 1.0
+        S[s + 1] = float(d.amplitude)
+        S[s + 2] = float(p.inhale_ratio)
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        b = self.block
+        st = b.state
+        if self.signal_ports:
+            d = b.driven(self.inputs(results))
+            self._scalars(d)
+            frequency = d.frequency
+        else:
+            frequency = b.params.frequency
+        self.arena.S[self.s + 3] = st.phi
+        st.phi = (st.phi + frequency * dt) % 1.0
+
+
+class NoiseOp(Op[Noise]):
+    code = vm.NOISE
+    n_scalars = 3
+    frame_inputs = ()
+    pre_when = "always"  # the random draws come from the block's numpy generator
+    passes_events = False
+
+    def bind(self, refs: Refs) -> None:
+        st = self.block.state
+        if st.y is st.x:  # as the block's compiled tick: the two stages in two arrays
+            st.y = st.y.copy()
+        b = self.block
+        if not hasattr(b, "_coef_array"):
+            b._transition(1.0 / b.ctx.rate)
+        super().bind(refs)
+
+    def arrays(self) -> list[np.ndarray]:
+        b = self.block
+        return [b.state.x, b.state.y, b._coef_array, b._draws, b.mask]
+
+    def stale(self) -> bool:
+        b = self.block
+        return super().stale() or b._coef_array is not self._coef or b._draws is not self._draws
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        b = self.block
+        p, st, S, s = b.params, b.state, self.arena.S, self.s
+        amp = b.driven(self.inputs(results)).amplitude if self.signal_ports else p.amplitude
+        if dt > 0:
+            b._transition(dt)
+            if b._coef_array is not self._coef:  # new coefficients (a new dt or parameters): list them
+                self.rebind_if_stale()
+            st.rng.standard_normal(out=b._draws)  # the draws of the block's own tick, into its buffer
+        S[s] = 1.0 if dt > 0 else 0.0
+        S[s + 1] = 1.0 if p.smoothing > 0.0 else 0.0
+        S[s + 2] = float(amp * math.sqrt((p.tau + p.smoothing) / p.tau))
+
+    def bound_extra(self) -> None:
+        self._coef, self._draws = self.block._coef_array, self.block._draws
+
+
+class GainOffsetOp(Op[GainOffset]):
+    code = vm.GAIN_OFFSET
+    n_scalars = 2
+
+    def arrays(self) -> list[np.ndarray]:
+        return [self.block.sel]
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        self._scalars(self.block.driven({}))
+
+    def _scalars(self, d: Any) -> None:
+        self.arena.S[self.s] = float(d.gain)
+        self.arena.S[self.s + 1] = float(d.offset)
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        self._scalars(self.block.driven(self.inputs(results)))
+
+
+class FilterOp(Op[MotionFilterBlock | MotionFilterStage2]):
+    code = vm.FILTER
+    n_scalars = 1
+
+    def _motion_filter(self) -> MotionFilter:
+        f = self.block.filter
+        if f is None:  # op_class compiles no filter block without channels (it has no filter)
+            raise RuntimeError(f"filter block '{self.block.node_id}' has no filter")
+        return f
+
+    def arrays(self) -> list[np.ndarray]:
+        b = self.block
+        buf, cfg, _ = self._motion_filter().kernel_buffers()
+        return [b._idx64, b._sp, cfg, buf, b._no_mask]
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        self.arena.S[self.s] = 1.0 if self._motion_filter().kernel_buffers()[2] else 0.0
+
+    def stale(self) -> bool:
+        f = self.block.filter
+        if super().stale() or f is not self._filter or f is None:
+            return True
+        buf, cfg, _ = f.kernel_buffers()
+        return buf is not self._buf or cfg is not self._cfg
+
+    def bound_extra(self) -> None:
+        self._filter = f = self._motion_filter()
+        self._buf, self._cfg, _ = f.kernel_buffers()
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        if self.signal_ports:  # a driven character: what the block's tick does before its kernel
+            b = self.block
+            wired = b.driven(self.inputs(results), sigma=None, rho=None)
+            if wired.sigma is not None or wired.rho is not None:
+                s, r, _ = b._character(wired.sigma, wired.rho)
+                if (s, r) != b._sigma_rho:
+                    self._motion_filter().set_params(sigma=s, rho=r)
+                    b._sigma_rho = (s, r)
+                    self.rebind_if_stale()  # set_params may have replaced the filter's buffers
+
+
+class LimiterOp(Op[SafetyLimiter]):
+    code = vm.LIMITER
+
+    def arrays(self) -> list[np.ndarray]:
+        b = self.block
+        return [b.state.last, b.lo, b.hi, b.vmax, b.emb.continuous_mask]
+
+
+class OutputOp(Op[Output]):
+    code = vm.HOLD
+
+    def __init__(self, k: int, step: int, block: Output, arena: Arena, out: int, srcs: list[Any]):
+        super().__init__(k, step, block, arena, out, srcs)
+        self.result = {"frame": self.frame}
+
+    def arrays(self) -> list[np.ndarray]:
+        return [self.block.state.held]
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        self.frame.values, self.frame.mask = self.block.state.held, self.block._every
+
+
+class MixerOp(Op[LayerMixer]):
+    code = vm.MIXER
+
+    def __init__(self, k: int, step: int, block: LayerMixer, arena: Arena, out: int, srcs: list[Any]):
+        super().__init__(k, step, block, arena, out, srcs)
+        n = block.emb.n_channels * len(srcs)
+        self._gathered = (np.zeros(n), np.zeros(n, dtype=bool))
+        self._rows = np.array([-1 if src is None else src.row for src in srcs], dtype=np.int64)
+
+    def arrays(self) -> list[np.ndarray]:
+        b, st = self.block, self.block.state
+        return [
+            self._rows,
+            b.weights,
+            st.fade_level,
+            st.fade_target,
+            b.fade_time,
+            b.signal_weights,
+            b._w,
+            *self._gathered,
+            b.layer_masks,
+            b._mode_codes,
+        ]
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        self.block._read_weight_ports(self.inputs(results))
+
+    def post(self) -> None:
+        w = self.block._w
+        events = NO_EVENTS
+        for i, src in enumerate(self.srcs):
+            frame = None if src is None else src.frame
+            if frame is not None and frame.events and w[i] > 0.0:
+                events = [*events, *frame.events]
+        self.frame.events = events
+
+
+#: The block classes the core compiles (exact classes: a subclass may tick differently) and their ops.
+OPS: dict[type, type[Op]] = {
+    RestPose: RestOp,
+    Breathe: BreatheOp,
+    Noise: NoiseOp,
+    GainOffset: GainOffsetOp,
+    MotionFilterBlock: FilterOp,
+    MotionFilterStage2: FilterOp,
+    SafetyLimiter: LimiterOp,
+    Output: OutputOp,
+    LayerMixer: MixerOp,
+}
+
+
+def op_class(block: Block) -> type[Op] | None:
+    """The op that compiles `block`, or None when it runs as Python (its type has none, it runs its
+    numpy reference, it is bypassed, or it has nothing the kernel could run)."""
+    cls = OPS.get(type(block))
+    if cls is None or not block.ctx.compiled:
+        return None
+    if cls.needs_kernel and getattr(block, "_kernel", None) is None:
+        return None
+    if (
+        cls is FilterOp and getattr(block, "filter", None) is None
+    ):  # no channel selected: the frame passes as it is
+        return None
+    return cls

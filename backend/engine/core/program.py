@@ -1,0 +1,292 @@
+"""A program's compiled core: its compiled blocks as op tables over one frame arena, run by the kernel
+(backend/engine/core/vm.py) a segment at a time, with the other blocks ticking in Python between.
+
+Built when the APU is (`Plan.instantiate`): every step whose block has an op (backend/engine/core/ops.py)
+becomes a row of the op table, and each run of consecutive compiled steps a segment, one kernel call.
+A compiled step writes its frame to its arena row instead of allocating one, and Python readers
+(Python blocks, telemetry probes, the stage-1 tap) see it through one `PartialFrame` per step, made
+once: its values are the row; its mask is a copy that is replaced, never changed in place, when the
+row's mask changes; its events are passed along in Python.
+
+A frame from a Python block into a compiled one is copied into an import row before the segment
+(`Import`). Commands, events, swaps and blocks without an op keep the Python path. One tick in
+`CookTimes.every` the APU times blocks one by one with their own ticks, which step the same state, and
+`verify` then checks that no block replaced an array the table lists.
+
+`NUTTY_CORE=0` turns the core off (each block ticks on its own, compiled or not), for comparisons.
+"""
+
+from __future__ import annotations
+
+import heapq
+import logging
+import os
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from backend.engine.blocks.base import PortType
+from backend.engine.compiled import entry_point
+from backend.engine.core import vm
+from backend.engine.core.ops import Op, op_class
+from backend.engine.frames import PartialFrame
+
+if TYPE_CHECKING:
+    from backend.engine.apu import APU
+
+log = logging.getLogger(__name__)
+
+#: Environment variable: "0" turns the compiled core off.
+CORE_ENV = "NUTTY_CORE"
+
+
+def core_enabled() -> bool:
+    return os.environ.get(CORE_ENV, "").strip() not in ("0", "false", "no")
+
+
+class Arena:
+    """The frames of the compiled steps: values `V` and masks `M` (rows, C), rows present `A`, published
+    masks `P` with their change flags `CH`, the scalar slots `S` and the op table `ops`."""
+
+    def __init__(self, rows: int, channels: int, n_ops: int):
+        self.V = np.zeros((rows, channels))
+        self.M = np.zeros((rows, channels), dtype=bool)
+        self.A = np.zeros(rows, dtype=bool)
+        self.P = np.zeros((rows, channels), dtype=bool)
+        self.CH = np.zeros(rows, dtype=bool)
+        self.S = np.zeros(0)
+        self.ops = np.full((n_ops, vm.WIDTH), -1, dtype=np.int64)
+        self._slots = 0
+
+    def scalar_slots(self, n: int) -> int:
+        """Reserve `n` scalar slots; the index of the first."""
+        first = self._slots
+        self._slots += n
+        self.S = np.zeros(max(self._slots, 1))
+        return first
+
+
+class Refs:
+    """The table of arrays the kernel reads by address (vm.py), and the arrays themselves, kept alive."""
+
+    def __init__(self, n_ops: int):
+        self.table = np.zeros((vm.FIRST_OP_REF + n_ops * vm.WIDTH, 3), dtype=np.int64)
+        self._held: dict[int, np.ndarray] = {}
+
+    def put(self, k: int, col: int, array: np.ndarray) -> int:
+        """List `array` for column `col` of op `k`; its row in the table."""
+        return self.put_at(vm.FIRST_OP_REF + k * vm.WIDTH + col, array)
+
+    def put_at(self, j: int, array: np.ndarray) -> int:
+        """List `array` at row `j` of the table; `j`."""
+        if not (isinstance(array, np.ndarray) and array.flags.c_contiguous and array.ndim in (1, 2)):
+            raise TypeError(f"refs row {j}: not a C-contiguous 1-D or 2-D array")
+        self._held[j] = array  # before its address is written: the table never names a freed array
+        shape = array.shape + (0,) * (3 - 1 - array.ndim)
+        self.table[j] = (array.ctypes.data, *shape)
+        return j
+
+
+class Import:
+    """A frame from a Python block into a compiled one, copied into its arena row before the segment."""
+
+    def __init__(self, row: int, src: int, port: str, arena: Arena):
+        self.row, self.src, self.port, self.arena = row, src, port, arena
+        self.frame: PartialFrame | None = None
+        self._values = arena.V[row]
+        self._mask = arena.M[row]
+        self._last_mask: np.ndarray | None = None
+
+    def load(self, results: list[dict[str, Any]]) -> None:
+        frame = results[self.src].get(self.port)
+        self.frame = frame
+        if frame is None:
+            self.arena.A[self.row] = False
+            return
+        self.arena.A[self.row] = True
+        self._values[:] = frame.values
+        mask = frame.mask
+        if mask is not self._last_mask:  # masks never change in place: the same object, the same mask
+            self._mask[:] = mask
+            self._last_mask = mask
+
+
+class Segment:
+    """Consecutive compiled steps: their imports, ops (table rows k0..k1-1), and the ops with Python
+    work before (`pres`) and after (`posts`) the kernel."""
+
+    def __init__(self, ops: list[Op], imports: list[Import]):
+        self.ops, self.imports = ops, imports
+        self.k0, self.k1 = ops[0].k, ops[-1].k + 1
+        self.pres = [op for op in ops if op.needs_pre()]
+        self.posts = [op for op in ops if op.passes_events]
+
+
+class CoreProgram:
+    """The compiled core of one APU (see the module doc)."""
+
+    def __init__(self, apu: APU, compiled: dict[int, type[Op]]):
+        steps = apu.steps
+        emb = steps[apu.output].block.emb
+        self.emb = emb
+        frame_ports = {i: _frame_inputs(steps[i].block) for i in compiled}
+        n_imports = sum(
+            1 for i in compiled for w in steps[i].wires if w.port in frame_ports[i] and w.src not in compiled
+        )
+        self.arena = arena = Arena(len(compiled) + n_imports, emb.n_channels, len(compiled))
+        self.refs = Refs(len(compiled))
+        self.ops: list[Op] = []
+        by_step: dict[int, Op] = {}
+        imports: dict[tuple[int, str], Import] = {}
+        self.plan: list[tuple[Any, ...]] = []  # ("py", step, block, wires) or ("core", segment)
+        row = 0
+        current: list[Op] = []
+        current_imports: list[Import] = []
+        for i in run_order(apu, compiled):
+            step = steps[i]
+            if i not in compiled:
+                if current:
+                    self.plan.append(("core", Segment(current, current_imports)))
+                    current, current_imports = [], []
+                self.plan.append(("py", i, step.block, apu._wires[i]))
+                continue
+            wired = {w.port: w for w in step.wires}
+            srcs: list[Any] = []
+            for port in frame_ports[i]:
+                w = wired.get(port)
+                if w is None:
+                    srcs.append(None)
+                elif w.src in by_step:
+                    srcs.append(by_step[w.src])
+                else:
+                    key = (w.src, w.src_port)
+                    if key not in imports:
+                        imports[key] = Import(len(compiled) + len(imports), w.src, w.src_port, arena)
+                        current_imports.append(imports[key])
+                    srcs.append(imports[key])
+            op = compiled[i](len(self.ops), i, step.block, arena, row, srcs)
+            op.signal_ports = tuple(
+                (w.port, w.src, w.src_port) for w in step.wires if w.port not in frame_ports[i]
+            )
+            row += 1
+            self.ops.append(op)
+            by_step[i] = op
+            current.append(op)
+        if current:
+            self.plan.append(("core", Segment(current, current_imports)))
+        for op in self.ops:
+            op.bind(self.refs)
+        for j, array in enumerate(
+            (arena.V, arena.M, arena.A, arena.P, arena.CH, arena.S, emb.rest, emb.min, emb.max, emb.enum_mask)
+        ):
+            self.refs.put_at(j, np.ascontiguousarray(array))
+        self._run = entry_point(vm.run_ops, vm.RUN_SIG)
+        self.rebinds = 0  # binds found necessary by `verify` (a block replaced a listed array unannounced)
+
+    @classmethod
+    def build(cls, apu: APU) -> CoreProgram | None:
+        """The core of `apu`, or None when none of its blocks compiles (or the core is turned off)."""
+        if not core_enabled():
+            return None
+        compiled = {}
+        for i, step in enumerate(apu.steps):
+            op = op_class(step.block)
+            if op is not None:
+                compiled[i] = op
+        return cls(apu, compiled) if compiled else None
+
+    def restore_results(self, results: list[dict[str, Any]]) -> None:
+        """Put the compiled steps' frames back in `results` (after the APU ran the blocks' own ticks)."""
+        for op in self.ops:
+            results[op.step] = op.result
+
+    def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
+        """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
+        ops, run, refs = self.arena.ops, self._run, self.refs.table
+        for entry in self.plan:
+            if entry[0] == "py":
+                _, i, block, wires = entry
+                inputs = {}
+                for port, src, src_port in wires:
+                    inputs[port] = results[src].get(src_port)
+                results[i] = block.tick(dt, inputs) or {}
+                continue
+            seg: Segment = entry[1]
+            for imp in seg.imports:
+                imp.load(results)
+            for op in seg.ops:
+                if op.stale():
+                    op.bind(self.refs)
+            for op in seg.pres:
+                op.pre(dt, results)
+            changed = run(ops, refs, seg.k0, seg.k1, dt)
+            if changed:
+                self._publish(seg)
+            for op in seg.posts:
+                op.post()
+
+    def _publish(self, seg: Segment) -> None:
+        a = self.arena
+        for op in seg.ops:
+            if a.CH[op.out]:
+                a.CH[op.out] = False
+                if op.code != vm.HOLD:
+                    op.frame.mask = a.P[op.out].copy()  # a new object: a held mask never changes
+
+    def listed(self, op: Op) -> list[np.ndarray | None]:
+        """The arrays the table lists for `op`, in its column order."""
+        first = vm.FIRST_OP_REF + op.k * vm.WIDTH
+        return [self.refs._held.get(first + col) for col in range(4, 4 + len(op.listed()))]
+
+    def verify(self) -> None:
+        """Bind again every op whose block holds other arrays than the table lists (there should be none:
+        each such case is a missed staleness rule, counted in `rebinds` and logged)."""
+        for op in self.ops:
+            if op.stale():
+                continue  # the next tick binds it anyway
+            if any(x is not y for x, y in zip(op.listed(), self.listed(op))):
+                self.rebinds += 1
+                log.warning("compiled core: %s replaced an array unannounced; bound again", op.block.node_id)
+                op.bind(self.refs)
+
+
+def run_order(apu: APU, compiled: dict[int, Any]) -> list[int]:
+    """An order of the APU's steps that runs the compiled ones in as few segments as it can.
+
+    Any order that runs each step after the steps it reads from computes the same frames; the Python
+    steps keep their order among themselves (their notifications to the engine keep theirs). Steps are
+    taken in runs of one kind, Python first: while a step of the current kind is ready, the first
+    ready one of that kind is taken (Python steps first lets the compiled ones that read them wait and
+    run together)."""
+    n = len(apu.steps)
+    after: list[set[int]] = [{w.src for w in step.wires} for step in apu.steps]
+    python = [i for i in range(n) if i not in compiled]
+    for earlier, later in zip(python, python[1:]):
+        after[later].add(earlier)
+    waiting = [len(deps) for deps in after]
+    readers: list[list[int]] = [[] for _ in range(n)]
+    for i, deps in enumerate(after):
+        for d in deps:
+            readers[d].append(i)
+    ready: dict[bool, list[int]] = {True: [], False: []}  # by "is Python"
+    for i in range(n):
+        if not waiting[i]:
+            heapq.heappush(ready[i not in compiled], i)
+    order: list[int] = []
+    kind = True
+    while ready[True] or ready[False]:
+        if not ready[kind]:
+            kind = not kind
+        pick = heapq.heappop(ready[kind])
+        order.append(pick)
+        for r in readers[pick]:
+            waiting[r] -= 1
+            if not waiting[r]:
+                heapq.heappush(ready[r not in compiled], r)
+    return order
+
+
+def _frame_inputs(block: Any) -> tuple[str, ...]:
+    """The block's frame input ports, in the order its op lists them."""
+    inputs, _ = block.ports(block.params)
+    return tuple(name for name, port in inputs.items() if port.type is PortType.frame)

@@ -1,0 +1,194 @@
+"""The compiled program core's kernel: one call runs a run of compiled steps over the frame arena.
+
+`run_ops(ops, k0, k1, ...)` executes rows k0..k1-1 of the op table, each one block's whole tick,
+calling the same per-block kernels the blocks' own compiled ticks call (`backend.engine.compiled`), so
+both paths compute the same numbers. It is compiled once for one signature (and cached on disk by
+numba): a new program never compiles anything, it only fills a new op table.
+
+The op table (`ops`, int64, one row per compiled step): column 0 the op code, 1 the arena row it
+writes, 2 the arena row of its frame input (-1: none), 3 the first of its scalar slots in `S`, and
+4.. rows of `refs`, the arrays the op reads and writes in place (each op's comment says which). The
+first rows of `refs` are the arena's arrays and the robot's rest pose, limits and enum mask.
+
+`refs` rows are (address, shape0, shape1) of arrays the blocks own: their state and their derived
+constants, so the kernel and the blocks' own ticks step the same memory. The core that fills the table
+(backend/engine/core/program.py) keeps a reference to every array it lists for as long as the table
+can be run, checks each is C-contiguous with the dtype the op reads, and re-lists a block's arrays
+whenever the block may have replaced them; an address therefore always points into a live array of
+the recorded shape.
+
+The arena: `V` (rows, C) values and `M` (rows, C) masks; `A[r]` says whether row r holds a frame this
+tick (an input from a Python block may be missing). After each op its mask row is compared with the
+published copy `P` (what Python readers hold): a changed row is copied there and flagged in `CH`, so a
+mask the Python side holds never changes in place (blocks may rely on that, see blocks/mixer.py).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numba import types as nt
+from numba.extending import intrinsic
+from numba.np.numpy_support import carray
+
+from backend.engine.compiled import f8, i8
+from backend.engine.compiled.blend import mixer_tick
+from backend.engine.compiled.frames import filter_tick, gain_offset_tick, hold_tick, limiter_tick
+from backend.engine.compiled.idle import breathe_tick, noise_tick
+
+# Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
+NOP = 0  # a constant frame written when the op is bound (rest_pose)
+BREATHE = 1  # S: scale, amplitude, inhale, phi | 4 offset_cycles, 5 amp_values, 6 amp_override, 7 mask
+NOISE = 2  # S: step, smooth, gain | 4 x, 5 y, 6 coef, 7 draws (2, C), 8 mask
+GAIN_OFFSET = 3  # S: gain, offset | 4 sel
+FILTER = 4  # S: one_pass | 4 idx, 5 set-points, 6 cfg, 7 buf (rows, n), 8 an empty mask
+LIMITER = 5  # 4 last, 5 lo, 6 hi, 7 vmax, 8 the continuous mask
+HOLD = 6  # 4 held (the output block's state, which is its frame)
+MIXER = 7  # 4 layer rows, 5 weights, 6 fade_level, 7 fade_target, 8 fade_time, 9 signal_weights, 10 w,
+#            11 gathered values (L*C), 12 gathered masks (L*C), 13 layer masks (L, C), 14 mode codes
+
+#: Columns of an op row.
+WIDTH = 16
+
+i8_2 = nt.int64[:, ::1]
+
+#: refs rows 0.. : the arena's and the robot's arrays, the same for every op.
+REF_V, REF_M, REF_A, REF_P, REF_CH, REF_S, REF_REST, REF_LO, REF_HI, REF_ENUM = range(10)
+#: The first refs row the ops' own arrays use.
+FIRST_OP_REF = 10
+
+RUN_SIG = (i8_2, i8_2, i8, i8, f8)  # ops, refs, k0, k1, dt
+
+
+def _pointer_typing(typingctx, address):
+    """The int64 `address` as a void pointer (for `carray`)."""
+    sig = nt.voidptr(nt.int64)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], context.get_value_type(nt.voidptr))
+
+    return sig, codegen
+
+
+# Called with the address alone in compiled code (numba supplies the typing context).
+_pointer: Any = intrinsic(_pointer_typing)
+
+
+@njit(cache=True, inline="always")
+def _f1(refs, j):
+    return carray(_pointer(refs[j, 0]), (refs[j, 1],), np.float64)
+
+
+@njit(cache=True, inline="always")
+def _b1(refs, j):
+    return carray(_pointer(refs[j, 0]), (refs[j, 1],), np.bool_)
+
+
+@njit(cache=True, inline="always")
+def _i1(refs, j):
+    return carray(_pointer(refs[j, 0]), (refs[j, 1],), np.int64)
+
+
+@njit(cache=True, inline="always")
+def _f2(refs, j):
+    return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2]), np.float64)
+
+
+@njit(cache=True, inline="always")
+def _b2(refs, j):
+    return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2]), np.bool_)
+
+
+@njit(cache=True)
+def _publish(r, M, P, CH):
+    """Copy mask row r to its published copy when it changed (and flag it)."""
+    changed = False
+    for c in range(M.shape[1]):
+        if M[r, c] != P[r, c]:
+            changed = True
+            break
+    if changed:
+        for c in range(M.shape[1]):
+            P[r, c] = M[r, c]
+        CH[r] = True
+    return changed
+
+
+@njit(cache=True)
+def _gather(rows, V, M, A, vals, masks):
+    """The mixer's layers, layer-major, into `vals`/`masks`; a missing layer as zeros with no mask."""
+    n = V.shape[1]
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        present = r >= 0 and A[r]
+        for c in range(n):
+            vals[i * n + c] = V[r, c] if present else 0.0
+            masks[i * n + c] = M[r, c] if present else False
+
+
+@njit(cache=True)
+def run_ops(ops, refs, k0, k1, dt):
+    """Run ops k0..k1-1 (see the module doc); returns how many published masks changed.
+
+    Two array arguments only: each array a compiled function receives costs its unboxing (and a small
+    allocation) per call, so the arena and the robot's arrays are read from `refs` like the ops' own."""
+    V, M, P = _f2(refs, REF_V), _b2(refs, REF_M), _b2(refs, REF_P)
+    A, CH, S = _b1(refs, REF_A), _b1(refs, REF_CH), _f1(refs, REF_S)
+    rest, lo, hi, enum = _f1(refs, REF_REST), _f1(refs, REF_LO), _f1(refs, REF_HI), _b1(refs, REF_ENUM)
+    changed = 0
+    for k in range(k0, k1):
+        code, out, src, s = ops[k, 0], ops[k, 1], ops[k, 2], ops[k, 3]
+        r = ops[k]
+        has = src >= 0 and A[src]
+        if code == BREATHE:
+            mask = _b1(refs, r[7])
+            breathe_tick(
+                S[s + 3], _f1(refs, r[4]), _b1(refs, r[6]), _f1(refs, r[5]), S[s], S[s + 1], S[s + 2],
+                rest, lo, hi, mask, V[out],
+            )  # fmt: skip
+            M[out, :] = mask
+        elif code == NOISE:
+            mask = _b1(refs, r[8])
+            noise_tick(
+                _f1(refs, r[4]), _f1(refs, r[5]), _f2(refs, r[7]), _f1(refs, r[6]), S[s] > 0.5, S[s + 1] > 0.5,
+                S[s + 2], rest, lo, hi, mask, V[out],
+            )  # fmt: skip
+            M[out, :] = mask
+        elif code == GAIN_OFFSET:
+            if has:
+                gain_offset_tick(V[src], rest, _b1(refs, r[4]), S[s], S[s + 1], V[out])
+                M[out, :] = M[src]
+            else:  # an operator without a frame in gives the empty frame
+                V[out, :] = 0.0
+                M[out, :] = False
+        elif code == FILTER:
+            idx, sp, cfg, buf = _i1(refs, r[4]), _f1(refs, r[5]), _f1(refs, r[6]), _f2(refs, r[7])
+            if has:
+                filter_tick(V[src], M[src], True, idx, sp, buf, cfg, S[s] > 0.5, rest, V[out], M[out])
+            else:
+                filter_tick(rest, _b1(refs, r[8]), False, idx, sp, buf, cfg, S[s] > 0.5, rest, V[out], M[out])
+        elif code == LIMITER:
+            last, lim_lo, lim_hi, vmax = _f1(refs, r[4]), _f1(refs, r[5]), _f1(refs, r[6]), _f1(refs, r[7])
+            if has:
+                limiter_tick(V[src], M[src], True, last, lim_lo, lim_hi, vmax, dt)
+            else:
+                limiter_tick(last, _b1(refs, r[8]), False, last, lim_lo, lim_hi, vmax, dt)
+            V[out, :] = last
+            M[out, :] = True
+        elif code == HOLD:
+            if has:  # without a frame in, the output holds (as Output.tick)
+                hold_tick(V[src], M[src], _f1(refs, r[4]), lo, hi)
+            continue  # the output's frame is its held state: no arena row
+        elif code == MIXER:
+            vals, masks = _f1(refs, r[11]), _b1(refs, r[12])
+            _gather(_i1(refs, r[4]), V, M, A, vals, masks)
+            mixer_tick(
+                vals, masks, _b2(refs, r[13]), _f1(refs, r[5]), _f1(refs, r[6]), _f1(refs, r[7]), _f1(refs, r[8]),
+                _f1(refs, r[9]), dt, _i1(refs, r[14]), rest, rest, enum, V[out], M[out], _f1(refs, r[10]),
+            )  # fmt: skip
+        A[out] = True
+        if _publish(out, M, P, CH):
+            changed += 1
+    return changed

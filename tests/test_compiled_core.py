@@ -1,0 +1,231 @@
+"""The compiled program core (backend/engine/core) computes what the blocks' own ticks compute: frame
+for frame, bit for bit (within 1e-9), on every shipped program under the scripted AI, through live
+parameter edits, mixer commands, hot swaps and resets, and on random programs (hypothesis). Its
+arrays are the blocks' own, a replaced one is caught, and its hot path allocates nothing that grows.
+Speed is benchmarks/bench_engine.py's business, not these tests'."""
+
+from __future__ import annotations
+
+import json
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scripted_ai
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from backend.engine.core.program import CORE_ENV
+from backend.engine.embodiment import load_embodiment
+from backend.graph.builder import ProgramBuilder
+from backend.session import EngineSession
+
+PROGRAMS = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs"
+TOLERANCE = 1e-9
+
+
+def program(name: str) -> dict:
+    return json.loads((PROGRAMS / f"{name}.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_embodiment("nutty_desk")
+
+
+def session_for(monkeypatch, robot, prog: dict, core: bool) -> EngineSession:
+    monkeypatch.setenv(CORE_ENV, "1" if core else "0")
+    session = EngineSession.create(robot, program=prog)
+    assert (session.engine.apu.core is not None) == core
+    return session
+
+
+def frame_tuple(f) -> tuple:
+    return (f.position.copy(), f.stage1.copy(), f.program.copy(), [e.to_dict() for e in f.events])
+
+
+def assert_same_frames(a: list, b: list) -> None:
+    assert len(a) == len(b)
+    for k, (x, y) in enumerate(zip(a, b)):
+        for name, u, v in zip(("position", "stage1", "program"), x[:3], y[:3]):
+            worst = float(np.abs(u - v).max())
+            assert worst <= TOLERANCE, f"tick {k}: {name} differs by {worst}"
+        assert x[3] == y[3], f"tick {k}: events differ"
+
+
+def segments(session: EngineSession) -> list[list[str]]:
+    core = session.engine.apu.core
+    return [[op.block.node_id for op in entry[1].ops] for entry in core.plan if entry[0] == "core"]
+
+
+@pytest.mark.parametrize("name", ["breathe-anything", "idle", "greet", "interactive"])
+def test_the_core_agrees_with_the_blocks_on_every_shipped_program(monkeypatch, robot, name):
+    runs = {}
+    for core in (True, False):
+        session = session_for(monkeypatch, robot, program(name), core)
+        runs[core] = [frame_tuple(f) for f in scripted_ai.run(session, 10.0)]
+        if core:
+            compiled = segments(session)
+            rebinds = session.engine.apu.core.rebinds
+    assert_same_frames(runs[True], runs[False])
+    moved = np.ptp(np.array([f[0] for f in runs[True]]), axis=0)
+    assert moved.max() > 0.01  # the program moved the robot: the comparison covered motion
+    assert rebinds == 0
+    # the compiled blocks run in one or two kernel calls (a Python IK between the mixer and stage 2)
+    assert len(compiled) == (2 if name == "interactive" else 1), compiled
+    assert "mix" in compiled[0] and "output" in compiled[-1]
+
+
+def _edits(session: EngineSession, k: int, other: dict) -> None:
+    """A live session's life: slider edits, mixer commands, a swap away and back, a reset."""
+    if k == 50:
+        session.update_params("breathe", {"frequency": 0.9, "amplitude": 0.05})
+        session.update_params("mood", {"gain": 1.4})
+        session.update_params("nmf", {"preset": "D"})
+    elif k == 80:
+        session.execute(
+            {"type": "set_layer", "mixer": "mix", "layer": "wander", "active": False, "fade": 0.2}
+        )
+    elif k == 120:
+        session.update_params("wander", {"amplitude": 0.08})
+        session.update_params("safety", {"velocity_scale": 0.5})
+    elif k == 150:
+        session.load_program(other)  # a hot swap: the blocks of the same id keep their state
+    elif k == 200:
+        session.load_program(program("interactive"))
+    elif k == 260:
+        session.reset()
+
+
+def test_edits_commands_swaps_and_resets_keep_both_paths_together(monkeypatch, robot):
+    other = program("idle")
+    runs = {}
+    for core in (True, False):
+        session = session_for(monkeypatch, robot, program("interactive"), core)
+        session.engine.apu.cook.every = 7  # the blocks' own ticks often, between the core's
+        frames = []
+        for k in range(320):
+            _edits(session, k, other)
+            frames.append(frame_tuple(session.engine.tick()))
+        runs[core] = frames
+        if core:
+            assert session.engine.apu.core is not None and session.engine.apu.core.rebinds == 0
+    assert_same_frames(runs[True], runs[False])
+
+
+def test_a_replaced_array_is_found_and_bound_again(monkeypatch, robot):
+    session = session_for(monkeypatch, robot, program("breathe-anything"), True)
+    engine = session.engine
+    engine.run_ticks(5)
+    limiter = engine.apu.block("safety")
+    limiter.state.last = limiter.state.last.copy()  # unannounced: the same state object, a new array
+    engine.apu.cook.every = 1  # the next tick is a timed one, which verifies the table
+    engine.tick()
+    assert engine.apu.core.rebinds == 1
+    engine.apu.cook.every = 10**9
+    engine.tick()
+    # the kernel steps the block's new array: the frame out is what the block now holds
+    out = engine.apu.signal_value("safety", "out")
+    assert np.array_equal(out.values, limiter.state.last)
+    (op,) = [op for op in engine.apu.core.ops if op.block is limiter]
+    assert engine.apu.core.listed(op)[0] is limiter.state.last
+
+
+def test_the_hot_path_allocates_nothing_that_grows(monkeypatch, robot):
+    session = session_for(monkeypatch, robot, program("breathe-anything"), True)
+    apu = session.engine.apu
+    apu.cook.every = 10**9  # every tick through the core
+    for _ in range(200):
+        apu.tick(0.01)
+    tracemalloc.start()
+    try:
+        start, _ = tracemalloc.get_traced_memory()
+        for _ in range(1000):
+            apu.tick(0.01)
+        end, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    # nothing kept (a counter past the small integers aside), and no tick holds more than ~1 kB at once:
+    # no frame, mask or events list is made per tick (numba's per-call argument wrappers are the rest)
+    assert end - start <= 1024, end - start
+    assert peak - start <= 2048, peak - start
+
+
+# --- random programs --------------------------------------------------------------------------------
+
+SOURCES = ("rest_pose", "breathe", "noise", "sine")
+OPERATORS = ("gain_offset", "motion_filter", "mask")
+
+
+@st.composite
+def random_program(draw) -> dict:
+    """Layers of sources and operators (compiled and Python ones mixed), a mixer, a stage 2, the output;
+    some parameters driven by an LFO (a Python signal block)."""
+    b = ProgramBuilder("random")
+    lfo = b.node("lfo", "lfo", frequency=draw(st.floats(0.1, 3.0)), amplitude=0.5, offset=0.5)
+    layers, names = [], []
+    for i in range(draw(st.integers(1, 4))):
+        kind = draw(st.sampled_from(SOURCES))
+        params: dict = {}
+        if kind == "breathe":
+            params = {"frequency": draw(st.floats(0.05, 2.0)), "amplitude": draw(st.floats(0.0, 0.2))}
+        elif kind == "noise":
+            params = {"amplitude": draw(st.floats(0.0, 0.1)), "tau": draw(st.floats(0.1, 3.0))}
+            params["smoothing"] = draw(st.sampled_from([0.0, 0.2]))
+        elif kind == "sine":
+            params = {"amplitude": draw(st.floats(0.0, 0.5)), "frequency": draw(st.floats(0.1, 2.0))}
+        chain = [b.node(kind, f"src{i}", **params)]
+        if kind == "breathe" and draw(st.booleans()):
+            b.connect(lfo, chain[0], "value", "amplitude")
+        for j in range(draw(st.integers(0, 2))):
+            op = draw(st.sampled_from(OPERATORS))
+            if op == "gain_offset":
+                node = b.node(
+                    op, f"op{i}_{j}", gain=draw(st.floats(-1.5, 1.5)), offset=draw(st.floats(-0.2, 0.2))
+                )
+                if draw(st.booleans()):
+                    b.connect(lfo, node, "value", "gain")
+            elif op == "motion_filter":
+                node = b.node(op, f"op{i}_{j}", preset=draw(st.sampled_from(["A", "B", "C", "D"])))
+            else:
+                node = b.node(op, f"op{i}_{j}", dofs=[draw(st.sampled_from(["head_*", "*", "stationary:*"]))])
+            chain.append(node)
+        b.chain(*chain)
+        layers.append(chain[-1])
+        names.append(f"l{i}")
+    modes = [draw(st.sampled_from(["override", "additive", "average"])) for _ in layers]
+    mix = b.node(
+        "layer_mixer",
+        "mix",
+        layers=[
+            {"name": n, "mode": m, "weight": draw(st.floats(0.0, 1.0)), "fade": draw(st.floats(0.0, 1.0))}
+            for n, m in zip(names, modes)
+        ],
+    )
+    for node, name in zip(layers, names):
+        b.connect(node, mix, "out", name)
+    if draw(st.booleans()):
+        b.connect(lfo, mix, "value", f"{names[0]}_weight")
+    stage2 = [mix]
+    if draw(st.booleans()):
+        stage2.append(b.node("nmf_stage2", "nmf", preset=draw(st.sampled_from(["A", "B", "C", "D"]))))
+    if draw(st.booleans()):
+        stage2.append(b.node("safety_limiter", "safety", velocity_scale=draw(st.floats(0.1, 1.0))))
+    b.chain(*stage2, b.output())
+    return b.to_dict()
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(prog=random_program(), command_at=st.integers(0, 59))
+def test_random_programs_agree(monkeypatch, robot, prog, command_at):
+    runs = {}
+    for core in (True, False):
+        session = session_for(monkeypatch, robot, prog, core)
+        frames = []
+        for k in range(60):
+            if k == command_at:
+                session.execute({"type": "set_layer", "mixer": "mix", "layer": "l0", "active": k % 2 == 0})
+            frames.append(frame_tuple(session.engine.tick()))
+        runs[core] = frames
+    assert_same_frames(runs[True], runs[False])
