@@ -16,7 +16,7 @@ import scripted_ai
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from backend.engine.core.program import CORE_ENV
+from backend.engine.core.program import CORE_ENV, KERNEL
 from backend.engine.embodiment import load_embodiment
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
@@ -36,6 +36,7 @@ def robot():
 
 def session_for(monkeypatch, robot, prog: dict, core: bool) -> EngineSession:
     monkeypatch.setenv(CORE_ENV, "1" if core else "0")
+    assert KERNEL.wait(120)  # loaded (or compiled, on a fresh clone) on its own thread
     session = EngineSession.create(robot, program=prog)
     assert (session.engine.apu.core is not None) == core
     return session

@@ -89,9 +89,7 @@ class APU:
         self._untimed = 0  # ticks since the last timed one
         # The compiled core (backend/engine/core): the compiled blocks as a few kernel calls per tick.
         self.core = CoreProgram.build(self)
-        self._core_results = self.core is not None  # whether `results` holds the core's frames
-        if self.core is not None:
-            self.core.restore_results(self.results)
+        self._core_results = False  # whether `results` holds the core's frames (else the blocks' own)
 
     def block(self, node_id: str) -> Block:
         return self.steps[self.index[node_id]].block
@@ -110,12 +108,13 @@ class APU:
             if core is not None:
                 core.verify()
                 self._core_results = False
-        elif core is not None:
+        elif core is not None and core.ready():
             if not self._core_results:
                 core.restore_results(results)
                 self._core_results = True
             core.tick(dt, results)
         else:
+            self._core_results = False
             for i, block, wires in self._plan:
                 inputs = {}
                 for port, src, src_port in wires:  # a plain loop: cheaper than a comprehension's call

@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 import numpy as np
 
 from backend.engine.blocks.base import Block
-from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter
-from backend.engine.blocks.idle import Breathe, Noise
+from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter, Sine
+from backend.engine.blocks.idle import Breathe, Noise, WeightShift
 from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterStage2
 from backend.engine.core import vm
@@ -200,6 +200,69 @@ class NoiseOp(Op[Noise]):
         self._coef, self._draws = self.block._coef_array, self.block._draws
 
 
+class SineOp(Op[Sine]):
+    """Sine has no kernel of its own: the op computes its wave with libm's sine, numpy's within 1 ulp."""
+
+    code = vm.SINE
+    n_scalars = 3
+    frame_inputs = ()
+    needs_kernel = False
+    pre_when = "always"  # the phase is a float of the block's state
+    passes_events = False
+
+    def arrays(self) -> list[np.ndarray]:
+        return [self.block.spread, self.block.mask]
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        b = self.block
+        d, st, S, s = b.driven(self.inputs(results)), b.state, self.arena.S, self.s
+        S[s] = float(d.offset)
+        S[s + 1] = float(d.amplitude)
+        S[s + 2] = st.phi + b.params.phase
+        st.phi = (st.phi + 2 * math.pi * d.frequency * dt) % (2 * math.pi)
+
+
+class WeightShiftOp(Op[WeightShift]):
+    code = vm.OFFSET
+    n_scalars = 1
+    frame_inputs = ()
+    pre_when = "always"  # the shifts are drawn by the block's numpy generator
+    passes_events = False
+
+    def arrays(self) -> list[np.ndarray]:
+        st = self.block.state
+        return [st.start, st.target, st.offset, self.block.mask]
+
+    def stale(self) -> bool:
+        st = self.block.state
+        return (
+            super().stale()
+            or st.start is not self._start
+            or st.target is not self._target
+            or st.offset is not self._offset
+        )
+
+    def bound_extra(self) -> None:
+        st = self.block.state
+        self._start, self._target, self._offset = st.start, st.target, st.offset
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        b = self.block  # WeightShift.tick up to its kernel, line for line
+        p, st = b.params, b.state
+        st.until_next -= dt
+        if st.until_next <= 0.0:
+            st.start = st.offset.copy()
+            st.target = b._new_target()
+            st.elapsed = 0.0
+            st.until_next = float(st.rng.uniform(p.min_interval, p.max_interval))
+        st.elapsed += dt
+        u = min(st.elapsed / p.shift_duration, 1.0)
+        self.arena.S[self.s] = 0.5 - 0.5 * math.cos(math.pi * u)
+        if st.offset is st.start or st.offset is st.target:  # written in place: never one of its inputs
+            st.offset = st.offset.copy()
+        self.rebind_if_stale()
+
+
 class GainOffsetOp(Op[GainOffset]):
     code = vm.GAIN_OFFSET
     n_scalars = 2
@@ -326,6 +389,8 @@ OPS: dict[type, type[Op]] = {
     RestPose: RestOp,
     Breathe: BreatheOp,
     Noise: NoiseOp,
+    Sine: SineOp,
+    WeightShift: WeightShiftOp,
     GainOffset: GainOffsetOp,
     MotionFilterBlock: FilterOp,
     MotionFilterStage2: FilterOp,
@@ -337,9 +402,10 @@ OPS: dict[type, type[Op]] = {
 
 def op_class(block: Block) -> type[Op] | None:
     """The op that compiles `block`, or None when it runs as Python (its type has none, it runs its
-    numpy reference, it is bypassed, or it has nothing the kernel could run)."""
+    numpy reference, it is bypassed, its tick was replaced on the instance (a probe, a test's fault),
+    or it has nothing the kernel could run)."""
     cls = OPS.get(type(block))
-    if cls is None or not block.ctx.compiled:
+    if cls is None or not block.ctx.compiled or "tick" in vars(block):
         return None
     if cls.needs_kernel and getattr(block, "_kernel", None) is None:
         return None

@@ -13,6 +13,10 @@ A frame from a Python block into a compiled one is copied into an import row bef
 `CookTimes.every` the APU times blocks one by one with their own ticks, which step the same state, and
 `verify` then checks that no block replaced an array the table lists.
 
+The kernel loads (from numba's cache, or compiles on a fresh clone) on a thread of its own, started
+by the first core built: until it is there, the APU runs the blocks' own ticks, which step the same
+state, so the switch is seamless and no start waits for it.
+
 `NUTTY_CORE=0` turns the core off (each block ticks on its own, compiled or not), for comparisons.
 """
 
@@ -21,6 +25,7 @@ from __future__ import annotations
 import heapq
 import logging
 import os
+import threading
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -42,6 +47,40 @@ CORE_ENV = "NUTTY_CORE"
 
 def core_enabled() -> bool:
     return os.environ.get(CORE_ENV, "").strip() not in ("0", "false", "no")
+
+
+class _Kernel:
+    """The kernel's entry point, loaded once per process on a thread of its own."""
+
+    def __init__(self) -> None:
+        self.entry: Any = None
+        self.loaded = threading.Event()
+        self._started = False
+        self._lock = threading.Lock()
+
+    def start(self) -> None:
+        with self._lock:
+            if self._started:
+                return
+            self._started = True
+        threading.Thread(target=self._load, name="nutty-core-kernel", daemon=True).start()
+
+    def _load(self) -> None:
+        try:
+            self.entry = entry_point(vm.run_ops, vm.RUN_SIG)
+        except Exception:  # the blocks' own ticks go on: the core is a speed-up, never a requirement
+            log.exception("the compiled core's kernel did not load; blocks tick one by one")
+        finally:
+            self.loaded.set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Start loading if need be and wait; whether the kernel is there."""
+        self.start()
+        self.loaded.wait(timeout)
+        return self.entry is not None
+
+
+KERNEL = _Kernel()
 
 
 class Arena:
@@ -180,7 +219,7 @@ class CoreProgram:
             (arena.V, arena.M, arena.A, arena.P, arena.CH, arena.S, emb.rest, emb.min, emb.max, emb.enum_mask)
         ):
             self.refs.put_at(j, np.ascontiguousarray(array))
-        self._run = entry_point(vm.run_ops, vm.RUN_SIG)
+        KERNEL.start()
         self.rebinds = 0  # binds found necessary by `verify` (a block replaced a listed array unannounced)
 
     @classmethod
@@ -195,6 +234,11 @@ class CoreProgram:
                 compiled[i] = op
         return cls(apu, compiled) if compiled else None
 
+    @staticmethod
+    def ready() -> bool:
+        """Whether the kernel has loaded (until then the APU runs the blocks' own ticks)."""
+        return KERNEL.entry is not None
+
     def restore_results(self, results: list[dict[str, Any]]) -> None:
         """Put the compiled steps' frames back in `results` (after the APU ran the blocks' own ticks)."""
         for op in self.ops:
@@ -202,7 +246,7 @@ class CoreProgram:
 
     def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
         """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
-        ops, run, refs = self.arena.ops, self._run, self.refs.table
+        ops, run, refs = self.arena.ops, KERNEL.entry, self.refs.table
         for entry in self.plan:
             if entry[0] == "py":
                 _, i, block, wires = entry

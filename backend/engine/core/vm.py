@@ -25,6 +25,7 @@ mask the Python side holds never changes in place (blocks may rely on that, see 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -36,7 +37,7 @@ from numba.np.numpy_support import carray
 from backend.engine.compiled import f8, i8
 from backend.engine.compiled.blend import mixer_tick
 from backend.engine.compiled.frames import filter_tick, gain_offset_tick, hold_tick, limiter_tick
-from backend.engine.compiled.idle import breathe_tick, noise_tick
+from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
@@ -48,6 +49,9 @@ LIMITER = 5  # 4 last, 5 lo, 6 hi, 7 vmax, 8 the continuous mask
 HOLD = 6  # 4 held (the output block's state, which is its frame)
 MIXER = 7  # 4 layer rows, 5 weights, 6 fade_level, 7 fade_target, 8 fade_time, 9 signal_weights, 10 w,
 #            11 gathered values (L*C), 12 gathered masks (L*C), 13 layer masks (L, C), 14 mode codes
+
+SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
+OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
 
 #: Columns of an op row.
 WIDTH = 16
@@ -155,6 +159,15 @@ def run_ops(ops, refs, k0, k1, dt):
                 _f1(refs, r[4]), _f1(refs, r[5]), _f2(refs, r[7]), _f1(refs, r[6]), S[s] > 0.5, S[s + 1] > 0.5,
                 S[s + 2], rest, lo, hi, mask, V[out],
             )  # fmt: skip
+            M[out, :] = mask
+        elif code == SINE:
+            spread, mask = _f1(refs, r[4]), _b1(refs, r[5])
+            for c in range(V.shape[1]):  # Sine.tick: rest + offset + amplitude sin(phase), on every channel
+                V[out, c] = rest[c] + S[s] + S[s + 1] * math.sin(S[s + 2] + spread[c])
+            M[out, :] = mask
+        elif code == OFFSET:
+            mask = _b1(refs, r[7])
+            offset_tick(_f1(refs, r[4]), _f1(refs, r[5]), S[s], _f1(refs, r[6]), rest, lo, hi, mask, V[out])
             M[out, :] = mask
         elif code == GAIN_OFFSET:
             if has:
