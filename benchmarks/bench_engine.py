@@ -7,7 +7,8 @@ or a fast machine compare.
 
 1. Headless: `engine.tick()` timed one by one while the scripted AI (tests/scripted_ai.py) sends its
    commands; tick p50/p99 per program and rate. The interactive program also on the numpy reference
-   path (NUTTY_REFERENCE / `Engine(compiled=False)`) for comparison.
+   path (NUTTY_REFERENCE / `Engine(compiled=False)`) and, with breathe-anything, without the compiled
+   program core (NUTTY_CORE=0: each block's own compiled tick, dispatched from Python) for comparison.
    Then the wake pattern (benchmarks/wake.py): the interactive program and 1000-DoF breathe-anything
    against one Ruckig-25 update, both timed back to back (hot) and after each sleep of the tick's
    period (woken: what a real clock finds), interleaved.
@@ -60,6 +61,7 @@ from bench_nmf import time_ruckig
 from results import headline, recorded
 
 from backend.engine.compiled import REFERENCE_ENV
+from backend.engine.core.program import CORE_ENV, KERNEL
 from backend.engine.embodiment import load_embodiment
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
@@ -118,20 +120,31 @@ class Peer:
         return self.us
 
 
+@contextlib.contextmanager
+def switched(compiled: bool = True, core: bool = True):
+    """Engines made inside run compiled or on the numpy reference, with or without the compiled core
+    (the documented switches: backend.engine.compiled, backend.engine.core.program)."""
+    saved = {name: os.environ.get(name) for name in (REFERENCE_ENV, CORE_ENV)}
+    os.environ[REFERENCE_ENV] = "0" if compiled else "1"
+    os.environ[CORE_ENV] = "1" if core else "0"
+    KERNEL.wait()  # the core's kernel from the first tick (it loads on its own thread)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
 def headless_costs(
-    emb, program: dict, rate: float, compiled: bool = True, seconds: float = SCRIPT_SECONDS
+    emb, program: dict, rate: float, compiled: bool = True, seconds: float = SCRIPT_SECONDS, core: bool = True
 ) -> np.ndarray:
     """µs of each `engine.tick()` of `program` at `rate` over `seconds` of program time under the
     scripted AI (after a few warm-up ticks)."""
-    saved = os.environ.get(REFERENCE_ENV)
-    os.environ[REFERENCE_ENV] = "0" if compiled else "1"  # the documented switch (backend.engine.compiled)
-    try:
+    with switched(compiled, core):
         session = EngineSession.create(emb, rate=rate, program=program)
-    finally:
-        if saved is None:
-            del os.environ[REFERENCE_ENV]
-        else:
-            os.environ[REFERENCE_ENV] = saved
     engine = session.engine
     ticks = round(seconds * rate) + WARM_UP
     script = list(scripted_ai.timeline(ticks / rate))
@@ -170,6 +183,9 @@ def run_headless(peer: Peer) -> dict[str, float]:
     rows.append(
         ("interactive (numpy reference)", 100.0, headless_costs(desk, program("interactive"), 100.0, False))
     )
+    for name in ("interactive", "breathe-anything"):
+        peer.round()
+        rows.append((f"{name} (core off)", 100.0, headless_costs(desk, program(name), 100.0, core=False)))
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "many.urdf"
         path.write_text(synthetic_urdf(1000))
@@ -194,9 +210,11 @@ def run_headless(peer: Peer) -> dict[str, float]:
         p50, p99 = np.percentile(costs, [50, 99])
         print(f"{name:<34} {rate:>6g} {fmt_ratio(p50, us)}  {fmt_ratio(p99, us)}")
     for name, rate, costs in rows:
-        if (name, rate) in (("interactive", 100.0), ("interactive (numpy reference)", 100.0)) or (
-            name.endswith("DoFs") and rate == 100.0
-        ):
+        if (name, rate) in (
+            ("interactive", 100.0),
+            ("interactive (numpy reference)", 100.0),
+            ("interactive (core off)", 100.0),
+        ) or (name.endswith("DoFs") and rate == 100.0):
             p50 = float(np.percentile(costs, 50))
             headline(
                 f"headless {name} at 100 Hz under the scripted AI: tick {p50:.0f} µs p50 = {p50 / us:.2f}× "
@@ -228,16 +246,22 @@ def run_wake(peer: Peer) -> dict[float, float]:
     """The interactive program and 1000-DoF breathe-anything against Ruckig-25, hot and woken
     (benchmarks/wake.py). Returns Ruckig-25's woken p50 (µs) by the clock rate it stands for."""
     desk = load_embodiment("nutty_desk")
-    engines = [EngineSession.create(desk, rate=100.0, program=program("interactive")).engine]
+    with switched(core=False):
+        no_core = EngineSession.create(desk, rate=100.0, program=program("interactive")).engine
+    with switched():
+        engines = [EngineSession.create(desk, rate=100.0, program=program("interactive")).engine]
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "many.urdf"
         path.write_text(synthetic_urdf(1000))
         many = load_embodiment(path)
-    engines.append(EngineSession.create(many, rate=100.0, program=program("breathe-anything")).engine)
+    with switched():
+        engines.append(EngineSession.create(many, rate=100.0, program=program("breathe-anything")).engine)
+    engines.append(no_core)
     for engine in engines:
         engine.run_ticks(WARM_UP)
     ticks = {
         "interactive": lambda k: engines[0].tick(),
+        "interactive (core off)": lambda k: engines[2].tick(),
         f"breathe-anything, {many.n_channels} DoFs": lambda k: engines[1].tick(),
     }
     patterns = tuple((label, sleep) for label, sleep, _ in WAKE_PATTERNS)
@@ -253,7 +277,7 @@ def run_wake(peer: Peer) -> dict[float, float]:
             woken[rates[label]] = b50
         if label in ("hot", "woken at 100 Hz"):
             goal = ""
-            if label == "hot":
+            if label == "hot" and not name.endswith("(core off)"):
                 many = name != "interactive"
                 goal = (
                     f" ({verdict(a50, TARGETS['many_us'], ' µs')})"

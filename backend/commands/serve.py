@@ -335,8 +335,10 @@ def ready_previz(previz):
 def print_banner(args, emb, session, label: str, previz) -> None:
     """Where the editor, the API and the Pre-Viz are (stdout: what a person or a script reads)."""
     shown = "localhost" if args.host in LOCAL_HOSTS else args.host
+    apu = session.engine.apu  # None once a fault (a servo's, a simulated contact) has dropped the program
+    level = f"level {apu.level}" if apu is not None else "stopped by a fault before the server started"
     print(
-        f"Nutty: robot '{emb.name}', program '{session.program.name}' ({label}), level {session.engine.apu.level}, "
+        f"Nutty: robot '{emb.name}', program '{session.program.name}' ({label}), {level}, "
         f"{session.engine.rate:g} Hz",
         flush=True,
     )

@@ -109,7 +109,7 @@ class Refs:
     """The table of arrays the kernel reads by address (vm.py), and the arrays themselves, kept alive."""
 
     def __init__(self, n_ops: int):
-        self.table = np.zeros((vm.FIRST_OP_REF + n_ops * vm.WIDTH, 3), dtype=np.int64)
+        self.table = np.zeros((vm.FIRST_OP_REF + n_ops * vm.WIDTH, 4), dtype=np.int64)
         self._held: dict[int, np.ndarray] = {}
 
     def put(self, k: int, col: int, array: np.ndarray) -> int:
@@ -118,10 +118,10 @@ class Refs:
 
     def put_at(self, j: int, array: np.ndarray) -> int:
         """List `array` at row `j` of the table; `j`."""
-        if not (isinstance(array, np.ndarray) and array.flags.c_contiguous and array.ndim in (1, 2)):
-            raise TypeError(f"refs row {j}: not a C-contiguous 1-D or 2-D array")
+        if not (isinstance(array, np.ndarray) and array.flags.c_contiguous and 1 <= array.ndim <= 3):
+            raise TypeError(f"refs row {j}: not a C-contiguous 1-D to 3-D array")
         self._held[j] = array  # before its address is written: the table never names a freed array
-        shape = array.shape + (0,) * (3 - 1 - array.ndim)
+        shape = array.shape + (0,) * (3 - array.ndim)
         self.table[j] = (array.ctypes.data, *shape)
         return j
 

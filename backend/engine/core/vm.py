@@ -10,7 +10,7 @@ writes, 2 the arena row of its frame input (-1: none), 3 the first of its scalar
 4.. rows of `refs`, the arrays the op reads and writes in place (each op's comment says which). The
 first rows of `refs` are the arena's arrays and the robot's rest pose, limits and enum mask.
 
-`refs` rows are (address, shape0, shape1) of arrays the blocks own: their state and their derived
+`refs` rows are (address, shape0, shape1, shape2) of arrays the blocks own: their state and their derived
 constants, so the kernel and the blocks' own ticks step the same memory. The core that fills the table
 (backend/engine/core/program.py) keeps a reference to every array it lists for as long as the table
 can be run, checks each is C-contiguous with the dtype the op reads, and re-lists a block's arrays
@@ -38,6 +38,7 @@ from backend.engine.compiled import f8, i8
 from backend.engine.compiled.blend import mixer_tick
 from backend.engine.compiled.frames import filter_tick, gain_offset_tick, hold_tick, limiter_tick
 from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
+from backend.engine.compiled.ik import ik_tick
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
@@ -50,11 +51,15 @@ HOLD = 6  # 4 held (the output block's state, which is its frame)
 MIXER = 7  # 4 layer rows, 5 weights, 6 fade_level, 7 fade_target, 8 fade_time, 9 signal_weights, 10 w,
 #            11 gathered values (L*C), 12 gathered masks (L*C), 13 layer masks (L, C), 14 mode codes
 
+IK = 10  # S: weight, target xyz, look, lam2, iterations, max_step, converged, null_gain, null_range,
+#          chain identity, solve (target, weight > 0, joints), hold (no target: forget the warm start) |
+#          4 held, 5 delta, 6 add mask, 7 j_rows (m, C), 8 var, 9 var_ch, 10 constants, 11..20 the chain's
+#          arrays in CHAIN_SIG's order (k, k2, axes, revolute, src, mult, off, pre, post, select)
 SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
 
 #: Columns of an op row.
-WIDTH = 16
+WIDTH = 24
 
 i8_2 = nt.int64[:, ::1]
 
@@ -98,6 +103,11 @@ def _i1(refs, j):
 @njit(cache=True, inline="always")
 def _f2(refs, j):
     return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2]), np.float64)
+
+
+@njit(cache=True, inline="always")
+def _f3(refs, j):
+    return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2], refs[j, 3]), np.float64)
 
 
 @njit(cache=True, inline="always")
@@ -190,6 +200,29 @@ def run_ops(ops, refs, k0, k1, dt):
                 limiter_tick(last, _b1(refs, r[8]), False, last, lim_lo, lim_hi, vmax, dt)
             V[out, :] = last
             M[out, :] = True
+        elif code == IK:
+            if not has:  # an operator without a frame in gives the empty frame (its state stands still)
+                V[out, :] = 0.0
+                M[out, :] = False
+            elif S[s + 13] > 0.5:
+                ik_tick(
+                    V[src], M[src], _f1(refs, r[4]), S[s + 1 : s + 4], S[s], _f1(refs, r[5]), V[out], M[out],
+                    _b1(refs, r[6]), _f2(refs, r[7]), _i1(refs, r[8]), _i1(refs, r[9]), _f1(refs, r[10]),
+                    S[s + 4] > 0.5, S[s + 5], np.int64(S[s + 6]), S[s + 7], S[s + 8], S[s + 9], S[s + 10],
+                    _f3(refs, r[11]), _f3(refs, r[12]), _f2(refs, r[13]), _f1(refs, r[14]), _i1(refs, r[15]),
+                    _f1(refs, r[16]), _f1(refs, r[17]), _f3(refs, r[18]), _f2(refs, r[19]), _f2(refs, r[20]),
+                    S[s + 12] > 0.5,
+                )  # fmt: skip
+            else:  # IK.transform without a solve: hold what the frame sets, pass it through unchanged
+                held = _f1(refs, r[4])
+                for c in range(V.shape[1]):
+                    if M[src, c]:
+                        held[c] = V[src, c]
+                    V[out, c] = V[src, c]
+                    M[out, c] = M[src, c]
+                if S[s + 14] > 0.5:
+                    delta = _f1(refs, r[5])
+                    delta[:] = 0.0
         elif code == HOLD:
             if has:  # without a frame in, the output holds (as Output.tick)
                 hold_tick(V[src], M[src], _f1(refs, r[4]), lo, hi)
