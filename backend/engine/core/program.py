@@ -14,7 +14,7 @@ A frame from a Python block into a compiled one is copied into an import row bef
 `verify` then checks that no block replaced an array the table lists.
 
 The kernel loads (from numba's cache, or compiles on a fresh clone) on a thread of its own, started
-by the first core built: until it is there, the APU runs the blocks' own ticks, which step the same
+by the first tick of a core: until it is there, the APU runs the blocks' own ticks, which step the same
 state, so the switch is seamless and no start waits for it.
 
 `NUTTY_CORE=0` turns the core off (each block ticks on its own, compiled or not), for comparisons.
@@ -219,7 +219,6 @@ class CoreProgram:
             (arena.V, arena.M, arena.A, arena.P, arena.CH, arena.S, emb.rest, emb.min, emb.max, emb.enum_mask)
         ):
             self.refs.put_at(j, np.ascontiguousarray(array))
-        KERNEL.start()
         self.rebinds = 0  # binds found necessary by `verify` (a block replaced a listed array unannounced)
 
     @classmethod
@@ -236,8 +235,12 @@ class CoreProgram:
 
     @staticmethod
     def ready() -> bool:
-        """Whether the kernel has loaded (until then the APU runs the blocks' own ticks)."""
-        return KERNEL.entry is not None
+        """Whether the kernel has loaded (until then the APU runs the blocks' own ticks). The first ask
+        starts loading it: a program that is only checked, never ticked, never loads it."""
+        if KERNEL.entry is not None:
+            return True
+        KERNEL.start()
+        return False
 
     def restore_results(self, results: list[dict[str, Any]]) -> None:
         """Put the compiled steps' frames back in `results` (after the APU ran the blocks' own ticks)."""
