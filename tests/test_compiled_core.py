@@ -232,3 +232,17 @@ def test_random_programs_agree(monkeypatch, robot, prog, command_at):
             frames.append(frame_tuple(session.engine.tick()))
         runs[core] = frames
     assert_same_frames(runs[True], runs[False])
+
+
+def test_probes_read_a_snapshot_that_later_ticks_leave_alone(monkeypatch, robot):
+    session = session_for(monkeypatch, robot, program("breathe-anything"), True)
+    engine = session.engine
+    engine.apu.cook.every = 10**9
+    engine.run_ticks(20)
+    live = engine.apu.signal_value("breathe", "out")
+    with engine.tick_lock:  # as telemetry reads them: between ticks
+        (snapshot,) = engine.apu.signal_values([("breathe", "out")])
+    before = snapshot.values.copy()
+    engine.tick()
+    assert np.array_equal(snapshot.values, before)  # a copy of one tick
+    assert not np.array_equal(live.values, before)  # the core rewrites its frames in place

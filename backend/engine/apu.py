@@ -182,6 +182,13 @@ class APU:
         return kept
 
     def signal_value(self, node_id: str, port: str) -> Any:
-        """The latest value on an output port (for telemetry); None before the first tick."""
+        """The latest value on an output port (for telemetry); None before the first tick. A frame of a
+        compiled step is rewritten in place each tick: read it between ticks, or use `signal_values`."""
         i = self.index.get(node_id)
         return None if i is None else self.results[i].get(port)
+
+    def signal_values(self, ports: list[tuple[str, str]]) -> list[Any]:
+        """The latest values on (node, port) pairs, frames copied: called under the engine's `tick_lock`
+        (as telemetry does), a snapshot of one tick that later ticks leave as it is."""
+        values = [self.signal_value(node, port) for node, port in ports]
+        return [v.copy() if isinstance(v, PartialFrame) else v for v in values]

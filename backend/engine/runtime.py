@@ -134,7 +134,7 @@ class Engine:
         self._derivatives = entry_point(derivatives, DERIVATIVES_SIG) if self.ctx.compiled else None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
-        self._tick_lock = threading.Lock()
+        self.tick_lock = threading.Lock()  # held for a whole tick: readers of live frames take it too
 
     # --- inputs (thread-safe; applied at the next tick boundary) ---------------------------------
     def call_soon(self, fn: Callable[[], Any]) -> Future:
@@ -153,7 +153,7 @@ class Engine:
         if self._ticking == threading.get_ident():
             return fn()
         if not self.running:
-            with self._tick_lock:
+            with self.tick_lock:
                 self._ticking = threading.get_ident()
                 try:
                     self._drain_pending()
@@ -316,7 +316,7 @@ class Engine:
 
     def tick(self) -> AnimationFrame:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
-        with self._tick_lock:
+        with self.tick_lock:
             t0, cpu0 = time.perf_counter(), time.thread_time()
             self._ticking = threading.get_ident()
             try:

@@ -239,7 +239,8 @@ class Subscription:
         apu, emb = session.engine.apu, session.embodiment
         msg: dict[str, Any] = {"type": "telemetry", "t": frame.t, "seq": frame.seq}
         if apu is not None and self.signals:
-            values = [apu.signal_value(s["node"], s["port"]) for s in self.signals]
+            with session.engine.tick_lock:  # between ticks: the compiled core writes its frames in place
+                values = apu.signal_values([(s["node"], s["port"]) for s in self.signals])
             msg["signals"] = dict(zip(self.signal_keys, signals_json(emb, values)))
         if self.frames:
             msg["frame"] = frame_json(emb, frame, session.engine.safety)
