@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_compiled_blocks import ODD_URDF as CHAIN_URDF
 
 from backend.engine import urdf_table as ut
 from backend.engine.embodiment import EmbodimentError, load_embodiment
@@ -19,22 +20,19 @@ from backend.engine.kinematics import _model_from_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# A prismatic joint, a mimic joint, a continuous one and a joint without <limit>: every field's case.
-ODD_URDF = """<?xml version="1.0"?>
-<robot name="odd">
-  <link name="base"/><link name="a"/><link name="b"/><link name="c"/><link name="tip"/><link name="spin"/>
-  <joint name="turn" type="revolute"><parent link="base"/><child link="a"/><origin xyz="0 0 0.1" rpy="0.1 0 0.2"/>
-    <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="1.5" effort="1"/></joint>
-  <joint name="slide" type="prismatic"><parent link="a"/><child link="b"/><origin xyz="0.2 0 0"/>
-    <axis xyz="1 0 0"/><limit lower="0" upper="0.3" velocity="0.1" effort="1"/></joint>
-  <joint name="follow" type="revolute"><parent link="b"/><child link="c"/><origin xyz="0 0.1 0" rpy="0 0.3 0"/>
-    <axis xyz="0 1 0"/><mimic joint="turn" multiplier="-0.5" offset="0.1"/>
-    <limit lower="-2" upper="2" velocity="1" effort="1"/></joint>
-  <joint name="wrist" type="revolute"><parent link="c"/><child link="tip"/><origin xyz="0.05 0 0.02"/>
-    <axis xyz="1 0 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
-  <joint name="wheel" type="continuous"><parent link="base"/><child link="spin"/><axis xyz="0 0 1"/></joint>
-</robot>
-"""
+# test_compiled_blocks' chain (a prismatic and a mimic joint) with a continuous joint without <limit> and
+# a joint velocity of its own: every field's case.
+ODD_URDF = (
+    CHAIN_URDF.replace(
+        'velocity="1" effort="1"/></joint>\n  <joint name="slide"',
+        'velocity="1.5" effort="1"/></joint>\n  <joint name="slide"',
+    )
+    .replace('<link name="tip"/>', '<link name="tip"/><link name="spin"/>')
+    .replace(
+        "</robot>",
+        '  <joint name="wheel" type="continuous"><parent link="base"/><child link="spin"/><axis xyz="0 0 1"/></joint>\n</robot>',
+    )
+)
 
 
 @pytest.fixture

@@ -394,7 +394,9 @@ class WeightShift(Source[WeightShiftParams]):
         target = p.amplitude * magnitude * fractions
         return np.clip(emb.rest + target, emb.min, emb.max) - emb.rest
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+    def advance(self, dt: float) -> float:
+        """Advance the shift schedule by `dt` (a new shift when one is due); the running shift's eased
+        progress k in [0, 1]. (The compiled core's op calls it too.)"""
         p, s = self.params, self.state
         s.until_next -= dt
         if s.until_next <= 0.0:
@@ -404,7 +406,10 @@ class WeightShift(Source[WeightShiftParams]):
             s.until_next = float(s.rng.uniform(p.min_interval, p.max_interval))
         s.elapsed += dt
         u = min(s.elapsed / p.shift_duration, 1.0)
-        k = 0.5 - 0.5 * math.cos(math.pi * u)
+        return 0.5 - 0.5 * math.cos(math.pi * u)
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        s, k = self.state, self.advance(dt)
         emb = self.emb
         if self._kernel is not None and self.ctx.compiled:  # the compiled twin of the lines below
             out = np.empty(emb.n_channels)

@@ -112,11 +112,18 @@ class Op(Generic[B]):
         self.frame.events = src.events if src is not None else NO_EVENTS
 
 
-class RestOp(Op[RestPose]):
+class SourceOp(Op[B]):
+    """An op of a source: no frame in, no events to pass; Python's part (a phase, random draws) runs
+    every tick."""
+
     frame_inputs = ()
+    pre_when = "always"
+    passes_events = False
+
+
+class RestOp(SourceOp[RestPose]):
     needs_kernel = False
     pre_when = "never"
-    passes_events = False
 
     def bind(self, refs: Refs) -> None:
         super().bind(refs)
@@ -126,12 +133,10 @@ class RestOp(Op[RestPose]):
         a.A[self.out] = True
 
 
-class BreatheOp(Op[Breathe]):
+class BreatheOp(SourceOp[Breathe]):
     code = vm.BREATHE
     n_scalars = 4
-    frame_inputs = ()
-    pre_when = "always"  # the phase is a float of the block's state
-    passes_events = False
+    # Python's part every tick: the phase is a float of the block's state
 
     def arrays(self) -> list[np.ndarray]:
         b = self.block
@@ -160,12 +165,10 @@ class BreatheOp(Op[Breathe]):
         st.phi = (st.phi + frequency * dt) % 1.0
 
 
-class NoiseOp(Op[Noise]):
+class NoiseOp(SourceOp[Noise]):
     code = vm.NOISE
     n_scalars = 3
-    frame_inputs = ()
-    pre_when = "always"  # the random draws come from the block's numpy generator
-    passes_events = False
+    # Python's part every tick: the random draws come from the block's numpy generator
 
     def bind(self, refs: Refs) -> None:
         st = self.block.state
@@ -201,15 +204,13 @@ class NoiseOp(Op[Noise]):
         self._coef, self._draws = self.block._coef_array, self.block._draws
 
 
-class SineOp(Op[Sine]):
+class SineOp(SourceOp[Sine]):
     """Sine has no kernel of its own: the op computes its wave with libm's sine, numpy's within 1 ulp."""
 
     code = vm.SINE
     n_scalars = 3
-    frame_inputs = ()
     needs_kernel = False
-    pre_when = "always"  # the phase is a float of the block's state
-    passes_events = False
+    # Python's part every tick: the phase is a float of the block's state
 
     def arrays(self) -> list[np.ndarray]:
         return [self.block.spread, self.block.mask]
@@ -223,12 +224,10 @@ class SineOp(Op[Sine]):
         st.phi = (st.phi + 2 * math.pi * d.frequency * dt) % (2 * math.pi)
 
 
-class WeightShiftOp(Op[WeightShift]):
+class WeightShiftOp(SourceOp[WeightShift]):
     code = vm.OFFSET
     n_scalars = 1
-    frame_inputs = ()
-    pre_when = "always"  # the shifts are drawn by the block's numpy generator
-    passes_events = False
+    # Python's part every tick: the shifts are drawn by the block's numpy generator
 
     def arrays(self) -> list[np.ndarray]:
         st = self.block.state
@@ -248,17 +247,9 @@ class WeightShiftOp(Op[WeightShift]):
         self._start, self._target, self._offset = st.start, st.target, st.offset
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        b = self.block  # WeightShift.tick up to its kernel, line for line
-        p, st = b.params, b.state
-        st.until_next -= dt
-        if st.until_next <= 0.0:
-            st.start = st.offset.copy()
-            st.target = b._new_target()
-            st.elapsed = 0.0
-            st.until_next = float(st.rng.uniform(p.min_interval, p.max_interval))
-        st.elapsed += dt
-        u = min(st.elapsed / p.shift_duration, 1.0)
-        self.arena.S[self.s] = 0.5 - 0.5 * math.cos(math.pi * u)
+        b = self.block  # WeightShift.tick up to its kernel
+        self.arena.S[self.s] = b.advance(dt)
+        st = b.state
         if st.offset is st.start or st.offset is st.target:  # written in place: never one of its inputs
             st.offset = st.offset.copy()
         self.rebind_if_stale()
