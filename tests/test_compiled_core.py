@@ -62,14 +62,20 @@ def segments(session: EngineSession) -> list[list[str]]:
 
 @pytest.mark.parametrize("name", ["breathe-anything", "idle", "greet", "interactive"])
 def test_the_core_agrees_with_the_blocks_on_every_shipped_program(monkeypatch, robot, name):
-    runs = {}
+    runs, notes = {}, {}
     for core in (True, False):
         session = session_for(monkeypatch, robot, program(name), core)
+        notes[core] = []
+        session.on_note(notes[core].append)
         runs[core] = [frame_tuple(f) for f in scripted_ai.run(session, 10.0)]
         if core:
             compiled = segments(session)
             rebinds = session.engine.apu.core.rebinds
     assert_same_frames(runs[True], runs[False])
+    # the blocks' notes too: a look_at's end (the gaze's watch), clips and postures started and done
+    assert notes[True] == notes[False]
+    if name == "interactive":
+        assert any(n.get("node") == "gaze" and n.get("event") == "completed" for n in notes[True])
     moved = np.ptp(np.array([f[0] for f in runs[True]]), axis=0)
     assert moved.max() > 0.01  # the program moved the robot: the comparison covered motion
     assert rebinds == 0
@@ -77,7 +83,7 @@ def test_the_core_agrees_with_the_blocks_on_every_shipped_program(monkeypatch, r
     assert len(compiled) == 1, compiled
     assert "mix" in compiled[0] and "output" in compiled[0]
     if name == "interactive":
-        assert {"look_at", "nmf", "safety", "breathe", "mood"} <= set(compiled[0])
+        assert {"gaze", "look_at", "nmf", "safety", "breathe", "mood"} <= set(compiled[0])
 
 
 def _edits(session: EngineSession, k: int, other: dict) -> None:

@@ -21,7 +21,6 @@ import numpy as np
 from backend.engine.blocks.base import Block
 from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter, Sine
 from backend.engine.blocks.idle import Breathe, Noise, WeightShift
-from backend.engine.blocks.ik import InverseKinematics
 from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterStage2
 from backend.engine.core import vm
@@ -316,48 +315,6 @@ class FilterOp(Op[MotionFilterBlock | MotionFilterStage2]):
                     self.rebind_if_stale()  # set_params may have replaced the filter's buffers
 
 
-class IkOp(Op[InverseKinematics]):
-    code = vm.IK
-    n_scalars = 15
-    pre_when = "always"  # the target and weight decide, each tick, whether it solves
-
-    def arrays(self) -> list[np.ndarray]:
-        b, st = self.block, self.block.state
-        args: tuple[Any, ...] = b._kernel_args  # (j_rows, var, var_ch, constants, look, ..., chain, identity)
-        return [st.held, st.delta, b.mask_add, args[0], args[1], args[2], args[3], *args[11:21]]
-
-    def bind(self, refs: Refs) -> None:
-        super().bind(refs)
-        args, S, s = self.block._kernel_args, self.arena.S, self.s
-        S[s + 4] = 1.0 if args[4] else 0.0
-        for i in range(6):  # lam2, iterations, max_step, converged, null_gain, null_range
-            S[s + 5 + i] = float(args[5 + i])
-        S[s + 11] = 0.0
-        S[s + 12] = 1.0 if args[21] else 0.0
-
-    def stale(self) -> bool:
-        st = self.block.state  # the block's own tick replaces these when it does not solve
-        return super().stale() or st.held is not self._held or st.delta is not self._delta
-
-    def bound_extra(self) -> None:
-        self._held, self._delta = self.block.state.held, self.block.state.delta
-
-    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        b = self.block
-        d, S, s = b.driven(self.inputs(results)), self.arena.S, self.s
-        target, weight = d.target, d.weight
-        solve = target is not None and weight > 0.0 and len(b.var) > 0
-        S[s] = float(weight)
-        if solve and target is not None:
-            S[s + 1], S[s + 2], S[s + 3] = target[0], target[1], target[2]
-        S[s + 13] = 1.0 if solve else 0.0
-        S[s + 14] = 1.0 if target is None else 0.0
-
-    def post(self) -> None:
-        src = self.srcs[0].frame if self.srcs else None
-        self.frame.events = src.events if src is not None else NO_EVENTS
-
-
 class LimiterOp(Op[SafetyLimiter]):
     code = vm.LIMITER
 
@@ -416,36 +373,3 @@ class MixerOp(Op[LayerMixer]):
             if frame is not None and frame.events and w[i] > 0.0:
                 events = [*events, *frame.events]
         self.frame.events = events
-
-
-#: The block classes the core compiles (exact classes: a subclass may tick differently) and their ops.
-OPS: dict[type, type[Op]] = {
-    RestPose: RestOp,
-    Breathe: BreatheOp,
-    Noise: NoiseOp,
-    Sine: SineOp,
-    WeightShift: WeightShiftOp,
-    GainOffset: GainOffsetOp,
-    MotionFilterBlock: FilterOp,
-    MotionFilterStage2: FilterOp,
-    SafetyLimiter: LimiterOp,
-    Output: OutputOp,
-    LayerMixer: MixerOp,
-    InverseKinematics: IkOp,
-}
-
-
-def op_class(block: Block) -> type[Op] | None:
-    """The op that compiles `block`, or None when it runs as Python (its type has none, it runs its
-    numpy reference, it is bypassed, its tick was replaced on the instance (a probe, a test's fault),
-    or it has nothing the kernel could run)."""
-    cls = OPS.get(type(block))
-    if cls is None or not block.ctx.compiled or "tick" in vars(block):
-        return None
-    if cls.needs_kernel and getattr(block, "_kernel", None) is None:
-        return None
-    if (
-        cls is FilterOp and getattr(block, "filter", None) is None
-    ):  # no channel selected: the frame passes as it is
-        return None
-    return cls

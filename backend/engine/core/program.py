@@ -33,7 +33,8 @@ import numpy as np
 from backend.engine.blocks.base import PortType
 from backend.engine.compiled import entry_point
 from backend.engine.core import vm
-from backend.engine.core.ops import Op, op_class
+from backend.engine.core.ops import Op
+from backend.engine.core.registry import op_class
 from backend.engine.frames import PartialFrame
 
 if TYPE_CHECKING:

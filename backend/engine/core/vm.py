@@ -37,6 +37,7 @@ from numba.np.numpy_support import carray
 from backend.engine.compiled import f8, i8
 from backend.engine.compiled.blend import mixer_tick
 from backend.engine.compiled.frames import filter_tick, gain_offset_tick, hold_tick, limiter_tick
+from backend.engine.compiled.gaze import gaze_tick
 from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
 from backend.engine.compiled.ik import ik_tick
 
@@ -55,6 +56,9 @@ IK = 10  # S: weight, target xyz, look, lam2, iterations, max_step, converged, n
 #          chain identity, solve (target, weight > 0, joints), hold (no target: forget the warm start) |
 #          4 held, 5 delta, 6 add mask, 7 j_rows (m, C), 8 var, 9 var_ch, 10 constants, 11..20 the chain's
 #          arrays in CHAIN_SIG's order (k, k2, axes, revolute, src, mult, off, pre, post, select)
+GAZE = 11  # S: strength, target xyz, (unused), arc_dip, arc_max, arc_smoothing, tolerance, chain identity,
+#            on target (written) | 4 x, 5 x before this tick (written), 6 dip (1,), 7 idx, 8 axis, 9 leader,
+#            10 constants, 11 j_rows, 12..21 the chain's arrays in CHAIN_SIG's order, 22 mask
 SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
 
@@ -223,6 +227,18 @@ def run_ops(ops, refs, k0, k1, dt):
                 if S[s + 14] > 0.5:
                     delta = _f1(refs, r[5])
                     delta[:] = 0.0
+        elif code == GAZE:
+            x, x_old = _f1(refs, r[4]), _f1(refs, r[5])
+            x_old[:] = x  # the block's tick steps a copy; the op keeps the old x for its watch instead
+            on = gaze_tick(
+                x, _f1(refs, r[6]), V[out], S[s + 1 : s + 4], S[s], dt, _i1(refs, r[7]), _i1(refs, r[8]),
+                _b1(refs, r[9]), _f1(refs, r[10]), S[s + 5], S[s + 6], S[s + 7], S[s + 8], _f2(refs, r[11]),
+                _f3(refs, r[12]), _f3(refs, r[13]), _f2(refs, r[14]), _f1(refs, r[15]), _i1(refs, r[16]),
+                _f1(refs, r[17]), _f1(refs, r[18]), _f3(refs, r[19]), _f2(refs, r[20]), _f2(refs, r[21]),
+                S[s + 9] > 0.5,
+            )  # fmt: skip
+            S[s + 10] = 1.0 if on else 0.0
+            M[out, :] = _b1(refs, r[22])
         elif code == HOLD:
             if has:  # without a frame in, the output holds (as Output.tick)
                 hold_tick(V[src], M[src], _f1(refs, r[4]), lo, hi)

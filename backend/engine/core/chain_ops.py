@@ -1,0 +1,123 @@
+"""The ops of the blocks that solve on a kinematic chain: the gaze (a source) and the IK (an operator).
+
+Their kernels take the chain's arrays (`backend.engine.compiled.kinematics.chain_args`) and the block's
+solver constants from `_kernel_args`, which `configure` builds; the ops list them as they are.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from backend.engine.blocks.gaze import Gaze
+from backend.engine.blocks.ik import InverseKinematics
+from backend.engine.core import vm
+from backend.engine.core.ops import NO_EVENTS, Op, SourceOp
+
+if TYPE_CHECKING:
+    from backend.engine.core.program import Arena, Refs
+
+
+class GazeOp(SourceOp[Gaze]):
+    code = vm.GAZE
+    n_scalars = 11
+    passes_events = True  # no events, but its `post` reads what the kernel found
+    # Python's part every tick: the target and the arc dip (a float of the block's state); after the
+    # kernel, the `on_target` output and the end of a watched look_at.
+
+    def __init__(self, k: int, step: int, block: Gaze, arena: Arena, out: int, srcs: list[Any]):
+        super().__init__(k, step, block, arena, out, srcs)
+        self._x_old = np.zeros(len(block.state.x))
+        self.result["on_target"] = False
+
+    def arrays(self) -> list[np.ndarray]:
+        b = self.block
+        args: tuple[Any, ...] = (
+            b._kernel_args
+        )  # (idx, axis, leader, constants, 4 floats, j_rows, chain, identity)
+        if self._x_old.shape != b.state.x.shape:
+            self._x_old = np.zeros(b.state.x.shape)
+        return [
+            b.state.x,
+            self._x_old,
+            b._dip,
+            args[0],
+            args[1],
+            args[2],
+            args[3],
+            args[8],
+            *args[9:19],
+            b.mask,
+        ]
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        args, S, s = self.block._kernel_args, self.arena.S, self.s
+        for i in range(4):  # arc_dip, arc_max, arc smoothing, tolerance
+            S[s + 5 + i] = float(args[4 + i])
+        S[s + 9] = 1.0 if args[19] else 0.0
+
+    def stale(self) -> bool:
+        b = self.block  # the block's own tick replaces x each tick
+        return super().stale() or b.state.x is not self._x or b._dip is not self._dip
+
+    def bound_extra(self) -> None:
+        self._x, self._dip = self.block.state.x, self.block._dip
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        b = self.block
+        d, S, s = b.driven(self.inputs(results)), self.arena.S, self.s
+        target = d.target
+        S[s] = float(d.strength)
+        S[s + 1], S[s + 2], S[s + 3] = target[0], target[1], target[2]
+        b._dip[0] = b.state.dip
+
+    def post(self) -> None:
+        b = self.block
+        on = bool(self.arena.S[self.s + 10] > 0.5)
+        b.state.dip = float(b._dip[0])
+        self.result["on_target"] = on
+        b._follow_watch(on, self._x_old, b.state.x)
+
+
+class IkOp(Op[InverseKinematics]):
+    code = vm.IK
+    n_scalars = 15
+    pre_when = "always"  # the target and weight decide, each tick, whether it solves
+
+    def arrays(self) -> list[np.ndarray]:
+        b, st = self.block, self.block.state
+        args: tuple[Any, ...] = b._kernel_args  # (j_rows, var, var_ch, constants, look, ..., chain, identity)
+        return [st.held, st.delta, b.mask_add, args[0], args[1], args[2], args[3], *args[11:21]]
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        args, S, s = self.block._kernel_args, self.arena.S, self.s
+        S[s + 4] = 1.0 if args[4] else 0.0
+        for i in range(6):  # lam2, iterations, max_step, converged, null_gain, null_range
+            S[s + 5 + i] = float(args[5 + i])
+        S[s + 11] = 0.0
+        S[s + 12] = 1.0 if args[21] else 0.0
+
+    def stale(self) -> bool:
+        st = self.block.state  # the block's own tick replaces these when it does not solve
+        return super().stale() or st.held is not self._held or st.delta is not self._delta
+
+    def bound_extra(self) -> None:
+        self._held, self._delta = self.block.state.held, self.block.state.delta
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        b = self.block
+        d, S, s = b.driven(self.inputs(results)), self.arena.S, self.s
+        target, weight = d.target, d.weight
+        solve = target is not None and weight > 0.0 and len(b.var) > 0
+        S[s] = float(weight)
+        if solve and target is not None:
+            S[s + 1], S[s + 2], S[s + 3] = target[0], target[1], target[2]
+        S[s + 13] = 1.0 if solve else 0.0
+        S[s + 14] = 1.0 if target is None else 0.0
+
+    def post(self) -> None:
+        src = self.srcs[0].frame if self.srcs else None
+        self.frame.events = src.events if src is not None else NO_EVENTS
