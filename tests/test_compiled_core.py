@@ -138,7 +138,7 @@ def test_a_replaced_array_is_found_and_bound_again(monkeypatch, robot):
     out = engine.apu.signal_value("safety", "out")
     assert np.array_equal(out.values, limiter.state.last)
     (op,) = [op for op in engine.apu.core.ops if op.block is limiter]
-    assert engine.apu.core.listed(op)[0] is limiter.state.last
+    assert engine.apu.core.listed(op, 1)[0] is limiter.state.last
 
 
 def test_the_hot_path_allocates_nothing_that_grows(monkeypatch, robot):

@@ -87,10 +87,6 @@ class Op(Generic[B]):
         """The arrays the kernel reads, in the op's column order (see vm.py)."""
         return []
 
-    def listed(self) -> list[np.ndarray]:
-        """The arrays as the block holds them now (what `bind` would list): for `verify`."""
-        return self.arrays()
-
     # --- ticking ------------------------------------------------------------------------------------
     def inputs(self, results: list[dict[str, Any]]) -> dict[str, Any]:
         """The block's wired signal inputs this tick, as its own tick would get them."""

@@ -285,10 +285,10 @@ class CoreProgram:
                 if op.code != vm.HOLD:
                     op.frame.mask = a.P[op.out].copy()  # a new object: a held mask never changes
 
-    def listed(self, op: Op) -> list[np.ndarray | None]:
-        """The arrays the table lists for `op`, in its column order."""
+    def listed(self, op: Op, count: int) -> list[np.ndarray | None]:
+        """The first `count` arrays the table lists for `op`, in its column order."""
         first = vm.FIRST_OP_REF + op.k * vm.WIDTH
-        return [self.refs._held.get(first + col) for col in range(4, 4 + len(op.listed()))]
+        return [self.refs._held.get(first + col) for col in range(4, 4 + count)]
 
     def verify(self) -> None:
         """Bind again every op whose block holds other arrays than the table lists (there should be none:
@@ -296,7 +296,8 @@ class CoreProgram:
         for op in self.ops:
             if op.stale():
                 continue  # the next tick binds it anyway
-            if any(x is not y for x, y in zip(op.listed(), self.listed(op))):
+            held = op.arrays()  # what the block holds now: what `bind` would list
+            if any(x is not y for x, y in zip(held, self.listed(op, len(held)))):
                 self.rebinds += 1
                 log.warning("compiled core: %s replaced an array unannounced; bound again", op.block.node_id)
                 op.bind(self.refs)
