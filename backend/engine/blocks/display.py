@@ -103,6 +103,13 @@ class LedParams(BlockParams):
         return v
 
 
+def _components(colour: Any) -> list[float]:
+    """A resolved colour's components as Python floats."""
+    if type(colour) is np.ndarray and colour.ndim == 1:
+        return colour.tolist()
+    return np.asarray(colour, dtype=float).ravel().tolist()
+
+
 def brightness(mode: str, u: float, depth: float) -> float:
     """Brightness factor in [1 - depth, 1] at phase u in [0, 1) (cycles)."""
     if mode == "breathe":
@@ -150,26 +157,25 @@ class Led(Source[LedParams]):
         fallback = s.commanded if s.commanded is not None else self.params.colour
         if "colour" in inputs:
             d = self.driven(inputs, colour=fallback)
-            colour = d.colour
+            rgb = _components(d.colour)
         else:  # unwired, the colour is the fallback's, converted once per command or parameter change
             d = self.driven(inputs)
             seen = self.__dict__.get("_fallback")
             if seen is None or seen[0] is not fallback:
-                seen = self._fallback = (fallback, self.drivables["colour"].resolve(None, fallback))
-            colour = seen[1]
+                colour = self.drivables["colour"].resolve(None, fallback)
+                seen = self._fallback = (fallback, _components(colour))
+            rgb = seen[1]
         factor = brightness(self.params.mode, s.cycles % 1.0, d.depth)
         s.cycles = (s.cycles + d.frequency * dt) % 1.0
         values = self.emb.rest.copy()
-        # np.clip(colour * factor, 0, 1) on three numbers, without numpy's per-call cost
-        rgb = (
-            colour.tolist()
-            if type(colour) is np.ndarray and colour.ndim == 1
-            else np.asarray(colour, dtype=float).ravel().tolist()
-        )
-        # (min(max(v, 0), 1) as comparisons: the same result, NaN and -0.0 included, without two calls each)
-        values[self.dof.channels] = [
-            0.0 if v < 0.0 else 1.0 if v > 1.0 else v for v in [c * factor for c in rgb]
-        ]
+        # np.clip(colour * factor, 0, 1) on three numbers, without numpy's per-call cost: comparisons
+        # (the same result as min(max(v, 0), 1), NaN and -0.0 included), element by element (a list
+        # into a slice costs a conversion to an array)
+        c = self.dof.channels.start
+        for v in rgb:
+            v *= factor
+            values[c] = 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
+            c += 1
         return {"out": PartialFrame(values, self.mask, [])}
 
 

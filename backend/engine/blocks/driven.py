@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from operator import is_
 from types import SimpleNamespace
 from typing import Any, Literal
 
@@ -221,8 +222,12 @@ class DrivenMemo:
             return False
         if self.lists:
             key = tuple([tuple(v) if type(v) is list else v for v in key])
+        last = self.key
         try:
-            return key == self.key and (self.zeros is None or _zero_signs(key) == self.zeros)
+            if last is None or key != last:
+                return False
+            # a zero's sign counts; the same objects have it (an exposed input's value is one object)
+            return self.zeros is None or all(map(is_, key, last)) or _zero_signs(key) == self.zeros
         except (ValueError, TypeError):  # an array compared with a number
             return False
 

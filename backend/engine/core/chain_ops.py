@@ -23,6 +23,7 @@ class GazeOp(SourceOp[Gaze]):
     code = vm.GAZE
     n_scalars = 11
     passes_events = True  # no events, but its `post` reads what the kernel found
+    post_always = True
     # Python's part every tick: the target and the arc dip (a float of the block's state); after the
     # kernel, the `on_target` output and the end of a watched look_at.
 
@@ -67,10 +68,12 @@ class GazeOp(SourceOp[Gaze]):
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
-        d, S, s = b.driven(self.inputs(results)), self.arena.S, self.s
-        target = d.target
-        S[s] = float(d.strength)
-        S[s + 1], S[s + 2], S[s + 3] = target[0], target[1], target[2]
+        inputs = self.changed_inputs(results)
+        if inputs is not None:
+            d, S, s = b.driven(inputs), self.arena.S, self.s
+            target = d.target
+            S[s] = float(d.strength)
+            S[s + 1], S[s + 2], S[s + 3] = target[0], target[1], target[2]
         b._dip[0] = b.state.dip
 
     def post(self) -> None:
@@ -84,7 +87,7 @@ class GazeOp(SourceOp[Gaze]):
 class IkOp(Op[InverseKinematics]):
     code = vm.IK
     n_scalars = 15
-    pre_when = "always"  # the target and weight decide, each tick, whether it solves
+    pre_when = "always"  # the target and weight decide whether it solves (worked out when they change)
 
     def arrays(self) -> list[np.ndarray]:
         b, st = self.block, self.block.state
@@ -108,8 +111,11 @@ class IkOp(Op[InverseKinematics]):
         self._held, self._delta = self.block.state.held, self.block.state.delta
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        inputs = self.changed_inputs(results)
+        if inputs is None:
+            return
         b = self.block
-        d, S, s = b.driven(self.inputs(results)), self.arena.S, self.s
+        d, S, s = b.driven(inputs), self.arena.S, self.s
         target, weight = d.target, d.weight
         solve = target is not None and weight > 0.0 and len(b.var) > 0
         S[s] = float(weight)

@@ -9,6 +9,10 @@ to time blocks one by one) and the core step the same state.
 An op is bound again when its block may have replaced the arrays it listed: new parameters (a live
 edit), a new state object (reset, a hot swap's adopted state) or, for the ops that say so, after their
 `pre` changed the block's configuration (a driven NMF character).
+
+What `pre` works out from the wired signals (`driven`) is worked out again only when a signal's value
+changed (`changed_inputs`): a signal is mostly steady between commands, and resolving the block's
+drivable parameters costs more than the kernel's own step for most ops.
 """
 
 from __future__ import annotations
@@ -32,6 +36,27 @@ if TYPE_CHECKING:
 
 NO_EVENTS: list[FrameEvent] = []
 
+_ATOMS = (str, bool, int, type(None))
+_IMMUTABLE = (float, *_ATOMS)  # the same object of one of these types is the same value
+
+
+def same_value(new: Any, old: Any) -> bool:
+    """Whether a signal's value `new` is the value `old` for every use a block makes of it: the same
+    type and value, with a zero's sign (atan2 tells -0.0 from 0.0) and no NaN; lists and tuples
+    element by element. Arrays and other mutable values are never the same (a block may have written
+    into the one it sent before)."""
+    kind = type(new)
+    if kind is not type(old):
+        return False
+    if kind is float:
+        return new == old and (new != 0.0 or math.copysign(1.0, new) == math.copysign(1.0, old))
+    if kind in _ATOMS:
+        return bool(new == old)
+    if kind is list or kind is tuple:
+        return len(new) == len(old) and all(map(same_value, new, old))
+    return False
+
+
 B = TypeVar("B", bound=Block)
 
 
@@ -43,6 +68,8 @@ class Op(Generic[B]):
     needs_kernel: ClassVar[bool] = True  # compiled only when the block runs its own compiled tick
     pre_when: ClassVar[str] = "wired"  # when `pre` runs: "always", "wired" (a signal input is), "never"
     passes_events: ClassVar[bool] = True  # whether `post` runs (sources have no events to pass)
+    post_always: ClassVar[bool] = False  # whether `post` has work beside events (else it runs only when
+    # a frame into the segment carries events, or did on the tick before: the ones it passed are cleared)
     frame_inputs: ClassVar[tuple[str, ...]] = ("in",)  # the frame ports, in the order rows are listed
 
     def __init__(self, k: int, step: int, block: B, arena: Arena, out: int, srcs: list[Any]):
@@ -56,6 +83,7 @@ class Op(Generic[B]):
         self.result: dict[str, Any] = {"out": self.frame}
         self._params: Any = None
         self._state: Any = None
+        self._signals: list[Any] | None = None  # the wired signals' values `pre` last worked from
 
     # --- binding ------------------------------------------------------------------------------------
     def stale(self) -> bool:
@@ -67,6 +95,7 @@ class Op(Generic[B]):
         b = self.block
         self.refs = refs
         self._params, self._state = b.params, getattr(b, "state", None)
+        self._signals = None
         row = self.arena.ops[self.k]
         row[:] = -1
         row[0], row[1], row[3] = self.code, self.out, self.s
@@ -88,12 +117,23 @@ class Op(Generic[B]):
         return []
 
     # --- ticking ------------------------------------------------------------------------------------
-    def inputs(self, results: list[dict[str, Any]]) -> dict[str, Any]:
-        """The block's wired signal inputs this tick, as its own tick would get them."""
-        inputs = {}
-        for port, src, src_port in self.signal_ports:
-            inputs[port] = results[src].get(src_port)
-        return inputs
+    def changed_inputs(self, results: list[dict[str, Any]]) -> dict[str, Any] | None:
+        """The block's wired signal inputs, or None when each has the value it had at the last call since
+        the op was bound (or `forget_inputs`): what `pre` wrote from them still holds."""
+        ports, last = self.signal_ports, self._signals
+        if last is not None:
+            for (_, src, src_port), old in zip(ports, last):
+                new = results[src].get(src_port)
+                if (new is not old or type(new) not in _IMMUTABLE) and not same_value(new, old):
+                    break
+            else:
+                return None
+        self._signals = values = [results[src].get(src_port) for _, src, src_port in ports]
+        return {port: value for (port, _, _), value in zip(ports, values)}
+
+    def forget_inputs(self) -> None:
+        """Work from the signals again at the next `pre` (the block's own tick may have run in between)."""
+        self._signals = None
 
     def needs_pre(self) -> bool:
         return self.pre_when == "always" or (self.pre_when == "wired" and bool(self.signal_ports))
@@ -151,9 +191,12 @@ class BreatheOp(SourceOp[Breathe]):
         b = self.block
         st = b.state
         if self.signal_ports:
-            d = b.driven(self.inputs(results))
-            self._scalars(d)
-            frequency = d.frequency
+            inputs = self.changed_inputs(results)
+            if inputs is not None:
+                d = b.driven(inputs)
+                self._scalars(d)
+                self._frequency = d.frequency
+            frequency = self._frequency
         else:
             frequency = b.params.frequency
         self.arena.S[self.s + 3] = st.phi
@@ -185,7 +228,13 @@ class NoiseOp(SourceOp[Noise]):
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
         p, st, S, s = b.params, b.state, self.arena.S, self.s
-        amp = b.driven(self.inputs(results)).amplitude if self.signal_ports else p.amplitude
+        if self.signal_ports:
+            inputs = self.changed_inputs(results)
+            if inputs is not None:
+                self._amplitude = b.driven(inputs).amplitude
+            amp = self._amplitude
+        else:
+            amp = p.amplitude
         if dt > 0:
             b._transition(dt)
             if b._coef_array is not self._coef:  # new coefficients (a new dt or parameters): list them
@@ -212,11 +261,15 @@ class SineOp(SourceOp[Sine]):
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
-        d, st, S, s = b.driven(self.inputs(results)), b.state, self.arena.S, self.s
-        S[s] = float(d.offset)
-        S[s + 1] = float(d.amplitude)
+        st, S, s = b.state, self.arena.S, self.s
+        inputs = self.changed_inputs(results)
+        if inputs is not None:
+            d = b.driven(inputs)
+            S[s] = float(d.offset)
+            S[s + 1] = float(d.amplitude)
+            self._frequency = d.frequency
         S[s + 2] = st.phi + b.params.phase
-        st.phi = (st.phi + 2 * math.pi * d.frequency * dt) % (2 * math.pi)
+        st.phi = (st.phi + 2 * math.pi * self._frequency * dt) % (2 * math.pi)
 
 
 class WeightShiftOp(SourceOp[WeightShift]):
@@ -266,7 +319,9 @@ class GainOffsetOp(Op[GainOffset]):
         self.arena.S[self.s + 1] = float(d.offset)
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        self._scalars(self.block.driven(self.inputs(results)))
+        inputs = self.changed_inputs(results)
+        if inputs is not None:
+            self._scalars(self.block.driven(inputs))
 
 
 class FilterOp(Op[MotionFilterBlock | MotionFilterStage2]):
@@ -300,9 +355,10 @@ class FilterOp(Op[MotionFilterBlock | MotionFilterStage2]):
         self._buf, self._cfg, _ = f.kernel_buffers()
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        if self.signal_ports:  # a driven character: what the block's tick does before its kernel
+        inputs = self.changed_inputs(results) if self.signal_ports else None
+        if inputs is not None:  # a driven character: what the block's tick does before its kernel
             b = self.block
-            wired = b.driven(self.inputs(results), sigma=None, rho=None)
+            wired = b.driven(inputs, sigma=None, rho=None)
             if wired.sigma is not None or wired.rho is not None:
                 s, r, _ = b._character(wired.sigma, wired.rho)
                 if (s, r) != b._sigma_rho:
@@ -359,7 +415,9 @@ class MixerOp(Op[LayerMixer]):
         ]
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        self.block._read_weight_ports(self.inputs(results))
+        inputs = self.changed_inputs(results)
+        if inputs is not None:
+            self.block._read_weight_ports(inputs)
 
     def post(self) -> None:
         w = self.block._w

@@ -26,6 +26,7 @@ import heapq
 import logging
 import os
 import threading
+from itertools import repeat
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -137,29 +138,47 @@ class Import:
         self._mask = arena.M[row]
         self._last_mask: np.ndarray | None = None
 
-    def load(self, results: list[dict[str, Any]]) -> None:
+    def load(self, results: list[dict[str, Any]]) -> bool:
+        """Copy this tick's frame in; whether it carries events."""
         frame = results[self.src].get(self.port)
         self.frame = frame
         if frame is None:
             self.arena.A[self.row] = False
-            return
+            return False
         self.arena.A[self.row] = True
         self._values[:] = frame.values
         mask = frame.mask
         if mask is not self._last_mask:  # masks never change in place: the same object, the same mask
             self._mask[:] = mask
             self._last_mask = mask
+        return bool(frame.events)
 
 
 class Segment:
     """Consecutive compiled steps: their imports, ops (table rows k0..k1-1), and the ops with Python
-    work before (`pres`) and after (`posts`) the kernel."""
+    work before (`pres`) and after (`posts`) the kernel. Events come into a segment only through its
+    imports: while none carries any, the ops whose `post` only passes events skip it (`always`: the
+    others)."""
 
     def __init__(self, ops: list[Op], imports: list[Import]):
         self.ops, self.imports = ops, imports
         self.k0, self.k1 = ops[0].k, ops[-1].k + 1
         self.pres = [op for op in ops if op.needs_pre()]
         self.posts = [op for op in ops if op.passes_events]
+        self.always = [op for op in self.posts if op.post_always]
+        self.had_events = True  # whether the ops' frames may hold events (cleared by a quiet tick's posts)
+        self.blocks = [op.block for op in ops]
+        self.watched: list[int] | None = None  # `watch()` when every op was last found bound
+
+    def watch(self) -> list[int]:
+        """The ids of the blocks' parameters and states, in C loops: while the list stays the same and
+        no block ran its own tick, no op is stale (an op whose `pre` changes its block's arrays binds
+        again there). The ops hold the objects whose ids are listed, so no id is reused meanwhile."""
+        blocks = self.blocks
+        return [
+            *map(id, map(getattr, blocks, repeat("params"))),
+            *map(id, map(getattr, blocks, repeat("state"), repeat(None))),
+        ]
 
 
 class CoreProgram:
@@ -251,6 +270,11 @@ class CoreProgram:
         """Put the compiled steps' frames back in `results` (after the APU ran the blocks' own ticks)."""
         for op in self.ops:
             results[op.step] = op.result
+            op.forget_inputs()
+        for entry in self.plan:
+            if entry[0] == "core":
+                entry[1].had_events = True
+                entry[1].watched = None  # the blocks' own ticks may have replaced arrays: look at every op
 
     def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
         """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
@@ -264,18 +288,23 @@ class CoreProgram:
                 results[i] = block.tick(dt, inputs) or {}
                 continue
             seg: Segment = entry[1]
+            events = False
             for imp in seg.imports:
-                imp.load(results)
-            for op in seg.ops:
-                if op.stale():
-                    op.bind(self.refs)
+                if imp.load(results):
+                    events = True
+            if seg.watch() != seg.watched:
+                for op in seg.ops:
+                    if op.stale():
+                        op.bind(self.refs)
+                seg.watched = seg.watch()
             for op in seg.pres:
                 op.pre(dt, results)
             changed = run(ops, refs, seg.k0, seg.k1, dt)
             if changed:
                 self._publish(seg)
-            for op in seg.posts:
+            for op in seg.posts if events or seg.had_events else seg.always:
                 op.post()
+            seg.had_events = events
 
     def _publish(self, seg: Segment) -> None:
         a = self.arena
