@@ -38,7 +38,11 @@ class FrameEvent:
 
 @dataclass(slots=True)
 class PartialFrame:
-    """A PAF: values for the channels whose `mask` is True, plus events. An empty PAF has no effect."""
+    """A PAF: values for the channels whose `mask` is True, plus events. An empty PAF has no effect.
+
+    Read-only to its readers: a block may hand the same frame out on several ticks (an idle blink, a
+    face showing one expression), and a compiled step rewrites its own in place each tick, so a reader
+    copies what it keeps."""
 
     values: np.ndarray  # (C,) float64
     mask: np.ndarray  # (C,) bool

@@ -121,10 +121,11 @@ class Blink(Source[BlinkParams]):
         else:
             closed = np.clip(float(p.closed), emb.min, emb.max)
         self.delta = np.where(self.mask, closed - emb.rest, 0.0)
-        # Outside a blink (k = 0) the frame is always the same: computed once.
+        # Outside a blink (k = 0) the frame is always the same: made once (frames are read-only).
         self._open_values = np.where(
             self.mask, np.clip(emb.rest + 0.0 * self.delta, emb.min, emb.max), emb.rest
         )
+        self._open_frame = PartialFrame(self._open_values, self.mask, [])
 
     def reset(self) -> None:
         self.state = self.State(rng=block_rng(self.ctx, self.params.seed, self.node_id))
@@ -232,7 +233,7 @@ class Blink(Source[BlinkParams]):
                 s.active, k = False, 0.0
         emb = self.emb
         if k == 0.0:
-            return {"out": PartialFrame(self._open_values.copy(), self.mask, []), "blinking": s.active}
+            return {"out": self._open_frame, "blinking": s.active}
         values = np.clip(emb.rest + k * self.delta, emb.min, emb.max)
         return {
             "out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, []),

@@ -244,6 +244,9 @@ class Face(Source[FaceParams]):
         wired = self.driven(inputs, expression=None).expression if "expression" in inputs else None
         if isinstance(wired, str) and wired in self.options:
             index = self.options.index(wired)
-        values = self.emb.rest.copy()
-        values[self.channel] = index
-        return {"out": PartialFrame(values, self.mask, [])}
+        shown = self.__dict__.get("_shown")  # one frame per expression shown (frames are read-only)
+        if shown is None or shown[0] != index or shown[1].mask is not self.mask:
+            values = self.emb.rest.copy()
+            values[self.channel] = index
+            shown = self._shown = (index, PartialFrame(values, self.mask, []))
+        return {"out": shown[1]}

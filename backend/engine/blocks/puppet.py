@@ -129,6 +129,7 @@ class Puppet(Source[PuppetParams]):
     def handle(self, command: str, args: dict[str, Any]) -> Any:
         s = self.state
         if command == "set":
+            self._idle = None  # the values change in place
             channels = np.asarray(args.get("channels", []), dtype=np.intp)
             s.values[channels] = np.asarray(args.get("values", []), dtype=float)
             s.mask[channels] = True
@@ -152,8 +153,13 @@ class Puppet(Source[PuppetParams]):
         step = dt / max(fade, 1e-9) if fade > 0.0 else math.inf
         env = s.env = min(max(s.env + min(max(target - s.env, -step), step), 0.0), 1.0)
         if env <= 0.0:
-            if not s.live:
-                s.mask[:] = False  # faded out: the next stream starts from nothing
-            return {"out": PartialFrame(s.values.copy(), self._nothing, []), "weight": 0.0, "live": s.live}
+            if s.live:
+                return {"out": PartialFrame(s.values.copy(), self._nothing, []), "weight": 0.0, "live": True}
+            # Faded out and not streamed to (most ticks of most programs): one frame until a `set`.
+            idle = self.__dict__.get("_idle")
+            if idle is None or idle[0] is not s or idle[1].mask is not self._nothing:
+                s.mask[:] = False  # the next stream starts from nothing
+                idle = self._idle = (s, PartialFrame(s.values.copy(), self._nothing, []))
+            return {"out": idle[1], "weight": 0.0, "live": False}
         weight = env * env * (3.0 - 2.0 * env)  # smoothstep: no kink where the fade starts or ends
         return {"out": PartialFrame(s.values.copy(), s.mask.copy(), []), "weight": weight, "live": s.live}
