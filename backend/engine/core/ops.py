@@ -42,9 +42,9 @@ _IMMUTABLE = (float, *_ATOMS)  # the same object of one of these types is the sa
 
 def same_value(new: Any, old: Any) -> bool:
     """Whether a signal's value `new` is the value `old` for every use a block makes of it: the same
-    type and value, with a zero's sign (atan2 tells -0.0 from 0.0) and no NaN; lists and tuples
-    element by element. Arrays and other mutable values are never the same (a block may have written
-    into the one it sent before)."""
+    type and value, with a zero's sign (atan2 tells -0.0 from 0.0); a NaN only as the same object;
+    lists and tuples element by element. Arrays and other values are never the same (a block may
+    have written into the one it sent before)."""
     kind = type(new)
     if kind is not type(old):
         return False
@@ -53,7 +53,12 @@ def same_value(new: Any, old: Any) -> bool:
     if kind in _ATOMS:
         return bool(new == old)
     if kind is list or kind is tuple:
-        return len(new) == len(old) and all(map(same_value, new, old))
+        try:  # equal and of the same types, in C loops; with a zero (its sign) element by element
+            if new != old or [*map(type, new)] != [*map(type, old)]:
+                return False
+            return 0 not in new or all(map(same_value, new, old))
+        except (ValueError, TypeError):  # an array inside: never the same
+            return False
     return False
 
 
