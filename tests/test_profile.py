@@ -44,6 +44,16 @@ def test_one_tick_in_every_is_timed_node_by_node(session):
     Profile.model_validate(summary)
 
 
+def test_a_fast_clock_times_ten_ticks_a_second(desk):
+    s = EngineSession.create(desk, rate=500, program=json.loads((PROGRAMS / "idle.json").read_text()))
+    try:
+        assert s.engine.apu.cook.every == 50  # a timed tick runs the blocks one by one, not the core
+        s.engine.run_ticks(120)
+        assert s.engine.profile()["samples"] == 2
+    finally:
+        s.engine.close()
+
+
 def test_profiling_every_tick_and_a_fresh_window(session):
     session.engine.set_profiling(every=1, window=50)
     session.engine.run_ticks(80)

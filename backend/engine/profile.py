@@ -1,8 +1,9 @@
 """Per-node cook times: how long each block of a running program takes per tick, measured by the APU.
 
-Timing every block on every tick would cost two clock reads per block per tick, so the APU times one
-tick in `every` (default `SAMPLE_EVERY`) and the other ticks run the untimed loop: at 26 blocks the
-overhead is well under 1 % of a tick. The last `window` sampled ticks are kept per node (a ring of
+Timing every block on every tick would cost two clock reads per block per tick, and a timed tick runs
+the blocks' own ticks one by one instead of the compiled core (backend/engine/core): the APU times one
+tick in `every` (`sample_every(rate)`: 1 in 10, and at most 10 per second at higher rates) and the
+other ticks run the untimed path. The last `window` sampled ticks are kept per node (a ring of
 nanosecond counts) and summarised on demand, off the clock thread, as mean / p99 / max in µs.
 
 The summary (`CookTimes.summary`) is what `GET /api/profile`, the `profile` field of `/ws/telemetry`
@@ -15,10 +16,19 @@ from typing import Any
 
 import numpy as np
 
-#: Ticks between two timed ticks (1 = every tick, what `nutty run --profile` uses).
+#: Ticks between two timed ticks at most (1 = every tick, what `nutty run --profile` uses).
 SAMPLE_EVERY = 10
-#: Timed ticks kept per node: 30 s at 100 Hz with the default sampling, 3 s at 1 kHz.
+#: Timed ticks per second at most: a timed tick costs about the core-off tick (1.3-1.6x the core's on
+#: the interactive program), so at 500 Hz one in 10 added ~5 % to the clock's mean load for a
+#: panel that refreshes a few times a second.
+SAMPLES_PER_SECOND = 10.0
+#: Timed ticks kept per node: 30 s with the default sampling.
 WINDOW = 300
+
+
+def sample_every(rate: float) -> int:
+    """Ticks between two timed ticks at `rate` Hz by default: 10, or more above 100 Hz."""
+    return max(SAMPLE_EVERY, round(rate / SAMPLES_PER_SECOND))
 
 
 class CookTimes:

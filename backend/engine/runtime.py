@@ -40,7 +40,7 @@ from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame, net_correction
 from backend.engine.gil import ClockPriority
 from backend.engine.pending import Pending, drain
-from backend.engine.profile import SAMPLE_EVERY, WINDOW, CookTimes
+from backend.engine.profile import WINDOW, CookTimes, sample_every
 from backend.engine.safety import SafetyNet
 from backend.engine.sinks import Sink
 from backend.engine.transition import Transition
@@ -129,7 +129,7 @@ class Engine:
         #: The running clock's claim on the interpreter lock and the CPU (None: none; see backend.engine.gil).
         self.clock_priority: ClockPriority | None = ClockPriority() if priority else None
         #: Ticks between two timed ticks of the program's cook times (1: every tick, for `nutty run --profile`).
-        self.profile_every, self.profile_window = SAMPLE_EVERY, WINDOW
+        self.profile_every, self.profile_window = sample_every(self.rate), WINDOW
         self._overriding = False  # whether any channel is overridden (so a tick need not look)
         self._derivatives = entry_point(derivatives, DERIVATIVES_SIG) if self.ctx.compiled else None
         self._thread: threading.Thread | None = None
