@@ -91,6 +91,8 @@ class EngineSession:
         engine.ctx.resources = self.library
         # speech and sound events carry their start time, and a sound file's URL (backend.engine.audio_events)
         engine.set_event_stamp(functools.partial(stamp_audio, self.library.sounds))
+        if self.library.sounds.folder is not None:
+            self.library.sounds.warm()
         self.program: Program | None = None  # the running document (with its subgraphs, if any)
         self.flat: Program | None = None  # the running program with subgraphs flattened: the APU's node ids
         self.report: ValidationReport | None = None

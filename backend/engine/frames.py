@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numba import njit
 
+from backend.engine import warm_up
 from backend.engine.embodiment import DofType, Embodiment
 
 if TYPE_CHECKING:  # only named in annotations (the joint stage imports the embodiment, not frames)
@@ -198,6 +199,17 @@ def _differences(x, x1, x2, x3, h):
         a[i] = (x[i] - 2.0 * x1[i] + x2[i]) / h**2
         j[i] = (x[i] - 3.0 * x1[i] + 3.0 * x2[i] - x3[i]) / h**3
     return v, a, j
+
+
+@warm_up.warm_later
+def _warm_net_correction() -> None:
+    """Load `net_correction`'s compiled code for the argument types it is called with (warm_up.py)."""
+    one, out = np.ones(1), np.zeros(1, dtype=np.int8)
+    limit = np.ones(1)
+    limit.flags.writeable = False  # an embodiment's limits are read-only; a joint table's are not
+    _limit_codes(one, one, one, one, one, one, one, one, limit, limit, limit, limit, limit, 0.01, out)
+    _limit_codes(one, one, one, one, one, one, one, one, one, one, one, one, one, 0.01, out)
+    _differences(one, one, one, one, 0.01)
 
 
 def limits_enforced(

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from backend.engine import parking, runtime_stats
+from backend.engine import parking, runtime_stats, warm_up
 from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
 
@@ -334,6 +334,8 @@ class Engine:
                     log.error("a tick hook failed", exc_info=exc)
 
     def _tick(self, t0: float, cpu0: float) -> AnimationFrame:
+        if self.seq == 1:  # code the clock reaches now and then, loaded beside it (warm_up.py)
+            warm_up.start()
         self._drain_pending()
         if self._tick_hooks:
             self._run_hooks()

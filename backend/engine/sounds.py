@@ -122,6 +122,7 @@ class SoundLibrary:
         self._lock = threading.Lock()
         self._info: dict[str, SoundInfo] = {}
         self._envelopes: dict[tuple[str, float, float], np.ndarray] = {}
+        self.warming: threading.Thread | None = None  # `warm`'s thread
 
     def _files(self) -> dict[str, Path]:
         if self.folder is None or not self.folder.is_dir():
@@ -134,6 +135,18 @@ class SoundLibrary:
 
     def list(self) -> list[str]:
         return sorted(self._files())
+
+    def warm(self) -> threading.Thread:
+        """Read every sound's facts on a thread of their own (returned, started): the clock thread looks
+        a sound up when it plays, and reading its file there the first time cost 1-2 ms of a 2 ms tick."""
+
+        def read_all() -> None:
+            for name in self.list():
+                self.find(name)
+
+        self.warming = threading.Thread(target=read_all, name="nutty-sounds", daemon=True)
+        self.warming.start()
+        return self.warming
 
     def find(self, name: str) -> SoundInfo | None:
         """The sound's facts, or None when there is no such (readable) file."""

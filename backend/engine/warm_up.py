@@ -1,0 +1,55 @@
+"""What the clock may reach only now and then, made ready on a thread of its own so no tick pays for it.
+
+A numba function compiled with `cache=True` loads its machine code from disk on its first call with
+a given set of argument types: about 10 ms each, which the clock paid on the first frame the safety net
+corrected (`frames.net_correction`: 28 ms measured on nutty_desk, 14 lost ticks at 500 Hz). The engine
+starts this once per process, at its second tick (the first frame never waits on the loading thread's
+claim on the interpreter lock); each warmer calls its functions once on small arrays of the types the
+tick passes (the robot's limits are read-only arrays: a signature of their own).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+
+log = logging.getLogger(__name__)
+
+_WARMERS: list[Callable[[], None]] = []
+_lock = threading.Lock()
+_started = False
+done = threading.Event()
+
+
+def warm_later(fn: Callable[[], None]) -> Callable[[], None]:
+    """Register `fn` (quick, no arguments) to run on the warm-up thread; returns it (a decorator)."""
+    _WARMERS.append(fn)
+    return fn
+
+
+def start() -> None:
+    """Run the warmers on a thread of their own, once per process."""
+    global _started
+    with _lock:
+        if _started:
+            return
+        _started = True
+    threading.Thread(target=_run, name="nutty-warm-up", daemon=True).start()
+
+
+def _run() -> None:
+    try:
+        for fn in list(_WARMERS):
+            try:
+                fn()
+            except Exception:  # a warmer's failure only leaves that code to load on first use
+                log.exception("warming %s failed; it loads on first use", getattr(fn, "__qualname__", fn))
+    finally:
+        done.set()
+
+
+def wait(timeout: float | None = None) -> bool:
+    """Start if need be and wait for every warmer; whether they all ran."""
+    start()
+    return done.wait(timeout)
