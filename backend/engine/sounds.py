@@ -9,6 +9,7 @@ Names are restricted like the other assets, so a request never escapes the folde
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import re
@@ -141,8 +142,9 @@ class SoundLibrary:
         a sound up when it plays, and reading its file there the first time cost 1-2 ms of a 2 ms tick."""
 
         def read_all() -> None:
-            for name in self.list():
-                self.find(name)
+            for name, path in self._files().items():  # one look at the folder, one read per file
+                with contextlib.suppress(SoundError):  # a broken file is reported when asked for
+                    self._read(name, path)
 
         self.warming = threading.Thread(target=read_all, name="nutty-sounds", daemon=True)
         self.warming.start()
@@ -167,6 +169,10 @@ class SoundLibrary:
         path = self._files().get(name)
         if path is None:
             raise NotFound(f"no sound named '{name}'")
+        return self._read(name, path)
+
+    def _read(self, name: str, path: Path) -> SoundInfo:
+        """Read the facts of sound `name` from its file `path`, and keep them."""
         try:
             with soundfile.SoundFile(path) as f:
                 info = SoundInfo(

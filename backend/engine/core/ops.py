@@ -360,7 +360,7 @@ class FilterOp(Op[MotionFilterBlock | MotionFilterStage2]):
         self._buf, self._cfg, _ = f.kernel_buffers()
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        inputs = self.changed_inputs(results) if self.signal_ports else None
+        inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired)
         if inputs is not None:  # a driven character: what the block's tick does before its kernel
             b = self.block
             wired = b.driven(inputs, sigma=None, rho=None)
