@@ -43,16 +43,23 @@ def session_for(monkeypatch, robot, prog: dict, core: bool) -> EngineSession:
 
 
 def frame_tuple(f) -> tuple:
-    return (f.position.copy(), f.stage1.copy(), f.program.copy(), [e.to_dict() for e in f.events])
+    """A frame's channels, stage 1, program frame, the joints the motors get, and its events."""
+    return (
+        f.position.copy(),
+        f.stage1.copy(),
+        f.program.copy(),
+        f.joints.copy(),
+        [e.to_dict() for e in f.events],
+    )
 
 
 def assert_same_frames(a: list, b: list) -> None:
     assert len(a) == len(b)
     for k, (x, y) in enumerate(zip(a, b)):
-        for name, u, v in zip(("position", "stage1", "program"), x[:3], y[:3]):
+        for name, u, v in zip(("position", "stage1", "program", "joints"), x[:4], y[:4]):
             worst = float(np.abs(u - v).max())
             assert worst <= TOLERANCE, f"tick {k}: {name} differs by {worst}"
-        assert x[3] == y[3], f"tick {k}: events differ"
+        assert x[4] == y[4], f"tick {k}: events differ"
 
 
 def segments(session: EngineSession) -> list[list[str]]:
