@@ -35,6 +35,7 @@ f8_1 = nt.float64[::1]
 f8_2 = nt.float64[:, ::1]
 f8_3 = nt.float64[:, :, ::1]
 i8_1 = nt.int64[::1]
+i8_2 = nt.int64[:, ::1]
 b1_1 = nt.boolean[::1]
 b1_2 = nt.boolean[:, ::1]
 

@@ -25,14 +25,14 @@ from __future__ import annotations
 import heapq
 import logging
 import os
-import threading
 from itertools import repeat
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from backend.engine.blocks.base import PortType
-from backend.engine.compiled import entry_point
+from backend.engine.compiled.lazy_entry import LazyEntry
+from backend.engine.compiled.pointers import AddressTable
 from backend.engine.core import vm
 from backend.engine.core.ops import Op
 from backend.engine.core.registry import op_class
@@ -51,38 +51,8 @@ def core_enabled() -> bool:
     return os.environ.get(CORE_ENV, "").strip() not in ("0", "false", "no")
 
 
-class _Kernel:
-    """The kernel's entry point, loaded once per process on a thread of its own."""
-
-    def __init__(self) -> None:
-        self.entry: Any = None
-        self.loaded = threading.Event()
-        self._started = False
-        self._lock = threading.Lock()
-
-    def start(self) -> None:
-        with self._lock:
-            if self._started:
-                return
-            self._started = True
-        threading.Thread(target=self._load, name="nutty-core-kernel", daemon=True).start()
-
-    def _load(self) -> None:
-        try:
-            self.entry = entry_point(vm.run_ops, vm.RUN_SIG)
-        except Exception:  # the blocks' own ticks go on: the core is a speed-up, never a requirement
-            log.exception("the compiled core's kernel did not load; blocks tick one by one")
-        finally:
-            self.loaded.set()
-
-    def wait(self, timeout: float | None = None) -> bool:
-        """Start loading if need be and wait; whether the kernel is there."""
-        self.start()
-        self.loaded.wait(timeout)
-        return self.entry is not None
-
-
-KERNEL = _Kernel()
+#: The kernel, loaded once per process on a thread of its own (started by a core's second tick).
+KERNEL = LazyEntry(vm.run_ops, vm.RUN_SIG, "core-kernel")
 
 
 class Arena:
@@ -107,25 +77,16 @@ class Arena:
         return first
 
 
-class Refs:
-    """The table of arrays the kernel reads by address (vm.py), and the arrays themselves, kept alive."""
+class Refs(AddressTable):
+    """The table of arrays the kernel reads by address (vm.py): the arena's and the robot's arrays, then
+    `vm.WIDTH` rows per op."""
 
     def __init__(self, n_ops: int):
-        self.table = np.zeros((vm.FIRST_OP_REF + n_ops * vm.WIDTH, 4), dtype=np.int64)
-        self._held: dict[int, np.ndarray] = {}
+        super().__init__(vm.FIRST_OP_REF + n_ops * vm.WIDTH)
 
     def put(self, k: int, col: int, array: np.ndarray) -> int:
         """List `array` for column `col` of op `k`; its row in the table."""
         return self.put_at(vm.FIRST_OP_REF + k * vm.WIDTH + col, array)
-
-    def put_at(self, j: int, array: np.ndarray) -> int:
-        """List `array` at row `j` of the table; `j`."""
-        if not (isinstance(array, np.ndarray) and array.flags.c_contiguous and 1 <= array.ndim <= 3):
-            raise TypeError(f"refs row {j}: not a C-contiguous 1-D to 3-D array")
-        self._held[j] = array  # before its address is written: the table never names a freed array
-        shape = array.shape + (0,) * (3 - array.ndim)
-        self.table[j] = (array.ctypes.data, *shape)
-        return j
 
 
 class Import:
@@ -317,7 +278,7 @@ class CoreProgram:
     def listed(self, op: Op, count: int) -> list[np.ndarray | None]:
         """The first `count` arrays the table lists for `op`, in its column order."""
         first = vm.FIRST_OP_REF + op.k * vm.WIDTH
-        return [self.refs._held.get(first + col) for col in range(4, 4 + count)]
+        return [self.refs.held(first + col) for col in range(4, 4 + count)]
 
     def verify(self) -> None:
         """Bind again every op whose block holds other arrays than the table lists (there should be none:

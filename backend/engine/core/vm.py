@@ -26,20 +26,17 @@ mask the Python side holds never changes in place (blocks may rely on that, see 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numba import njit
-from numba import types as nt
-from numba.extending import intrinsic
-from numba.np.numpy_support import carray
 
-from backend.engine.compiled import f8, i8
+from backend.engine.compiled import f8, i8, i8_2
 from backend.engine.compiled.blend import mixer_tick
 from backend.engine.compiled.frames import filter_tick, gain_offset_tick, hold_tick, limiter_tick
 from backend.engine.compiled.gaze import gaze_tick
 from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
 from backend.engine.compiled.ik import ik_tick
+from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
@@ -65,58 +62,12 @@ OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shif
 #: Columns of an op row.
 WIDTH = 24
 
-i8_2 = nt.int64[:, ::1]
-
 #: refs rows 0.. : the arena's and the robot's arrays, the same for every op.
 REF_V, REF_M, REF_A, REF_P, REF_CH, REF_S, REF_REST, REF_LO, REF_HI, REF_ENUM = range(10)
 #: The first refs row the ops' own arrays use.
 FIRST_OP_REF = 10
 
 RUN_SIG = (i8_2, i8_2, i8, i8, f8)  # ops, refs, k0, k1, dt
-
-
-def _pointer_typing(typingctx, address):
-    """The int64 `address` as a void pointer (for `carray`)."""
-    sig = nt.voidptr(nt.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(nt.voidptr))
-
-    return sig, codegen
-
-
-# Called with the address alone in compiled code (numba supplies the typing context).
-_pointer: Any = intrinsic(_pointer_typing)
-
-
-@njit(cache=True, inline="always")
-def _f1(refs, j):
-    return carray(_pointer(refs[j, 0]), (refs[j, 1],), np.float64)
-
-
-@njit(cache=True, inline="always")
-def _b1(refs, j):
-    return carray(_pointer(refs[j, 0]), (refs[j, 1],), np.bool_)
-
-
-@njit(cache=True, inline="always")
-def _i1(refs, j):
-    return carray(_pointer(refs[j, 0]), (refs[j, 1],), np.int64)
-
-
-@njit(cache=True, inline="always")
-def _f2(refs, j):
-    return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2]), np.float64)
-
-
-@njit(cache=True, inline="always")
-def _f3(refs, j):
-    return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2], refs[j, 3]), np.float64)
-
-
-@njit(cache=True, inline="always")
-def _b2(refs, j):
-    return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2]), np.bool_)
 
 
 @njit(cache=True)
@@ -152,56 +103,56 @@ def run_ops(ops, refs, k0, k1, dt):
 
     Two array arguments only: each array a compiled function receives costs its unboxing (and a small
     allocation) per call, so the arena and the robot's arrays are read from `refs` like the ops' own."""
-    V, M, P = _f2(refs, REF_V), _b2(refs, REF_M), _b2(refs, REF_P)
-    A, CH, S = _b1(refs, REF_A), _b1(refs, REF_CH), _f1(refs, REF_S)
-    rest, lo, hi, enum = _f1(refs, REF_REST), _f1(refs, REF_LO), _f1(refs, REF_HI), _b1(refs, REF_ENUM)
+    V, M, P = f2(refs, REF_V), b2(refs, REF_M), b2(refs, REF_P)
+    A, CH, S = b1(refs, REF_A), b1(refs, REF_CH), f1(refs, REF_S)
+    rest, lo, hi, enum = f1(refs, REF_REST), f1(refs, REF_LO), f1(refs, REF_HI), b1(refs, REF_ENUM)
     changed = 0
     for k in range(k0, k1):
         code, out, src, s = ops[k, 0], ops[k, 1], ops[k, 2], ops[k, 3]
         r = ops[k]
         has = src >= 0 and A[src]
         if code == BREATHE:
-            mask = _b1(refs, r[7])
+            mask = b1(refs, r[7])
             breathe_tick(
-                S[s + 3], _f1(refs, r[4]), _b1(refs, r[6]), _f1(refs, r[5]), S[s], S[s + 1], S[s + 2],
+                S[s + 3], f1(refs, r[4]), b1(refs, r[6]), f1(refs, r[5]), S[s], S[s + 1], S[s + 2],
                 rest, lo, hi, mask, V[out],
             )  # fmt: skip
             M[out, :] = mask
         elif code == NOISE:
-            mask = _b1(refs, r[8])
+            mask = b1(refs, r[8])
             noise_tick(
-                _f1(refs, r[4]), _f1(refs, r[5]), _f2(refs, r[7]), _f1(refs, r[6]), S[s] > 0.5, S[s + 1] > 0.5,
+                f1(refs, r[4]), f1(refs, r[5]), f2(refs, r[7]), f1(refs, r[6]), S[s] > 0.5, S[s + 1] > 0.5,
                 S[s + 2], rest, lo, hi, mask, V[out],
             )  # fmt: skip
             M[out, :] = mask
         elif code == SINE:
-            spread, mask = _f1(refs, r[4]), _b1(refs, r[5])
+            spread, mask = f1(refs, r[4]), b1(refs, r[5])
             for c in range(V.shape[1]):  # Sine.tick: rest + offset + amplitude sin(phase), on every channel
                 V[out, c] = rest[c] + S[s] + S[s + 1] * math.sin(S[s + 2] + spread[c])
             M[out, :] = mask
         elif code == OFFSET:
-            mask = _b1(refs, r[7])
-            offset_tick(_f1(refs, r[4]), _f1(refs, r[5]), S[s], _f1(refs, r[6]), rest, lo, hi, mask, V[out])
+            mask = b1(refs, r[7])
+            offset_tick(f1(refs, r[4]), f1(refs, r[5]), S[s], f1(refs, r[6]), rest, lo, hi, mask, V[out])
             M[out, :] = mask
         elif code == GAIN_OFFSET:
             if has:
-                gain_offset_tick(V[src], rest, _b1(refs, r[4]), S[s], S[s + 1], V[out])
+                gain_offset_tick(V[src], rest, b1(refs, r[4]), S[s], S[s + 1], V[out])
                 M[out, :] = M[src]
             else:  # an operator without a frame in gives the empty frame
                 V[out, :] = 0.0
                 M[out, :] = False
         elif code == FILTER:
-            idx, sp, cfg, buf = _i1(refs, r[4]), _f1(refs, r[5]), _f1(refs, r[6]), _f2(refs, r[7])
+            idx, sp, cfg, buf = i1(refs, r[4]), f1(refs, r[5]), f1(refs, r[6]), f2(refs, r[7])
             if has:
                 filter_tick(V[src], M[src], True, idx, sp, buf, cfg, S[s] > 0.5, rest, V[out], M[out])
             else:
-                filter_tick(rest, _b1(refs, r[8]), False, idx, sp, buf, cfg, S[s] > 0.5, rest, V[out], M[out])
+                filter_tick(rest, b1(refs, r[8]), False, idx, sp, buf, cfg, S[s] > 0.5, rest, V[out], M[out])
         elif code == LIMITER:
-            last, lim_lo, lim_hi, vmax = _f1(refs, r[4]), _f1(refs, r[5]), _f1(refs, r[6]), _f1(refs, r[7])
+            last, lim_lo, lim_hi, vmax = f1(refs, r[4]), f1(refs, r[5]), f1(refs, r[6]), f1(refs, r[7])
             if has:
                 limiter_tick(V[src], M[src], True, last, lim_lo, lim_hi, vmax, dt)
             else:
-                limiter_tick(last, _b1(refs, r[8]), False, last, lim_lo, lim_hi, vmax, dt)
+                limiter_tick(last, b1(refs, r[8]), False, last, lim_lo, lim_hi, vmax, dt)
             V[out, :] = last
             M[out, :] = True
         elif code == IK:
@@ -210,45 +161,45 @@ def run_ops(ops, refs, k0, k1, dt):
                 M[out, :] = False
             elif S[s + 13] > 0.5:
                 ik_tick(
-                    V[src], M[src], _f1(refs, r[4]), S[s + 1 : s + 4], S[s], _f1(refs, r[5]), V[out], M[out],
-                    _b1(refs, r[6]), _f2(refs, r[7]), _i1(refs, r[8]), _i1(refs, r[9]), _f1(refs, r[10]),
+                    V[src], M[src], f1(refs, r[4]), S[s + 1 : s + 4], S[s], f1(refs, r[5]), V[out], M[out],
+                    b1(refs, r[6]), f2(refs, r[7]), i1(refs, r[8]), i1(refs, r[9]), f1(refs, r[10]),
                     S[s + 4] > 0.5, S[s + 5], np.int64(S[s + 6]), S[s + 7], S[s + 8], S[s + 9], S[s + 10],
-                    _f3(refs, r[11]), _f3(refs, r[12]), _f2(refs, r[13]), _f1(refs, r[14]), _i1(refs, r[15]),
-                    _f1(refs, r[16]), _f1(refs, r[17]), _f3(refs, r[18]), _f2(refs, r[19]), _f2(refs, r[20]),
+                    f3(refs, r[11]), f3(refs, r[12]), f2(refs, r[13]), f1(refs, r[14]), i1(refs, r[15]),
+                    f1(refs, r[16]), f1(refs, r[17]), f3(refs, r[18]), f2(refs, r[19]), f2(refs, r[20]),
                     S[s + 12] > 0.5,
                 )  # fmt: skip
             else:  # IK.transform without a solve: hold what the frame sets, pass it through unchanged
-                held = _f1(refs, r[4])
+                held = f1(refs, r[4])
                 for c in range(V.shape[1]):
                     if M[src, c]:
                         held[c] = V[src, c]
                     V[out, c] = V[src, c]
                     M[out, c] = M[src, c]
                 if S[s + 14] > 0.5:
-                    delta = _f1(refs, r[5])
+                    delta = f1(refs, r[5])
                     delta[:] = 0.0
         elif code == GAZE:
-            x, x_old = _f1(refs, r[4]), _f1(refs, r[5])
+            x, x_old = f1(refs, r[4]), f1(refs, r[5])
             x_old[:] = x  # the block's tick steps a copy; the op keeps the old x for its watch instead
             on = gaze_tick(
-                x, _f1(refs, r[6]), V[out], S[s + 1 : s + 4], S[s], dt, _i1(refs, r[7]), _i1(refs, r[8]),
-                _b1(refs, r[9]), _f1(refs, r[10]), S[s + 5], S[s + 6], S[s + 7], S[s + 8], _f2(refs, r[11]),
-                _f3(refs, r[12]), _f3(refs, r[13]), _f2(refs, r[14]), _f1(refs, r[15]), _i1(refs, r[16]),
-                _f1(refs, r[17]), _f1(refs, r[18]), _f3(refs, r[19]), _f2(refs, r[20]), _f2(refs, r[21]),
+                x, f1(refs, r[6]), V[out], S[s + 1 : s + 4], S[s], dt, i1(refs, r[7]), i1(refs, r[8]),
+                b1(refs, r[9]), f1(refs, r[10]), S[s + 5], S[s + 6], S[s + 7], S[s + 8], f2(refs, r[11]),
+                f3(refs, r[12]), f3(refs, r[13]), f2(refs, r[14]), f1(refs, r[15]), i1(refs, r[16]),
+                f1(refs, r[17]), f1(refs, r[18]), f3(refs, r[19]), f2(refs, r[20]), f2(refs, r[21]),
                 S[s + 9] > 0.5,
             )  # fmt: skip
             S[s + 10] = 1.0 if on else 0.0
-            M[out, :] = _b1(refs, r[22])
+            M[out, :] = b1(refs, r[22])
         elif code == HOLD:
             if has:  # without a frame in, the output holds (as Output.tick)
-                hold_tick(V[src], M[src], _f1(refs, r[4]), lo, hi)
+                hold_tick(V[src], M[src], f1(refs, r[4]), lo, hi)
             continue  # the output's frame is its held state: no arena row
         elif code == MIXER:
-            vals, masks = _f1(refs, r[11]), _b1(refs, r[12])
-            _gather(_i1(refs, r[4]), V, M, A, vals, masks)
+            vals, masks = f1(refs, r[11]), b1(refs, r[12])
+            _gather(i1(refs, r[4]), V, M, A, vals, masks)
             mixer_tick(
-                vals, masks, _b2(refs, r[13]), _f1(refs, r[5]), _f1(refs, r[6]), _f1(refs, r[7]), _f1(refs, r[8]),
-                _f1(refs, r[9]), dt, _i1(refs, r[14]), rest, rest, enum, V[out], M[out], _f1(refs, r[10]),
+                vals, masks, b2(refs, r[13]), f1(refs, r[5]), f1(refs, r[6]), f1(refs, r[7]), f1(refs, r[8]),
+                f1(refs, r[9]), dt, i1(refs, r[14]), rest, rest, enum, V[out], M[out], f1(refs, r[10]),
             )  # fmt: skip
         A[out] = True
         if _publish(out, M, P, CH):
