@@ -72,9 +72,11 @@ deps-python: $(VENV)/bin/activate
 	@# Blender as a module (tests that make glTF files with real Blender). bpy 5.0 pins numpy<2 in its
 	@# metadata but runs with numpy 2, so it is installed without its pins (its other needs are listed).
 	@$(PY) -c "import bpy" 2>/dev/null || $(PIP) install -q --no-deps "bpy==5.0.*" cython requests zstandard
-	@# The compiled core's kernel into numba's cache (~15 s once; then every engine loads it in 0.4 s
-	@# instead of each compiling it on its first start, as parallel test servers would).
-	@$(PY) -c "from backend.engine.core.program import KERNEL; raise SystemExit(not KERNEL.wait())"
+	@# The compiled core's kernel and the engine's frame tail into numba's cache (~15 s once; then every
+	@# engine loads them in 0.4 s instead of each compiling them on its first start, as parallel test
+	@# servers would).
+	@$(PY) -c "from backend.engine.core.program import KERNEL; from backend.engine.frame_tail import TAIL; \
+	  raise SystemExit(not (KERNEL.wait() and TAIL.wait()))"
 
 deps-frontend:
 	@if [ -f $(FRONTEND)/package.json ]; then cd $(FRONTEND) && npm ci --no-audit --no-fund --loglevel=error; fi

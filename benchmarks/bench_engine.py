@@ -66,6 +66,7 @@ from backend.engine import warm_up
 from backend.engine.compiled import REFERENCE_ENV
 from backend.engine.core.program import CORE_ENV, KERNEL
 from backend.engine.embodiment import load_embodiment
+from backend.engine.frame_tail import TAIL
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
 
@@ -131,6 +132,7 @@ def switched(compiled: bool = True, core: bool = True):
     os.environ[REFERENCE_ENV] = "0" if compiled else "1"
     os.environ[CORE_ENV] = "1" if core else "0"
     KERNEL.wait()  # the core's kernel from the first tick (it loads on its own thread)
+    TAIL.wait()  # the engine's compiled tail, likewise
     try:
         yield
     finally:

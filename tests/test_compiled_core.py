@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 from backend.engine.core.program import CORE_ENV, KERNEL
 from backend.engine.embodiment import load_embodiment
+from backend.engine.frame_tail import TAIL
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
 
@@ -37,29 +38,39 @@ def robot():
 def session_for(monkeypatch, robot, prog: dict, core: bool) -> EngineSession:
     monkeypatch.setenv(CORE_ENV, "1" if core else "0")
     assert KERNEL.wait(120)  # loaded (or compiled, on a fresh clone) on its own thread
+    assert TAIL.wait(120)  # the engine's compiled tail, likewise
     session = EngineSession.create(robot, program=prog)
     assert (session.engine.apu.core is not None) == core
     return session
 
 
+#: A frame's arrays compared, with their order of finite difference (a position's error e becomes up to
+#: 2e/dt, 4e/dt² and 8e/dt³ in its derivatives).
+FIELDS = (("position", 0), ("stage1", 0), ("program", 0), ("joints", 0), ("velocity", 1),
+          ("acceleration", 2), ("jerk", 3))  # fmt: skip
+
+
 def frame_tuple(f) -> tuple:
-    """A frame's channels, stage 1, program frame, the joints the motors get, and its events."""
+    """A frame's channels, stage 1, program frame, the joints the motors get, the derivatives, the
+    channels the net corrected, and its events (the core runs with the engine's compiled tail, the
+    blocks with the Python path: `NUTTY_CORE=0` turns both off)."""
     return (
-        f.position.copy(),
-        f.stage1.copy(),
-        f.program.copy(),
-        f.joints.copy(),
+        *(getattr(f, name).copy() for name, _ in FIELDS),
+        None if f.corrected is None else f.corrected.copy(),
         [e.to_dict() for e in f.events],
+        f.dt,
     )
 
 
 def assert_same_frames(a: list, b: list) -> None:
     assert len(a) == len(b)
     for k, (x, y) in enumerate(zip(a, b)):
-        for name, u, v in zip(("position", "stage1", "program", "joints"), x[:4], y[:4]):
+        for (name, order), u, v in zip(FIELDS, x, y):
             worst = float(np.abs(u - v).max())
-            assert worst <= TOLERANCE, f"tick {k}: {name} differs by {worst}"
-        assert x[4] == y[4], f"tick {k}: events differ"
+            assert worst <= TOLERANCE * (2.0 / x[-1]) ** order, f"tick {k}: {name} differs by {worst}"
+        corrected = (x[-3] is None, y[-3] is None)
+        assert corrected[0] == corrected[1] and (corrected[0] or np.array_equal(x[-3], y[-3])), f"tick {k}"
+        assert x[-2] == y[-2], f"tick {k}: events differ"
 
 
 def segments(session: EngineSession) -> list[list[str]]:
@@ -78,6 +89,7 @@ def test_the_core_agrees_with_the_blocks_on_every_shipped_program(monkeypatch, r
         if core:
             compiled = segments(session)
             rebinds = session.engine.apu.core.rebinds
+            assert session.engine.tail._made is not None  # plain ticks took the compiled tail
     assert_same_frames(runs[True], runs[False])
     # the blocks' notes too: a look_at's end (the gaze's watch), clips and postures started and done
     assert notes[True] == notes[False]

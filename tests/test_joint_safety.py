@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from joint_truth import TEST_ROBOTS, joint_truth
+from joint_truth import TEST_ROBOTS, JointTruth, joint_truth
 from test_safe_swaps import program
 
-from backend.engine.embodiment import load_embodiment
+from backend.engine.embodiment import Embodiment, load_embodiment
 from backend.engine.runtime import Sink
 from backend.engine.safety import SafetyNet
 from backend.session import EngineSession
@@ -27,10 +27,10 @@ ROBOTS = {
     "pan_tilt_eyes": TEST_ROBOTS / "pan_tilt_eyes",
     "lift_arm": TEST_ROBOTS / "lift_arm",
 }
-_EMB: dict[str, object] = {}
+_EMB: dict[str, tuple[Embodiment, JointTruth]] = {}
 
 
-def robot(name: str):
+def robot(name: str) -> tuple[Embodiment, JointTruth]:
     if name not in _EMB:
         _EMB[name] = (load_embodiment(ROBOTS[name]), joint_truth(ROBOTS[name]))
     return _EMB[name]

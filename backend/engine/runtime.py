@@ -34,10 +34,10 @@ from backend.engine.blocks.base import BlockContext
 
 # The clock and the sinks live in their own modules; they are re-exported here, where callers import them.
 from backend.engine.clock import Clock, RingStats, WallClock
-from backend.engine.compiled import default_compiled, entry_point
-from backend.engine.compiled.frames import DERIVATIVES_SIG, derivatives
+from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
-from backend.engine.frames import AnimationFrame, net_correction
+from backend.engine.frame_tail import FrameTail
+from backend.engine.frames import AnimationFrame
 from backend.engine.gil import ClockPriority
 from backend.engine.pending import Pending, drain
 from backend.engine.profile import WINDOW, CookTimes, sample_every
@@ -120,8 +120,6 @@ class Engine:
         self.swaps = 0
         #: The last step before every sink; `safety=False` only through an explicit, logged opt-out.
         self.safety = SafetyNet(embodiment, self.rate, enabled=safety)
-        # the requests handed to the net and the joints it delivered on the last 3 ticks (newest first)
-        self._past = ((embodiment.rest,) * 3, (self.safety.joint_out,) * 3)
         self._transition: Transition | None = None
         self._injected: list = []  # events added by commands for the next frame
         self._override_mask = np.zeros(embodiment.n_channels, dtype=bool)  # display values set by commands
@@ -131,7 +129,8 @@ class Engine:
         #: Ticks between two timed ticks of the program's cook times (1: every tick, for `nutty run --profile`).
         self.profile_every, self.profile_window = sample_every(self.rate), WINDOW
         self._overriding = False  # whether any channel is overridden (so a tick need not look)
-        self._derivatives = entry_point(derivatives, DERIVATIVES_SIG) if self.ctx.compiled else None
+        #: The net and the frame's derivatives (one compiled call on a plain tick: backend/engine/frame_tail.py).
+        self.tail = FrameTail(self.safety, self.ctx.compiled)
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self.tick_lock = threading.Lock()  # held for a whole tick: readers of live frames take it too
@@ -233,7 +232,7 @@ class Engine:
             raise RuntimeError("start_from is for an engine that has not ticked yet")
         self.safety.reset(position, joints)
         self._pos = np.array(position, dtype=float)
-        self._past = ((self._pos,) * 3, (self.safety.joint_out,) * 3)
+        self.tail.restart(self._pos)
         self._transition = Transition.start(
             self.embodiment, self._pos, np.zeros_like(self._pos), self.rate, seconds
         )
@@ -353,26 +352,15 @@ class Engine:
                 final, stage1, events = self._pos, self._pos, []
         else:
             final, stage1, events = self.embodiment.rest, self.embodiment.rest, []
-        program = np.array(final, dtype=float)
-        if self._overriding:
-            np.copyto(program, self._override_values, where=self._override_mask)
-        target = program
-        if self._transition is not None:
-            target = program.copy()
-            if self._transition.apply(target):
-                self._transition = None
-        pos = self.safety.step(target)
+        requested = self._requested(final) if self._overriding or self._transition is not None else None
+        last = (self._pos, self._vel, self._acc)
+        program, target, pos, vel, acc, jerk, stage1 = self.tail.run(
+            final, stage1, last, dt, self.seq, requested
+        )
         if self._injected:
             events, self._injected = [*events, *self._injected], []
         if events and self._stamp is not None:
             events = self._stamp(events, self.t)
-        if self._derivatives is not None and pos.shape == self._pos.shape and pos.dtype == np.float64:
-            vel, acc, jerk = np.empty_like(pos), np.empty_like(pos), np.empty_like(pos)
-            self._derivatives(pos, self._pos, self._vel, self._acc, dt, self.seq, vel, acc, jerk)
-        else:
-            vel = (pos - self._pos) / dt if self.seq else np.zeros_like(pos)
-            acc = (vel - self._vel) / dt if self.seq > 1 else np.zeros_like(pos)
-            jerk = (acc - self._acc) / dt if self.seq > 2 else np.zeros_like(pos)
         self._pos, self._vel, self._acc = pos, vel, acc
         frame = AnimationFrame(
             embodiment=self.embodiment.name,
@@ -384,15 +372,13 @@ class Engine:
             acceleration=acc,
             jerk=jerk,
             events=list(events),
-            stage1=np.array(stage1, dtype=float),
+            stage1=stage1,
             corrected=self.safety.corrected.copy() if self.safety.corrected_any else None,
             program=program,
             joints=self.safety.joint_out,
             requested=target,
         )
-        if frame.corrected is not None:  # what the net changed, and which limits it enforced
-            frame.net = net_correction(frame, self.embodiment, self.safety.joints, *self._past)
-        self._past = ((target, *self._past[0][:2]), (self.safety.joint_out, *self._past[1][:2]))
+        self.tail.explain(frame, target)  # what the net changed on a corrected frame, and which limits
         self.last_frame = frame
         self.seq += 1
         self.t = self.seq * dt
@@ -408,6 +394,19 @@ class Engine:
         self.tick_cost.add(time.perf_counter() - t0)
         self.tick_cpu.add(time.thread_time() - cpu0)
         return frame
+
+    def _requested(self, final: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The program's frame with the overridden channels set (program), then the swap transition
+        applied (what the net is handed): new arrays."""
+        program = np.array(final, dtype=float)
+        if self._overriding:
+            np.copyto(program, self._override_values, where=self._override_mask)
+        target = program
+        if self._transition is not None:
+            target = program.copy()
+            if self._transition.apply(target):
+                self._transition = None
+        return program, target
 
     def _notify(self, note: dict[str, Any]) -> None:
         for fn in self._listeners:

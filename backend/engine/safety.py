@@ -370,7 +370,12 @@ class SafetyNet:
         self.joint_corrected = np.zeros(len(self.joints.names), dtype=bool)
         #: The joint values (rad or m) of the last step's output, in `emb.joint_names` order.
         self.joint_out = np.zeros(len(self.joints.names))
-        self._carried: np.ndarray | None = None
+        #: The channels the last step marked corrected for a joint's carried-back correction: the first
+        #: `carried_n[0]` of `carried` (cleared by the next step).
+        self.carried = np.zeros(emb.n_channels, dtype=np.int64)
+        self.carried_n = np.zeros(1, dtype=np.int64)
+        #: Counts `reset`s: the state arrays are new after each (backend/engine/frame_tail.py lists them).
+        self.generation = 0
         self.corrected_ticks = 0
         #: Whether the last step corrected any channel.
         self.corrected_any = False
@@ -401,6 +406,8 @@ class SafetyNet:
         self._jlocked = np.ones(len(self._jidx), dtype=bool)
         self.joint_corrected[:] = False
         self.joint_out = q
+        self.carried_n[0] = 0
+        self.generation += 1
 
     @property
     def p(self) -> np.ndarray:
@@ -419,9 +426,10 @@ class SafetyNet:
         to are in `joint_out` afterwards."""
         out = np.array(target, dtype=float)
         self.corrected_any = False
-        if self._carried is not None:  # last step's carried-back joint corrections
-            self.corrected[self._carried] = False
-            self._carried = None
+        n = self.carried_n[0]
+        if n:  # last step's carried-back joint corrections
+            self.corrected[self.carried[:n]] = False
+            self.carried_n[0] = 0
         if not self.enabled:
             self.joint_out = self.joints.compose(out)
             return out
@@ -473,7 +481,8 @@ class SafetyNet:
             own = self.joints.own[g][hit]
             out[own] += q[g][hit] - composed[hit]
             self.corrected[own] = True
-            self._carried = own
+            self.carried[: len(own)] = own
+            self.carried_n[0] = len(own)
 
     def stats(self) -> dict:
         names = self.emb.channel_names
