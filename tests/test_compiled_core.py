@@ -16,9 +16,10 @@ import scripted_ai
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from backend.engine.core.program import CORE_ENV, KERNEL
+from backend.engine.core.program import CORE_ENV, KERNEL, Arena, Import
 from backend.engine.embodiment import load_embodiment
 from backend.engine.frame_tail import TAIL
+from backend.engine.frames import PartialFrame, SteadyFrame
 from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
 
@@ -315,3 +316,24 @@ def test_probes_read_a_snapshot_that_later_ticks_leave_alone(monkeypatch, robot)
     engine.tick()
     assert np.array_equal(snapshot.values, before)  # a copy of one tick
     assert not np.array_equal(live.values, before)  # the core rewrites its frames in place
+
+
+def test_an_import_copies_a_steady_frame_once_and_any_other_frame_every_tick():
+    arena = Arena(rows=1, channels=3, n_ops=1)
+    imp = Import(0, 0, "out", arena)
+    plain = PartialFrame(np.array([1.0, 2.0, 3.0]), np.array([True, False, True]), [])
+    assert not imp.load([{"out": plain}])
+    assert arena.V[0].tolist() == [1.0, 2.0, 3.0] and arena.A[0]
+    plain.values[:] = [4.0, 5.0, 6.0]  # the same object rewritten in place (a compiled step's frame)
+    imp.load([{"out": plain}])
+    assert arena.V[0].tolist() == [4.0, 5.0, 6.0]
+    steady = SteadyFrame(np.array([7.0, 8.0, 9.0]), np.array([False, True, False]), [])
+    imp.load([{"out": steady}])
+    assert arena.V[0].tolist() == [7.0, 8.0, 9.0] and arena.M[0].tolist() == [False, True, False]
+    arena.V[0] = 0.0  # not written again while the same steady frame comes in...
+    imp.load([{"out": steady}])
+    assert arena.V[0].tolist() == [0.0, 0.0, 0.0] and arena.A[0]
+    imp.load([{}])  # ...and a tick without a frame clears the row's presence
+    assert not arena.A[0]
+    imp.load([{"out": steady}])  # the same frame after a gap is copied again
+    assert arena.V[0].tolist() == [7.0, 8.0, 9.0] and arena.A[0]

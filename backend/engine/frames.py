@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from numba import njit
@@ -48,6 +48,8 @@ class PartialFrame:
     values: np.ndarray  # (C,) float64
     mask: np.ndarray  # (C,) bool
     events: list[FrameEvent] = field(default_factory=list)
+    #: Whether this object's arrays and events never change (see `SteadyFrame`).
+    steady: ClassVar[bool] = False
 
     @classmethod
     def empty(cls, n_channels: int) -> PartialFrame:
@@ -67,6 +69,17 @@ class PartialFrame:
     def apply_to(self, base: np.ndarray) -> np.ndarray:
         """The full vector obtained by writing this PAF over `base` (out-of-place)."""
         return np.where(self.mask, self.values, base)
+
+
+@dataclass(slots=True)
+class SteadyFrame(PartialFrame):
+    """A frame its block hands out on many ticks, whose arrays and events list never change: the block
+    makes a new one when what it shows changes (an idle blink, a face showing one expression, a
+    posture held). A reader that copied it once may skip copying the same object again (the compiled
+    core's imports do); a frame that is the same object but rewritten in place (a compiled step's) is
+    a plain `PartialFrame`."""
+
+    steady: ClassVar[bool] = True
 
 
 @dataclass(slots=True)

@@ -27,7 +27,7 @@ from backend.engine.blocks.base import (
 )
 from backend.engine.blocks.display import resolve_dof
 from backend.engine.embodiment import DofType
-from backend.engine.frames import FrameEvent, PartialFrame
+from backend.engine.frames import FrameEvent, PartialFrame, SteadyFrame
 
 # --------------------------------------------------------------------------------------------------
 # Say
@@ -115,6 +115,7 @@ class Say(Source[SayParams]):
         self.lip_mask = np.zeros(emb.n_channels, dtype=bool)
         self.lip_mask[self.mouth] = True
         self._nothing = np.zeros(emb.n_channels, dtype=bool)  # the mask while silent (shared, read-only)
+        self._silent = SteadyFrame(emb.rest.copy(), self._nothing, [])  # the frame out while silent
 
     def duration(self, text: str) -> float:
         return max(self.params.min_duration, len(text.split()) / self.params.words_per_second)
@@ -180,6 +181,8 @@ class Say(Source[SayParams]):
             self.ctx.notify(
                 self.node_id, "started", command_id=s.current["command_id"], text=s.current["text"], **extra
             )
+        if s.current is None and not s.closing:  # silent (most ticks): the block's one silent frame
+            return {"out": self._silent, "speaking": False}
         values = self.emb.rest.copy()
         mask = self._nothing  # the masks out are the block's own two, never changed: nothing, or the mouth
         if s.current is not None:
@@ -249,6 +252,7 @@ class PlaySound(Source[PlaySoundParams]):
         self._nothing = np.zeros(
             self.emb.n_channels, dtype=bool
         )  # the mask of every frame out (shared, read-only)
+        self._silent = SteadyFrame(self.emb.rest.copy(), self._nothing, [])  # the frame out with no event
 
     @property
     def sounds(self) -> list[str]:
@@ -298,4 +302,6 @@ class PlaySound(Source[PlaySoundParams]):
             self.ctx.notify(self.node_id, "started", command_id=clip["command_id"], sound=clip["sound"])
             s.active.append({**clip, "remaining": self.length(clip["sound"])})
         s.pending = []
+        if not events:  # (most ticks) the block's one silent frame
+            return {"out": self._silent, "playing": bool(s.active)}
         return {"out": PartialFrame(self.emb.rest.copy(), self._nothing, events), "playing": bool(s.active)}

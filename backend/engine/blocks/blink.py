@@ -12,7 +12,7 @@ from pydantic import Field, model_validator
 
 from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, soft_range
 from backend.engine.blocks.idle import block_rng
-from backend.engine.frames import PartialFrame
+from backend.engine.frames import PartialFrame, SteadyFrame
 from backend.engine.selectors import channel_mask
 
 
@@ -125,7 +125,7 @@ class Blink(Source[BlinkParams]):
         self._open_values = np.where(
             self.mask, np.clip(emb.rest + 0.0 * self.delta, emb.min, emb.max), emb.rest
         )
-        self._open_frame = PartialFrame(self._open_values, self.mask, [])
+        self._open_frame = SteadyFrame(self._open_values, self.mask, [])
 
     def reset(self) -> None:
         self.state = self.State(rng=block_rng(self.ctx, self.params.seed, self.node_id))

@@ -23,7 +23,7 @@ from backend.engine.blocks.base import (
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.curves import CLIP_SIG, clip_tick
-from backend.engine.frames import FrameEvent, PartialFrame
+from backend.engine.frames import FrameEvent, PartialFrame, SteadyFrame
 from backend.engine.selectors import channel_mask
 
 PlayMode = Literal["once", "loop", "ping_pong"]
@@ -343,10 +343,10 @@ class ClipPlayer(Source[ClipPlayerParams]):
         clip = s.current
         events: list[FrameEvent] = []
         if clip is not None:
+            self._idle = None  # the values may change in place from here on
             if not s.done:
-                speed = self.driven(
-                    inputs, speed=s.speed or self.params.speed
-                ).speed  # else the play command's
+                # the wired speed, else the play command's, else the parameter
+                speed = self.driven(inputs, speed=s.speed or self.params.speed).speed
                 events = self._advance(clip, dt, speed)
                 clip = s.current  # a queued clip may have started as this one completed
             if self._kernel is not None and self.ctx.compiled and s.values.shape == self.emb.rest.shape:
@@ -368,6 +368,11 @@ class ClipPlayer(Source[ClipPlayerParams]):
         else:  # nothing shows: the block's one empty mask (never changed)
             mask = self._no_mask if s.mask.shape == self._no_mask.shape else np.zeros_like(s.mask)
         values = s.values
+        if clip is None and not visible and not events:  # idle (most ticks): one frame until a clip plays
+            idle = self.__dict__.get("_idle")
+            if idle is None or idle[0] is not s or idle[1] is not values or idle[2].mask is not mask:
+                idle = self._idle = (s, values, SteadyFrame(values.copy(), mask, []))
+            return {"out": idle[2], "weight": weight, "playing": False, "time": s.pos}
         if clip is not None and clip.relative.any():
             rest = self.emb.rest
             values = rest + weight * (values - rest)

@@ -22,7 +22,7 @@ from backend.engine.blocks.base import (
     drivable,
 )
 from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
-from backend.engine.frames import PartialFrame
+from backend.engine.frames import PartialFrame, SteadyFrame
 
 
 def resolve_dof(emb: Embodiment, name: str | None, want: DofType, what: str, kind: str | None = None) -> Dof:
@@ -248,5 +248,5 @@ class Face(Source[FaceParams]):
         if shown is None or shown[0] != index or shown[1].mask is not self.mask:
             values = self.emb.rest.copy()
             values[self.channel] = index
-            shown = self._shown = (index, PartialFrame(values, self.mask, []))
+            shown = self._shown = (index, SteadyFrame(values, self.mask, []))
         return {"out": shown[1]}

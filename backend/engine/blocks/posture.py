@@ -13,7 +13,7 @@ from pydantic import Field
 from backend.engine.asset_errors import LibraryError, NotFound
 from backend.engine.blocks.base import BlockCommandError, BlockParams, Port, PortType, Source
 from backend.engine.blocks.core import pose_vector
-from backend.engine.frames import PartialFrame
+from backend.engine.frames import PartialFrame, SteadyFrame
 
 log = logging.getLogger(__name__)
 
@@ -174,4 +174,11 @@ class Posture(Source[PostureParams]):
                     _channels=tuple(np.flatnonzero(s.mask).tolist()),  # what the move moved (action watch)
                 )
                 s.move = None
-        return {"out": PartialFrame(s.current.copy(), s.mask, []), "moving": s.move is not None}
+        if s.move is not None:
+            return {"out": PartialFrame(s.current.copy(), s.mask, []), "moving": True}
+        # Held (most ticks): one frame until the pose changes (`current` and `mask` are replaced, never
+        # changed in place).
+        held = self.__dict__.get("_held")
+        if held is None or held[0] is not s.current or held[1] is not s.mask:
+            held = self._held = (s.current, s.mask, SteadyFrame(s.current.copy(), s.mask, []))
+        return {"out": held[2], "moving": False}

@@ -11,7 +11,7 @@ from pydantic import Field
 
 from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source
 from backend.engine.embodiment import DofType
-from backend.engine.frames import PartialFrame
+from backend.engine.frames import PartialFrame, SteadyFrame
 from backend.engine.selectors import channel_mask
 
 
@@ -159,7 +159,7 @@ class Puppet(Source[PuppetParams]):
             idle = self.__dict__.get("_idle")
             if idle is None or idle[0] is not s or idle[1].mask is not self._nothing:
                 s.mask[:] = False  # the next stream starts from nothing
-                idle = self._idle = (s, PartialFrame(s.values.copy(), self._nothing, []))
+                idle = self._idle = (s, SteadyFrame(s.values.copy(), self._nothing, []))
             return {"out": idle[1], "weight": 0.0, "live": False}
         weight = env * env * (3.0 - 2.0 * env)  # smoothstep: no kink where the fade starts or ends
         return {"out": PartialFrame(s.values.copy(), s.mask.copy(), []), "weight": weight, "live": s.live}

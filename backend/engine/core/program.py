@@ -90,7 +90,8 @@ class Refs(AddressTable):
 
 
 class Import:
-    """A frame from a Python block into a compiled one, copied into its arena row before the segment."""
+    """A frame from a Python block into a compiled one, copied into its arena row before the segment
+    (once, when it is the same `SteadyFrame` tick after tick)."""
 
     def __init__(self, row: int, src: int, port: str, arena: Arena):
         self.row, self.src, self.port, self.arena = row, src, port, arena
@@ -102,6 +103,8 @@ class Import:
     def load(self, results: list[dict[str, Any]]) -> bool:
         """Copy this tick's frame in; whether it carries events."""
         frame = results[self.src].get(self.port)
+        if frame is self.frame and frame is not None and frame.steady:  # already in its row, unchanged
+            return bool(frame.events)
         self.frame = frame
         if frame is None:
             self.arena.A[self.row] = False
