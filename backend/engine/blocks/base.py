@@ -222,7 +222,7 @@ class Block(Generic[P]):
     _declared_inputs: ClassVar[dict[str, Port]] = {}
     # The run-time state: a dataclass; `reset()` puts a fresh instance at `self.state`.
     State: ClassVar[type | None] = None
-    state: Any
+    state: Any = None  # (None: a block without run-time state)
     params: P
     _wired_cache: dict[str, tuple[tuple[Any, ...], BlockParams, Any]]  # driven(): last vector per param
 

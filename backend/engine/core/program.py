@@ -25,7 +25,7 @@ from __future__ import annotations
 import heapq
 import logging
 import os
-from itertools import repeat
+from operator import attrgetter, is_not
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -42,6 +42,8 @@ if TYPE_CHECKING:
     from backend.engine.apu import APU
 
 log = logging.getLogger(__name__)
+
+_PARAMS, _STATE = attrgetter("params"), attrgetter("state")  # (a block without state: the class's None)
 
 #: Environment variable: "0" turns the compiled core off.
 CORE_ENV = "NUTTY_CORE"
@@ -132,17 +134,23 @@ class Segment:
         self.always = [op for op in self.posts if op.post_always]
         self.had_events = True  # whether the ops' frames may hold events (cleared by a quiet tick's posts)
         self.blocks = [op.block for op in ops]
-        self.watched: list[int] | None = None  # `watch()` when every op was last found bound
+        # The blocks' parameters and states when every op was last found bound (None: look again).
+        self.seen: tuple[list[Any], list[Any]] | None = None
 
-    def watch(self) -> list[int]:
-        """The ids of the blocks' parameters and states, in C loops: while the list stays the same and
-        no block ran its own tick, no op is stale (an op whose `pre` changes its block's arrays binds
-        again there). The ops hold the objects whose ids are listed, so no id is reused meanwhile."""
-        blocks = self.blocks
-        return [
-            *map(id, map(getattr, blocks, repeat("params"))),
-            *map(id, map(getattr, blocks, repeat("state"), repeat(None))),
-        ]
+    def unchanged(self) -> bool:
+        """Whether every block holds the parameters and state objects it held when every op was last
+        found bound (compared by identity, in C loops): then, unless a block ran its own tick, no op is
+        stale (an op whose `pre` changes its block's arrays binds again there)."""
+        seen, blocks = self.seen, self.blocks
+        return (
+            seen is not None
+            and not any(map(is_not, map(_PARAMS, blocks), seen[0]))
+            and not any(map(is_not, map(_STATE, blocks), seen[1]))
+        )
+
+    def look(self) -> None:
+        """Remember the blocks' parameters and states (every op was just found bound)."""
+        self.seen = ([*map(_PARAMS, self.blocks)], [*map(_STATE, self.blocks)])
 
 
 class CoreProgram:
@@ -238,7 +246,7 @@ class CoreProgram:
         for entry in self.plan:
             if entry[0] == "core":
                 entry[1].had_events = True
-                entry[1].watched = None  # the blocks' own ticks may have replaced arrays: look at every op
+                entry[1].seen = None  # the blocks' own ticks may have replaced arrays: look at every op
 
     def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
         """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
@@ -256,11 +264,11 @@ class CoreProgram:
             for imp in seg.imports:
                 if imp.load(results):
                     events = True
-            if seg.watch() != seg.watched:
+            if not seg.unchanged():
                 for op in seg.ops:
                     if op.stale():
                         op.bind(self.refs)
-                seg.watched = seg.watch()
+                seg.look()
             for op in seg.pres:
                 op.pre(dt, results)
             changed = run(ops, refs, seg.k0, seg.k1, dt)
