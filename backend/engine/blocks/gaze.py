@@ -21,7 +21,7 @@ from backend.engine.blocks.base import (
 )
 from backend.engine.blocks.gaze_reach import yaw_pitch
 from backend.engine.compiled import entry_point
-from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_constants, gaze_tick
+from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_constants, gaze_tick, gaze_workspace
 from backend.engine.embodiment import Dimension, DofType
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for, joint_depths
@@ -194,6 +194,7 @@ class Gaze(Source[GazeParams]):
             jlo,
             jhi,
         )
+        chain_arrays = chain_args(chain)
         self._kernel_args = (
             self.idx.astype(np.int64),
             self.axis.astype(np.int64),
@@ -204,7 +205,8 @@ class Gaze(Source[GazeParams]):
             ARC_SMOOTHING,
             p.tolerance,
             j_rows,
-            *chain_args(chain),
+            *chain_arrays,
+            gaze_workspace(emb.n_channels, len(self.idx), len(j_off), chain_arrays[7].shape[0]),
         )
         self._dip = np.zeros(1)
 

@@ -10,7 +10,7 @@ from pydantic import Field
 
 from backend.engine.blocks.base import BlockParams, Operator, PortType, Role, drivable
 from backend.engine.compiled import entry_point, plain_frame
-from backend.engine.compiled.chain import IK_SIG, chain_args, ik_constants, ik_tick
+from backend.engine.compiled.chain import IK_SIG, chain_args, ik_constants, ik_tick, ik_workspace
 from backend.engine.frames import PartialFrame
 from backend.engine.kinematics import chain_for
 from backend.engine.selectors import select_dofs
@@ -133,6 +133,8 @@ class InverseKinematics(Operator[IkParams]):
         if state is not None and state.delta.shape != self.var.shape:
             state.delta = np.zeros(len(self.var))
         self._kernel = entry_point(ik_tick, IK_SIG) if self.ctx.compiled else None
+        chain_arrays = chain_args(chain)
+        pre, select = chain_arrays[7], chain_arrays[9]
         self._kernel_args = (
             np.ascontiguousarray(self.j_rows),
             self.var.astype(np.int64),
@@ -147,7 +149,8 @@ class InverseKinematics(Operator[IkParams]):
             CONVERGED,
             NULL_GAIN,
             NULL_RANGE,
-            *chain_args(chain),
+            *chain_arrays,
+            ik_workspace(len(self.j_off), len(self.var), pre.shape[0], select.shape[1]),
         )
 
     def reset(self) -> None:

@@ -5,8 +5,8 @@ and the gaze tick (`backend.engine.compiled.gaze`).
 
 from __future__ import annotations
 
-from backend.engine.compiled.gaze import GAZE_SIG, gaze_constants, gaze_tick
-from backend.engine.compiled.ik import IK_SIG, ik_constants, ik_tick
+from backend.engine.compiled.gaze import GAZE_SIG, gaze_constants, gaze_tick, gaze_workspace
+from backend.engine.compiled.ik import IK_SIG, ik_constants, ik_tick, ik_workspace
 from backend.engine.compiled.kinematics import CHAIN_SIG, _kinematics, chain_args
 
 __all__ = [
@@ -17,6 +17,8 @@ __all__ = [
     "chain_args",
     "gaze_constants",
     "gaze_tick",
+    "gaze_workspace",
     "ik_constants",
     "ik_tick",
+    "ik_workspace",
 ]

@@ -14,9 +14,9 @@ from numba import njit
 from backend.engine.compiled import b1, b1_1, f8, f8_1, f8_2, i8, i8_1
 from backend.engine.compiled.kinematics import (
     CHAIN_SIG,
-    _joint_positions,
+    _joint_positions_into,
     _kinematics_into,
-    _matmul,
+    _matmul_into,
 )
 
 
@@ -81,6 +81,15 @@ def _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a, inv, p
             dq[j] -= pull * (moved[j] - back[j])
 
 
+def ik_workspace(n_joints: int, n_var: int, n_moving: int, n_select: int) -> np.ndarray:
+    """The scratch one IK kernel call works in (`_ik_tick` carves it, in this order): joints q0, q; per
+    variable ch, lo, hi, moved, back, dq, blocked and the Jacobian (3, nv) and pseudo-inverse (nv, 3);
+    the forward kinematics' frames (n_moving, 4, 4), four 4x4 and the Jacobians (3, n_moving) and
+    mapped (3, n_select) twice; err, point, d, jm (3,); two 3x3. Made once per configuration, so a tick
+    allocates nothing."""
+    return np.zeros(2 * n_joints + 13 * n_var + 22 * n_moving + 6 * n_select + 4 * 16 + 4 * 3 + 2 * 9)
+
+
 def ik_constants(j_off, lower, upper, dof_lo, dof_hi, offset, axis):
     """The IK kernel's constant vectors in one array, in the order `ik_tick` reads them back: j_off, lower,
     upper (m,); dof_lo, dof_hi (nv,); offset, axis (3,) (one argument to convert per call instead of seven)."""
@@ -122,8 +131,10 @@ def ik_tick(
     post,
     select,
     identity,
+    ws,
 ):
-    """One IK tick (see `_ik_tick`) with its constant vectors packed by `ik_constants`."""
+    """One IK tick (see `_ik_tick`) with its constant vectors packed by `ik_constants`, working in `ws`
+    (`ik_workspace`)."""
     m, nv = j_rows.shape[0], var.shape[0]
     o = 3 * m + 2 * nv
     _ik_tick(
@@ -164,6 +175,7 @@ def ik_tick(
         post,
         select,
         identity,
+        ws,
     )
 
 
@@ -206,51 +218,46 @@ def _ik_tick(
     post,
     select,
     identity,
+    ws,
 ):
     """One IK tick (see `InverseKinematics.transform`): the stage-1 pose `values` (C,) takes the frame's
     set channels (in place); from it and last tick's correction `delta` (updated in place), solve
     toward `target` and write the frame with the moved joint DoFs, blended by `weight`, to `out`
-    (its mask, with `add_mask`, to `out_mask`)."""
+    (its mask, with `add_mask`, to `out_mask`). Every scratch array is a view of `ws` (`ik_workspace`)."""
     for c in range(values.shape[0]):
         if frame_mask[c]:
             values[c] = frame_values[c]
         out[c] = frame_values[c]
         out_mask[c] = frame_mask[c] or add_mask[c]
-    nv = var.shape[0]
-    q0 = _joint_positions(values, j_rows, j_off, lower, upper)
-    ch = np.empty(nv)
-    lo = np.empty(nv)
-    hi = np.empty(nv)
-    q = q0.copy()
+    nv, nj, m, ns = var.shape[0], j_off.shape[0], pre.shape[0], select.shape[1]
+    q0, q = ws[:nj], ws[nj : 2 * nj]
+    o = 2 * nj
+    ch, lo, hi = ws[o : o + nv], ws[o + nv : o + 2 * nv], ws[o + 2 * nv : o + 3 * nv]
+    moved, back, dq = ws[o + 3 * nv : o + 4 * nv], ws[o + 4 * nv : o + 5 * nv], ws[o + 5 * nv : o + 6 * nv]
+    blocked = ws[o + 6 * nv : o + 7 * nv]  # 1.0: the joint's step would push past a limit
+    o += 7 * nv
+    jac, pinv = ws[o : o + 3 * nv].reshape((3, nv)), ws[o + 3 * nv : o + 6 * nv].reshape((nv, 3))
+    o += 6 * nv
+    frames = ws[o : o + 16 * m].reshape((m, 4, 4))
+    o += 16 * m
+    tip, t4 = ws[o : o + 16].reshape((4, 4)), ws[o + 16 : o + 32].reshape((4, 4))
+    motion, tmp = ws[o + 32 : o + 48].reshape((4, 4)), ws[o + 48 : o + 64].reshape((4, 4))
+    o += 64
+    jp_m, jd_m = ws[o : o + 3 * m].reshape((3, m)), ws[o + 3 * m : o + 6 * m].reshape((3, m))
+    o += 6 * m
+    jp_s, jd_s = ws[o : o + 3 * ns].reshape((3, ns)), ws[o + 3 * ns : o + 6 * ns].reshape((3, ns))
+    o += 6 * ns
+    err, point, d, jm = ws[o : o + 3], ws[o + 3 : o + 6], ws[o + 6 : o + 9], ws[o + 9 : o + 12]
+    o += 12
+    a3, inv3 = ws[o : o + 9].reshape((3, 3)), ws[o + 9 : o + 18].reshape((3, 3))
+    _joint_positions_into(values, j_rows, j_off, lower, upper, q0)
+    q[:] = q0
     for j in range(nv):
         v = var[j]
         ch[j] = values[var_ch[j]]
         lo[j] = max(lower[v], q0[v] + dof_lo[j] - ch[j])
         hi[j] = min(upper[v], q0[v] + dof_hi[j] - ch[j])
         q[v] = min(max(q0[v] + delta[j], lo[j]), hi[j])
-    jac = np.empty((3, nv))
-    moved = np.empty(nv)
-    err = np.empty(3)
-    # the forward kinematics' buffers, reused by every iteration
-    m = pre.shape[0]
-    frames, tip, t4, motion, tmp = (
-        np.empty((m, 4, 4)),
-        np.empty((4, 4)),
-        np.empty((4, 4)),
-        np.empty((4, 4)),
-        np.empty((4, 4)),
-    )
-    point, d, jp_m, jd_m = np.empty(3), np.empty(3), np.empty((3, m)), np.empty((3, m))
-    # the damped least squares' buffers
-    a3, inv3, pinv, jm, back = (
-        np.empty((3, 3)),
-        np.empty((3, 3)),
-        np.empty((nv, 3)),
-        np.empty(3),
-        np.empty(nv),
-    )
-    dq = np.empty(nv)
-    blocked = np.empty(nv, dtype=np.bool_)
     for _ in range(iterations):
         _kinematics_into(
             q,
@@ -280,7 +287,9 @@ def _ik_tick(
         if identity:
             jp, jd = jp_m, jd_m
         else:
-            jp, jd = _matmul(jp_m, select), _matmul(jd_m, select)
+            _matmul_into(jp_m, select, jp_s)
+            _matmul_into(jd_m, select, jd_s)
+            jp, jd = jp_s, jd_s
         if look:
             r0, r1, r2 = target[0] - point[0], target[1] - point[1], target[2] - point[2]
             dist = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
@@ -320,15 +329,16 @@ def _ik_tick(
         any_blocked = False
         for j in range(nv):
             qv = q[var[j]]
-            blocked[j] = (qv <= lo[j] and dq[j] < 0.0) or (qv >= hi[j] and dq[j] > 0.0)
-            any_blocked = any_blocked or blocked[j]
+            stop = (qv <= lo[j] and dq[j] < 0.0) or (qv >= hi[j] and dq[j] > 0.0)
+            blocked[j] = 1.0 if stop else 0.0
+            any_blocked = any_blocked or stop
         if any_blocked:
             for j in range(nv):
-                if blocked[j]:
+                if blocked[j] != 0.0:
                     jac[0, j] = jac[1, j] = jac[2, j] = 0.0
             _dls_step_into(jac, err, moved, size, lam2, null_gain, null_range, a3, inv3, pinv, dq, jm, back)
             for j in range(nv):
-                if blocked[j]:
+                if blocked[j] != 0.0:
                     dq[j] = 0.0
         sq = 0.0  # np.sum(dq * dq): a sum in order
         for j in range(nv):
@@ -367,4 +377,5 @@ IK_SIG = (
     f8,
     f8,
     *CHAIN_SIG,
+    f8_1,  # the workspace (`ik_workspace`)
 )

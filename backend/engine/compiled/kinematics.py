@@ -44,15 +44,21 @@ def chain_args(chain) -> tuple:
 @njit(cache=True)
 def _matmul(a, b):
     """a @ b for small 2-D arrays (numba's own `@` needs SciPy's BLAS, which nutty does not depend on)."""
+    out = np.empty((a.shape[0], b.shape[1]))
+    _matmul_into(a, b, out)
+    return out
+
+
+@njit(cache=True)
+def _matmul_into(a, b, out):
+    """`_matmul` into `out` (a's rows, b's columns); `out` must not be `a` or `b`."""
     n, m, p = a.shape[0], a.shape[1], b.shape[1]
-    out = np.empty((n, p))
     for i in range(n):
         for j in range(p):
             s = 0.0
             for k in range(m):
                 s += a[i, k] * b[k, j]
             out[i, j] = s
-    return out
 
 
 @njit(cache=True)
@@ -214,9 +220,15 @@ def _kinematics(q, point, direction, k, k2, axes, rev, src, mult, off, pre, post
 def _joint_positions(values, rows, offset, lower, upper):
     """The chain's joint positions for a channel vector: clip(rows @ values + offset, lower, upper)."""
     q = np.empty(offset.shape[0])
+    _joint_positions_into(values, rows, offset, lower, upper, q)
+    return q
+
+
+@njit(cache=True)
+def _joint_positions_into(values, rows, offset, lower, upper, q):
+    """`_joint_positions` into `q` (the chain's joints,)."""
     for i in range(offset.shape[0]):
         s = 0.0
         for c in range(values.shape[0]):
             s += rows[i, c] * values[c]
         q[i] = min(max(s + offset[i], lower[i]), upper[i])
-    return q

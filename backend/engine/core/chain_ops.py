@@ -36,7 +36,7 @@ class GazeOp(SourceOp[Gaze]):
         b = self.block
         args: tuple[Any, ...] = (
             b._kernel_args
-        )  # (idx, axis, leader, constants, 4 floats, j_rows, chain, identity)
+        )  # (idx, axis, leader, constants, 4 floats, j_rows, chain, identity, workspace)
         if self._x_old.shape != b.state.x.shape:
             self._x_old = np.zeros(b.state.x.shape)
         return [
@@ -50,6 +50,7 @@ class GazeOp(SourceOp[Gaze]):
             args[8],
             *args[9:19],
             b.mask,
+            args[20],
         ]
 
     def bind(self, refs: Refs) -> None:
@@ -91,8 +92,10 @@ class IkOp(Op[InverseKinematics]):
 
     def arrays(self) -> list[np.ndarray]:
         b, st = self.block, self.block.state
-        args: tuple[Any, ...] = b._kernel_args  # (j_rows, var, var_ch, constants, look, ..., chain, identity)
-        return [st.held, st.delta, b.mask_add, args[0], args[1], args[2], args[3], *args[11:21]]
+        args: tuple[Any, ...] = (
+            b._kernel_args
+        )  # (j_rows, var, var_ch, constants, look, ..., chain, identity, ws)
+        return [st.held, st.delta, b.mask_add, args[0], args[1], args[2], args[3], *args[11:21], args[22]]
 
     def bind(self, refs: Refs) -> None:
         super().bind(refs)

@@ -52,10 +52,12 @@ MIXER = 7  # 4 layer rows, 5 weights, 6 fade_level, 7 fade_target, 8 fade_time, 
 IK = 10  # S: weight, target xyz, look, lam2, iterations, max_step, converged, null_gain, null_range,
 #          chain identity, solve (target, weight > 0, joints), hold (no target: forget the warm start) |
 #          4 held, 5 delta, 6 add mask, 7 j_rows (m, C), 8 var, 9 var_ch, 10 constants, 11..20 the chain's
-#          arrays in CHAIN_SIG's order (k, k2, axes, revolute, src, mult, off, pre, post, select)
+#          arrays in CHAIN_SIG's order (k, k2, axes, revolute, src, mult, off, pre, post, select), 21 the
+#          workspace (compiled/ik.py's ik_workspace)
 GAZE = 11  # S: strength, target xyz, (unused), arc_dip, arc_max, arc_smoothing, tolerance, chain identity,
 #            on target (written) | 4 x, 5 x before this tick (written), 6 dip (1,), 7 idx, 8 axis, 9 leader,
-#            10 constants, 11 j_rows, 12..21 the chain's arrays in CHAIN_SIG's order, 22 mask
+#            10 constants, 11 j_rows, 12..21 the chain's arrays in CHAIN_SIG's order, 22 mask, 23 the
+#            workspace (compiled/gaze.py's gaze_workspace)
 SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
 
@@ -166,7 +168,7 @@ def run_ops(ops, refs, k0, k1, dt):
                     S[s + 4] > 0.5, S[s + 5], np.int64(S[s + 6]), S[s + 7], S[s + 8], S[s + 9], S[s + 10],
                     f3(refs, r[11]), f3(refs, r[12]), f2(refs, r[13]), f1(refs, r[14]), i1(refs, r[15]),
                     f1(refs, r[16]), f1(refs, r[17]), f3(refs, r[18]), f2(refs, r[19]), f2(refs, r[20]),
-                    S[s + 12] > 0.5,
+                    S[s + 12] > 0.5, f1(refs, r[21]),
                 )  # fmt: skip
             else:  # IK.transform without a solve: hold what the frame sets, pass it through unchanged
                 held = f1(refs, r[4])
@@ -186,7 +188,7 @@ def run_ops(ops, refs, k0, k1, dt):
                 b1(refs, r[9]), f1(refs, r[10]), S[s + 5], S[s + 6], S[s + 7], S[s + 8], f2(refs, r[11]),
                 f3(refs, r[12]), f3(refs, r[13]), f2(refs, r[14]), f1(refs, r[15]), i1(refs, r[16]),
                 f1(refs, r[17]), f1(refs, r[18]), f3(refs, r[19]), f2(refs, r[20]), f2(refs, r[21]),
-                S[s + 9] > 0.5,
+                S[s + 9] > 0.5, f1(refs, r[23]),
             )  # fmt: skip
             S[s + 10] = 1.0 if on else 0.0
             M[out, :] = b1(refs, r[22])

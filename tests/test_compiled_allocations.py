@@ -1,0 +1,62 @@
+"""A steady tick allocates nothing in compiled code (issue 36's small working set): the kernels work in
+buffers made once per configuration (the arena, the IK's and the gaze's workspaces, the frame tail's
+table). tracemalloc cannot see numba's allocations, so numba's own counters are read instead, in a
+process of its own (they are switched on by NUMBA_NRT_STATS before numba is imported).
+
+What remains per tick is one adapter per array handed from Python to compiled code: the core's kernel
+takes two (its op table and its address table), the frame tail five (its table, the program's frame,
+stage 1, the frame buffer and the joints).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Array adapters per tick: the core's kernel call and the frame tail's.
+ADAPTERS = 2 + 5
+
+SCRIPT = """
+import json, sys
+from numba.core.runtime import rtsys
+from backend.engine.core.program import KERNEL
+from backend.engine.embodiment import load_embodiment
+from backend.engine.frame_tail import TAIL
+from backend.session import EngineSession
+
+KERNEL.wait(120)
+TAIL.wait(120)
+desk = load_embodiment("nutty_desk")
+counts = {}
+for name in sys.argv[1:]:
+    program = json.loads(open(f"robots/nutty_desk/programs/{name}.json").read())
+    engine = EngineSession.create(desk, program=program).engine
+    engine.run_ticks(300)
+    engine.apu.cook.every = 10**9  # only the core's ticks (a timed tick runs the blocks one by one)
+    before = rtsys.get_allocation_stats()
+    engine.run_ticks(500)
+    after = rtsys.get_allocation_stats()
+    counts[name] = [(after.alloc - before.alloc) / 500, (after.free - before.free) / 500]
+print(json.dumps(counts))
+"""
+
+
+@pytest.mark.parametrize("names", [["breathe-anything", "idle", "interactive"]])
+def test_a_steady_tick_allocates_only_its_argument_adapters_in_compiled_code(names):
+    env = {**os.environ, "NUMBA_NRT_STATS": "1"}
+    done = subprocess.run(
+        [sys.executable, "-c", SCRIPT, *names], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    counts = json.loads(done.stdout.strip().splitlines()[-1])
+    for name in names:
+        allocated, freed = counts[name]
+        # interactive runs the IK and the gaze every tick: 48 per tick before their workspaces
+        assert allocated == ADAPTERS, f"{name}: {allocated} compiled allocations per tick"
+        assert freed == allocated, f"{name}: compiled memory not freed ({freed} of {allocated} per tick)"
