@@ -122,4 +122,4 @@ blender-addon:
 	$(PYTHON) blender/build_addon.py $(DIST)
 
 clean:
-	rm -rf $(VENV) $(FRONTEND)/node_modules $(FRONTEND)/dist dist
+	rm -rf $(VENV) $(FRONTEND)/node_modules $(FRONTEND)/dist dist .numba-cache

@@ -23,3 +23,8 @@ def _version_from_pyproject() -> str:
 
 
 __version__ = _version()
+
+# Before any compiled kernel is defined: their cache follows the compiled sources (see numba_cache.py).
+from backend.numba_cache import configure as _configure_numba_cache  # noqa: E402  (after the version)
+
+_configure_numba_cache()
