@@ -14,7 +14,7 @@ from backend import numba_cache
 
 
 def test_the_cache_directory_is_this_version_of_the_compiled_sources():
-    assert numba.config.CACHE_DIR == os.environ["NUMBA_CACHE_DIR"]  # numba reads the one we set
+    assert os.environ["NUMBA_CACHE_DIR"] == numba.config.CACHE_DIR  # numba reads the one we set
     if os.environ.get("NUMBA_CACHE_DIR", "").startswith(str(numba_cache.CACHE_ROOT)):  # (not the user's own)
         assert Path(numba.config.CACHE_DIR) == numba_cache.CACHE_ROOT / numba_cache.sources_hash()
 
