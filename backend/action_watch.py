@@ -109,6 +109,11 @@ class ActionWatch:
             log.exception("watching the actions failed on frame %d", frame.seq)
 
     def _observe(self, frame: AnimationFrame) -> None:
+        if not self._open and not self._held:  # (most frames) nothing watched: no lock taken
+            # A concurrent `opened` or `hold` is seen on the next frame, as it would be had it come
+            # just after this one; `_last` is the clock thread's alone.
+            self._last = None
+            return
         with self._lock:
             if not self._open and not self._held:
                 self._last = None
