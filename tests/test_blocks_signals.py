@@ -135,6 +135,21 @@ def test_emotion_nearest_posture(desk, v, a, name):
     assert _emotion(desk, v, a)["posture"] == name
 
 
+def test_a_settled_emotion_hands_out_the_same_outputs_until_it_moves(desk):
+    blk = make(desk, "emotion", smoothing=0.0)  # no smoothing: settled from the first tick
+    first = blk.tick(0.01, {"valence": 0.0, "arousal": 0.0})
+    assert blk.tick(0.01, {"valence": 0.0, "arousal": 0.0}) is first  # the same objects downstream
+    moved = blk.tick(0.01, {"valence": 1e-12, "arousal": 0.0})
+    assert moved is not first and moved["valence"] == 1e-12
+    happy = blk.tick(0.01, {"valence": 0.8, "arousal": 0.5})
+    assert happy["posture"] == "happy" and happy["posture_offset"] < 0.0
+    blk.reset()  # a fresh state works its outputs out again
+    again = blk.tick(0.01, {"valence": 0.8, "arousal": 0.5})
+    assert again is not happy and again == happy
+    blk.update_params(blk.Params(smoothing=0.0, droop=0.5))  # new parameters too
+    assert blk.tick(0.01, {"valence": 0.8, "arousal": 0.5})["posture_offset"] != happy["posture_offset"]
+
+
 def test_emotion_outputs_never_jump(desk):
     blk = make(desk, "emotion", smoothing=0.5)
     outs = [blk.tick(0.01, {"valence": 0.0, "arousal": 0.0}) for _ in range(10)]

@@ -286,6 +286,17 @@ class EmotionParams(BlockParams):
         return self
 
 
+def _same_floats(last: tuple[float, float], v: float, a: float) -> bool:
+    """Whether (v, a) are the numbers `last` holds, a zero's sign included (-0.0 changes the offset's sign)."""
+    lv, la = last
+    return (
+        lv == v
+        and la == a
+        and math.copysign(1.0, lv) == math.copysign(1.0, v)
+        and math.copysign(1.0, la) == math.copysign(1.0, a)
+    )
+
+
 class Emotion(SignalBlock[EmotionParams]):
     """Maps valence and arousal to animation parameters: speed, amplitude, posture offset and posture.
 
@@ -342,6 +353,11 @@ class Emotion(SignalBlock[EmotionParams]):
             k = 1.0 if p.smoothing <= 0.0 else 1.0 - math.exp(-dt / p.smoothing)
             s.v += k * (d.valence - s.v)
             s.a += k * (d.arousal - s.a)
+        last = self.__dict__.get("_last_out")
+        if last is not None and last[0] is s and last[1] is p and _same_floats(last[2], s.v, s.a):
+            # Settled (the smoothing no longer moves, the most ticks): the same outputs, the same objects,
+            # which lets the blocks they drive see at once that nothing changed.
+            return last[3]
         key = (s.v, s.a, s.posture, p)  # equal numbers (-0.0 == 0.0 too) are equally near every posture
         seen = self.__dict__.get("_nearest_seen")
         if seen is None or seen[0] != key or seen[0][3] is not p:
@@ -349,4 +365,5 @@ class Emotion(SignalBlock[EmotionParams]):
         s.posture = seen[1]
         out = self.outputs_for(s.v, s.a)
         out["posture"] = s.posture
+        self._last_out = (s, p, (s.v, s.a), out)
         return out

@@ -37,7 +37,9 @@ if TYPE_CHECKING:
 NO_EVENTS: list[FrameEvent] = []
 
 _ATOMS = (str, bool, int, type(None))
-_IMMUTABLE = (float, *_ATOMS)  # the same object of one of these types is the same value
+# The same object of one of these types is the same value to `same_value` (a list it compares with
+# itself, element by element, so one changed in place would go unseen either way); arrays never are.
+_SAME_WHEN_IDENTICAL = (float, *_ATOMS, list, tuple)
 
 
 def same_value(new: Any, old: Any) -> bool:
@@ -129,7 +131,7 @@ class Op(Generic[B]):
         if last is not None:
             for (_, src, src_port), old in zip(ports, last):
                 new = results[src].get(src_port)
-                if (new is not old or type(new) not in _IMMUTABLE) and not same_value(new, old):
+                if (new is not old or type(new) not in _SAME_WHEN_IDENTICAL) and not same_value(new, old):
                     break
             else:
                 return None
