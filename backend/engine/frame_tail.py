@@ -24,7 +24,7 @@ from numba import njit
 
 from backend.engine.compiled import entry_point, f8, f8_1, f8_2, i8, i8_2
 from backend.engine.compiled.frames import DERIVATIVES_SIG, derivatives
-from backend.engine.compiled.lazy_entry import LazyEntry
+from backend.engine.compiled.lazy_entry import LazyEntry, LoadOnSecondAsk
 from backend.engine.compiled.pointers import AddressTable, b1, f1, f2, i1
 from backend.engine.core.program import core_enabled
 from backend.engine.frames import AnimationFrame, net_correction
@@ -124,7 +124,7 @@ class FrameTail:
         self.last = np.zeros((3, n_channels))
         self._made: np.ndarray | None = None  # the position array the kernel last made
         self._generation = -1
-        self._asked = 0
+        self._kernel = LoadOnSecondAsk(TAIL)
         self._checked: tuple[object, object] = (None, None)  # the frames `takes` last found readable
         self._n_joints = len(net.joints.names)
         #: The requests handed to the net and the joints it delivered on the last 3 ticks (newest first).
@@ -174,12 +174,7 @@ class FrameTail:
 
     def ready(self) -> bool:
         """Whether the kernel has loaded; the second ask (an engine's second tick) starts loading it."""
-        if TAIL.entry is not None:
-            return True
-        self._asked += 1
-        if self._asked > 1:
-            TAIL.start()
-        return False
+        return TAIL.entry is not None or self._kernel.ready()
 
     def takes(self, final: np.ndarray, stage1: np.ndarray) -> bool:
         """Whether the kernel can read these frames (the entry point checks types, not shapes): float64,

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from backend.engine.blocks.base import PortType
-from backend.engine.compiled.lazy_entry import LazyEntry
+from backend.engine.compiled.lazy_entry import LazyEntry, LoadOnSecondAsk
 from backend.engine.compiled.pointers import AddressTable
 from backend.engine.core import vm
 from backend.engine.core.ops import Op
@@ -212,7 +212,7 @@ class CoreProgram:
         ):
             self.refs.put_at(j, np.ascontiguousarray(array))
         self.rebinds = 0  # binds found necessary by `verify` (a block replaced a listed array unannounced)
-        self._asked = 0  # `ready` calls before the kernel loaded
+        self._kernel = LoadOnSecondAsk(KERNEL)
 
     @classmethod
     def build(cls, apu: APU) -> CoreProgram | None:
@@ -227,16 +227,9 @@ class CoreProgram:
         return cls(apu, compiled) if compiled else None
 
     def ready(self) -> bool:
-        """Whether the kernel has loaded (until then the APU runs the blocks' own ticks). The second ask
-        (the second tick) starts loading it: a program that is only checked, never ticked, never loads
-        it, and the loading thread's claim on the interpreter lock never delays a first frame (90 ms
-        measured on nutty_desk)."""
-        if KERNEL.entry is not None:
-            return True
-        self._asked += 1
-        if self._asked > 1:
-            KERNEL.start()
-        return False
+        """Whether the kernel has loaded (until then the APU runs the blocks' own ticks); the second ask
+        (the second tick) starts loading it (`LoadOnSecondAsk`)."""
+        return KERNEL.entry is not None or self._kernel.ready()
 
     def restore_results(self, results: list[dict[str, Any]]) -> None:
         """Put the compiled steps' frames back in `results` (after the APU ran the blocks' own ticks)."""
