@@ -16,10 +16,38 @@ from collections.abc import Callable
 
 log = logging.getLogger(__name__)
 
+
+class OnceInBackground:
+    """`fn` run once, on a daemon thread of its own started by the first `start` (or `wait`): work the
+    clock can do without until it is done (the warmers below, a kernel's loading:
+    backend/engine/compiled/lazy_entry.py)."""
+
+    def __init__(self, fn: Callable[[], None], name: str):
+        self.fn, self.name = fn, name
+        self.done = threading.Event()  # set once `fn` returned or raised
+        self._started = False
+        self._lock = threading.Lock()
+
+    def start(self) -> None:
+        with self._lock:
+            if self._started:
+                return
+            self._started = True
+        threading.Thread(target=self._run, name=self.name, daemon=True).start()
+
+    def _run(self) -> None:
+        try:
+            self.fn()
+        finally:
+            self.done.set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Start if need be and wait; whether `fn` has finished."""
+        self.start()
+        return self.done.wait(timeout)
+
+
 _WARMERS: list[Callable[[], None]] = []
-_lock = threading.Lock()
-_started = False
-done = threading.Event()
 
 
 def warm_later(fn: Callable[[], None]) -> Callable[[], None]:
@@ -28,28 +56,16 @@ def warm_later(fn: Callable[[], None]) -> Callable[[], None]:
     return fn
 
 
-def start() -> None:
-    """Run the warmers on a thread of their own, once per process."""
-    global _started
-    with _lock:
-        if _started:
-            return
-        _started = True
-    threading.Thread(target=_run, name="nutty-warm-up", daemon=True).start()
-
-
 def _run() -> None:
-    try:
-        for fn in list(_WARMERS):
-            try:
-                fn()
-            except Exception:  # a warmer's failure only leaves that code to load on first use
-                log.exception("warming %s failed; it loads on first use", getattr(fn, "__qualname__", fn))
-    finally:
-        done.set()
+    for fn in list(_WARMERS):
+        try:
+            fn()
+        except Exception:  # a warmer's failure only leaves that code to load on first use
+            log.exception("warming %s failed; it loads on first use", getattr(fn, "__qualname__", fn))
 
 
-def wait(timeout: float | None = None) -> bool:
-    """Start if need be and wait for every warmer; whether they all ran."""
-    start()
-    return done.wait(timeout)
+_WARM_UP = OnceInBackground(_run, "nutty-warm-up")
+#: Run the warmers on a thread of their own, once per process.
+start = _WARM_UP.start
+#: Start if need be and wait for every warmer; whether they all ran.
+wait = _WARM_UP.wait

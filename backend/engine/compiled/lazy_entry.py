@@ -8,10 +8,10 @@ seconds): no start waits for it and no tick pays for it.
 from __future__ import annotations
 
 import logging
-import threading
 from typing import Any
 
 from backend.engine.compiled import entry_point
+from backend.engine.warm_up import OnceInBackground
 
 log = logging.getLogger(__name__)
 
@@ -22,30 +22,21 @@ class LazyEntry:
     def __init__(self, dispatcher: Any, signature: tuple, what: str):
         self.dispatcher, self.signature, self.what = dispatcher, signature, what
         self.entry: Any = None
-        self.loaded = threading.Event()
-        self._started = False
-        self._lock = threading.Lock()
+        self._loading = OnceInBackground(self._load, f"nutty-load-{what}")
 
     def start(self) -> None:
         """Start loading (once)."""
-        with self._lock:
-            if self._started:
-                return
-            self._started = True
-        threading.Thread(target=self._load, name=f"nutty-load-{self.what}", daemon=True).start()
+        self._loading.start()
 
     def _load(self) -> None:
         try:
             self.entry = entry_point(self.dispatcher, self.signature)
         except Exception:  # the slower path goes on: a kernel is a speed-up, never a requirement
             log.exception("%s did not load; its slower path stays in use", self.what)
-        finally:
-            self.loaded.set()
 
     def wait(self, timeout: float | None = None) -> bool:
         """Start loading if need be and wait; whether the entry is there."""
-        self.start()
-        self.loaded.wait(timeout)
+        self._loading.wait(timeout)
         return self.entry is not None
 
 
