@@ -16,7 +16,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from backend.engine.blocks import BLOCKS, BlockContext
+from backend.engine.embodiment import load_embodiment
+from backend.engine.frames import PartialFrame
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Array adapters per tick: the core's kernel call and the frame tail's.
@@ -62,3 +67,21 @@ def test_a_steady_tick_allocates_only_its_argument_adapters_in_compiled_code(nam
         # interactive runs the IK and the gaze every tick: 48 per tick before their workspaces
         assert allocated == ADAPTERS, f"{name}: {allocated} compiled allocations per tick"
         assert freed == allocated, f"{name}: compiled memory not freed ({freed} of {allocated} per tick)"
+
+
+@pytest.mark.parametrize("kind", ["ik", "gaze"])
+def test_a_workspace_too_small_for_its_chain_is_refused_not_overrun(kind):
+    """The kernels carve their scratch from the workspace with slices, which stop at its end: one made
+    for another chain must raise, never be written past."""
+    desk = load_embodiment("nutty_desk")
+    cls = BLOCKS[kind]
+    block = cls(cls.Params(), BlockContext(embodiment=desk, rate=100.0), "n")
+    *args, workspace = block._kernel_args
+    block._kernel_args = (*args, np.zeros(workspace.size - 1))
+    target = [1.0, 0.2, 0.35]
+    with pytest.raises(ValueError):
+        if kind == "ik":
+            everything = PartialFrame(desk.rest.copy(), np.ones(desk.n_channels, dtype=bool), [])
+            block.transform(0.01, everything, {"target": target})
+        else:
+            block.tick(0.01, {"target": target})

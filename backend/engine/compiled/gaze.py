@@ -195,6 +195,8 @@ def _gaze_tick(
     )
     o += 4 * n
     desired, taken, followers = ws[o : o + 2], ws[o + 2 : o + 4], ws[o + 4 : o + 6]
+    if o + 6 > ws.shape[0]:  # slices stop at the end: a short workspace would be written past it
+        raise ValueError("the gaze workspace is smaller than this chain needs (gaze_workspace)")
     values[:] = rest
     for i in range(n):
         values[idx[i]] += x[i]

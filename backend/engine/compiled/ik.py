@@ -250,6 +250,8 @@ def _ik_tick(
     err, point, d, jm = ws[o : o + 3], ws[o + 3 : o + 6], ws[o + 6 : o + 9], ws[o + 9 : o + 12]
     o += 12
     a3, inv3 = ws[o : o + 9].reshape((3, 3)), ws[o + 9 : o + 18].reshape((3, 3))
+    if o + 18 > ws.shape[0]:  # slices stop at the end: a short workspace would be written past it
+        raise ValueError("the IK workspace is smaller than this chain needs (ik_workspace)")
     _joint_positions_into(values, j_rows, j_off, lower, upper, q0)
     q[:] = q0
     for j in range(nv):
