@@ -107,9 +107,22 @@ def centre(box) -> tuple[float, float]:
     return box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
 
 
+def settled_box(locator, timeout: float = 3.0) -> dict:
+    """`locator`'s bounding box once it stopped moving (two reads 50 ms apart agree): right after a
+    load the canvas still frames the program, and a drag aimed at a moving block misses it."""
+    box, end = locator.bounding_box(), time.time() + timeout
+    while time.time() < end:
+        time.sleep(0.05)
+        again = locator.bounding_box()
+        if again == box:
+            break
+        box = again
+    return box
+
+
 def drag_to_point(page, src, x: float, y: float) -> None:
     """Press on `src`, move to (x, y) in steps, release (a wire dragged by hand)."""
-    sx, sy = centre(src.bounding_box())
+    sx, sy = centre(settled_box(src))
     page.mouse.move(sx, sy)
     page.mouse.down()
     page.mouse.move(sx + 20, sy + 5)  # React Flow drops the first move of a drag
@@ -118,7 +131,7 @@ def drag_to_point(page, src, x: float, y: float) -> None:
 
 
 def drag(page, src, dst) -> None:
-    drag_to_point(page, src, *centre(dst.bounding_box()))
+    drag_to_point(page, src, *centre(settled_box(dst)))
 
 
 def handle(page, node: str, port: str, kind: str):
