@@ -37,9 +37,12 @@ def test_one_tick_in_every_is_timed_node_by_node(session):
     assert [n["node"] for n in summary["nodes"]] == [s.node_id for s in apu.steps]  # tick order
     look_at = next(n for n in summary["nodes"] if n["node"] == "look_at")
     assert look_at["type"] == "ik" and 0 < look_at["p50_us"] <= look_at["p99_us"] <= look_at["max_us"]
-    assert sum(n["share"] for n in summary["nodes"]) == pytest.approx(
-        1.0, abs=0.2
-    )  # the APU's own loop aside
+    apu_mean = summary["apu"]["mean_us"]
+    for n in summary["nodes"]:
+        assert n["share"] == pytest.approx(n["mean_us"] / apu_mean)
+    # The nodes are timed inside the APU's tick, so their shares can't add past the whole; how far short
+    # they fall (the loop between them, a thread taking the GIL) depends on the machine's load.
+    assert 0 < sum(n["share"] for n in summary["nodes"]) <= 1.0 + 1e-9
     assert summary["apu"]["mean_us"] >= max(n["mean_us"] for n in summary["nodes"])
     Profile.model_validate(summary)
 
