@@ -185,7 +185,7 @@ def test_the_hot_path_allocates_nothing_that_grows(monkeypatch, robot):
 
 # --- random programs --------------------------------------------------------------------------------
 
-SOURCES = ("rest_pose", "breathe", "noise", "sine")
+SOURCES = ("rest_pose", "breathe", "noise", "sine", "led")
 OPERATORS = ("gain_offset", "motion_filter", "mask")
 
 
@@ -206,9 +206,18 @@ def random_program(draw) -> dict:
             params["smoothing"] = draw(st.sampled_from([0.0, 0.2]))
         elif kind == "sine":
             params = {"amplitude": draw(st.floats(0.0, 0.5)), "frequency": draw(st.floats(0.1, 2.0))}
+        elif kind == "led":
+            params = {
+                "mode": draw(st.sampled_from(["solid", "breathe", "pulse"])),
+                "frequency": draw(st.floats(0.0, 10.0)),
+                "depth": draw(st.floats(0.0, 1.0)),
+                "colour": draw(st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3)),
+            }
         chain = [b.node(kind, f"src{i}", **params)]
         if kind == "breathe" and draw(st.booleans()):
             b.connect(lfo, chain[0], "value", "amplitude")
+        if kind == "led" and draw(st.booleans()):
+            b.connect(lfo, chain[0], "value", draw(st.sampled_from(["depth", "frequency"])))
         for j in range(draw(st.integers(0, 2))):
             op = draw(st.sampled_from(OPERATORS))
             if op == "gain_offset":
@@ -292,6 +301,45 @@ def test_steady_signals_and_their_changes_agree(monkeypatch, robot, changes):
             frames.append(frame_tuple(session.engine.tick()))
         runs[core] = frames
     assert_same_frames(runs[True], runs[False])
+
+
+def test_an_led_agrees_through_commands_wired_colours_and_edits(monkeypatch, robot):
+    """The LED op: set_led commands, a wired colour (which wins over them), a wired depth, and a mode
+    edit; the op's phase stays the block's through its timed ticks."""
+    b = ProgramBuilder("leds")
+    colour = b.expose("c", "colour", default=[0.2, 0.4, 0.6])
+    depth = b.expose("d", "float", default=0.3)
+    wired = b.node("led", "wired", dof="eye_leds", mode="pulse", frequency=1.7, depth=0.5)
+    plain = b.node("led", "plain", dof="eye_leds", mode="breathe", frequency=0.9)
+    mix = b.node("layer_mixer", "mix", layers=[{"name": "a"}, {"name": "b", "mode": "average"}])
+    b.connect(colour, wired, "value", "colour").connect(depth, wired, "value", "depth")
+    b.connect(wired, mix, "out", "a").connect(plain, mix, "out", "b")
+    b.chain(mix, b.output())
+    script = {
+        10: {"type": "set_led", "colour": [1.0, 0.0, 0.5]},
+        20: {"type": "set_input", "name": "c", "value": [0.9, 0.8, 0.1]},
+        30: {"type": "set_input", "name": "d", "value": 0.9},
+    }
+    runs = {}
+    for core in (True, False):
+        session = session_for(monkeypatch, robot, b.to_dict(), core)
+        session.engine.apu.cook.every = 7
+        if core:
+            assert "plain" in segments(session)[0] and "wired" in segments(session)[0]
+        frames = []
+        for k in range(90):
+            if k in script:
+                session.execute(script[k])
+            if k == 45:
+                with pytest.raises(ValueError, match="expects a list of 3 numbers"):  # changes nothing
+                    session.execute({"type": "set_input", "name": "c", "value": [2.0, 0.0]})
+            if k == 60:
+                session.update_params("plain", {"mode": "pulse", "depth": 0.8})
+            frames.append(frame_tuple(session.engine.tick()))
+        runs[core] = frames
+    assert_same_frames(runs[True], runs[False])
+    leds = np.array([f[0][robot.dof("eye_leds").channels] for f in runs[True]])
+    assert np.ptp(leds, axis=0).min() > 0.05  # the colours moved: the comparison covered brightness
 
 
 def test_same_value_tells_what_a_block_could_tell_apart():

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 from backend.engine.blocks.base import Block
 from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter, Sine
+from backend.engine.blocks.display import Led
 from backend.engine.blocks.gaze import Gaze
 from backend.engine.blocks.idle import Breathe, Noise, WeightShift
 from backend.engine.blocks.ik import InverseKinematics
 from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterStage2
 from backend.engine.core.chain_ops import GazeOp, IkOp
+from backend.engine.core.display_ops import LedOp
 from backend.engine.core.ops import (
     BreatheOp,
     FilterOp,
@@ -40,6 +42,7 @@ OPS: dict[type, type[Op]] = {
     LayerMixer: MixerOp,
     InverseKinematics: IkOp,
     Gaze: GazeOp,
+    Led: LedOp,
 }
 
 

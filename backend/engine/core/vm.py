@@ -60,6 +60,8 @@ GAZE = 11  # S: strength, target xyz, (unused), arc_dip, arc_max, arc_smoothing,
 #            workspace (compiled/gaze.py's gaze_workspace)
 SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
+LED = 12  # S: r, g, b, mode, depth, phase, first channel, components | 4 mask
+LED_SOLID, LED_BREATHE, LED_PULSE = 0.0, 1.0, 2.0  # the LED's mode scalar
 
 #: Columns of an op row.
 WIDTH = 24
@@ -100,6 +102,25 @@ def _gather(rows, V, M, A, vals, masks):
 
 
 @njit(cache=True)
+def _led(S, s, rest, out_row):
+    """Led.tick's frame: the rest pose with the colour times the brightness, each component within 0..1
+    (a NaN stays NaN, as the block's comparisons leave it)."""
+    mode, depth, u = S[s + 3], S[s + 4], S[s + 5]
+    factor = 1.0
+    if mode == LED_BREATHE:
+        factor = 1.0 - depth * (0.5 - 0.5 * math.cos(2.0 * math.pi * u))
+    elif mode == LED_PULSE:
+        attack = 0.12
+        level = 0.5 - 0.5 * math.cos(math.pi * u / attack) if u < attack else math.exp(-5.0 * (u - attack))
+        factor = (1.0 - depth) + depth * level
+    out_row[:] = rest
+    c = np.int64(S[s + 6])
+    for i in range(np.int64(S[s + 7])):
+        v = S[s + i] * factor
+        out_row[c + i] = 0.0 if v < 0.0 else 1.0 if v > 1.0 else v
+
+
+@njit(cache=True)
 def run_ops(ops, refs, k0, k1, dt):
     """Run ops k0..k1-1 (see the module doc); returns how many published masks changed.
 
@@ -136,6 +157,9 @@ def run_ops(ops, refs, k0, k1, dt):
             mask = b1(refs, r[7])
             offset_tick(f1(refs, r[4]), f1(refs, r[5]), S[s], f1(refs, r[6]), rest, lo, hi, mask, V[out])
             M[out, :] = mask
+        elif code == LED:
+            _led(S, s, rest, V[out])
+            M[out, :] = b1(refs, r[4])
         elif code == GAIN_OFFSET:
             if has:
                 gain_offset_tick(V[src], rest, b1(refs, r[4]), S[s], S[s + 1], V[out])
