@@ -13,6 +13,7 @@ from fastapi.testclient import TestClient
 from backend.api import create_app
 from backend.api_types import Profile, Telemetry
 from backend.cli import main
+from backend.engine.clock import RingStats, SampledCpu
 from backend.engine.frames import PartialFrame
 from backend.engine.profile import CookTimes, format_table
 from backend.routes.telemetry import PROFILE_PERIOD, Subscription, signal_json, signals_json
@@ -69,6 +70,32 @@ def test_profiling_every_tick_and_a_fresh_window(session):
     session.load_program(json.loads((PROGRAMS / "idle.json").read_text()))  # a new program keeps the setting
     session.engine.run_ticks(3)
     assert session.engine.profile()["samples"] == 3
+
+
+def test_cpu_time_is_read_on_one_plain_tick_in_every():
+    ring = RingStats()
+    cpu = SampledCpu(ring, every=4)
+    plain = [True, True, True, True, False, False, True, True, True, True, True]
+    read = [cpu.start(p) >= 0.0 for p in plain]
+    # due at the first tick, then four later; a tick that isn't plain moves the reading to the next one
+    assert read == [True, False, False, False, False, False, True, False, False, False, True]
+
+
+def test_the_engine_reads_its_cpu_time_between_the_timed_ticks(session):
+    engine = session.engine
+    timed, plain = [], []
+    original = engine._cpu.start
+
+    def start(is_plain: bool) -> float:
+        plain.append(is_plain)
+        timed.append(engine.apu._untimed + 1 >= engine.apu.cook.every)
+        return original(is_plain)
+
+    engine._cpu.start = start
+    engine.run_ticks(200)
+    summary = engine.stats()["tick_cpu"]
+    assert 15 <= summary["samples"] <= 20 and summary["p50_ms"] > 0  # one tick in ten, about
+    assert not any(p and t for p, t in zip(plain, timed))  # a timed tick is never called plain
 
 
 def test_cook_time_table_most_expensive_first():

@@ -97,6 +97,13 @@ class APU:
     def blocks_of(self, role: Role) -> list[Block]:
         return [s.block for s in self.steps if s.block.role is role]
 
+    def plain_next(self) -> bool:
+        """Whether the next tick is a plain one: not timed block by block, and with the core's frames
+        already in `results` when the core runs it (the tick after a timed one puts them back)."""
+        if self._untimed + 1 >= self.cook.every:
+            return False
+        return self.core is None or self._core_results or not self.core.loaded()
+
     def tick(self, dt: float) -> tuple[np.ndarray, np.ndarray, list[FrameEvent]]:
         """Run every step once. Returns (final positions (C,), stage-1 positions (C,), events)."""
         results = self.results

@@ -33,7 +33,7 @@ from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
 
 # The clock and the sinks live in their own modules; they are re-exported here, where callers import them.
-from backend.engine.clock import Clock, RingStats, WallClock
+from backend.engine.clock import Clock, RingStats, SampledCpu, WallClock
 from backend.engine.compiled import default_compiled
 from backend.engine.embodiment import Embodiment
 from backend.engine.frame_tail import FrameTail
@@ -110,7 +110,7 @@ class Engine:
         self._acc = np.zeros(embodiment.n_channels)
         self.last_frame: AnimationFrame | None = None
         self.tick_cost = RingStats()
-        self.tick_cpu = RingStats()  # CPU time the clock thread spent in each tick (tick_cost minus waits)
+        self.tick_cpu = RingStats()  # the clock thread's CPU time in a tick (tick_cost minus waits), sampled
         self.started_at: float | None = None  # wall-clock time (s since the epoch) the clock first started
         self.period = RingStats()
         self.lateness = RingStats()
@@ -128,6 +128,7 @@ class Engine:
         self.clock_priority: ClockPriority | None = ClockPriority() if priority else None
         #: Ticks between two timed ticks of the program's cook times (1: every tick, for `nutty run --profile`).
         self.profile_every, self.profile_window = sample_every(self.rate), WINDOW
+        self._cpu = SampledCpu(self.tick_cpu, self.profile_every)
         self._overriding = False  # whether any channel is overridden (so a tick need not look)
         #: The net and the frame's derivatives (one compiled call on a plain tick: backend/engine/frame_tail.py).
         self.tail = FrameTail(self.safety, self.ctx.compiled)
@@ -316,7 +317,7 @@ class Engine:
     def tick(self) -> AnimationFrame:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
         with self.tick_lock:
-            t0, cpu0 = time.perf_counter(), time.thread_time()
+            t0, cpu0 = time.perf_counter(), self._cpu.start(self.apu is None or self.apu.plain_next())
             self._ticking = threading.get_ident()
             try:
                 return self._tick(t0, cpu0)
@@ -392,7 +393,7 @@ class Engine:
         for sink in self._sinks:
             sink.offer(frame)
         self.tick_cost.add(time.perf_counter() - t0)
-        self.tick_cpu.add(time.thread_time() - cpu0)
+        self._cpu.stop(cpu0)
         return frame
 
     def _requested(self, final: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -231,6 +231,10 @@ class CoreProgram:
         (the second tick) starts loading it (`LoadOnSecondAsk`)."""
         return KERNEL.entry is not None or self._kernel.ready()
 
+    def loaded(self) -> bool:
+        """Whether the kernel has loaded, without asking for it (`ready` counts as an ask)."""
+        return KERNEL.entry is not None
+
     def restore_results(self, results: list[dict[str, Any]]) -> None:
         """Put the compiled steps' frames back in `results` (after the APU ran the blocks' own ticks)."""
         for op in self.ops:
