@@ -45,6 +45,30 @@ def block_rng(ctx: BlockContext, seed: int, node_id: str) -> np.random.Generator
     return np.random.default_rng(np.random.SeedSequence(words))
 
 
+class NormalDraws:
+    """A tick's standard normal draws of one shape, drawn from `rng` `batch` ticks at a time: the same
+    numbers in the same order as one `standard_normal(shape)` per tick (numpy's generator keeps no
+    state between calls but its bit generator's), for one call into numpy per batch, which costs a
+    tick woken from a sleep tens of µs however small the draw."""
+
+    def __init__(self, rng: np.random.Generator, shape: tuple[int, ...], batch: int = 32):
+        self.rng = rng
+        self.batch = np.empty((batch, *shape))  # refilled in place: its address never changes
+        self.used = batch  # draws of the batch handed out
+
+    def advance(self) -> int:
+        """The index of this tick's draws in `batch` (drawing the next batch when this one is used)."""
+        if self.used >= len(self.batch):
+            self.rng.standard_normal(out=self.batch)
+            self.used = 0
+        self.used += 1
+        return self.used - 1
+
+    def next(self) -> np.ndarray:
+        """This tick's draws (a view of `batch`, valid until the batch is drawn again)."""
+        return self.batch[self.advance()]
+
+
 def per_dof_vector(
     emb: Embodiment, values: dict[str, float], field_name: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -214,21 +238,18 @@ class Noise(Source[NoiseParams]):
         x: np.ndarray  # OU state, unit stationary variance
         y: np.ndarray  # low-passed state
         rng: np.random.Generator
+        draws: NormalDraws  # from `rng`, (2, C) per tick
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
         self._dt: float | None = None
         self._tau_s: tuple[float, float] | None = None
         self._kernel = entry_point(noise_tick, NOISE_SIG) if self.ctx.compiled else None
-        self._draws = np.empty(
-            (2, self.emb.n_channels)
-        )  # this tick's normal draws (compiled path; read in the tick only)
 
     def reset(self) -> None:
         n = self.emb.n_channels
-        self.state = self.State(
-            x=np.zeros(n), y=np.zeros(n), rng=block_rng(self.ctx, self.params.seed, self.node_id)
-        )
+        rng = block_rng(self.ctx, self.params.seed, self.node_id)
+        self.state = self.State(x=np.zeros(n), y=np.zeros(n), rng=rng, draws=NormalDraws(rng, (2, n)))
 
     def _transition(self, dt: float) -> None:
         """Exact discretisation of the linear SDE (x, y) over dt: x_{n+1} = a x + L11 e1,
@@ -262,7 +283,7 @@ class Noise(Source[NoiseParams]):
         if dt > 0:
             self._transition(dt)
             a, b, c, l11, l21, l22, _ = self._coef
-            e = st.rng.standard_normal((2, emb.n_channels))
+            e = st.draws.next()
             x_new = a * st.x + l11 * e[0]
             if self.params.smoothing > 0.0:
                 st.y = c * st.x + b * st.y + l21 * e[0] + l22 * e[1]
@@ -280,12 +301,7 @@ class Noise(Source[NoiseParams]):
         step = dt > 0
         if step:
             self._transition(dt)
-            e = self._draws
-            if e.shape != (2, emb.n_channels):
-                e = self._draws = np.empty((2, emb.n_channels))
-            st.rng.standard_normal(
-                out=e
-            )  # the same draws as standard_normal((2, C)), into the block's buffer
+            e = st.draws.next()
         else:
             e = np.zeros((2, emb.n_channels))
         if st.y is st.x:  # without smoothing the reference leaves y and x one array; keep them apart

@@ -212,7 +212,7 @@ class BreatheOp(SourceOp[Breathe]):
 
 class NoiseOp(SourceOp[Noise]):
     code = vm.NOISE
-    n_scalars = 3
+    n_scalars = 4
     # Python's part every tick: the random draws come from the block's numpy generator
 
     def bind(self, refs: Refs) -> None:
@@ -226,11 +226,11 @@ class NoiseOp(SourceOp[Noise]):
 
     def arrays(self) -> list[np.ndarray]:
         b = self.block
-        return [b.state.x, b.state.y, b._coef_array, b._draws, b.mask]
+        return [b.state.x, b.state.y, b._coef_array, b.state.draws.batch, b.mask]
 
     def stale(self) -> bool:
         b = self.block
-        return super().stale() or b._coef_array is not self._coef or b._draws is not self._draws
+        return super().stale() or b._coef_array is not self._coef
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
@@ -246,13 +246,13 @@ class NoiseOp(SourceOp[Noise]):
             b._transition(dt)
             if b._coef_array is not self._coef:  # new coefficients (a new dt or parameters): list them
                 self.rebind_if_stale()
-            st.rng.standard_normal(out=b._draws)  # the draws of the block's own tick, into its buffer
+            S[s + 3] = st.draws.advance()  # the draws the block's own tick would take
         S[s] = 1.0 if dt > 0 else 0.0
         S[s + 1] = 1.0 if p.smoothing > 0.0 else 0.0
         S[s + 2] = float(amp * math.sqrt((p.tau + p.smoothing) / p.tau))
 
     def bound_extra(self) -> None:
-        self._coef, self._draws = self.block._coef_array, self.block._draws
+        self._coef = self.block._coef_array
 
 
 class SineOp(SourceOp[Sine]):

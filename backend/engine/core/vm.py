@@ -41,7 +41,7 @@ from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
 BREATHE = 1  # S: scale, amplitude, inhale, phi | 4 offset_cycles, 5 amp_values, 6 amp_override, 7 mask
-NOISE = 2  # S: step, smooth, gain | 4 x, 5 y, 6 coef, 7 draws (2, C), 8 mask
+NOISE = 2  # S: step, smooth, gain, draw index | 4 x, 5 y, 6 coef, 7 draws (batch, 2, C), 8 mask
 GAIN_OFFSET = 3  # S: gain, offset | 4 sel
 FILTER = 4  # S: one_pass | 4 idx, 5 set-points, 6 cfg, 7 buf (rows, n), 8 an empty mask
 LIMITER = 5  # 4 last, 5 lo, 6 hi, 7 vmax, 8 the continuous mask
@@ -144,7 +144,8 @@ def run_ops(ops, refs, k0, k1, dt):
         elif code == NOISE:
             mask = b1(refs, r[8])
             noise_tick(
-                f1(refs, r[4]), f1(refs, r[5]), f2(refs, r[7]), f1(refs, r[6]), S[s] > 0.5, S[s + 1] > 0.5,
+                f1(refs, r[4]), f1(refs, r[5]), f3(refs, r[7])[np.int64(S[s + 3])], f1(refs, r[6]), S[s] > 0.5,
+                S[s + 1] > 0.5,
                 S[s + 2], rest, lo, hi, mask, V[out],
             )  # fmt: skip
             M[out, :] = mask
