@@ -26,6 +26,7 @@ from backend.engine.blocks.base import (
     soft_range,
 )
 from backend.engine.blocks.display import resolve_dof
+from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.embodiment import DofType
 from backend.engine.frames import FrameEvent, PartialFrame, SteadyFrame
 
@@ -66,7 +67,7 @@ class SayParams(BlockParams):
     )
 
 
-class Say(Source[SayParams]):
+class Say(QuietWhenIdle, Source[SayParams]):
     """Speaks a text: a `say` event on the speech DoF, with the mouth moving while it lasts.
 
     Triggered by the `say` command (the API's say, which waits for completion) or a rising edge of the
@@ -157,6 +158,7 @@ class Say(Source[SayParams]):
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         s = self.state
         trigger = bool(inputs.get("trigger") or False)
+        self.quiet = False
         if trigger and not s.last_trigger:
             text = str(self.driven(inputs).text or "").strip()
             if text:
@@ -182,6 +184,7 @@ class Say(Source[SayParams]):
                 self.node_id, "started", command_id=s.current["command_id"], text=s.current["text"], **extra
             )
         if s.current is None and not s.closing:  # silent (most ticks): the block's one silent frame
+            self.quiet = True  # nothing to say until a command or the trigger (quiet.py)
             return {"out": self._silent, "speaking": False}
         values = self.emb.rest.copy()
         mask = self._nothing  # the masks out are the block's own two, never changed: nothing, or the mouth
@@ -224,7 +227,7 @@ class PlaySoundParams(BlockParams):
     )
 
 
-class PlaySound(Source[PlaySoundParams]):
+class PlaySound(QuietWhenIdle, Source[PlaySoundParams]):
     """Plays a sound clip: a `sound` event on the sound DoF, with started/completed notifications.
 
     Triggered by the `play_sound` command or a rising edge of the `trigger` input (playing `sound`).
@@ -302,6 +305,7 @@ class PlaySound(Source[PlaySoundParams]):
             self.ctx.notify(self.node_id, "started", command_id=clip["command_id"], sound=clip["sound"])
             s.active.append({**clip, "remaining": self.length(clip["sound"])})
         s.pending = []
+        self.quiet = not events and not s.active  # nothing plays or counts down (quiet.py)
         if not events:  # (most ticks) the block's one silent frame
             return {"out": self._silent, "playing": bool(s.active)}
         return {"out": PartialFrame(self.emb.rest.copy(), self._nothing, events), "playing": bool(s.active)}

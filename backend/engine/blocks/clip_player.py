@@ -20,6 +20,7 @@ from backend.engine.blocks.base import (
     drivable,
     soft_range,
 )
+from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.curves import CLIP_SIG, clip_tick
@@ -79,7 +80,7 @@ def _smooth(x: float) -> float:
     return x * x * (3.0 - 2.0 * x)
 
 
-class ClipPlayer(Source[ClipPlayerParams]):
+class ClipPlayer(QuietWhenIdle, Source[ClipPlayerParams]):
     """Plays keyframed clips (per-DoF animation curves) once, looped or ping-pong, at any speed.
 
     Commands: `play {clip, speed?, mode?, crossfade?, anchors?, if_busy?}`, `stop {fade?, command_id?}`,
@@ -129,9 +130,7 @@ class ClipPlayer(Source[ClipPlayerParams]):
         warp: tuple[np.ndarray, np.ndarray] | None = None  # anchor time map (play time -> clip time)
         speed: float | None = None  # the play command's speed (None: the parameter)
         done: bool = False  # the clip ended or was stopped (fading out)
-        queue: list[dict[str, Any]] = field(
-            default_factory=list
-        )  # plays waiting (their args, with command_id)
+        queue: list[dict[str, Any]] = field(default_factory=list)  # plays waiting (args, command_id)
 
     def configure(self) -> None:
         self.allowed = channel_mask(self.emb, self.params.dofs)
@@ -329,7 +328,7 @@ class ClipPlayer(Source[ClipPlayerParams]):
 
     # --- tick ---------------------------------------------------------------------------------------
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        s = self.state
+        s, self.quiet = self.state, False
         trigger = bool(inputs.get("trigger") or False)
         name = self.params.clip
         if s.pending_autoplay or (trigger and not s.last_trigger and name):
@@ -369,6 +368,7 @@ class ClipPlayer(Source[ClipPlayerParams]):
             mask = self._no_mask if s.mask.shape == self._no_mask.shape else np.zeros_like(s.mask)
         values = s.values
         if clip is None and not visible and not events:  # idle (most ticks): one frame until a clip plays
+            self.quiet = True  # until a command, the trigger or new parameters (quiet.py)
             idle = self.__dict__.get("_idle")
             if idle is None or idle[0] is not s or idle[1] is not values or idle[2].mask is not mask:
                 idle = self._idle = (s, values, SteadyFrame(values.copy(), mask, []))

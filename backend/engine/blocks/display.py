@@ -21,6 +21,7 @@ from backend.engine.blocks.base import (
     colour_or_none,
     drivable,
 )
+from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
 from backend.engine.frames import PartialFrame, SteadyFrame
 
@@ -197,7 +198,7 @@ class FaceParams(BlockParams):
     )
 
 
-class Face(Source[FaceParams]):
+class Face(QuietWhenIdle, Source[FaceParams]):
     """Shows a face/screen expression: one option of an enum display DoF (smile, frown, …).
 
     The expression comes from the `expression` input when connected (unknown names are ignored), else
@@ -244,6 +245,7 @@ class Face(Source[FaceParams]):
         wired = self.driven(inputs, expression=None).expression if "expression" in inputs else None
         if isinstance(wired, str) and wired in self.options:
             index = self.options.index(wired)
+        self.quiet = True  # a function of the command, parameters and input (quiet.py)
         shown = self.__dict__.get("_shown")  # one frame per expression shown (frames are read-only)
         if shown is None or shown[0] != index or shown[1].mask is not self.mask:
             values = self.emb.rest.copy()

@@ -13,6 +13,7 @@ from pydantic import Field
 from backend.engine.asset_errors import LibraryError, NotFound
 from backend.engine.blocks.base import BlockCommandError, BlockParams, Port, PortType, Source
 from backend.engine.blocks.core import pose_vector
+from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.frames import PartialFrame, SteadyFrame
 
 log = logging.getLogger(__name__)
@@ -55,7 +56,7 @@ class PostureParams(BlockParams):
     )
 
 
-class Posture(Source[PostureParams]):
+class Posture(QuietWhenIdle, Source[PostureParams]):
     """Goes to a named posture of the robot (happy, sad, curious, …) with a duration and an easing.
 
     Run-time command `go {posture, duration?, easing?}` (the API's go_posture) starts a move from where
@@ -174,6 +175,7 @@ class Posture(Source[PostureParams]):
                     _channels=tuple(np.flatnonzero(s.mask).tolist()),  # what the move moved (action watch)
                 )
                 s.move = None
+        self.quiet = s.move is None  # held: nothing changes until a command (quiet.py)
         if s.move is not None:
             return {"out": PartialFrame(s.current.copy(), s.mask, []), "moving": True}
         # Held (most ticks): one frame until the pose changes (`current` and `mask` are replaced, never

@@ -10,6 +10,7 @@ import numpy as np
 from pydantic import Field
 
 from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source
+from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.embodiment import DofType
 from backend.engine.frames import PartialFrame, SteadyFrame
 from backend.engine.selectors import channel_mask
@@ -38,7 +39,7 @@ class PuppetValueError(ValueError):
         self.dof = dof
 
 
-class Puppet(Source[PuppetParams]):
+class Puppet(QuietWhenIdle, Source[PuppetParams]):
     """Holds the pose a client streams with `puppet` commands (Blender's live link), for a puppet layer.
 
     Each `puppet` command sets the targets of the DoFs it names (the others keep theirs). While messages
@@ -144,9 +145,11 @@ class Puppet(Source[PuppetParams]):
     # --- tick -----------------------------------------------------------------------------------------
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         s, p = self.state, self.params
-        s.silence += dt
-        if s.silence > p.timeout:
-            s.live = False  # the watchdog: the client stopped or dropped
+        self.quiet = False
+        if s.live:  # the watchdog counts while streamed to (`set` restarts it): time is not counted idle
+            s.silence += dt
+            if s.silence > p.timeout:
+                s.live = False  # the client stopped or dropped
         # The envelope is one number: scalar arithmetic, the same as blend.advance_fades on a (1,) array
         # at a fraction of its cost (this block runs every tick of a program, streamed to or not).
         target, fade = (1.0, p.fade_in) if s.live else (0.0, p.fade_out)
@@ -160,6 +163,7 @@ class Puppet(Source[PuppetParams]):
             if idle is None or idle[0] is not s or idle[1].mask is not self._nothing:
                 s.mask[:] = False  # the next stream starts from nothing
                 idle = self._idle = (s, SteadyFrame(s.values.copy(), self._nothing, []))
+            self.quiet = True  # faded out, not streamed to: until a `set` (quiet.py)
             return {"out": idle[1], "weight": 0.0, "live": False}
         weight = env * env * (3.0 - 2.0 * env)  # smoothstep: no kink where the fade starts or ends
         return {"out": PartialFrame(s.values.copy(), s.mask.copy(), []), "weight": weight, "live": s.live}

@@ -8,8 +8,10 @@ A compiled step writes its frame to its arena row instead of allocating one, and
 once: its values are the row; its mask is a copy that is replaced, never changed in place, when the
 row's mask changes; its events are passed along in Python.
 
-A frame from a Python block into a compiled one is copied into an import row before the segment
-(`Import`). Commands, events, swaps and blocks without an op keep the Python path. One tick in
+A Python block that says its tick would change nothing (`quiet`, backend/engine/blocks/quiet.py: an
+idle voice, face, posture, …) is skipped while its params, state and inputs are the objects it last
+ticked on. A frame from a Python block into a compiled one is copied into an import row before the
+segment (`Import`). Commands, events, swaps and blocks without an op keep the Python path. One tick in
 `CookTimes.every` the APU times blocks one by one with their own ticks, which step the same state, and
 `verify` then checks that no block replaced an array the table lists.
 
@@ -31,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from backend.engine.blocks.base import PortType
+from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.compiled.lazy_entry import LazyEntry, LoadOnSecondAsk
 from backend.engine.compiled.pointers import AddressTable
 from backend.engine.core import vm
@@ -169,7 +172,9 @@ class CoreProgram:
         self.ops: list[Op] = []
         by_step: dict[int, Op] = {}
         imports: dict[tuple[int, str], Import] = {}
-        self.plan: list[tuple[Any, ...]] = []  # ("py", step, block, wires) or ("core", segment)
+        # ("py", step, block, wires, quiet memo or None) or ("core", segment); a quiet memo is what a
+        # `QuietWhenIdle` block last ticked on: [params, state, its input values] (params None: look again)
+        self.plan: list[tuple[Any, ...]] = []
         row = 0
         current: list[Op] = []
         current_imports: list[Import] = []
@@ -179,7 +184,8 @@ class CoreProgram:
                 if current:
                     self.plan.append(("core", Segment(current, current_imports)))
                     current, current_imports = [], []
-                self.plan.append(("py", i, step.block, apu._wires[i]))
+                memo = [None, None, ()] if isinstance(step.block, QuietWhenIdle) else None
+                self.plan.append(("py", i, step.block, apu._wires[i], memo))
                 continue
             wired = {w.port: w for w in step.wires}
             srcs: list[Any] = []
@@ -244,17 +250,27 @@ class CoreProgram:
             if entry[0] == "core":
                 entry[1].had_events = True
                 entry[1].seen = None  # the blocks' own ticks may have replaced arrays: look at every op
+            elif entry[4] is not None:
+                entry[4][0] = None  # the block's own tick ran on other inputs, maybe: no skip until it ticks
 
     def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
         """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
         ops, run, refs = self.arena.ops, KERNEL.entry, self.refs.table
         for entry in self.plan:
             if entry[0] == "py":
-                _, i, block, wires = entry
+                _, i, block, wires, memo = entry
+                if memo is not None and block.quiet and memo[0] is block.params and memo[1] is block.state:
+                    for (_, src, src_port), old in zip(wires, memo[2]):
+                        if results[src].get(src_port) is not old:
+                            break
+                    else:
+                        continue  # quiet, on the same inputs: its last outputs stand (blocks/quiet.py)
                 inputs = {}
                 for port, src, src_port in wires:
                     inputs[port] = results[src].get(src_port)
                 results[i] = block.tick(dt, inputs) or {}
+                if memo is not None:
+                    memo[0], memo[1], memo[2] = block.params, block.state, [*inputs.values()]
                 continue
             seg: Segment = entry[1]
             events = False

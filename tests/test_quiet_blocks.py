@@ -1,0 +1,119 @@
+"""Quiet blocks (backend/engine/blocks/quiet.py): the compiled core skips an idle voice, sound player,
+face, posture or clip player while nothing it reads changed, and ticks it again on a command, an edit
+or a reset. That the skips change no frame is checked with every other path in
+tests/test_compiled_core.py (the core against the blocks' own ticks under the scripted AI)."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from pathlib import Path
+
+import pytest
+
+from backend.engine.blocks.quiet import QuietWhenIdle
+from backend.engine.core.program import CORE_ENV, KERNEL
+from backend.engine.embodiment import load_embodiment
+from backend.session import EngineSession
+
+PROGRAM = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs" / "interactive.json"
+QUIET = ("voice", "sfx", "face", "posture", "gesture", "puppet")
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """The interactive program on the core, with each quiet block's ticks counted."""
+    monkeypatch.setenv(CORE_ENV, "1")
+    assert KERNEL.wait(120)
+    session = EngineSession.create(load_embodiment("nutty_desk"), program=json.loads(PROGRAM.read_text()))
+    engine = session.engine
+    engine.apu.cook.every = 10**9  # no timed tick: every tick is the core's
+    counts: Counter[str] = Counter()
+    for node in QUIET:
+        block = engine.apu.block(node)
+        assert isinstance(block, QuietWhenIdle)
+        own = block.tick
+
+        def tick(dt, inputs, own=own, node=node):
+            counts[node] += 1
+            return own(dt, inputs)
+
+        block.tick = tick
+    engine.run_ticks(30)
+    assert engine.apu.core is not None and engine.apu.core.ready()
+    counts.clear()
+    yield session, counts
+    engine.close()
+
+
+def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
+    session, counts = counted
+    engine = session.engine
+    engine.run_ticks(20)
+    assert counts == Counter()  # all six idle: not one tick
+    session.execute({"type": "say", "text": "hi"})
+    engine.run_ticks(10)
+    assert counts["voice"] == 10  # speaking: every tick
+    session.execute({"type": "set_face", "expression": "smile"})
+    engine.run_ticks(5)
+    assert counts["face"] == 1  # the command's tick, then quiet again
+    session.update_params("posture", {"duration": 2.0})
+    engine.run_ticks(5)
+    assert counts["posture"] == 1
+    counts.clear()
+    for node in ("face", "sfx", "gesture"):
+        engine.apu.block(node).reset()  # a new state object (a hot swap's adoption likewise)
+    engine.run_ticks(5)
+    assert [counts[node] for node in ("face", "sfx", "gesture", "posture")] == [1, 1, 1, 0]
+
+
+def test_a_clip_plays_every_tick_and_its_player_goes_quiet_after(counted):
+    session, counts = counted
+    engine = session.engine
+    session.execute({"type": "play_clip", "clip": "nod", "layer": "gesture"})
+    engine.run_ticks(30)
+    assert counts["gesture"] == 30
+    for _ in range(400):  # the clip ends and its envelope fades out
+        engine.tick()
+        if engine.apu.block("gesture").quiet:
+            break
+    counts.clear()
+    engine.run_ticks(10)
+    assert counts["gesture"] == 0
+
+
+def test_a_command_wakes_a_quiet_block():
+    session = EngineSession.create(load_embodiment("nutty_desk"), program=json.loads(PROGRAM.read_text()))
+    try:
+        face = session.engine.apu.block("face")
+        session.engine.run_ticks(2)
+        assert face.quiet
+        session.execute({"type": "set_face", "expression": "smile"})
+        assert not face.quiet
+    finally:
+        session.engine.close()
+
+
+def test_a_puppet_streamed_to_dropped_and_streamed_to_again_agrees_with_its_own_ticks(monkeypatch):
+    """The puppet goes quiet once faded out; a `set` wakes it (the scripted AI streams no puppet, so
+    this is its check of the core against the blocks' own ticks)."""
+    runs = {}
+    for core in (True, False):
+        monkeypatch.setenv(CORE_ENV, "1" if core else "0")
+        assert KERNEL.wait(120)
+        session = EngineSession.create(load_embodiment("nutty_desk"), program=json.loads(PROGRAM.read_text()))
+        frames = []
+        for k in range(500):
+            if k in (20, 21, 22, 300) or 320 <= k < 330:
+                session.execute({"type": "puppet", "values": {"head_yaw": 0.2 + 0.01 * (k % 7)}})
+            if k == 340:
+                session.execute({"type": "puppet", "release": True})
+            frames.append(session.engine.tick().position.copy())
+        runs[core] = frames
+        if core:
+            assert session.engine.apu.block("puppet").quiet  # faded out after the release
+        session.engine.close()
+    diffs = [float(abs(a - b).max()) for a, b in zip(runs[True], runs[False])]
+    assert max(diffs) <= 1e-9
+    yaw = load_embodiment("nutty_desk").dof("head_yaw").channels.start
+    assert abs(runs[True][60][yaw] - runs[True][10][yaw]) > 0.05  # the stream moved the head
