@@ -17,7 +17,17 @@ from backend.engine.embodiment import load_embodiment
 from backend.session import EngineSession
 
 PROGRAM = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs" / "interactive.json"
-QUIET = ("voice", "sfx", "face", "posture", "gesture", "puppet")
+QUIET = (
+    "voice",
+    "sfx",
+    "face",
+    "posture",
+    "gesture",
+    "puppet",
+    "emotion",
+    "look_at_weight",
+    "breath_amplitude",
+)
 
 
 @pytest.fixture
@@ -50,7 +60,7 @@ def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
     session, counts = counted
     engine = session.engine
     engine.run_ticks(20)
-    assert counts == Counter()  # all six idle: not one tick
+    assert counts == Counter()  # all idle or settled: not one tick
     session.execute({"type": "say", "text": "hi"})
     engine.run_ticks(10)
     assert counts["voice"] == 10  # speaking: every tick
@@ -65,6 +75,10 @@ def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
         engine.apu.block(node).reset()  # a new state object (a hot swap's adoption likewise)
     engine.run_ticks(5)
     assert [counts[node] for node in ("face", "sfx", "gesture", "posture")] == [1, 1, 1, 0]
+    counts.clear()
+    session.execute({"type": "set_emotion", "valence": 0.5, "arousal": 0.2})
+    engine.run_ticks(5)
+    assert counts["emotion"] == 5  # new inputs, then smoothing toward them: every tick
 
 
 def test_a_clip_plays_every_tick_and_its_player_goes_quiet_after(counted):

@@ -11,6 +11,7 @@ from typing import Any, Literal
 from pydantic import Field, model_validator
 
 from backend.engine.blocks.base import BlockParams, Port, PortType, SignalBlock, drivable, soft_range
+from backend.engine.blocks.quiet import QuietWhenIdle
 
 # --------------------------------------------------------------------------------------------------
 # Math
@@ -56,7 +57,7 @@ class MathParams(BlockParams):
         return self
 
 
-class Math(SignalBlock[MathParams]):
+class Math(QuietWhenIdle, SignalBlock[MathParams]):
     """Scalar math on signals: arithmetic, min/max, map range, clamp, abs and smoothstep.
 
     Inputs `a` and `b` override the parameters of the same name. Unary operations (map_range, clamp,
@@ -101,6 +102,7 @@ class Math(SignalBlock[MathParams]):
         return p.out_min + u * (p.out_max - p.out_min)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        self.quiet = True  # a function of its inputs and parameters; `last` only holds it (quiet.py)
         try:
             d = self.driven(inputs)
         except (OverflowError, TypeError, ValueError):
@@ -297,7 +299,7 @@ def _same_floats(last: tuple[float, float], v: float, a: float) -> bool:
     )
 
 
-class Emotion(SignalBlock[EmotionParams]):
+class Emotion(QuietWhenIdle, SignalBlock[EmotionParams]):
     """Maps valence and arousal to animation parameters: speed, amplitude, posture offset and posture.
 
     Arousal changes timing (speed multiplier from `speed_min` to `speed_max`) and, with the strength
@@ -347,6 +349,7 @@ class Emotion(SignalBlock[EmotionParams]):
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         p, d, s = self.params, self.driven(inputs), self.state
+        self.quiet = False
         if not s.primed:
             s.v, s.a, s.primed = d.valence, d.arousal, True
         else:
@@ -356,7 +359,9 @@ class Emotion(SignalBlock[EmotionParams]):
         last = self.__dict__.get("_last_out")
         if last is not None and last[0] is s and last[1] is p and _same_floats(last[2], s.v, s.a):
             # Settled (the smoothing no longer moves, the most ticks): the same outputs, the same objects,
-            # which lets the blocks they drive see at once that nothing changed.
+            # which lets the blocks they drive see at once that nothing changed. The smoothing's step
+            # changed nothing: on the same inputs the next changes nothing either (quiet.py).
+            self.quiet = True
             return last[3]
         key = (s.v, s.a, s.posture, p)  # equal numbers (-0.0 == 0.0 too) are equally near every posture
         seen = self.__dict__.get("_nearest_seen")
