@@ -54,13 +54,21 @@ def pane_point(page, fx, fy):
 
 def empty_point(page, fx, fy):
     """The point of the pane's empty space nearest (fx, fy) of its box: a wire dropped there opens the
-    quick-add search (one dropped on a node would not; where nodes land after a fit varies)."""
+    quick-add search (one dropped on a node would not, nor one within React Flow's connection radius of
+    a port, which connects to it; where nodes land after a fit varies)."""
     x0, y0 = pane_point(page, fx, fy)
     found = page.evaluate(
         """([x0, y0]) => {
+            const ports = [...document.querySelectorAll(".react-flow__handle")].map((h) => {
+                const r = h.getBoundingClientRect();
+                return [r.x + r.width / 2, r.y + r.height / 2];
+            });
+            const nodes = [...document.querySelectorAll(".react-flow__node")].map((n) => n.getBoundingClientRect());
             const empty = (x, y) => {
                 const el = document.elementFromPoint(x, y);
-                return !!el && el.classList.contains("react-flow__pane");
+                return !!el && el.classList.contains("react-flow__pane")
+                    && ports.every(([px, py]) => Math.hypot(px - x, py - y) > 48)
+                    && nodes.every((r) => x < r.left - 12 || x > r.right + 12 || y < r.top - 12 || y > r.bottom + 12);
             };
             for (let r = 0; r <= 400; r += 20)
                 for (let a = 0; a < 16; a++) {
@@ -82,13 +90,14 @@ def wire_into_empty_space(page, src, fx, fy) -> None:
     added still lays out); a person would drag again, and so does this, at most three times."""
     search = page.get_by_label("quick add search")
     for _ in range(3):
+        settled(page)
         drag_to_point(page, src, *empty_point(page, fx, fy))
         try:
             search.wait_for(timeout=5000)
             return
         except PlaywrightTimeout:
             page.keyboard.press("Escape")
-            settled(page)
+            fit(page)  # (a block the last fit left out may sit under the canvas controls)
     search.wait_for()  # the third miss fails here, with playwright's message
 
 
@@ -114,10 +123,33 @@ def pick(page, text, block):
 
 
 def fit(page):
-    page.locator(".react-flow__pane").click(position={"x": 5, "y": 5})  # nothing selected: Fit frames all
-    page.get_by_test_id("canvas-controls").get_by_role("button", name="Fit").click()
-    time.sleep(0.2)
-    settled(page)
+    """Frame every block, as Fit does. On a loaded machine a block added a moment ago may not be measured
+    yet, and Fit leaves it out (it can end up under the canvas controls): a person sees that and presses
+    Fit again, and so does this, until every block is inside the canvas."""
+    for _ in range(5):
+        page.locator(".react-flow__pane").click(position={"x": 5, "y": 5})  # nothing selected: Fit frames all
+        page.get_by_test_id("canvas-controls").get_by_role("button", name="Fit").click()
+        time.sleep(0.2)
+        settled(page)
+        if all_blocks_in_view(page):
+            return
+
+
+def all_blocks_in_view(page) -> bool:
+    """Whether every block lies inside the pane and clear of the canvas controls."""
+    return page.evaluate(
+        """() => {
+            const pane = document.querySelector(".react-flow__pane").getBoundingClientRect();
+            const controls = document.querySelector("[data-testid=canvas-controls]")?.getBoundingClientRect();
+            const apart = (a, b) => a.right < b.left || a.left > b.right || a.bottom < b.top || a.top > b.bottom;
+            return [...document.querySelectorAll(".react-flow__node")].every((n) => {
+                const r = n.getBoundingClientRect();
+                const inside = r.left >= pane.left && r.right <= pane.right && r.top >= pane.top
+                    && r.bottom <= pane.bottom;
+                return r.width > 0 && inside && (!controls || apart(r, controls));
+            });
+        }"""
+    )
 
 
 def draft_edges(page) -> set[tuple[str, str, str, str]]:
