@@ -152,20 +152,28 @@ class Led(Source[LedParams]):
             return {"dof": self.dof.name, "colour": [float(c) for c in self.state.commanded]}
         return super().handle(command, args)
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        s = self.state
-        # A wired colour wins; a malformed one falls back to the last command, else the parameter.
-        fallback = s.commanded if s.commanded is not None else self.params.colour
+    def fallback_colour(self) -> Any:
+        """The colour when none is wired (or the wired one is malformed): the last command's, else the
+        parameter (the same object until one of them changes)."""
+        commanded = self.state.commanded
+        return commanded if commanded is not None else self.params.colour
+
+    def resolve(self, inputs: dict[str, Any], fallback: Any) -> tuple[Any, list[float]]:
+        """This tick's drivable parameters (`driven`) and colour components: a wired colour wins, a
+        malformed one falls back to `fallback`. (The compiled core's LED op calls it too.)"""
         if "colour" in inputs:
             d = self.driven(inputs, colour=fallback)
-            rgb = _components(d.colour)
-        else:  # unwired, the colour is the fallback's, converted once per command or parameter change
-            d = self.driven(inputs)
-            seen = self.__dict__.get("_fallback")
-            if seen is None or seen[0] is not fallback:
-                colour = self.drivables["colour"].resolve(None, fallback)
-                seen = self._fallback = (fallback, _components(colour))
-            rgb = seen[1]
+            return d, _components(d.colour)
+        # unwired, the colour is the fallback's, converted once per command or parameter change
+        seen = self.__dict__.get("_fallback")
+        if seen is None or seen[0] is not fallback:
+            colour = self.drivables["colour"].resolve(None, fallback)
+            seen = self._fallback = (fallback, _components(colour))
+        return self.driven(inputs), seen[1]
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+        s = self.state
+        d, rgb = self.resolve(inputs, self.fallback_colour())
         factor = brightness(self.params.mode, s.cycles % 1.0, d.depth)
         s.cycles = (s.cycles + d.frequency * dt) % 1.0
         values = self.emb.rest.copy()

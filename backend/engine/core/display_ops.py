@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from backend.engine.blocks.display import Led, _components
+from backend.engine.blocks.display import Led
 from backend.engine.core import vm
 from backend.engine.core.ops import SourceOp
 
@@ -46,7 +46,7 @@ class LedOp(SourceOp[Led]):
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
         st = b.state
-        fallback = st.commanded if st.commanded is not None else b.params.colour
+        fallback = b.fallback_colour()
         changed = self.changed_inputs(results) if self.signal_ports else None
         if changed is not None:
             self._inputs = changed
@@ -57,13 +57,8 @@ class LedOp(SourceOp[Led]):
 
     def _colour(self, fallback: Any) -> None:
         """Colour, depth and frequency from the wired signals and the fallback, as Led.tick resolves them."""
-        b, inputs, S, s = self.block, self._inputs, self.arena.S, self.s
-        if "colour" in inputs:  # a wired colour wins; a malformed one falls back
-            d = b.driven(inputs, colour=fallback)
-            rgb = _components(d.colour)
-        else:
-            d = b.driven(inputs)
-            rgb = _components(b.drivables["colour"].resolve(None, fallback))
+        S, s = self.arena.S, self.s
+        d, rgb = self.block.resolve(self._inputs, fallback)
         n = min(len(rgb), 3)
         S[s : s + n] = rgb[:n]
         S[s + 7] = float(n)
