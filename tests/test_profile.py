@@ -76,9 +76,17 @@ def test_cpu_time_is_read_on_one_plain_tick_in_every():
     ring = RingStats()
     cpu = SampledCpu(ring, every=4)
     plain = [True, True, True, True, False, False, True, True, True, True, True]
-    read = [cpu.start(p) >= 0.0 for p in plain]
+    asked = []
+
+    def is_plain(k: int) -> bool:
+        asked.append(k)
+        return plain[k]
+
+    read = [cpu.start(lambda k=k: is_plain(k)) >= 0.0 for k in range(len(plain))]
     # due at the first tick, then four later; a tick that isn't plain moves the reading to the next one
     assert read == [True, False, False, False, False, False, True, False, False, False, True]
+    assert asked == [0, 4, 5, 6, 10]  # asked only on the ticks due to be read
+    assert cpu.start(None) < 0.0 and [cpu.start(None) >= 0.0 for _ in range(3)] == [False, False, True]
 
 
 def test_the_engine_reads_its_cpu_time_between_the_timed_ticks(session):
@@ -86,10 +94,13 @@ def test_the_engine_reads_its_cpu_time_between_the_timed_ticks(session):
     timed, plain = [], []
     original = engine._cpu.start
 
-    def start(is_plain: bool) -> float:
-        plain.append(is_plain)
-        timed.append(engine.apu._untimed + 1 >= engine.apu.cook.every)
-        return original(is_plain)
+    def start(is_plain) -> float:
+        def asked() -> bool:
+            plain.append(is_plain())
+            timed.append(engine.apu._untimed + 1 >= engine.apu.cook.every)
+            return plain[-1]
+
+        return original(asked)
 
     engine._cpu.start = start
     engine.run_ticks(200)

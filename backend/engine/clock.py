@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
@@ -43,16 +44,18 @@ class SampledCpu:
     A CPU-time reading is a system call (the thread's CPU clock has no vDSO fast path): ~0.5 µs in a
     tight loop, but ~10 µs on a tick woken from a sleep, more than most of a program's Python steps, so
     two on every tick cost a served tick ~5%. A tick that times the blocks one by one, and the one after
-    it, cost more than a plain tick and are never read (`plain` says which are plain)."""
+    it, cost more than a plain tick and are never read (`plain()` says whether a tick is plain; it is
+    asked only on a tick due to be read)."""
 
     def __init__(self, ring: RingStats, every: int):
         self.ring, self.every = ring, max(1, int(every))
         self._due = 1
 
-    def start(self, plain: bool) -> float:
-        """Call as a tick starts: the thread's CPU time (s) if this tick is read, else -1."""
+    def start(self, plain: Callable[[], bool] | None) -> float:
+        """Call as a tick starts: the thread's CPU time (s) if this tick is read, else -1 (`plain` None:
+        every tick is plain)."""
         self._due -= 1
-        if self._due > 0 or not plain:
+        if self._due > 0 or (plain is not None and not plain()):
             return -1.0
         self._due = self.every
         return time.thread_time()

@@ -317,7 +317,7 @@ class Engine:
     def tick(self) -> AnimationFrame:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
         with self.tick_lock:
-            t0, cpu0 = time.perf_counter(), self._cpu.start(self.apu is None or self.apu.plain_next())
+            t0, cpu0 = time.perf_counter(), self._cpu.start(None if self.apu is None else self.apu.plain_next)
             self._ticking = threading.get_ident()
             try:
                 return self._tick(t0, cpu0)
