@@ -389,3 +389,43 @@ def test_an_import_copies_a_steady_frame_once_and_any_other_frame_every_tick():
     assert not arena.A[0]
     imp.load([{"out": steady}])  # the same frame after a gap is copied again
     assert arena.V[0].tolist() == [7.0, 8.0, 9.0] and arena.A[0]
+
+
+def test_sources_without_signals_step_in_the_kernel_alone(monkeypatch, robot):
+    """Breathing and noise with nothing wired run no Python per tick: the kernel steps the breath's
+    phase and the noise's draws, and asks for the next batch of draws when one is used up."""
+    session = session_for(monkeypatch, robot, program("breathe-anything"), True)
+    engine = session.engine
+    engine.apu.cook.every = 10**9
+    engine.run_ticks(3)  # the core runs from the second tick
+    (seg,) = [entry[1] for entry in engine.apu.core.plan if entry[0] == "core"]
+    assert seg.pres == []
+    draws = engine.apu.block("wander").state.draws
+    breath = engine.apu.block("breathe").state
+    used = []
+    for _ in range(70):
+        phi = breath.phi
+        engine.tick()
+        used.append(draws.used)
+        assert breath.phi == (phi + breath_frequency(session) * engine.dt) % 1.0
+    assert 0 not in used[:1] and all(0 <= u < len(draws.batch) for u in used)
+    assert used.count(0) == 2  # each batch refilled as its last draw was taken, never read used up
+    assert all(b == (a + 1) % len(draws.batch) for a, b in zip(used, used[1:]))
+
+
+def breath_frequency(session: EngineSession) -> float:
+    return float(session.engine.apu.block("breathe").params.frequency)
+
+
+def test_a_used_up_batch_of_draws_is_an_error_not_a_read_past_it(monkeypatch, robot):
+    session = session_for(monkeypatch, robot, program("breathe-anything"), True)
+    engine, notes = session.engine, []
+    session.on_note(notes.append)
+    engine.apu.cook.every = 10**9
+    engine.run_ticks(3)
+    held = engine.last_frame.position.copy()
+    draws = engine.apu.block("wander").state.draws
+    draws.cursor[0] = len(draws.batch)  # what no path leaves behind: the kernel must not read past it
+    frame = engine.tick()
+    assert np.array_equal(frame.program, held)  # the program's frame is the last pose: the clock lives on
+    assert any("used-up batch" in n.get("message", "") for n in notes if n.get("event") == "error")

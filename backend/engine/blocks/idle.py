@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import zlib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -49,20 +49,38 @@ class NormalDraws:
     """A tick's standard normal draws of one shape, drawn from `rng` `batch` ticks at a time: the same
     numbers in the same order as one `standard_normal(shape)` per tick (numpy's generator keeps no
     state between calls but its bit generator's), for one call into numpy per batch, which costs a
-    tick woken from a sleep tens of µs however small the draw."""
+    tick woken from a sleep tens of µs however small the draw.
+
+    `cursor[0]` counts the draws of the batch handed out; the compiled core steps it in place and asks
+    for `refill` when the batch is used up (backend/engine/core/ops.py's NoiseOp), while `advance` here
+    refills when it finds it used up: either way the generator is called for the same batches in the
+    same order, as nothing else draws from it."""
 
     def __init__(self, rng: np.random.Generator, shape: tuple[int, ...], batch: int = 32):
         self.rng = rng
         self.batch = np.empty((batch, *shape))  # refilled in place: its address never changes
-        self.used = batch  # draws of the batch handed out
+        self.cursor = np.full(1, batch, dtype=np.int64)
+
+    @property
+    def used(self) -> int:
+        """Draws of the batch handed out (the batch is drawn when it is first needed)."""
+        return int(self.cursor[0])
+
+    def exhausted(self) -> bool:
+        return int(self.cursor[0]) >= len(self.batch)
+
+    def refill(self) -> None:
+        """Draw the next batch."""
+        self.rng.standard_normal(out=self.batch)
+        self.cursor[0] = 0
 
     def advance(self) -> int:
         """The index of this tick's draws in `batch` (drawing the next batch when this one is used)."""
-        if self.used >= len(self.batch):
-            self.rng.standard_normal(out=self.batch)
-            self.used = 0
-        self.used += 1
-        return self.used - 1
+        if self.exhausted():
+            self.refill()
+        i = int(self.cursor[0])
+        self.cursor[0] = i + 1
+        return i
 
     def next(self) -> np.ndarray:
         """This tick's draws (a view of `batch`, valid until the batch is drawn again)."""
@@ -139,7 +157,17 @@ class Breathe(Source[BreatheParams]):
 
     @dataclass
     class State:
-        phi: float = 0.0  # cycles, in [0, 1)
+        # the phase (cycles, in [0, 1)) in a one-element array: the compiled core steps it in place
+        phase: np.ndarray = field(default_factory=lambda: np.zeros(1))
+
+        @property
+        def phi(self) -> float:
+            """The phase (cycles, in [0, 1))."""
+            return float(self.phase[0])
+
+        @phi.setter
+        def phi(self, value: float) -> None:
+            self.phase[0] = value
 
     def configure(self) -> None:
         p = self.params

@@ -75,6 +75,7 @@ class Op(Generic[B]):
     needs_kernel: ClassVar[bool] = True  # compiled only when the block runs its own compiled tick
     pre_when: ClassVar[str] = "wired"  # when `pre` runs: "always", "wired" (a signal input is), "never"
     passes_events: ClassVar[bool] = True  # whether `post` runs (sources have no events to pass)
+    serviced: ClassVar[bool] = False  # whether the kernel may ask for `service` after it ran
     post_always: ClassVar[bool] = False  # whether `post` has work beside events (else it runs only when
     # a frame into the segment carries events, or did on the tick before: the ones it passed are cleared)
     frame_inputs: ClassVar[tuple[str, ...]] = ("in",)  # the frame ports, in the order rows are listed
@@ -142,6 +143,15 @@ class Op(Generic[B]):
         """Work from the signals again at the next `pre` (the block's own tick may have run in between)."""
         self._signals = None
 
+    def new_dt(self, dt: float) -> None:
+        """The tick's dt changed (a new rate): what the op worked out from the last one."""
+
+    def service(self) -> None:
+        """Python's part after a kernel run that asked for it (`serviced` ops only: the noise's next draws)."""
+
+    def resume(self) -> None:
+        """The APU ran the blocks' own ticks since the last core tick: make the state ready for the kernel."""
+
     def needs_pre(self) -> bool:
         return self.pre_when == "always" or (self.pre_when == "wired" and bool(self.signal_ports))
 
@@ -178,11 +188,11 @@ class RestOp(SourceOp[RestPose]):
 class BreatheOp(SourceOp[Breathe]):
     code = vm.BREATHE
     n_scalars = 4
-    # Python's part every tick: the phase is a float of the block's state
+    pre_when = "wired"  # the kernel steps the phase (the block's one-element `state.phase`)
 
     def arrays(self) -> list[np.ndarray]:
         b = self.block
-        return [b.offset_cycles, b.amp_values, b.amp_override, b.mask]
+        return [b.offset_cycles, b.amp_values, b.amp_override, b.mask, b.state.phase]
 
     def bind(self, refs: Refs) -> None:
         super().bind(refs)
@@ -193,63 +203,62 @@ class BreatheOp(SourceOp[Breathe]):
         S[s] = d.amplitude / p.amplitude if p.amplitude > 0 else 1.0
         S[s + 1] = float(d.amplitude)
         S[s + 2] = float(p.inhale_ratio)
+        S[s + 3] = float(d.frequency)
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        b = self.block
-        st = b.state
-        if self.signal_ports:
-            inputs = self.changed_inputs(results)
-            if inputs is not None:
-                d = b.driven(inputs)
-                self._scalars(d)
-                self._frequency = d.frequency
-            frequency = self._frequency
-        else:
-            frequency = b.params.frequency
-        self.arena.S[self.s + 3] = st.phi
-        st.phi = (st.phi + frequency * dt) % 1.0
+        inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired)
+        if inputs is not None:
+            self._scalars(self.block.driven(inputs))
 
 
 class NoiseOp(SourceOp[Noise]):
     code = vm.NOISE
-    n_scalars = 4
-    # Python's part every tick: the random draws come from the block's numpy generator
+    n_scalars = 2
+    pre_when = "wired"  # the kernel steps the draws' cursor; a new dt comes through `new_dt`
+    serviced = True  # the kernel asks for the next batch of draws when it used up this one
 
     def bind(self, refs: Refs) -> None:
-        st = self.block.state
+        b = self.block
+        st = b.state
         if st.y is st.x:  # as the block's compiled tick: the two stages in two arrays
             st.y = st.y.copy()
-        b = self.block
-        if not hasattr(b, "_coef_array"):
-            b._transition(1.0 / b.ctx.rate)
+        b._transition(self.arena.dt or 1.0 / b.ctx.rate)  # (new parameters: new coefficients)
+        if st.draws.exhausted():  # the kernel never draws: the batch it reads must hold this tick's draws
+            st.draws.refill()
         super().bind(refs)
+        self._scalars(b.params.amplitude)
 
     def arrays(self) -> list[np.ndarray]:
         b = self.block
-        return [b.state.x, b.state.y, b._coef_array, b.state.draws.batch, b.mask]
+        st = b.state
+        return [st.x, st.y, b._coef_array, st.draws.batch, b.mask, st.draws.cursor]
 
     def stale(self) -> bool:
         b = self.block
         return super().stale() or b._coef_array is not self._coef
 
+    def _scalars(self, amp: float) -> None:
+        p, S, s = self.block.params, self.arena.S, self.s  # as Noise.tick's compiled branch
+        S[s] = 1.0 if p.smoothing > 0.0 else 0.0
+        S[s + 1] = float(amp * math.sqrt((p.tau + p.smoothing) / p.tau))
+
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        b = self.block
-        p, st, S, s = b.params, b.state, self.arena.S, self.s
-        if self.signal_ports:
-            inputs = self.changed_inputs(results)
-            if inputs is not None:
-                self._amplitude = b.driven(inputs).amplitude
-            amp = self._amplitude
-        else:
-            amp = p.amplitude
+        inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired)
+        if inputs is not None:
+            self._scalars(self.block.driven(inputs).amplitude)
+
+    def new_dt(self, dt: float) -> None:
         if dt > 0:
-            b._transition(dt)
-            if b._coef_array is not self._coef:  # new coefficients (a new dt or parameters): list them
-                self.rebind_if_stale()
-            S[s + 3] = st.draws.advance()  # the draws the block's own tick would take
-        S[s] = 1.0 if dt > 0 else 0.0
-        S[s + 1] = 1.0 if p.smoothing > 0.0 else 0.0
-        S[s + 2] = float(amp * math.sqrt((p.tau + p.smoothing) / p.tau))
+            self.block._transition(dt)
+            self.rebind_if_stale()  # new coefficients: list them
+
+    def service(self) -> None:
+        draws = self.block.state.draws
+        if draws.exhausted():
+            draws.refill()
+
+    def resume(self) -> None:
+        self.service()  # the blocks' own ticks may have used up the batch
 
     def bound_extra(self) -> None:
         self._coef = self.block._coef_array

@@ -73,6 +73,7 @@ class Arena:
         self.S = np.zeros(0)
         self.ops = np.full((n_ops, vm.WIDTH), -1, dtype=np.int64)
         self._slots = 0
+        self.dt: float | None = None  # the last tick's dt (s); None before the first core tick
 
     def scalar_slots(self, n: int) -> int:
         """Reserve `n` scalar slots; the index of the first."""
@@ -135,6 +136,7 @@ class Segment:
         self.pres = [op for op in ops if op.needs_pre()]
         self.posts = [op for op in ops if op.passes_events]
         self.always = [op for op in self.posts if op.post_always]
+        self.serviced = [op for op in ops if op.serviced]
         self.had_events = True  # whether the ops' frames may hold events (cleared by a quiet tick's posts)
         self.blocks = [op.block for op in ops]
         # The blocks' parameters and states when every op was last found bound (None: look again).
@@ -246,6 +248,7 @@ class CoreProgram:
         for op in self.ops:
             results[op.step] = op.result
             op.forget_inputs()
+            op.resume()
         for entry in self.plan:
             if entry[0] == "core":
                 entry[1].had_events = True
@@ -256,6 +259,8 @@ class CoreProgram:
     def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
         """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
         ops, run, refs = self.arena.ops, KERNEL.entry, self.refs.table
+        if dt != self.arena.dt:
+            self._new_dt(dt)
         for entry in self.plan:
             if entry[0] == "py":
                 _, i, block, wires, memo = entry
@@ -286,10 +291,19 @@ class CoreProgram:
                 op.pre(dt, results)
             changed = run(ops, refs, seg.k0, seg.k1, dt)
             if changed:
-                self._publish(seg)
+                if changed >= vm.SERVICE:
+                    for op in seg.serviced:
+                        op.service()
+                if changed % vm.SERVICE:
+                    self._publish(seg)
             for op in seg.posts if events or seg.had_events else seg.always:
                 op.post()
             seg.had_events = events
+
+    def _new_dt(self, dt: float) -> None:
+        self.arena.dt = dt
+        for op in self.ops:
+            op.new_dt(dt)
 
     def _publish(self, seg: Segment) -> None:
         a = self.arena

@@ -40,8 +40,10 @@ from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
-BREATHE = 1  # S: scale, amplitude, inhale, phi | 4 offset_cycles, 5 amp_values, 6 amp_override, 7 mask
-NOISE = 2  # S: step, smooth, gain, draw index | 4 x, 5 y, 6 coef, 7 draws (batch, 2, C), 8 mask
+BREATHE = 1  # S: scale, amplitude, inhale, frequency | 4 offset_cycles, 5 amp_values, 6 amp_override, 7 mask,
+#               8 phase (1,): read, then stepped by frequency * dt (as Breathe.tick)
+NOISE = 2  # S: smooth, gain | 4 x, 5 y, 6 coef, 7 draws (batch, 2, C), 8 mask, 9 draws' cursor (1,): the
+#             batch row of this tick's draws, stepped here; a used-up batch asks for `SERVICE`
 GAIN_OFFSET = 3  # S: gain, offset | 4 sel
 FILTER = 4  # S: one_pass | 4 idx, 5 set-points, 6 cfg, 7 buf (rows, n), 8 an empty mask
 LIMITER = 5  # 4 last, 5 lo, 6 hi, 7 vmax, 8 the continuous mask
@@ -62,6 +64,9 @@ SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
 LED = 12  # S: r, g, b, mode, depth, phase, first channel, components | 4 mask
 LED_SOLID, LED_BREATHE, LED_PULSE = 0.0, 1.0, 2.0  # the LED's mode scalar
+
+#: What `run_ops` adds to its count of changed masks per op asking for Python's `service` after the run.
+SERVICE = 1 << 32
 
 #: Columns of an op row.
 WIDTH = 24
@@ -122,7 +127,8 @@ def _led(S, s, rest, out_row):
 
 @njit(cache=True)
 def run_ops(ops, refs, k0, k1, dt):
-    """Run ops k0..k1-1 (see the module doc); returns how many published masks changed.
+    """Run ops k0..k1-1 (see the module doc); returns how many published masks changed, plus `SERVICE`
+    times how many ops asked for Python's `service` after the run.
 
     Two array arguments only: each array a compiled function receives costs its unboxing (and a small
     allocation) per call, so the arena and the robot's arrays are read from `refs` like the ops' own."""
@@ -130,24 +136,33 @@ def run_ops(ops, refs, k0, k1, dt):
     A, CH, S = b1(refs, REF_A), b1(refs, REF_CH), f1(refs, REF_S)
     rest, lo, hi, enum = f1(refs, REF_REST), f1(refs, REF_LO), f1(refs, REF_HI), b1(refs, REF_ENUM)
     changed = 0
+    service = 0
     for k in range(k0, k1):
         code, out, src, s = ops[k, 0], ops[k, 1], ops[k, 2], ops[k, 3]
         r = ops[k]
         has = src >= 0 and A[src]
         if code == BREATHE:
-            mask = b1(refs, r[7])
+            mask, phase = b1(refs, r[7]), f1(refs, r[8])
             breathe_tick(
-                S[s + 3], f1(refs, r[4]), b1(refs, r[6]), f1(refs, r[5]), S[s], S[s + 1], S[s + 2],
+                phase[0], f1(refs, r[4]), b1(refs, r[6]), f1(refs, r[5]), S[s], S[s + 1], S[s + 2],
                 rest, lo, hi, mask, V[out],
             )  # fmt: skip
+            phase[0] = (phase[0] + S[s + 3] * dt) % 1.0
             M[out, :] = mask
         elif code == NOISE:
-            mask = b1(refs, r[8])
+            mask, draws, cursor = b1(refs, r[8]), f3(refs, r[7]), i1(refs, r[9])
+            i = cursor[0]
+            if i >= draws.shape[0]:  # the op refills a used-up batch before the next run: never here
+                raise ValueError("compiled core: a noise op ran on a used-up batch of draws")
+            step = dt > 0.0
             noise_tick(
-                f1(refs, r[4]), f1(refs, r[5]), f3(refs, r[7])[np.int64(S[s + 3])], f1(refs, r[6]), S[s] > 0.5,
-                S[s + 1] > 0.5,
-                S[s + 2], rest, lo, hi, mask, V[out],
+                f1(refs, r[4]), f1(refs, r[5]), draws[i], f1(refs, r[6]), step, S[s] > 0.5, S[s + 1],
+                rest, lo, hi, mask, V[out],
             )  # fmt: skip
+            if step:
+                cursor[0] = i + 1
+                if i + 1 >= draws.shape[0]:
+                    service += 1
             M[out, :] = mask
         elif code == SINE:
             spread, mask = f1(refs, r[4]), b1(refs, r[5])
@@ -231,4 +246,4 @@ def run_ops(ops, refs, k0, k1, dt):
         A[out] = True
         if _publish(out, M, P, CH):
             changed += 1
-    return changed
+    return changed + service * SERVICE
