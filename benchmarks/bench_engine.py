@@ -12,8 +12,9 @@ or a fast machine compare.
    Then the wake pattern (benchmarks/wake.py): the interactive program and 1000-DoF breathe-anything
    against one Ruckig-25 update, both timed back to back (hot) and after each sleep of the tick's
    period (woken: what a real clock finds), interleaved. The `floor` row times one small numpy call
-   alike: on a virtual machine, the first touches of code after a sleep cost microseconds each, and
-   a woken tick pays them for every distinct path it runs.
+   alike, and the `scattered` row one attribute read of 100 Python objects spread over a large heap:
+   on a virtual machine, caches and address translations are cold after a sleep, and a woken tick
+   pays for every distinct path it runs and, above all, for every object and array it touches.
 2. Served: `nutty serve` with the Pre-Viz on (in its own process) and its page open, 4 editor telemetry clients, a 100 Hz
    driver and the scripted AI over REST (benchmarks/served.py): tick p50/p99 (and the tick's own CPU
    time), lateness p99 (the period jitter: how late a tick starts), overruns, lost ticks, and the
@@ -260,6 +261,9 @@ WAKE_PATTERNS = (
 
 #: The wake table's row that times one small numpy call: what this machine charges any code for waking.
 FLOOR = "floor: one numpy call"
+#: Its row that reads one attribute of 100 Python objects spread over a large heap: what waking charges
+#: per object a tick touches (the Python parts of a tick touch hundreds).
+SCATTERED = "100 scattered Python objects"
 
 
 def run_wake(peer: Peer) -> dict[float, float]:
@@ -280,12 +284,14 @@ def run_wake(peer: Peer) -> dict[float, float]:
     for engine in engines:
         engine.run_ticks(WARM_UP)
     floor = np.empty(22)
+    spread, _heap = wake.scattered_objects(100)
     ticks = {
         "interactive": lambda k: engines[0].tick(),
         "interactive (core off)": lambda k: engines[2].tick(),
         f"breathe-anything, {many.n_channels} DoFs": lambda k: engines[1].tick(),
         # The machine's own charge for waking: one small numpy call, the least a tick can do.
         FLOOR: lambda k: np.copyto(floor, 0.0),
+        SCATTERED: lambda k: wake.read_all(spread),
     }
     patterns = tuple((label, sleep) for label, sleep, _ in WAKE_PATTERNS)
     rows = wake.wake_rows(ticks, wake.ruckig_step(RUCKIG_DOFS, peer.targets, 0.01), patterns)
@@ -300,7 +306,7 @@ def run_wake(peer: Peer) -> dict[float, float]:
             woken[rates[label]] = b50
         if label in ("hot", "woken at 100 Hz"):
             goal = ""
-            if label == "hot" and not name.endswith("(core off)") and name != FLOOR:
+            if label == "hot" and not name.endswith("(core off)") and name not in (FLOOR, SCATTERED):
                 many = name != "interactive"
                 goal = (
                     f" ({verdict(a50, TARGETS['many_us'], ' µs')})"

@@ -59,6 +59,30 @@ def side_by_side(
     return np.concatenate(a), np.concatenate(b)
 
 
+class _Box:
+    __slots__ = ("value",)
+
+    def __init__(self, value: float):
+        self.value = value
+
+
+def scattered_objects(n: int, among: int = 200_000, seed: int = 0) -> tuple[list[_Box], list[_Box]]:
+    """`n` small objects picked at random among `among` made one after another (and all kept alive):
+    what a tick of a long-running Python program reads, objects that lie far apart in its heap.
+    Returns (the picked ones, all of them)."""
+    every = [_Box(float(i)) for i in range(among)]
+    picks = np.random.default_rng(seed).choice(among, n, replace=False)
+    return [every[i] for i in picks], every
+
+
+def read_all(objects: list[_Box]) -> float:
+    """One attribute of each object: the least a tick does with the objects it touches."""
+    total = 0.0
+    for box in objects:
+        total += box.value
+    return total
+
+
 def wake_rows(
     ticks: dict[str, Callable[[int], object]],
     peer: Callable[[int], object],
