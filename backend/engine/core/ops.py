@@ -1,10 +1,12 @@
 """How each compiled block type becomes a row of the core's op table (backend/engine/core/vm.py).
 
 An op binds its block's arrays (state and derived constants) into the table, writes the scalars the
-kernel reads each tick (`pre`, in Python: the drivable parameters, a breath's phase, a noise block's
-random draws) and passes the events along (`post`), which the kernel does not see. The block keeps
-its state: the kernel writes into the block's own arrays, so the block's own tick (which the APU runs
-to time blocks one by one) and the core step the same state.
+kernel reads (`pre`, in Python: the drivable parameters from wired signals, a gaze's target) and passes
+the events along (`post`), which the kernel does not see. The block keeps its state: the kernel writes
+into the block's own arrays, so the block's own tick (which the APU runs to time blocks one by one) and
+the core step the same state. State the kernel steps itself lives in arrays for that reason (a breath's
+phase, the cursor into a noise block's batch of draws), and an op whose kernel step needs Python
+afterwards (drawing the noise's next batch) asks for its `service` through `run_ops`' return.
 
 An op is bound again when its block may have replaced the arrays it listed: new parameters (a live
 edit), a new state object (reset, a hot swap's adopted state) or, for the ops that say so, after their
