@@ -171,11 +171,17 @@ class Led(Source[LedParams]):
             seen = self._fallback = (fallback, _components(colour))
         return self.driven(inputs), seen[1]
 
-    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
+    def advance(self, frequency: float, dt: float) -> float:
+        """This tick's phase (cycles, 0..1), then the phase stepped by `frequency` (Hz) over `dt` (s).
+        (The compiled core's LED op calls it too.)"""
         s = self.state
+        u = s.cycles % 1.0
+        s.cycles = (s.cycles + frequency * dt) % 1.0
+        return u
+
+    def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
         d, rgb = self.resolve(inputs, self.fallback_colour())
-        factor = brightness(self.params.mode, s.cycles % 1.0, d.depth)
-        s.cycles = (s.cycles + d.frequency * dt) % 1.0
+        factor = brightness(self.params.mode, self.advance(d.frequency, dt), d.depth)
         values = self.emb.rest.copy()
         # np.clip(colour * factor, 0, 1) on three numbers, without numpy's per-call cost: comparisons
         # (the same result as min(max(v, 0), 1), NaN and -0.0 included), element by element (a list

@@ -1,7 +1,7 @@
 """Ops of the display sources (backend/engine/blocks/display.py): what the kernel computes of an LED.
 
 The LED's brightness curve and the clipped colour run in the kernel; Python's part every tick is the
-phase, a float of the block's state that its own tick steps too. The colour and depth are worked out
+phase, a float of the block's state that its own tick steps too (`Led.advance`, shared by both). The colour and depth are worked out
 again only when a wired signal or the `set_led` command changes them, as the block's tick would.
 """
 
@@ -45,15 +45,13 @@ class LedOp(SourceOp[Led]):
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
-        st = b.state
         fallback = b.fallback_colour()
         changed = self.changed_inputs(results) if self.signal_ports else None
         if changed is not None:
             self._inputs = changed
         if changed is not None or fallback is not self._fallback:
             self._colour(fallback)
-        self.arena.S[self.s + 5] = st.cycles % 1.0
-        st.cycles = (st.cycles + self._frequency * dt) % 1.0
+        self.arena.S[self.s + 5] = b.advance(self._frequency, dt)
 
     def _colour(self, fallback: Any) -> None:
         """Colour, depth and frequency from the wired signals and the fallback, as Led.tick resolves them."""
