@@ -22,6 +22,9 @@ or a fast machine compare.
    rate on a running clock without a server, measured just before (a clock that sleeps between ticks
    finds colder caches than a tight headless loop, and the machine's other load delays any clock).
    The machine's load average is printed.
+   Then the same at 100 Hz with `--clock-cpu auto` (the clock on a CPU of its own, kept out of idle
+   states where the benchmark may: root), beside the interactive tick and Ruckig-25 woken alike on
+   such a CPU: what a robot's set-up gives, and the ratio when both sides get it.
 3. Start-up of `nutty serve` to its first frame, with numba's cache warm (and cold: `--cold`).
 4. Where the server's cost comes from (`--long` or `--attribute`): the served figures at 500 Hz with
    no clients, then each part of the load alone (the Pre-Viz and its page, the telemetry clients, the
@@ -427,6 +430,46 @@ def _vs_woken(tick_us: float, rate: float, woken: dict[float, float] | None, hot
     return f"{tick_us / hot:.2f}× Ruckig-25 hot"
 
 
+def run_clock_cpu(peer: Peer, seconds: float, woken: dict[float, float] | None) -> None:
+    """`nutty serve --clock-cpu auto` at 100 Hz under the served load, and the interactive tick against
+    Ruckig-25 woken alike on a CPU of their own kept awake the same way (wake.side_by_side_on_own_cpu):
+    what the clock's own CPU gives, and the ratio when both sides get it."""
+    import served
+
+    with switched():
+        engine = settled_session(load_embodiment("nutty_desk"), 100.0, program("interactive")).engine
+    engine.run_ticks(WARM_UP)
+    both = wake.side_by_side_on_own_cpu(
+        lambda k: engine.tick(), wake.ruckig_step(RUCKIG_DOFS, peer.targets, 0.01), 0.01
+    )
+    engine.close()
+    if both is None:
+        print("\n--clock-cpu: this machine lets the process use one CPU only; not measured")
+        return
+    a50, b50 = float(np.median(both[0])), float(np.median(both[1]))
+    own = both[2]
+    awake = "kept awake" if own["kept_awake"] else f"not kept awake: {own['note']}"
+    r = served.measure(100.0, seconds, server_args=("--clock-cpu", "auto"))
+    st = r["status"]
+    cpu = st.get("clock_cpu") or {}
+    p50 = st["tick_cost"]["p50_ms"] * 1e3
+    print(
+        f"\nThe clock on a CPU of its own (--clock-cpu auto: CPU {own['cpu']}, {awake}), woken at 100 Hz: "
+        f"interactive tick {a50:.0f} µs p50 against Ruckig-25 {b50:.0f} µs on the same CPU = {a50 / b50:.2f}×"
+    )
+    print(
+        f"  served at 100 Hz with --clock-cpu auto (server's clock_cpu: {cpu}): tick {p50:.0f} µs p50 "
+        f"(CPU {st['tick_cpu']['p50_ms'] * 1e3:.0f} µs), p99 {st['tick_cost']['p99_ms'] * 1e3:.0f} µs, "
+        f"lateness p99 {st['jitter']['p99_ms']:.2f} ms, {r['overruns']} overruns"
+    )
+    plain = f"{p50 / woken[100.0]:.2f}× Ruckig-25 woken plainly ({woken[100.0]:.0f} µs), " if woken else ""
+    headline(
+        f"served at 100 Hz with --clock-cpu ({awake}): tick {p50:.0f} µs p50 = {plain}"
+        f"{p50 / b50:.2f}× Ruckig-25 woken on a CPU kept awake alike ({b50:.0f} µs); not the target's "
+        "measure (that is the served line above, on the default set-up)"
+    )
+
+
 #: Where the server's extra cost comes from: the same server under one part of the load at a time.
 ATTRIBUTION = (
     ("server, no clients", (), ("--no-previz",)),
@@ -511,6 +554,7 @@ def main() -> None:
     woken = run_wake(peer)
     if not args.no_server:
         run_served(peer, args.seconds, RATES, headless, woken)
+        run_clock_cpu(peer, args.seconds, woken)
         if args.long:
             run_served(peer, 60.0, (500.0,), headless, woken)
         if args.long or args.attribute:

@@ -13,11 +13,14 @@ each call). Both run in interleaved chunks so that drifts in the machine's load 
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 
 import numpy as np
 from bench_nmf import ruckig_setup
+
+from backend.engine import clock_cpu
 
 CHUNK = 50  # calls per side before switching to the other
 CALLS = 400  # timed calls per side and pattern
@@ -81,6 +84,32 @@ def read_all(objects: list[_Box]) -> float:
     for box in objects:
         total += box.value
     return total
+
+
+def side_by_side_on_own_cpu(
+    tick: Callable[[int], object], peer: Callable[[int], object], sleep: float
+) -> tuple[np.ndarray, np.ndarray, dict] | None:
+    """`side_by_side` on a thread of its own on a CPU of its own kept out of idle states, as
+    `nutty serve --clock-cpu auto` runs the clock (backend/engine/clock_cpu.py): (tick µs, peer µs, the
+    CPU's status), or None on a machine with one CPU."""
+    cpu = clock_cpu.choose("auto")
+    if cpu is None:
+        return None
+    held = clock_cpu.ClockCpu(cpu).open()
+    out: list[np.ndarray] = []
+
+    def run() -> None:
+        held.pin()
+        out.extend(side_by_side(tick, peer, sleep))
+
+    try:
+        thread = threading.Thread(target=run, name="own-cpu")
+        thread.start()
+        thread.join()
+    finally:
+        status = held.status()
+        held.close()
+    return out[0], out[1], status
 
 
 def wake_rows(

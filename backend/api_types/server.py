@@ -31,6 +31,18 @@ class ClockPriority(Shape):
     realtime: int | None = Field(..., description="its SCHED_FIFO priority (null: not real-time)")
 
 
+class ClockCpu(Shape):
+    """The clock's own CPU (`nutty serve --clock-cpu`)."""
+
+    cpu: int = Field(..., description="the CPU the clock thread runs on")
+    pinned: bool = Field(..., description="whether the clock thread runs on that CPU only")
+    isolated: bool = Field(..., description="whether the server's other threads were moved off it")
+    kept_awake: bool = Field(
+        ..., description="whether the CPU is kept out of idle states (its PM QoS limit is n/a)"
+    )
+    note: str | None = Field(..., description="why something above did not happen (null: all did)")
+
+
 class SafetyStats(OpenShape):
     """The engine's safety net: how often it corrected the program's output, and where. Open: the net
     may report more figures than these."""
@@ -166,6 +178,9 @@ class ServerStatus(OpenShape):
     jitter: TimingSummary
     started_at: float | None = Field(..., description="when the clock started (Unix time, s)")
     clock_priority: ClockPriority | None
+    clock_cpu: ClockCpu | None = Field(
+        default=None, description="the clock's own CPU (null: the clock runs where the OS puts it)"
+    )
     sinks: list[SinkStats]
     clients: ClientCounts
     program: str | None = Field(..., description="the running program's name")

@@ -63,6 +63,14 @@ def register(sub) -> None:
     p.add_argument("--previz-port", type=int, default=8080, help="Pre-Viz (viser) port (default 8080)")
     p.add_argument("--no-previz", action="store_true", help="run without the 3D Pre-Viz")
     p.add_argument("--rate", type=float, default=100.0, help="tick rate in Hz, 30..1000 (default 100)")
+    p.add_argument(
+        "--clock-cpu",
+        default="off",
+        metavar="CPU|auto|off",
+        help="run the engine's clock on this CPU alone and keep that CPU out of idle states (Linux; "
+        "keeping it awake needs root): ticks several times cheaper, at the price of one CPU always "
+        "busy. 'auto': the highest CPU the process may use (default off; backend/engine/clock_cpu.py)",
+    )
     add_driver_options(p)  # --osc, --record, --sim-servo and every other driver in backend/drivers
     p.add_argument(
         "--token",
@@ -184,6 +192,7 @@ def run(args) -> int:
         session.engine.close()
         return fail(str(exc))
     settle_heap()  # before the clock starts: the robot's program, kernels and imports never walked again
+    clock_cpu = open_clock_cpu(args, session.engine)
     session.engine.start()
     previz = spawn_previz(session, args)
     # The server's own imports come after the first frame: the robot need not wait for them, and the
@@ -226,6 +235,8 @@ def run(args) -> int:
             zenoh.close()  # a Zenoh session left open keeps the process from exiting
         if ros2 is not None:
             ros2.close()
+        if clock_cpu is not None:
+            clock_cpu.close()  # after the clock stopped: the CPU goes back to its idle states
         restore_signals()
     return code
 
@@ -239,9 +250,32 @@ def check_options(args) -> str | None:
             f"--shutdown-timeout must be within (0, {MAX_SHUTDOWN_TIMEOUT:g}] seconds, "
             f"got {args.shutdown_timeout:g}"
         )
+    try:
+        choose_clock_cpu(args.clock_cpu)
+    except ValueError as exc:
+        return str(exc)
     if args.unsafe_no_limits and getattr(args, "hardware", None):
         return "--unsafe-no-limits is refused with --hardware: real servos always get the safety net's frames"
     return check_ros2_options(args)
+
+
+def open_clock_cpu(args, engine):
+    """The clock's own CPU that `--clock-cpu` asks for, opened (the server's threads moved off it, the
+    CPU kept awake where permitted), or None; the clock thread moves to it when it starts."""
+    cpu = choose_clock_cpu(args.clock_cpu)
+    if cpu is None or engine.clock_priority is None:
+        return None
+    from backend.engine.clock_cpu import ClockCpu  # lazy: a fast `nutty --help`
+
+    engine.clock_priority.cpu = opened = ClockCpu(cpu).open()
+    print(f"clock on CPU {cpu}" + ("" if opened.kept_awake else f" ({opened.note})"), flush=True)
+    return opened
+
+
+def choose_clock_cpu(spec: str) -> int | None:
+    from backend.engine.clock_cpu import choose  # lazy: a fast `nutty --help`
+
+    return choose(spec)
 
 
 def open_ros2(args, emb):

@@ -49,6 +49,10 @@ import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from backend.engine.clock_cpu import ClockCpu
 
 #: Switch interval (s) while a clock runs: the longest another running thread keeps the lock once asked.
 SWITCH_INTERVAL = 0.0002
@@ -64,7 +68,8 @@ class ClockPriority:
     """The clock thread's claim on the interpreter lock and the CPU (see the module doc).
 
     `nice` is the nice value the clock thread got (None: unchanged: not permitted, or not Linux);
-    `realtime` its SCHED_FIFO priority (None: not real-time)."""
+    `realtime` its SCHED_FIFO priority (None: not real-time). `cpu`, when set before the clock starts
+    (`nutty serve --clock-cpu`), is the CPU the clock thread moves to (backend/engine/clock_cpu.py)."""
 
     # Clocks running now and the interval found before the first of them: the last one to stop restores it.
     _running = 0
@@ -83,6 +88,7 @@ class ClockPriority:
         self.nice: int | None = None
         self.realtime: int | None = None
         self._tid: int | None = None
+        self.cpu: ClockCpu | None = None
 
     def apply(self) -> None:
         """On the clock thread, before its first tick."""
@@ -95,6 +101,8 @@ class ClockPriority:
         if not sys.platform.startswith("linux"):
             return
         tid = self._tid = threading.get_native_id()  # on Linux a thread's own id takes per-thread priority
+        if self.cpu is not None:
+            self.cpu.pin()
         if self.nice_boost and hasattr(os, "setpriority"):
             try:
                 nice = os.getpriority(os.PRIO_PROCESS, tid) - self.nice_boost

@@ -33,6 +33,9 @@ def engine_stats(engine: Any) -> dict[str, Any]:
             "nice": engine.clock_priority.nice,
             "realtime": engine.clock_priority.realtime,
         },
+        "clock_cpu": None
+        if engine.clock_priority is None or engine.clock_priority.cpu is None
+        else engine.clock_priority.cpu.status(),
         "sinks": [s.stats() for s in engine.sinks],
     }
 

@@ -11,6 +11,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any, Generic, TypeVar
 
+from backend.engine import clock_cpu
 from backend.logs import Throttle
 
 log = logging.getLogger(__name__)
@@ -81,6 +82,7 @@ class Sink(Generic[Item]):
             pass
 
     def _loop(self) -> None:
+        clock_cpu.leave()  # a sink added on the clock thread (a swap's) must not run on the clock's CPU
         while True:
             self._signal.acquire()
             while True:

@@ -14,6 +14,8 @@ import logging
 import threading
 from collections.abc import Callable
 
+from backend.engine import clock_cpu
+
 log = logging.getLogger(__name__)
 
 
@@ -36,6 +38,7 @@ class OnceInBackground:
         threading.Thread(target=self._run, name=self.name, daemon=True).start()
 
     def _run(self) -> None:
+        clock_cpu.leave()  # started by the clock thread, maybe: not on the clock's own CPU
         try:
             self.fn()
         finally:

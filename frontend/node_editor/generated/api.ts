@@ -898,6 +898,10 @@ export interface Saved {
  */
 export interface ServerStatus {
   clients: ClientCounts;
+  /**
+   * the clock's own CPU (null: the clock runs where the OS puts it)
+   */
+  clock_cpu?: ClockCpu | null;
   clock_priority: ClockPriority | null;
   /**
    * the real servos (`--hardware`; null: none configured)
@@ -959,6 +963,34 @@ export interface ClientCounts {
   frames: number;
   previz: number;
   telemetry: number;
+}
+/**
+ * The clock's own CPU (`nutty serve --clock-cpu`).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "ClockCpu".
+ */
+export interface ClockCpu {
+  /**
+   * the CPU the clock thread runs on
+   */
+  cpu: number;
+  /**
+   * whether the server's other threads were moved off it
+   */
+  isolated: boolean;
+  /**
+   * whether the CPU is kept out of idle states (its PM QoS limit is n/a)
+   */
+  kept_awake: boolean;
+  /**
+   * why something above did not happen (null: all did)
+   */
+  note: string | null;
+  /**
+   * whether the clock thread runs on that CPU only
+   */
+  pinned: boolean;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
