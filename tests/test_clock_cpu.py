@@ -116,6 +116,20 @@ def test_without_the_pm_qos_file_the_clock_still_gets_its_cpu_and_says_why_not_a
 
 
 @needs_two_cpus
+def test_a_cpu_another_server_keeps_awake_is_left_to_it(tmp_path):
+    """Two servers on one CPU: the second neither takes the limit over nor restores it later (which
+    would leave the CPU polling after the first put its old limit back)."""
+    cpu = max(ALLOWED)
+    limit = fake_sysfs(tmp_path, cpu, NO_IDLE)
+    held = ClockCpu(cpu, sysfs=tmp_path).open()
+    try:
+        assert not held.kept_awake and held.note is not None and "another process" in held.note
+    finally:
+        held.close()
+    assert limit.read_text() == NO_IDLE  # still the other server's
+
+
+@needs_two_cpus
 @pytest.mark.parametrize("end", ["exit", "kill"])
 def test_the_old_limit_comes_back_however_the_server_ends(tmp_path, end):
     """A crash or kill -9 never leaves a CPU polling for good: the guardian puts the old limit back."""

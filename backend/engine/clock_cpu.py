@@ -132,7 +132,12 @@ class ClockCpu:
 
     def _hold_awake(self) -> None:
         try:
-            self._old = self.limit_path.read_text().strip()
+            old = self.limit_path.read_text().strip()
+            if old == NO_IDLE:  # another process keeps it awake (another server): its guardian restores it
+                self.note = f"CPU {self.cpu} is already kept awake by another process; left to it"
+                log.warning("%s", self.note)
+                return
+            self._old = old
             # The guardian first: the limit is never changed without something to put it back.
             self._guardian = subprocess.Popen(
                 [sys.executable, "-c", _GUARDIAN, str(self.limit_path), self._old],
