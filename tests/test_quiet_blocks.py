@@ -81,6 +81,25 @@ def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
     assert counts["emotion"] == 5  # new inputs, then smoothing toward them: every tick
 
 
+def test_an_idle_clip_player_sleeps_through_a_speed_that_changes_every_tick(counted):
+    """The emotion's smoothing moves the gesture's wired speed every tick; an idle player reads only its
+    trigger (`quiet_reads`), so it stays asleep until a play, and then plays at the current speed."""
+    session, counts = counted
+    engine = session.engine
+    gesture = engine.apu.block("gesture")
+    session.execute({"type": "set_emotion", "valence": 0.6, "arousal": 0.9})
+    engine.run_ticks(20)
+    assert counts["emotion"] == 20 and counts["gesture"] == 0
+    emotion = engine.apu.index["emotion"]
+    before = engine.apu.results[emotion]["speed"]
+    engine.tick()
+    assert engine.apu.results[emotion]["speed"] != before  # a new speed this tick too
+    assert counts["gesture"] == 0 and gesture.quiet and gesture.quiet_reads == {"trigger"}
+    session.execute({"type": "play_clip", "clip": "nod", "layer": "gesture"})
+    engine.run_ticks(5)
+    assert counts["gesture"] == 5 and gesture.state.current is not None
+
+
 def test_a_clip_plays_every_tick_and_its_player_goes_quiet_after(counted):
     session, counts = counted
     engine = session.engine

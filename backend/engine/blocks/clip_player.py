@@ -20,7 +20,7 @@ from backend.engine.blocks.base import (
     drivable,
     soft_range,
 )
-from backend.engine.blocks.quiet import QuietWhenIdle
+from backend.engine.blocks.quiet import TRIGGER_ONLY, QuietWhenIdle
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.curves import CLIP_SIG, clip_tick
@@ -368,7 +368,7 @@ class ClipPlayer(QuietWhenIdle, Source[ClipPlayerParams]):
             mask = self._no_mask if s.mask.shape == self._no_mask.shape else np.zeros_like(s.mask)
         values = s.values
         if clip is None and not visible and not events:  # idle (most ticks): one frame until a clip plays
-            self.quiet = True  # until a command, the trigger or new parameters (quiet.py)
+            self.quiet, self.quiet_reads = True, TRIGGER_ONLY  # until a command, the trigger, new parameters
             idle = self.__dict__.get("_idle")
             if idle is None or idle[0] is not s or idle[1] is not values or idle[2].mask is not mask:
                 idle = self._idle = (s, values, SteadyFrame(values.copy(), mask, []))

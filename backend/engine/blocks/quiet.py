@@ -10,7 +10,10 @@ another tick with the same wired input values (the same objects), the same `para
 objects and no command in between would change nothing (no state, no note, no event) and return the
 same outputs; else to False. The core checks the inputs, params and state; any `handle` call clears
 `quiet` (the mixin wraps each class's own `handle`), so a command always reaches a tick. A block whose
-idle ticks count time (a watchdog's timer) must not say it is quiet.
+idle ticks count time (a watchdog's timer) must not say it is quiet. A quiet tick may also narrow the
+inputs that count (`quiet_reads`): an idle clip player reads only its trigger, so a wired speed that
+changes every tick (an emotion's smoothing) does not wake it; the next tick must then change nothing
+whatever the other inputs hold.
 
 The blocks' own ticks never skip (the APU's loop without the core, and the timed ticks), so
 `tests/test_compiled_core.py`'s agreement of the two paths checks every skip.
@@ -21,6 +24,9 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from typing import Any
+
+#: `quiet_reads` of a block whose quiet tick reads only its `trigger` input.
+TRIGGER_ONLY = frozenset({"trigger"})
 
 
 def _waking(handle: Callable[..., Any]) -> Callable[..., Any]:
@@ -37,6 +43,8 @@ class QuietWhenIdle:
 
     #: Set by `tick`: True when the next tick, on the same inputs, params and state, would change nothing.
     quiet: bool = False
+    #: Set by `tick` beside `quiet`: the input ports that next tick reads (None: every one).
+    quiet_reads: frozenset[str] | None = None
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

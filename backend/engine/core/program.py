@@ -265,11 +265,12 @@ class CoreProgram:
             if entry[0] == "py":
                 _, i, block, wires, memo = entry
                 if memo is not None and block.quiet and memo[0] is block.params and memo[1] is block.state:
-                    for (_, src, src_port), old in zip(wires, memo[2]):
-                        if results[src].get(src_port) is not old:
+                    reads = block.quiet_reads
+                    for (port, src, src_port), old in zip(wires, memo[2]):
+                        if results[src].get(src_port) is not old and (reads is None or port in reads):
                             break
                     else:
-                        continue  # quiet, on the same inputs: its last outputs stand (blocks/quiet.py)
+                        continue  # quiet, on the inputs it reads: its last outputs stand (blocks/quiet.py)
                 inputs = {}
                 for port, src, src_port in wires:
                     inputs[port] = results[src].get(src_port)
