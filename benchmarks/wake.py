@@ -97,10 +97,14 @@ def side_by_side_on_own_cpu(
         return None
     held = clock_cpu.ClockCpu(cpu).open()
     out: list[np.ndarray] = []
+    failed: list[BaseException] = []
 
     def run() -> None:
         held.pin()
-        out.extend(side_by_side(tick, peer, sleep))
+        try:
+            out.extend(side_by_side(tick, peer, sleep))
+        except BaseException as exc:  # raised again on the caller's thread, below
+            failed.append(exc)
 
     try:
         thread = threading.Thread(target=run, name="own-cpu")
@@ -109,6 +113,8 @@ def side_by_side_on_own_cpu(
     finally:
         status = held.status()
         held.close()
+    if failed:
+        raise failed[0]
     return out[0], out[1], status
 
 

@@ -1,6 +1,7 @@
 """`nutty serve --clock-cpu`: the clock on a CPU of its own, kept awake, and the CPU's idle states given
 back however the server ends (backend/engine/clock_cpu.py). The PM QoS file is a stand-in under
-tmp_path: tests never change the machine's own settings."""
+tmp_path, except in the last test: a real `nutty serve --clock-cpu auto` sets the machine's own limit
+(where it may: root), and the test checks that the server puts it back."""
 
 from __future__ import annotations
 

@@ -83,7 +83,8 @@ def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
 
 def test_an_idle_clip_player_sleeps_through_a_speed_that_changes_every_tick(counted):
     """The emotion's smoothing moves the gesture's wired speed every tick; an idle player reads only its
-    trigger (`quiet_reads`), so it stays asleep until a play, and then plays at the current speed."""
+        trigger (`quiet_reads`), so it stays asleep until a play wakes it, and then ticks every tick (that the
+    skips change no frame: the agreement of core and blocks in tests/test_compiled_core.py)."""
     session, counts = counted
     engine = session.engine
     gesture = engine.apu.block("gesture")

@@ -79,7 +79,7 @@ def choose(spec: str, allowed: set[int] | None = None) -> int | None:
     except ValueError:
         raise ValueError(f"--clock-cpu takes a CPU number, 'auto' or 'off', got {spec!r}") from None
     if cpu not in cpus:
-        raise ValueError(f"--clock-cpu {cpu}: this process may run on CPUs {_ranges(cpus)} only")
+        raise ValueError(f"--clock-cpu {cpu}: this process may run on CPUs {_listed(cpus)} only")
     if len(cpus) < 2:
         raise ValueError(
             f"--clock-cpu {cpu}: the process may use one CPU only; none would be left for the rest"
@@ -87,7 +87,7 @@ def choose(spec: str, allowed: set[int] | None = None) -> int | None:
     return cpu
 
 
-def _ranges(cpus: set[int]) -> str:
+def _listed(cpus: set[int]) -> str:
     return ", ".join(str(c) for c in sorted(cpus))
 
 

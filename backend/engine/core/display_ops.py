@@ -1,8 +1,9 @@
 """Ops of the display sources (backend/engine/blocks/display.py): what the kernel computes of an LED.
 
 The LED's brightness curve and the clipped colour run in the kernel; Python's part every tick is the
-phase, a float of the block's state that its own tick steps too (`Led.advance`, shared by both). The colour and depth are worked out
-again only when a wired signal or the `set_led` command changes them, as the block's tick would.
+phase, a float of the block's state that its own tick steps too (`Led.advance`, shared by both). The
+colour and depth are worked out again only when a wired signal or the `set_led` command changes them,
+as the block's tick would.
 """
 
 from __future__ import annotations
