@@ -14,8 +14,12 @@ import yaml
 from websockets.sync.client import connect
 
 from backend.cli import main
+from backend.engine.embodiment import load_embodiment
+from backend.hardware.bus import HardwareError
+from backend.hardware.config import load_hardware
 from backend.hardware.emulator.dynamixel import DynamixelEmulator
 from backend.hardware.emulator.feetech import FeetechEmulator
+from backend.hardware.tools import PATIENCE_S, Calibration
 from tests.emulated_hardware import emulated_hardware_file
 from tests.joint_truth import ROBOTS
 from tests.server_process import server_process
@@ -112,6 +116,36 @@ def test_calibrate_walks_a_joint_and_writes_zero_and_direction(tmp_path, monkeyp
     written = yaml.safe_load(path.read_text())["buses"][0]["joints"]["head_yaw"]
     assert (written["zero"], written["direction"], written["id"]) == (2200, -1, 3)
     assert Path(f"{path}.bak").exists()
+
+
+def test_calibration_waits_for_a_late_servo_but_not_for_ever(tmp_path):
+    """A person waits at the calibration, not a clock: a servo that is late to answer (a busy machine, a
+    pty's far end held off) is asked again for up to PATIENCE_S; one that never answers is named."""
+    data = yaml.safe_load(HARDWARE.read_text())
+    with DynamixelEmulator(dict.fromkeys(range(1, 6), 1020)) as dxl:
+        data["buses"] = [data["buses"][0]]
+        data["buses"][0]["port"] = dxl.path
+        path = tmp_path / "hardware.yaml"
+        path.write_text(yaml.safe_dump(data))
+        emb = load_embodiment("nutty_desk")
+        hardware = load_hardware(path, emb)
+        late = Calibration(hardware, emb, "head_yaw")
+        dxl.silence(3, PATIENCE_S / 3)  # longer than the bus's own retries (2 x ~10 ms)
+        try:
+            late.start()
+            assert not dxl.torque(3)
+            dxl.set_position(3, 2100)
+            dxl.silence(3, PATIENCE_S / 3)
+            assert late.read() == 2100
+        finally:
+            late.bus.close()
+        gone = Calibration(hardware, emb, "head_yaw")
+        dxl.silence(3, 10 * PATIENCE_S)
+        try:
+            with pytest.raises(HardwareError, match="head_yaw: no answer from id 3"):
+                gone.start()
+        finally:
+            gone.bus.close()
 
 
 def test_the_engine_less_player_and_bridge_refuse_real_servos(tmp_path, capsys):

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import math
 import shutil
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import yaml
 
@@ -23,6 +25,27 @@ from backend.hardware.registry import BUSES
 
 #: The smallest turn (ticks) that tells the direction apart from reading noise.
 MIN_TURN_TICKS = 20
+#: How long calibration keeps asking its one servo (s) before saying it does not answer. A person waits
+#: here, not a clock: a reply held up by a busy adapter or machine (a pty's far end is a process) is
+#: worth waiting for, where the engine's bus gives up within a tick.
+PATIENCE_S = 0.5
+
+T = TypeVar("T")
+
+
+def patiently(ask: Callable[[], T | None], patience_s: float = PATIENCE_S) -> T | None:
+    """`ask()` again while it gives None or raises HardwareError, until `patience_s` (s) have passed;
+    then its last answer (None), or its last HardwareError raised."""
+    deadline = time.monotonic() + patience_s
+    while True:
+        try:
+            got = ask()
+        except HardwareError:
+            if time.monotonic() >= deadline:
+                raise
+            continue
+        if got is not None or time.monotonic() >= deadline:
+            return got
 
 
 def open_bus(kind: str, port: str, baudrate: int, **extra: Any) -> ServoBus:
@@ -86,15 +109,18 @@ class Calibration:
 
     def start(self) -> None:
         self.bus.open()
-        found = self.bus.ping([self.where.servo]).get(self.where.servo)
+        found = patiently(lambda: self.bus.ping([self.where.servo]).get(self.where.servo))
         if found is None:
             raise HardwareError(f"{self.joint}: no answer from id {self.where.servo} on {self.bus.where}")
-        self.bus.torque([self.where.servo], False)
+        patiently(lambda: self.bus.torque([self.where.servo], False) or True)
 
     def read(self) -> float:
-        reading = self.bus.read_state([self.where.servo])
-        value = float(reading.position[0])
-        if math.isnan(value):
+        def position() -> float | None:
+            value = float(self.bus.read_state([self.where.servo]).position[0])
+            return None if math.isnan(value) else value
+
+        value = patiently(position)
+        if value is None:
             raise HardwareError(f"{self.joint}: id {self.where.servo} did not report its position")
         return value
 
