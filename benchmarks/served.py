@@ -167,8 +167,26 @@ async def _ai(http: httpx.AsyncClient, stop: asyncio.Event, counts: dict) -> Non
 CLIENTS = ("telemetry", "previz", "driver", "ai")
 
 
+async def _peer_beside(rate: float, seconds: float) -> asyncio.subprocess.Process:
+    """benchmarks/peer_beside.py for `seconds` s at the clock's period: Ruckig-25 woken in the window."""
+    return await asyncio.create_subprocess_exec(
+        sys.executable,
+        str(ROOT / "benchmarks" / "peer_beside.py"),
+        f"{1.0 / rate!r}",
+        f"{seconds!r}",
+        cwd=ROOT,
+        stdout=asyncio.subprocess.PIPE,
+        env={**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{ROOT / 'benchmarks'}"},
+    )
+
+
 async def _load(
-    server: Server, rate: float, warm_up: float, seconds: float, clients: tuple[str, ...] = CLIENTS
+    server: Server,
+    rate: float,
+    warm_up: float,
+    seconds: float,
+    clients: tuple[str, ...] = CLIENTS,
+    peer_beside: bool = False,
 ) -> dict[str, Any]:
     ws_url = f"ws://{HOST}:{server.port}"
     counts = {"telemetry": 0, "frames": 0, "previz": 0, "previz_reconnects": 0, "commands": 0}
@@ -201,8 +219,15 @@ async def _load(
         await http.delete("/api/profile")  # a new window for the tick statistics and cook times
         before = (await http.get("/api/status")).json()
         t0 = time.monotonic()
+        peer = await _peer_beside(rate, seconds) if peer_beside else None
         await asyncio.sleep(seconds)
         after = (await http.get("/api/status")).json()
+        beside = None
+        if peer is not None:
+            out, _ = await peer.communicate()
+            if peer.returncode != 0:
+                raise RuntimeError(f"the peer beside the server exited with {peer.returncode}")
+            beside = json.loads(out)
         profile = (await http.get("/api/profile")).json()
         elapsed = time.monotonic() - t0
         stop.set()
@@ -219,6 +244,7 @@ async def _load(
         "status": after,
         "profile": profile,
         "counts": counts,
+        "peer_beside": beside,
         "ticks": after["ticks"] - before["ticks"],
         "overruns": after["overruns"] - before["overruns"],
         "lost_ticks": after["lost_ticks"] - before["lost_ticks"],
@@ -232,15 +258,18 @@ def measure(
     program: str | None = None,
     clients: tuple[str, ...] = CLIENTS,
     server_args: tuple[str, ...] = (),
+    peer_beside: bool = False,
 ) -> dict[str, Any]:
     """Serve the bundled robot (its interactive program unless `program`) at `rate` Hz under the load
-    above (only the parts named in `clients`); the figures of a `seconds` window after `warm_up` seconds."""
+    above (only the parts named in `clients`); the figures of a `seconds` window after `warm_up` seconds.
+    `peer_beside`: also time Ruckig-25 woken at the clock's period in that window, in a process of its
+    own (benchmarks/peer_beside.py), as `peer_beside` in the result (None otherwise)."""
     args = ["--rate", f"{rate:g}", *server_args] + (["--program", program] if program else [])
     for attempt in range(ATTEMPTS):
         server = Server(*args)
         try:
             server.wait_ready()
-            return asyncio.run(_load(server, rate, warm_up, seconds, clients))
+            return asyncio.run(_load(server, rate, warm_up, seconds, clients, peer_beside))
         except RuntimeError as exc:  # a busy shared machine: a port taken meanwhile, a handshake refused
             if attempt == ATTEMPTS - 1:
                 raise
