@@ -9,6 +9,7 @@ import pytest
 from pydantic import ValidationError
 
 from backend.engine.blocks import BLOCKS, BlockContext
+from backend.engine.blocks.signals import SETTLE
 
 
 def make(desk, type_name, **kw):
@@ -148,6 +149,26 @@ def test_a_settled_emotion_hands_out_the_same_outputs_until_it_moves(desk):
     assert again is not happy and again == happy
     blk.update_params(blk.Params(smoothing=0.0, droop=0.5))  # new parameters too
     assert blk.tick(0.01, {"valence": 0.8, "arousal": 0.5})["posture_offset"] != happy["posture_offset"]
+
+
+def test_a_smoothed_emotion_lands_on_its_target_and_goes_quiet(desk):
+    """The smoothing lands on its target once within SETTLE: until then it is the exponential it always
+    was, then the outputs are the target's, and the block says it is quiet (the core skips it)."""
+    blk = make(desk, "emotion", smoothing=0.5)
+    blk.tick(0.01, {"valence": 0.0, "arousal": 0.0})
+    k = 1.0 - math.exp(-0.01 / 0.5)
+    v = 0.0
+    ticks = 0
+    while blk.state.v != 0.8:
+        out = blk.tick(0.01, {"valence": 0.8, "arousal": -0.4})
+        v += k * (0.8 - v)
+        ticks += 1
+        assert out["valence"] == pytest.approx(v, abs=SETTLE) and ticks < 2000
+    assert 0.8 - v <= SETTLE and 5.0 < ticks * 0.01 < 8.0  # ~7 s, not the ~19 s of vanishing steps
+    assert blk.state.a == -0.4
+    settled = blk.tick(0.01, {"valence": 0.8, "arousal": -0.4})
+    assert blk.quiet and blk.tick(0.01, {"valence": 0.8, "arousal": -0.4}) is settled
+    assert settled == blk.outputs_for(0.8, -0.4) | {"posture": settled["posture"]}
 
 
 def test_emotion_outputs_never_jump(desk):

@@ -288,6 +288,19 @@ class EmotionParams(BlockParams):
         return self
 
 
+#: How near the smoothed valence or arousal (range -1..1) may come to its target before it lands on it.
+#: The smoothing approaches its target for ever: left alone it stops moving only when its steps vanish
+#: in floating point, ~19 s after a step at the default 0.5 s time constant, and until then the emotion
+#: and every block it drives tick again each tick. Landing at 1e-6 moves an output by at most ~2e-7 rad
+#: of posture or 1e-6 of a gain, far below a servo's resolution (~1.5e-3 rad), and settles in ~7 s.
+SETTLE = 1e-6
+
+
+def _landed(value: float, target: float) -> float:
+    """`value`, or `target` itself once within SETTLE of it."""
+    return float(target) if abs(target - value) <= SETTLE else value
+
+
 def _same_floats(last: tuple[float, float], v: float, a: float) -> bool:
     """Whether (v, a) are the numbers `last` holds, a zero's sign included (-0.0 changes the offset's sign)."""
     lv, la = last
@@ -354,8 +367,8 @@ class Emotion(QuietWhenIdle, SignalBlock[EmotionParams]):
             s.v, s.a, s.primed = d.valence, d.arousal, True
         else:
             k = 1.0 if p.smoothing <= 0.0 else 1.0 - math.exp(-dt / p.smoothing)
-            s.v += k * (d.valence - s.v)
-            s.a += k * (d.arousal - s.a)
+            s.v = _landed(s.v + k * (d.valence - s.v), d.valence)
+            s.a = _landed(s.a + k * (d.arousal - s.a), d.arousal)
         last = self.__dict__.get("_last_out")
         if last is not None and last[0] is s and last[1] is p and _same_floats(last[2], s.v, s.a):
             # Settled (the smoothing no longer moves, the most ticks): the same outputs, the same objects,
