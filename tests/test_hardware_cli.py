@@ -96,13 +96,19 @@ def test_scan_lists_the_servos_on_a_dynamixel_and_a_feetech_bus(capsys):
     assert [(s["id"], s["model_name"]) for s in found["servos"]] == [(3, "STS3215")]
 
 
-def test_calibrate_walks_a_joint_and_writes_zero_and_direction(tmp_path, monkeypatch, capsys):
+def _first_bus_on(dxl: DynamixelEmulator, tmp_path: Path) -> Path:
+    """The bundled hardware file cut to its first (Dynamixel) bus, on the emulator's port."""
     data = yaml.safe_load(HARDWARE.read_text())
+    data["buses"] = [data["buses"][0]]
+    data["buses"][0]["port"] = dxl.path
+    path = tmp_path / "hardware.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_calibrate_walks_a_joint_and_writes_zero_and_direction(tmp_path, monkeypatch, capsys):
     with DynamixelEmulator(dict.fromkeys(range(1, 6), 1020)) as dxl:
-        data["buses"] = [data["buses"][0]]
-        data["buses"][0]["port"] = dxl.path
-        path = tmp_path / "hardware.yaml"
-        path.write_text(yaml.safe_dump(data))
+        path = _first_bus_on(dxl, tmp_path)
         moves = iter([2200, 2200 - round(0.6 * TICKS_PER_RAD)])  # by hand: zero, then +0.6 rad (reversed)
 
         def answer(prompt: str) -> str:
@@ -121,12 +127,8 @@ def test_calibrate_walks_a_joint_and_writes_zero_and_direction(tmp_path, monkeyp
 def test_calibration_waits_for_a_late_servo_but_not_for_ever(tmp_path):
     """A person waits at the calibration, not a clock: a servo that is late to answer (a busy machine, a
     pty's far end held off) is asked again for up to PATIENCE_S; one that never answers is named."""
-    data = yaml.safe_load(HARDWARE.read_text())
     with DynamixelEmulator(dict.fromkeys(range(1, 6), 1020)) as dxl:
-        data["buses"] = [data["buses"][0]]
-        data["buses"][0]["port"] = dxl.path
-        path = tmp_path / "hardware.yaml"
-        path.write_text(yaml.safe_dump(data))
+        path = _first_bus_on(dxl, tmp_path)
         emb = load_embodiment("nutty_desk")
         hardware = load_hardware(path, emb)
         late = Calibration(hardware, emb, "head_yaw")
