@@ -124,8 +124,7 @@ class Peer:
     """One Ruckig streaming update of 25 DoFs (µs): the best of the rounds measured so far."""
 
     def __init__(self) -> None:
-        rng = np.random.default_rng(0)
-        self.targets = [list(map(float, r)) for r in rng.uniform(-1, 1, size=(256, RUCKIG_DOFS))]
+        self.targets = wake.peer_targets(RUCKIG_DOFS)
         self.us = float("inf")
 
     def round(self) -> float:

@@ -1,7 +1,7 @@
 """Ruckig-25 woken beside a served run: the served tick's peer in the same window, under the same load.
 
 `python benchmarks/peer_beside.py PERIOD SECONDS` makes one Ruckig streaming update of 25 DoFs after each
-sleep of PERIOD s for SECONDS s, in a process of its own, and prints its figures as one JSON line:
+sleep of PERIOD s, as many as SECONDS s of periods hold, in a process of its own, and prints its figures as one JSON line:
 `{"p50_us": …, "p99_us": …, "updates": …}`. served.py starts it when its measurement window opens.
 
 Why beside the server and not before it: a woken tick pays for what the rest of the machine did to the
@@ -17,16 +17,14 @@ from __future__ import annotations
 import json
 import os
 import sys
-import time
 
 import numpy as np
-from wake import ruckig_step
+from wake import peer_targets, ruckig_step, timed_after_sleep
 
 from backend.engine.gil import REALTIME_PRIORITY
 
-#: Ruckig's size and targets: bench_engine.py's `Peer` (25 DoFs, 256 seeded targets in [-1, 1]).
+#: Ruckig's size: bench_engine.py's `Peer` (and its targets: `peer_targets`).
 DOFS = 25
-TARGETS = 256
 #: Updates before timing starts (the first ones plan from rest).
 WARM_UP = 200
 
@@ -35,29 +33,18 @@ def realtime() -> bool:
     """Real-time priority for this process, as the served clock gets; False where not permitted."""
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(REALTIME_PRIORITY))
-    except (AttributeError, PermissionError, OSError):
+    except (AttributeError, OSError):  # no SCHED_FIFO here, or not permitted
         return False
     return True
 
 
 def woken(period: float, seconds: float) -> dict[str, float]:
-    """The update's µs after each sleep of `period` s, for `seconds` s: p50, p99 and the count."""
-    rng = np.random.default_rng(0)
-    targets = [list(map(float, row)) for row in rng.uniform(-1, 1, size=(TARGETS, DOFS))]
-    step = ruckig_step(DOFS, targets, period)
+    """The update's µs after each sleep of `period` s, for `seconds` s of periods: p50, p99 and the count."""
+    step = ruckig_step(DOFS, peer_targets(DOFS), period)
     for k in range(WARM_UP):
         step(k)
-    out: list[float] = []
-    end = time.monotonic() + seconds
-    k = WARM_UP
-    while time.monotonic() < end:
-        time.sleep(period)
-        t0 = time.perf_counter()
-        step(k)
-        out.append(time.perf_counter() - t0)
-        k += 1
-    us = np.array(out) * 1e6
-    return {"p50_us": float(np.median(us)), "p99_us": float(np.percentile(us, 99)), "updates": len(out)}
+    us = timed_after_sleep(step, period, max(1, round(seconds / period)), start=WARM_UP)
+    return {"p50_us": float(np.median(us)), "p99_us": float(np.percentile(us, 99)), "updates": len(us)}
 
 
 def main(argv: list[str]) -> int:

@@ -222,14 +222,14 @@ async def _load(
         peer = await _peer_beside(rate, seconds) if peer_beside else None
         await asyncio.sleep(seconds)
         after = (await http.get("/api/status")).json()
+        profile = (await http.get("/api/profile")).json()
+        elapsed = time.monotonic() - t0
         beside = None
-        if peer is not None:
+        if peer is not None:  # its last updates may outlast the window: the load stays on until it ends
             out, _ = await peer.communicate()
             if peer.returncode != 0:
                 raise RuntimeError(f"the peer beside the server exited with {peer.returncode}")
             beside = json.loads(out)
-        profile = (await http.get("/api/profile")).json()
-        elapsed = time.monotonic() - t0
         stop.set()
         failed = [
             (n, r)

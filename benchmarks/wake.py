@@ -38,6 +38,12 @@ def timed_after_sleep(step: Callable[[int], object], sleep: float, calls: int, s
     return out * 1e6
 
 
+def peer_targets(dofs: int, count: int = 256, seed: int = 0) -> list[list[float]]:
+    """`count` seeded target poses of `dofs` values in [-1, 1]: what every Ruckig peer streams towards."""
+    rng = np.random.default_rng(seed)
+    return [list(map(float, row)) for row in rng.uniform(-1, 1, size=(count, dofs))]
+
+
 def ruckig_step(dofs: int, targets: list[list[float]], dt: float) -> Callable[[int], object]:
     """One streaming update towards the next of `targets` per call (its own state carried over)."""
     otg, inp, out = ruckig_setup(dofs, dt)
