@@ -100,15 +100,23 @@ def test_the_core_agrees_with_the_blocks_on_every_shipped_program(monkeypatch, r
     moved = np.ptp(np.array([f[0] for f in runs[True]]), axis=0)
     assert moved.max() > 0.01  # the program moved the robot: the comparison covered motion
     assert rebinds == 0
-    # the compiled blocks run in one kernel call: the Python blocks run first, then the whole core
-    assert len(compiled) == 1, compiled
-    assert "mix" in compiled[0] and "output" in compiled[0]
+    # the compiled blocks run in one kernel call: the Python blocks run first, then the whole core; the
+    # interactive program's clip player reads the emotion's speed, so it runs between two calls
+    assert len(compiled) == (2 if name == "interactive" else 1), compiled
+    assert "mix" in compiled[-1] and "output" in compiled[-1]
     if name == "interactive":
-        assert {"gaze", "look_at", "nmf", "safety", "breathe", "mood"} <= set(compiled[0])
+        assert {"gaze", "breathe", "mood", "emotion", "breath_amplitude"} <= set(compiled[0])
+        assert {"look_at", "nmf", "safety"} <= set(compiled[1])
 
 
 def _edits(session: EngineSession, k: int, other: dict) -> None:
     """A live session's life: slider edits, mixer commands, a swap away and back, a reset."""
+    if k in (20, 100, 210):  # the emotion moves (in the kernel), and with it what it drives
+        session.execute({"type": "set_input", "name": "valence", "value": [0.8, -0.6, 0.3][k % 3]})
+        session.execute({"type": "set_input", "name": "arousal", "value": [-0.5, 0.9, 0.0][k % 3]})
+    if k == 40:
+        session.update_params("emotion", {"smoothing": 0.2, "hysteresis": 0.3, "droop": 0.3})
+        session.update_params("breath_amplitude", {"op": "map_range", "out_min": 0.01, "out_max": 0.06})
     if k == 50:
         session.update_params("breathe", {"frequency": 0.9, "amplitude": 0.05})
         session.update_params("mood", {"gain": 1.4})

@@ -81,6 +81,9 @@ class Op(Generic[B]):
     post_always: ClassVar[bool] = False  # whether `post` has work beside events (else it runs only when
     # a frame into the segment carries events, or did on the tick before: the ones it passed are cleared)
     frame_inputs: ClassVar[tuple[str, ...]] = ("in",)  # the frame ports, in the order rows are listed
+    # The float parameters a compiled signal may drive in the kernel: port -> its scalar slot (after `s`).
+    # The kernel works out whatever the op derives from them; other drivable ports are driven by `pre`.
+    kernel_drives: ClassVar[dict[str, int]] = {}
 
     def __init__(self, k: int, step: int, block: B, arena: Arena, out: int, srcs: list[Any]):
         self.k, self.step, self.block, self.arena, self.out = k, step, block, arena, out
@@ -89,6 +92,10 @@ class Op(Generic[B]):
         self.srcs = srcs  # per frame input: the object whose `.frame` is that input's frame (or None)
         self.s = arena.scalar_slots(self.n_scalars)
         self.signal_ports: tuple[tuple[str, int, str], ...] = ()  # (port, source step, source port)
+        self.drive_wires: tuple[
+            tuple[str, int], ...
+        ] = ()  # (port, source's output slot) driven in the kernel
+        self._drives = np.zeros((0, 5))
         self.frame = PartialFrame(arena.V[out], arena.P[out].copy(), NO_EVENTS)
         self.result: dict[str, Any] = {"out": self.frame}
         self._params: Any = None
@@ -113,7 +120,30 @@ class Op(Generic[B]):
         row[2] = -1 if src is None else src.row
         for col, array in enumerate(self.arrays(), start=4):
             row[col] = refs.put(self.k, col, array)
+        if self.drive_wires:
+            self._drives = self.drive_table()
+            row[vm.DRIVES] = refs.put(self.k, vm.DRIVES, self._drives)
         self.bound_extra()
+
+    def drive_table(self) -> np.ndarray:
+        """The kernel's drives into this op (compiled/signals.py's `drive`): per wire its source slot, its
+        parameter's slot, the parameter's clamp bounds and the parameter itself (for a value not finite)."""
+        b = self.block
+        rows = []
+        for port, src_slot in self.drive_wires:
+            d = b.drivables[port]
+            lo = -math.inf if d.lo is None else float(d.lo)
+            hi = math.inf if d.hi is None else float(d.hi)
+            rows.append(
+                (
+                    src_slot,
+                    self.s + self.kernel_drives[port],
+                    lo,
+                    hi,
+                    d.resolve(None, getattr(b.params, port)),
+                )
+            )
+        return np.array(rows, dtype=float)
 
     def bound_extra(self) -> None:
         """What an op remembers of its block beyond params and state, to know when it is stale."""
@@ -140,6 +170,17 @@ class Op(Generic[B]):
                 return None
         self._signals = values = [results[src].get(src_port) for _, src, src_port in ports]
         return {port: value for (port, _, _), value in zip(ports, values)}
+
+    def restore(self, results: list[dict[str, Any]]) -> None:
+        """The APU ran the blocks' own ticks since the last core tick: put the op's result back in `results`
+        and make its state ready for the kernel."""
+        results[self.step] = self.result
+        self.forget_inputs()
+        self.resume()
+
+    def publish(self, results: list[dict[str, Any]]) -> None:
+        """The kernel flagged the op's output changed (`CH`): show Python readers the new one."""
+        self.frame.mask = self.arena.P[self.out].copy()  # a new object: a held mask never changes
 
     def forget_inputs(self) -> None:
         """Work from the signals again at the next `pre` (the block's own tick may have run in between)."""
@@ -189,7 +230,8 @@ class RestOp(SourceOp[RestPose]):
 
 class BreatheOp(SourceOp[Breathe]):
     code = vm.BREATHE
-    n_scalars = 4
+    n_scalars = 5
+    kernel_drives = {"amplitude": 1, "frequency": 3}
     pre_when = "wired"  # the kernel steps the phase (the block's one-element `state.phase`)
 
     def arrays(self) -> list[np.ndarray]:
@@ -206,6 +248,7 @@ class BreatheOp(SourceOp[Breathe]):
         S[s + 1] = float(d.amplitude)
         S[s + 2] = float(p.inhale_ratio)
         S[s + 3] = float(d.frequency)
+        S[s + 4] = float(p.amplitude)  # (the kernel works the scale out from the amplitude it is given)
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired)
@@ -324,6 +367,7 @@ class WeightShiftOp(SourceOp[WeightShift]):
 class GainOffsetOp(Op[GainOffset]):
     code = vm.GAIN_OFFSET
     n_scalars = 2
+    kernel_drives = {"gain": 0, "offset": 1}
 
     def arrays(self) -> list[np.ndarray]:
         return [self.block.sel]
@@ -402,6 +446,9 @@ class OutputOp(Op[Output]):
 
     def arrays(self) -> list[np.ndarray]:
         return [self.block.state.held]
+
+    def publish(self, results: list[dict[str, Any]]) -> None:
+        """(The output's frame is its held state, whose mask never changes: nothing to show.)"""
 
     def bind(self, refs: Refs) -> None:
         super().bind(refs)

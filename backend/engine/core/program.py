@@ -39,6 +39,7 @@ from backend.engine.compiled.pointers import AddressTable
 from backend.engine.core import vm
 from backend.engine.core.ops import Op
 from backend.engine.core.registry import op_class
+from backend.engine.core.signal_ops import compiles_signal, output_slot, takes_in_kernel
 from backend.engine.frames import PartialFrame
 
 if TYPE_CHECKING:
@@ -204,9 +205,10 @@ class CoreProgram:
                         current_imports.append(imports[key])
                     srcs.append(imports[key])
             op = compiled[i](len(self.ops), i, step.block, arena, row, srcs)
-            op.signal_ports = tuple(
-                (w.port, w.src, w.src_port) for w in step.wires if w.port not in frame_ports[i]
-            )
+            signals = [w for w in step.wires if w.port not in frame_ports[i]]
+            in_kernel = [w for w in signals if takes_in_kernel(by_step.get(w.src), w.src_port, op, w.port)]
+            op.signal_ports = tuple((w.port, w.src, w.src_port) for w in signals if w not in in_kernel)
+            op.drive_wires = tuple((w.port, output_slot(by_step[w.src], w.src_port)) for w in in_kernel)
             row += 1
             self.ops.append(op)
             by_step[i] = op
@@ -232,6 +234,13 @@ class CoreProgram:
             op = op_class(step.block)
             if op is not None:
                 compiled[i] = op
+        readers: dict[int, list[tuple[str, type[Op] | None, str]]] = {i: [] for i in compiled}
+        for j, step in enumerate(apu.steps):
+            for w in step.wires:
+                if w.src in readers:
+                    readers[w.src].append((w.src_port, compiled.get(j), w.port))
+        for i in [i for i, op in compiled.items() if not compiles_signal(op, readers[i])]:
+            del compiled[i]  # (its readers are then Python's or its readers' own Python `pre`)
         return cls(apu, compiled) if compiled else None
 
     def ready(self) -> bool:
@@ -246,9 +255,7 @@ class CoreProgram:
     def restore_results(self, results: list[dict[str, Any]]) -> None:
         """Put the compiled steps' frames back in `results` (after the APU ran the blocks' own ticks)."""
         for op in self.ops:
-            results[op.step] = op.result
-            op.forget_inputs()
-            op.resume()
+            op.restore(results)
         for entry in self.plan:
             if entry[0] == "core":
                 entry[1].had_events = True
@@ -296,7 +303,7 @@ class CoreProgram:
                     for op in seg.serviced:
                         op.service()
                 if changed % vm.SERVICE:
-                    self._publish(seg)
+                    self._publish(seg, results)
             for op in seg.posts if events or seg.had_events else seg.always:
                 op.post()
             seg.had_events = events
@@ -306,13 +313,12 @@ class CoreProgram:
         for op in self.ops:
             op.new_dt(dt)
 
-    def _publish(self, seg: Segment) -> None:
-        a = self.arena
+    def _publish(self, seg: Segment, results: list[dict[str, Any]]) -> None:
+        changed = self.arena.CH
         for op in seg.ops:
-            if a.CH[op.out]:
-                a.CH[op.out] = False
-                if op.code != vm.HOLD:
-                    op.frame.mask = a.P[op.out].copy()  # a new object: a held mask never changes
+            if changed[op.out]:
+                changed[op.out] = False
+                op.publish(results)
 
     def listed(self, op: Op, count: int) -> list[np.ndarray | None]:
         """The first `count` arrays the table lists for `op`, in its column order."""

@@ -11,6 +11,7 @@ from backend.engine.blocks.idle import Breathe, Noise, WeightShift
 from backend.engine.blocks.ik import InverseKinematics
 from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterStage2
+from backend.engine.blocks.signals import Emotion, Math
 from backend.engine.core.chain_ops import GazeOp, IkOp
 from backend.engine.core.display_ops import LedOp
 from backend.engine.core.ops import (
@@ -26,6 +27,7 @@ from backend.engine.core.ops import (
     SineOp,
     WeightShiftOp,
 )
+from backend.engine.core.signal_ops import EmotionOp, MathOp
 
 #: The block classes the core compiles (exact classes: a subclass may tick differently) and their ops.
 OPS: dict[type, type[Op]] = {
@@ -43,6 +45,8 @@ OPS: dict[type, type[Op]] = {
     InverseKinematics: IkOp,
     Gaze: GazeOp,
     Led: LedOp,
+    Emotion: EmotionOp,
+    Math: MathOp,
 }
 
 

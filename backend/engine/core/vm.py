@@ -37,10 +37,11 @@ from backend.engine.compiled.gaze import gaze_tick
 from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
 from backend.engine.compiled.ik import ik_tick
 from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1
+from backend.engine.compiled.signals import drive, emotion_tick, math_value, same_float
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
-BREATHE = 1  # S: scale, amplitude, inhale, frequency | 4 offset_cycles, 5 amp_values, 6 amp_override, 7 mask,
+BREATHE = 1  # S: scale (worked out here), amplitude, inhale, frequency, the amplitude parameter | 4 offset_cycles, 5 amp_values, 6 amp_override, 7 mask,
 #               8 phase (1,): read, then stepped by frequency * dt (as Breathe.tick)
 NOISE = 2  # S: smooth, gain | 4 x, 5 y, 6 coef, 7 draws (batch, 2, C), 8 mask, 9 draws' cursor (1,): the
 #             batch row of this tick's draws, stepped here; a used-up batch asks for `SERVICE`
@@ -64,12 +65,22 @@ SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
 LED = 12  # S: r, g, b, mode, depth, phase, first channel, components | 4 mask
 LED_SOLID, LED_BREATHE, LED_PULSE = 0.0, 1.0, 2.0  # the LED's mode scalar
+# Signal ops: no frame; their outputs are scalar slots, and a changed output flags CH[out] for Python.
+EMOTION = 13  # S: valence and arousal targets, k, 8 constants (compiled/signals.py's emotion_tick), 6 outputs
+#              (speed, amplitude, posture_offset, valence, arousal, posture index), their last published
+#              values | 4 state (v, a, primed, posture index), 5 postures (n, 2)
+MATH = 14  # S: a, b, op code, in_min, in_max, out_min, out_max, clamped, min, max, value, last published |
+#           4 the last finite value (1,)
+EMOTION_OUT = 11  # the emotion's first output slot (after its s)
+EMOTION_OUTPUTS = 6
+MATH_OUT = 10
 
 #: What `run_ops` adds to its count of changed masks per op asking for Python's `service` after the run.
 SERVICE = 1 << 32
 
-#: Columns of an op row.
-WIDTH = 24
+#: Columns of an op row; the last lists the op's drives (compiled/signals.py's `drive` table), or -1.
+WIDTH = 25
+DRIVES = WIDTH - 1
 
 #: refs rows 0.. : the arena's and the robot's arrays, the same for every op.
 REF_V, REF_M, REF_A, REF_P, REF_CH, REF_S, REF_REST, REF_LO, REF_HI, REF_ENUM = range(10)
@@ -92,6 +103,18 @@ def _publish(r, M, P, CH):
             P[r, c] = M[r, c]
         CH[r] = True
     return changed
+
+
+@njit(cache=True)
+def _moved(S, o, n):
+    """Whether the n outputs at S[o..] differ from their last published copies at S[o + n..] (which
+    then take them)."""
+    moved = False
+    for j in range(n):
+        if not same_float(S[o + j], S[o + n + j]):
+            moved = True
+            S[o + n + j] = S[o + j]
+    return moved
 
 
 @njit(cache=True)
@@ -141,8 +164,32 @@ def run_ops(ops, refs, k0, k1, dt):
         code, out, src, s = ops[k, 0], ops[k, 1], ops[k, 2], ops[k, 3]
         r = ops[k]
         has = src >= 0 and A[src]
-        if code == BREATHE:
+        if r[DRIVES] >= 0:  # compiled signals into this op's parameters, before it reads them
+            drive(S, f2(refs, r[DRIVES]))
+        if code == EMOTION:
+            o = s + EMOTION_OUT
+            x, postures = f1(refs, r[4]), f2(refs, r[5])
+            emotion_tick(x, S[s], S[s + 1], S[s + 2], S[s + 3 : s + 11], postures, S[o : o + EMOTION_OUTPUTS])
+            if _moved(S, o, EMOTION_OUTPUTS):
+                CH[out] = True
+                changed += 1
+            continue  # a signal: no frame
+        elif code == MATH:
+            last = f1(refs, r[4])
+            value = math_value(
+                np.int64(S[s + 2]), S[s], S[s + 1], S[s + 3], S[s + 4], S[s + 5], S[s + 6], S[s + 7] > 0.5,
+                S[s + 8], S[s + 9],
+            )  # fmt: skip
+            if math.isfinite(value):
+                last[0] = value
+            S[s + MATH_OUT] = last[0]
+            if _moved(S, s + MATH_OUT, 1):
+                CH[out] = True
+                changed += 1
+            continue
+        elif code == BREATHE:
             mask, phase = b1(refs, r[7]), f1(refs, r[8])
+            S[s] = S[s + 1] / S[s + 4] if S[s + 4] > 0 else 1.0  # the amplitude may come from a drive
             breathe_tick(
                 phase[0], f1(refs, r[4]), b1(refs, r[6]), f1(refs, r[5]), S[s], S[s + 1], S[s + 2],
                 rest, lo, hi, mask, V[out],
