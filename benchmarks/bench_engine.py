@@ -66,6 +66,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import contextlib
 
+import python_left
 import scripted_ai
 import wake
 from bench_nmf import time_ruckig
@@ -149,6 +150,12 @@ def switched(compiled: bool = True, core: bool = True):
                 os.environ.pop(name, None)
             else:
                 os.environ[name] = value
+
+
+def interactive_session(core: bool) -> EngineSession:
+    """A session of the interactive program on the bundled robot, with or without the compiled core."""
+    with switched(core=core):
+        return EngineSession.create(load_embodiment("nutty_desk"), program=program("interactive"))
 
 
 def headless_costs(
@@ -599,6 +606,12 @@ def main() -> None:
     peer = Peer()
     headless = run_headless(peer)
     woken = run_wake(peer)
+    left = python_left.report(interactive_session)
+    headline(
+        f"Python left in a steady interactive tick under the scripted AI: {left['python_calls']:.1f} calls "
+        f"(the blocks' own ticks: {left['core_off_python_calls']:.1f}); the route to the served target "
+        "removes them"
+    )
     if not args.no_server:
         run_served(peer, args.seconds, RATES, headless, woken)
         run_clock_cpu(peer, args.seconds, woken)
