@@ -23,6 +23,7 @@ from backend.engine.apu import MAX_LEVEL
 from backend.engine.audio_events import stamp_audio
 from backend.engine.blocks import BLOCKS
 from backend.engine.blocks.base import Block, BlockContext, BlockParams
+from backend.engine.blocks.input_values import InputValues
 from backend.engine.embodiment import Embodiment
 from backend.engine.frames import AnimationFrame
 from backend.engine.library import RobotLibrary
@@ -168,7 +169,7 @@ class EngineSession:
         return BlockContext(
             embodiment=self.embodiment,
             rate=self.engine.rate,
-            inputs=dict(self.engine.ctx.inputs),
+            inputs=InputValues(self.engine.ctx.inputs),
             resources=self.library,
             compiled=self.engine.ctx.compiled,
         )

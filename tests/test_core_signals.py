@@ -149,3 +149,47 @@ def test_the_interactive_emotion_drives_its_blocks_in_the_kernel(monkeypatch, ro
     breathe = ops["breathe"]
     assert engine.apu.core.arena.S[breathe.s + 1] == amp  # the breath's amplitude, driven in the kernel
     assert np.isfinite(engine.last_frame.position).all()
+
+
+def test_exposed_inputs_are_read_when_set_not_ticked(monkeypatch, robot):
+    prog = json.loads((PROGRAMS / "interactive.json").read_text())
+    session = session_for(monkeypatch, robot, prog, True)
+    engine = session.engine
+    engine.apu.cook.every = 10**9
+    block = engine.apu.block("in_valence")
+    ticks = []
+    block.tick = lambda dt, inputs: ticks.append(dt) or {}  # type: ignore[method-assign]  # a probe
+    engine.run_ticks(5)
+    i = engine.apu.index["in_valence"]
+    held = engine.apu.results[i]
+    engine.run_ticks(5)
+    assert engine.apu.results[i] is held  # no input changed: nothing read, nothing made
+    session.execute({"type": "set_input", "name": "valence", "value": -0.4})
+    engine.tick()
+    assert engine.apu.results[i] == {"value": -0.4} and engine.apu.results[i] is not held
+    session.execute({"type": "set_input", "name": "arousal", "value": 0.2})  # another input changed
+    held = engine.apu.results[i]
+    engine.tick()
+    assert engine.apu.results[i] is held  # its own value is the same object: its readers stay asleep
+    assert ticks == []  # the core read the values; the block never ticked
+    assert engine.apu.block("emotion").state.v != 0.0  # and the emotion took the valence
+
+
+def test_input_values_count_every_change():
+    from backend.engine.blocks.input_values import InputValues  # lazy: the one class tested here
+
+    values = InputValues({"a": 1.0})
+    seen = [values.version]
+    for change in (
+        lambda: values.__setitem__("a", 2.0),
+        lambda: values.update(b=1.0),
+        lambda: values.setdefault("c", 0.0),
+        lambda: values.pop("c"),
+        lambda: values.__delitem__("b"),
+        lambda: values.__ior__({"d": 1}),
+        lambda: values.popitem(),
+        lambda: values.clear(),
+    ):
+        change()
+        seen.append(values.version)
+    assert seen == sorted(set(seen)) and len(seen) == 9  # each one counted

@@ -71,6 +71,7 @@ from backend.engine.blocks.driven import (  # noqa: F401 (re-exported: the names
 )
 
 # Port types and the wiring rule live in `ports`; they are re-exported here, where blocks import them.
+from backend.engine.blocks.input_values import InputValues
 from backend.engine.blocks.ports import (  # noqa: F401 (re-exported: the names were importable from here before the split)
     COMPATIBLE_SIGNALS,
     Port,
@@ -147,7 +148,7 @@ class BlockContext:
 
     embodiment: Embodiment
     rate: float
-    inputs: dict[str, Any] = field(default_factory=dict)
+    inputs: dict[str, Any] = field(default_factory=InputValues)  # (its changes counted: input_values.py)
     resources: Resources | None = None
     seed: int = 0
     events: list[dict[str, Any]] = field(default_factory=list)  # block -> engine notifications

@@ -88,7 +88,7 @@ class GazeOp(SourceOp[Gaze]):
 class IkOp(Op[InverseKinematics]):
     code = vm.IK
     n_scalars = 15
-    pre_when = "always"  # the target and weight decide whether it solves (worked out when they change)
+    pre_when = "inputs"  # the target and weight decide whether it solves (worked out when they change)
 
     def arrays(self) -> list[np.ndarray]:
         b, st = self.block, self.block.state

@@ -75,7 +75,9 @@ class Op(Generic[B]):
     code: ClassVar[int] = vm.NOP
     n_scalars: ClassVar[int] = 0
     needs_kernel: ClassVar[bool] = True  # compiled only when the block runs its own compiled tick
-    pre_when: ClassVar[str] = "wired"  # when `pre` runs: "always", "wired" (a signal input is), "never"
+    # When `pre` runs: "always" (every tick), "wired" (a signal input is: when one changed value), "inputs"
+    # (as "wired", and once after each bind even with none wired), "never".
+    pre_when: ClassVar[str] = "wired"
     passes_events: ClassVar[bool] = True  # whether `post` runs (sources have no events to pass)
     serviced: ClassVar[bool] = False  # whether the kernel may ask for `service` after it ran
     post_always: ClassVar[bool] = False  # whether `post` has work beside events (else it runs only when
@@ -101,6 +103,8 @@ class Op(Generic[B]):
         self._params: Any = None
         self._state: Any = None
         self._signals: list[Any] | None = None  # the wired signals' values `pre` last worked from
+        self.every_tick = False  # whether `pre` runs every tick (else: when `due` or `_signals` is None)
+        self.due = -1  # the core tick in which a Python source of its signals last ticked
 
     # --- binding ------------------------------------------------------------------------------------
     def stale(self) -> bool:
@@ -196,7 +200,7 @@ class Op(Generic[B]):
         """The APU ran the blocks' own ticks since the last core tick: make the state ready for the kernel."""
 
     def needs_pre(self) -> bool:
-        return self.pre_when == "always" or (self.pre_when == "wired" and bool(self.signal_ports))
+        return self.pre_when in ("always", "inputs") or (self.pre_when == "wired" and bool(self.signal_ports))
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         """Python's part before the kernel runs (scalars, random draws)."""

@@ -10,8 +10,10 @@ row's mask changes; its events are passed along in Python.
 
 A Python block that says its tick would change nothing (`quiet`, backend/engine/blocks/quiet.py: an
 idle voice, face, posture, …) is skipped while its params, state and inputs are the objects it last
-ticked on. A frame from a Python block into a compiled one is copied into an import row before the
-segment (`Import`). Commands, events, swaps and blocks without an op keep the Python path. One tick in
+ticked on. An exposed input is not ticked: its value is read when the values changed (`InputValues`).
+A frame from a Python block into a compiled one is copied into an import row before the segment
+(`Import`). Python work that only follows a Python step's outputs (an import's copy, the `pre` of an
+op whose signals come from Python) runs in the ticks that step handed out new ones (`due`). Commands, events, swaps and blocks without an op keep the Python path. One tick in
 `CookTimes.every` the APU times blocks one by one with their own ticks, which step the same state, and
 `verify` then checks that no block replaced an array the table lists.
 
@@ -33,6 +35,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from backend.engine.blocks.base import PortType
+from backend.engine.blocks.core import ExposedInput
+from backend.engine.blocks.input_values import InputValues
 from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.compiled.lazy_entry import LazyEntry, LoadOnSecondAsk
 from backend.engine.compiled.pointers import AddressTable
@@ -106,23 +110,27 @@ class Import:
         self._values = arena.V[row]
         self._mask = arena.M[row]
         self._last_mask: np.ndarray | None = None
+        self.due = -1  # the core tick in which its source last ticked (`CoreProgram.epoch`)
+        self.events = False  # whether the frame last loaded carries events
 
     def load(self, results: list[dict[str, Any]]) -> bool:
         """Copy this tick's frame in; whether it carries events."""
         frame = results[self.src].get(self.port)
         if frame is self.frame and frame is not None and frame.steady:  # already in its row, unchanged
-            return bool(frame.events)
+            return self.events
         self.frame = frame
         if frame is None:
             self.arena.A[self.row] = False
+            self.events = False
             return False
+        self.events = bool(frame.events)
         self.arena.A[self.row] = True
         self._values[:] = frame.values
         mask = frame.mask
         if mask is not self._last_mask:  # masks never change in place: the same object, the same mask
             self._mask[:] = mask
             self._last_mask = mask
-        return bool(frame.events)
+        return self.events
 
 
 class Segment:
@@ -175,9 +183,13 @@ class CoreProgram:
         self.ops: list[Op] = []
         by_step: dict[int, Op] = {}
         imports: dict[tuple[int, str], Import] = {}
-        # ("py", step, block, wires, quiet memo or None) or ("core", segment); a quiet memo is what a
-        # `QuietWhenIdle` block last ticked on: [params, state, its input values] (params None: look again)
+        # ("py", step, block, wires, quiet memo or None, readers), ("input", step, block, seen, readers) or
+        # ("core", segment). A quiet memo is what a `QuietWhenIdle` block last ticked on: [params, state,
+        # its input values] (params None: look again); an input's `seen` the [version, value, values] it
+        # last read (version None: read again); readers are the imports and ops marked `due` when the
+        # step hands out new outputs.
         self.plan: list[tuple[Any, ...]] = []
+        readers: dict[int, list[Import | Op]] = {}
         row = 0
         current: list[Op] = []
         current_imports: list[Import] = []
@@ -187,8 +199,12 @@ class CoreProgram:
                 if current:
                     self.plan.append(("core", Segment(current, current_imports)))
                     current, current_imports = [], []
+                readers[i] = []
+                if type(step.block) is ExposedInput and "tick" not in vars(step.block):
+                    self.plan.append(("input", i, step.block, [None, None, None], readers[i]))
+                    continue  # read when the values changed, not ticked (blocks/input_values.py)
                 memo = [None, None, ()] if isinstance(step.block, QuietWhenIdle) else None
-                self.plan.append(("py", i, step.block, apu._wires[i], memo))
+                self.plan.append(("py", i, step.block, apu._wires[i], memo, readers[i]))
                 continue
             wired = {w.port: w for w in step.wires}
             srcs: list[Any] = []
@@ -209,12 +225,18 @@ class CoreProgram:
             in_kernel = [w for w in signals if takes_in_kernel(by_step.get(w.src), w.src_port, op, w.port)]
             op.signal_ports = tuple((w.port, w.src, w.src_port) for w in signals if w not in in_kernel)
             op.drive_wires = tuple((w.port, output_slot(by_step[w.src], w.src_port)) for w in in_kernel)
+            op.every_tick = op.pre_when == "always" or any(src in by_step for _, src, _ in op.signal_ports)
+            for src in {src for _, src, _ in op.signal_ports if src in readers}:
+                readers[src].append(op)
             row += 1
             self.ops.append(op)
             by_step[i] = op
             current.append(op)
         if current:
             self.plan.append(("core", Segment(current, current_imports)))
+        for imp in imports.values():
+            readers[imp.src].append(imp)
+        self.epoch = 0  # core ticks so far
         for op in self.ops:
             op.bind(self.refs)
         for j, array in enumerate(
@@ -260,6 +282,10 @@ class CoreProgram:
             if entry[0] == "core":
                 entry[1].had_events = True
                 entry[1].seen = None  # the blocks' own ticks may have replaced arrays: look at every op
+                for imp in entry[1].imports:
+                    imp.frame = None  # their sources ticked on their own: load each import once more
+            elif entry[0] == "input":
+                entry[3][0] = None  # read again
             elif entry[4] is not None:
                 entry[4][0] = None  # the block's own tick ran on other inputs, maybe: no skip until it ticks
 
@@ -268,9 +294,25 @@ class CoreProgram:
         ops, run, refs = self.arena.ops, KERNEL.entry, self.refs.table
         if dt != self.arena.dt:
             self._new_dt(dt)
+        self.epoch += 1
+        epoch = self.epoch
         for entry in self.plan:
-            if entry[0] == "py":
-                _, i, block, wires, memo = entry
+            kind = entry[0]
+            if kind == "input":
+                _, i, block, seen, due = entry
+                values = block.ctx.inputs  # (a context's values may be replaced: a swap's)
+                version = values.version if type(values) is InputValues else None
+                if version is None or version != seen[0] or values is not seen[2]:
+                    seen[0], seen[2] = version, values
+                    value = values.get(block.params.name)
+                    if value is not seen[1] or not results[i]:
+                        seen[1] = value
+                        results[i] = {"value": value}  # ExposedInput.tick
+                        for r in due:
+                            r.due = epoch
+                continue
+            if kind == "py":
+                _, i, block, wires, memo, due = entry
                 if memo is not None and block.quiet and memo[0] is block.params and memo[1] is block.state:
                     reads = block.quiet_reads
                     for (port, src, src_port), old in zip(wires, memo[2]):
@@ -284,19 +326,25 @@ class CoreProgram:
                 results[i] = block.tick(dt, inputs) or {}
                 if memo is not None:
                     memo[0], memo[1], memo[2] = block.params, block.state, [*inputs.values()]
+                for r in due:
+                    r.due = epoch
                 continue
             seg: Segment = entry[1]
             events = False
-            for imp in seg.imports:
-                if imp.load(results):
+            for imp in seg.imports:  # a source that did not tick hands out the frame already loaded
+                if imp.due == epoch or imp.frame is None:
+                    if imp.load(results):
+                        events = True
+                elif imp.events:
                     events = True
             if not seg.unchanged():
                 for op in seg.ops:
                     if op.stale():
                         op.bind(self.refs)
                 seg.look()
-            for op in seg.pres:
-                op.pre(dt, results)
+            for op in seg.pres:  # the signals an op reads changed only if a source ticked
+                if op.every_tick or op.due == epoch or op._signals is None:
+                    op.pre(dt, results)
             changed = run(ops, refs, seg.k0, seg.k1, dt)
             if changed:
                 if changed >= vm.SERVICE:
