@@ -8,7 +8,7 @@ changed (the kernel flags that, `CH`): an unchanged output stays the same object
 blocks downstream at once that nothing changed.
 
 The block's state stays the block's: the op steps a copy in the kernel (`x`, floats and a posture index
-where the block keeps a name), writes it back whenever an output changed (every output is a function of
+where the block keeps a name), writes it back whenever an output changed (`publish`) (every output is a function of
 the state, so the state moved only then) and reads it again after the block's own tick ran (`resume`)
 or the block got a new state (`bind`). The core compiles a signal block only when every compiled block
 it feeds takes the signal in the kernel (`compiles_signal`); otherwise it ticks in Python as before.
@@ -71,9 +71,9 @@ class SignalOp(Op[B]):
         self.unpublish()
 
     def publish(self, results: list[dict[str, Any]]) -> None:
-        """An output changed in the kernel: the outputs as the block's tick returns them, and its state."""
-        results[self.step] = self.result = self.outputs()
-        self.write_state()
+        """An output changed in the kernel: the outputs as the block's tick returns them in `results` and
+        `result`, and what the kernel stepped back into the block's state (one call: it runs each tick the
+        signal moves)."""
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired from Python)
@@ -87,17 +87,11 @@ class SignalOp(Op[B]):
     def read_state(self) -> None:
         """Copy the block's state into the arrays the kernel steps."""
 
-    def write_state(self) -> None:
-        """Copy what the kernel stepped back into the block's state."""
-
     def constants(self) -> None:
         """Write the scalars the kernel reads that only the parameters set (and the unwired inputs)."""
 
     def inputs(self, d: Any) -> None:
         """Write the driven inputs' scalars."""
-
-    def outputs(self) -> dict[str, Any]:
-        return {}
 
 
 class EmotionOp(SignalOp[Emotion]):
@@ -129,14 +123,6 @@ class EmotionOp(SignalOp[Emotion]):
         index = self._names.index(st.posture) if st.posture in self._names else -1
         self.x[:] = (st.v, st.a, 1.0 if st.primed else 0.0, index)
 
-    def write_state(self) -> None:
-        b, x = self.block, self.x
-        st = b.state
-        st.v, st.a, st.primed = float(x[0]), float(x[1]), bool(x[2] > 0.5)
-        st.posture = self._names[int(x[3])]
-        b.__dict__.pop("_last_out", None)  # the block's memos of its own last tick no longer hold
-        b.__dict__.pop("_nearest_seen", None)
-
     def constants(self) -> None:
         p, S, s = self.block.params, self.arena.S, self.s
         S[s + 3 : s + 11] = (
@@ -153,17 +139,23 @@ class EmotionOp(SignalOp[Emotion]):
     def inputs(self, d: Any) -> None:
         self.arena.S[self.s], self.arena.S[self.s + 1] = d.valence, d.arousal
 
-    def outputs(self) -> dict[str, Any]:
+    def publish(self, results: list[dict[str, Any]]) -> None:
         o = self.s + vm.EMOTION_OUT
         speed, amplitude, offset, v, a, index = self.arena.S[o : o + vm.EMOTION_OUTPUTS].tolist()
-        return {
+        posture = self._names[int(index)]
+        results[self.step] = self.result = {
             "speed": speed,
             "amplitude": amplitude,
             "posture_offset": offset,
             "valence": v,
             "arousal": a,
-            "posture": self._names[int(index)],
+            "posture": posture,
         }
+        b = self.block
+        st = b.state
+        st.v, st.a, st.primed, st.posture = v, a, True, posture  # (the kernel primed it: outputs are out)
+        b.__dict__.pop("_last_out", None)  # the block's memos of its own last tick no longer hold
+        b.__dict__.pop("_nearest_seen", None)
 
 
 class MathOp(SignalOp[Math]):
@@ -182,11 +174,6 @@ class MathOp(SignalOp[Math]):
 
     def read_state(self) -> None:
         self.last[0] = self.block.state.last
-
-    def write_state(self) -> None:
-        b = self.block
-        b.state.last = float(self.last[0])
-        b.__dict__.pop("_computed", None)  # the block's memo of its own last tick no longer holds
 
     def constants(self) -> None:
         p, S, s = self.block.params, self.arena.S, self.s
@@ -211,8 +198,11 @@ class MathOp(SignalOp[Math]):
             return
         self.inputs(d)
 
-    def outputs(self) -> dict[str, Any]:
-        return {"value": float(self.last[0])}
+    def publish(self, results: list[dict[str, Any]]) -> None:
+        b = self.block
+        b.state.last = value = float(self.last[0])
+        results[self.step] = self.result = {"value": value}
+        b.__dict__.pop("_computed", None)  # the block's memo of its own last tick no longer holds
 
 
 def output_slot(op: Op, port: str) -> int:
