@@ -7,7 +7,7 @@ The LED and face blocks set display DoFs (a colour, an enum option). The audible
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -135,8 +135,18 @@ class Led(Source[LedParams]):
 
     @dataclass
     class State:
-        cycles: float = 0.0  # pulse/breath phase (cycles)
+        # the pulse/breath phase (cycles) in a one-element array: the compiled core steps it in place
+        phase: np.ndarray = field(default_factory=lambda: np.zeros(1))
         commanded: np.ndarray | None = None  # the colour of the last set_led command
+
+        @property
+        def cycles(self) -> float:
+            """The pulse/breath phase (cycles)."""
+            return float(self.phase[0])
+
+        @cycles.setter
+        def cycles(self, value: float) -> None:
+            self.phase[0] = value
 
     def configure(self) -> None:
         self.dof = resolve_dof(self.emb, self.params.dof, DofType.colour, "led")

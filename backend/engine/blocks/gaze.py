@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -129,7 +129,17 @@ class Gaze(Source[GazeParams]):
     @dataclass
     class State:
         x: np.ndarray  # each gaze DoF's angle from rest, without the arc dip (rad)
-        dip: float = 0.0  # the smoothed arc dip (rad)
+        # the smoothed arc dip (rad) in a one-element array: the compiled core steps it in place
+        dip_cell: np.ndarray = field(default_factory=lambda: np.zeros(1))
+
+        @property
+        def dip(self) -> float:
+            """The smoothed arc dip (rad)."""
+            return float(self.dip_cell[0])
+
+        @dip.setter
+        def dip(self, value: float) -> None:
+            self.dip_cell[0] = value
 
     # --- configuration ----------------------------------------------------------------------------
     def configure(self) -> None:
@@ -208,7 +218,6 @@ class Gaze(Source[GazeParams]):
             *chain_arrays,
             gaze_workspace(emb.n_channels, len(self.idx), len(j_off), chain_arrays[7].shape[0]),
         )
-        self._dip = np.zeros(1)
 
     def _dofs(self, given: list[str] | None, default: list[str] | None, label: str) -> list[str]:
         emb = self.emb
@@ -285,11 +294,12 @@ class Gaze(Source[GazeParams]):
         d = self.driven(inputs)
         target, strength = d.target, d.strength
         if self._kernel is not None and self.ctx.compiled:  # the compiled twin of the lines below
-            out, dip = np.empty(emb.n_channels), self._dip
-            dip[0] = s.dip
+            out = np.empty(emb.n_channels)
             x = s.x.copy()  # a new array each tick, as below (an adopted state never shares it)
-            on_target = self._kernel(x, dip, out, target, float(strength), float(dt), *self._kernel_args)
-            x_old, s.x, s.dip = s.x, x, float(dip[0])
+            on_target = self._kernel(
+                x, s.dip_cell, out, target, float(strength), float(dt), *self._kernel_args
+            )
+            x_old, s.x = s.x, x
             self._follow_watch(bool(on_target), x_old, x)
             return {"out": PartialFrame(out, self.mask, []), "on_target": bool(on_target)}
         # Where the eyes are and look now (the gaze pose without the arc dip, other joints at rest).

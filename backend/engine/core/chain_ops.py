@@ -24,8 +24,8 @@ class GazeOp(SourceOp[Gaze]):
     n_scalars = 11
     passes_events = True  # no events, but its `post` reads what the kernel found
     post_always = True
-    # Python's part every tick: the target and the arc dip (a float of the block's state); after the
-    # kernel, the `on_target` output and the end of a watched look_at.
+    pre_when = "inputs"  # the target and strength; the kernel steps the arc dip (the state's `dip_cell`)
+    # Python's part every tick: after the kernel, the `on_target` output and the end of a watched look_at.
 
     def __init__(self, k: int, step: int, block: Gaze, arena: Arena, out: int, srcs: list[Any]):
         super().__init__(k, step, block, arena, out, srcs)
@@ -42,7 +42,7 @@ class GazeOp(SourceOp[Gaze]):
         return [
             b.state.x,
             self._x_old,
-            b._dip,
+            b.state.dip_cell,
             args[0],
             args[1],
             args[2],
@@ -62,10 +62,10 @@ class GazeOp(SourceOp[Gaze]):
 
     def stale(self) -> bool:
         b = self.block  # the block's own tick replaces x each tick
-        return super().stale() or b.state.x is not self._x or b._dip is not self._dip
+        return super().stale() or b.state.x is not self._x
 
     def bound_extra(self) -> None:
-        self._x, self._dip = self.block.state.x, self.block._dip
+        self._x = self.block.state.x
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
@@ -75,12 +75,10 @@ class GazeOp(SourceOp[Gaze]):
             target = d.target
             S[s] = float(d.strength)
             S[s + 1], S[s + 2], S[s + 3] = target[0], target[1], target[2]
-        b._dip[0] = b.state.dip
 
     def post(self) -> None:
         b = self.block
         on = bool(self.arena.S[self.s + 10] > 0.5)
-        b.state.dip = float(b._dip[0])
         self.result["on_target"] = on
         b._follow_watch(on, self._x_old, b.state.x)
 

@@ -1,9 +1,9 @@
 """Ops of the display sources (backend/engine/blocks/display.py): what the kernel computes of an LED.
 
-The LED's brightness curve and the clipped colour run in the kernel; Python's part every tick is the
-phase, a float of the block's state that its own tick steps too (`Led.advance`, shared by both). The
-colour and depth are worked out again only when a wired signal or the `set_led` command changes them,
-as the block's tick would.
+The LED's brightness curve, the clipped colour and the phase (the block's `state.phase`, which its own
+tick steps too) run in the kernel. Python's part every tick is a look at the colour a command set: the
+colour, depth and frequency are worked out again only when a wired signal or the `set_led` command
+changes them, as the block's tick would.
 """
 
 from __future__ import annotations
@@ -26,14 +26,15 @@ _UNSEEN = object()  # no colour worked out yet since the op was bound
 
 
 class LedOp(SourceOp[Led]):
-    """S: r, g, b, mode, depth, phase (cycles, 0..1), first channel, components | 4 mask."""
+    """S: r, g, b, mode, depth, phase (cycles, 0..1: written by the kernel), first channel, components,
+    frequency (Hz) | 4 mask, 5 the state's phase (1,)."""
 
     code = vm.LED
-    n_scalars = 8
+    n_scalars = 9
     needs_kernel = False  # the block has no compiled tick: the op's arithmetic is Led.tick's
 
     def arrays(self) -> list[np.ndarray]:
-        return [self.block.mask]
+        return [self.block.mask, self.block.state.phase]
 
     def bind(self, refs: Refs) -> None:
         super().bind(refs)
@@ -42,17 +43,16 @@ class LedOp(SourceOp[Led]):
         S[s + 6] = float(b.dof.channels.start)
         self._fallback: Any = _UNSEEN
         self._inputs: dict[str, Any] = {}
-        self._frequency = 0.0
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block
-        fallback = b.fallback_colour()
+        commanded = b.state.commanded  # Led.fallback_colour, inline: it is asked every tick
+        fallback = commanded if commanded is not None else b.params.colour
         changed = self.changed_inputs(results) if self.signal_ports else None
         if changed is not None:
             self._inputs = changed
         if changed is not None or fallback is not self._fallback:
             self._colour(fallback)
-        self.arena.S[self.s + 5] = b.advance(self._frequency, dt)
 
     def _colour(self, fallback: Any) -> None:
         """Colour, depth and frequency from the wired signals and the fallback, as Led.tick resolves them."""
@@ -62,5 +62,5 @@ class LedOp(SourceOp[Led]):
         S[s : s + n] = rgb[:n]
         S[s + 7] = float(n)
         S[s + 4] = float(d.depth)
-        self._frequency = float(d.frequency)
+        S[s + 8] = float(d.frequency)
         self._fallback = fallback

@@ -63,7 +63,8 @@ GAZE = 11  # S: strength, target xyz, (unused), arc_dip, arc_max, arc_smoothing,
 #            workspace (compiled/gaze.py's gaze_workspace)
 SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
-LED = 12  # S: r, g, b, mode, depth, phase, first channel, components | 4 mask
+LED = 12  # S: r, g, b, mode, depth, phase (written here), first channel, components, frequency | 4 mask,
+#           5 the phase (1,): read, then stepped by frequency * dt (as Led.advance)
 LED_SOLID, LED_BREATHE, LED_PULSE = 0.0, 1.0, 2.0  # the LED's mode scalar
 # Signal ops: no frame; their outputs are scalar slots, and a changed output flags CH[out] for Python.
 EMOTION = 13  # S: valence and arousal targets, k, 8 constants (compiled/signals.py's emotion_tick), 6 outputs
@@ -221,6 +222,9 @@ def run_ops(ops, refs, k0, k1, dt):
             offset_tick(f1(refs, r[4]), f1(refs, r[5]), S[s], f1(refs, r[6]), rest, lo, hi, mask, V[out])
             M[out, :] = mask
         elif code == LED:
+            phase = f1(refs, r[5])
+            S[s + 5] = phase[0] % 1.0
+            phase[0] = (phase[0] + S[s + 8] * dt) % 1.0
             _led(S, s, rest, V[out])
             M[out, :] = b1(refs, r[4])
         elif code == GAIN_OFFSET:
