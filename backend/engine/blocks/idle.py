@@ -52,7 +52,7 @@ class NormalDraws:
     tick woken from a sleep tens of µs however small the draw.
 
     `cursor[0]` counts the draws of the batch handed out; the compiled core steps it in place and asks
-    for `refill` when the batch is used up (backend/engine/core/ops.py's NoiseOp), while `advance` here
+    for `refill` when the batch is used up (backend/engine/core/idle_ops.py's NoiseOp), while `advance` here
     refills when it finds it used up: either way the generator is called for the same batches in the
     same order, as nothing else draws from it."""
 
@@ -416,8 +416,26 @@ class WeightShift(Source[WeightShiftParams]):
         start: np.ndarray  # the offset the running shift started from
         target: np.ndarray  # the offset it goes to
         rng: np.random.Generator
-        until_next: float  # s to the next shift
-        elapsed: float = 0.0  # s into the running shift
+        # (s to the next shift, s into the running shift) in an array: the compiled core steps it in place
+        timing: np.ndarray
+
+        @property
+        def until_next(self) -> float:
+            """Seconds to the next shift."""
+            return float(self.timing[0])
+
+        @until_next.setter
+        def until_next(self, value: float) -> None:
+            self.timing[0] = value
+
+        @property
+        def elapsed(self) -> float:
+            """Seconds into the running shift."""
+            return float(self.timing[1])
+
+        @elapsed.setter
+        def elapsed(self, value: float) -> None:
+            self.timing[1] = value
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
@@ -428,7 +446,11 @@ class WeightShift(Source[WeightShiftParams]):
         rng = block_rng(self.ctx, self.params.seed, self.node_id)
         until_next = float(rng.uniform(0.25, 1.0)) * self.params.min_interval
         self.state = self.State(
-            offset=np.zeros(n), start=np.zeros(n), target=np.zeros(n), rng=rng, until_next=until_next
+            offset=np.zeros(n),
+            start=np.zeros(n),
+            target=np.zeros(n),
+            rng=rng,
+            timing=np.array([until_next, 0.0]),
         )
 
     def _new_target(self) -> np.ndarray:

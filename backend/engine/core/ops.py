@@ -6,7 +6,9 @@ the events along (`post`), which the kernel does not see. The block keeps its st
 into the block's own arrays, so the block's own tick (which the APU runs to time blocks one by one) and
 the core step the same state. State the kernel steps itself lives in arrays for that reason (a breath's
 phase, the cursor into a noise block's batch of draws), and an op whose kernel step needs Python
-afterwards (drawing the noise's next batch) asks for its `service` through `run_ops`' return.
+afterwards (drawing the noise's next batch) asks for its `service` through `run_ops`' return, or before
+(a weight shift's next draws) stops the run for its `trap`. The idle sources' ops are in idle_ops.py, the
+chains' in chain_ops.py, the LED's in display_ops.py, the signals' in signal_ops.py.
 
 An op is bound again when its block may have replaced the arrays it listed: new parameters (a live
 edit), a new state object (reset, a hot swap's adopted state) or, for the ops that say so, after their
@@ -25,8 +27,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 import numpy as np
 
 from backend.engine.blocks.base import Block
-from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter, Sine
-from backend.engine.blocks.idle import Breathe, Noise, WeightShift
+from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter
 from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterStage2
 from backend.engine.core import vm
@@ -196,6 +197,10 @@ class Op(Generic[B]):
     def service(self) -> None:
         """Python's part after a kernel run that asked for it (`serviced` ops only: the noise's next draws)."""
 
+    def trap(self, dt: float) -> None:
+        """Python's part of this tick's step, before the kernel runs the op (it stopped there: `vm.TRAP`)."""
+        raise RuntimeError(f"compiled core: {type(self).__name__} has no Python part to trap to")
+
     def resume(self) -> None:
         """The APU ran the blocks' own ticks since the last core tick: make the state ready for the kernel."""
 
@@ -230,142 +235,6 @@ class RestOp(SourceOp[RestPose]):
         a.V[self.out] = b.emb.rest
         a.M[self.out] = b.mask
         a.A[self.out] = True
-
-
-class BreatheOp(SourceOp[Breathe]):
-    code = vm.BREATHE
-    n_scalars = 5
-    kernel_drives = {"amplitude": 1, "frequency": 3}
-    pre_when = "wired"  # the kernel steps the phase (the block's one-element `state.phase`)
-
-    def arrays(self) -> list[np.ndarray]:
-        b = self.block
-        return [b.offset_cycles, b.amp_values, b.amp_override, b.mask, b.state.phase]
-
-    def bind(self, refs: Refs) -> None:
-        super().bind(refs)
-        self._scalars(self.block.driven({}))
-
-    def _scalars(self, d: Any) -> None:
-        p, S, s = self.block.params, self.arena.S, self.s  # as Breathe.tick's compiled branch
-        S[s] = d.amplitude / p.amplitude if p.amplitude > 0 else 1.0
-        S[s + 1] = float(d.amplitude)
-        S[s + 2] = float(p.inhale_ratio)
-        S[s + 3] = float(d.frequency)
-        S[s + 4] = float(p.amplitude)  # (the kernel works the scale out from the amplitude it is given)
-
-    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired)
-        if inputs is not None:
-            self._scalars(self.block.driven(inputs))
-
-
-class NoiseOp(SourceOp[Noise]):
-    code = vm.NOISE
-    n_scalars = 2
-    pre_when = "wired"  # the kernel steps the draws' cursor; a new dt comes through `new_dt`
-    serviced = True  # the kernel asks for the next batch of draws when it used up this one
-
-    def bind(self, refs: Refs) -> None:
-        b = self.block
-        st = b.state
-        if st.y is st.x:  # as the block's compiled tick: the two stages in two arrays
-            st.y = st.y.copy()
-        b._transition(self.arena.dt or 1.0 / b.ctx.rate)  # (new parameters: new coefficients)
-        if st.draws.exhausted():  # the kernel never draws: the batch it reads must hold this tick's draws
-            st.draws.refill()
-        super().bind(refs)
-        self._scalars(b.params.amplitude)
-
-    def arrays(self) -> list[np.ndarray]:
-        b = self.block
-        st = b.state
-        return [st.x, st.y, b._coef_array, st.draws.batch, b.mask, st.draws.cursor]
-
-    def stale(self) -> bool:
-        b = self.block
-        return super().stale() or b._coef_array is not self._coef
-
-    def _scalars(self, amp: float) -> None:
-        p, S, s = self.block.params, self.arena.S, self.s  # as Noise.tick's compiled branch
-        S[s] = 1.0 if p.smoothing > 0.0 else 0.0
-        S[s + 1] = float(amp * math.sqrt((p.tau + p.smoothing) / p.tau))
-
-    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired)
-        if inputs is not None:
-            self._scalars(self.block.driven(inputs).amplitude)
-
-    def new_dt(self, dt: float) -> None:
-        if dt > 0:
-            self.block._transition(dt)
-            self.rebind_if_stale()  # new coefficients: list them
-
-    def service(self) -> None:
-        draws = self.block.state.draws
-        if draws.exhausted():
-            draws.refill()
-
-    def resume(self) -> None:
-        self.service()  # the blocks' own ticks may have used up the batch
-
-    def bound_extra(self) -> None:
-        self._coef = self.block._coef_array
-
-
-class SineOp(SourceOp[Sine]):
-    """Sine has no kernel of its own: the op computes its wave with libm's sine, numpy's within 1 ulp."""
-
-    code = vm.SINE
-    n_scalars = 3
-    needs_kernel = False
-    # Python's part every tick: the phase is a float of the block's state
-
-    def arrays(self) -> list[np.ndarray]:
-        return [self.block.spread, self.block.mask]
-
-    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        b = self.block
-        st, S, s = b.state, self.arena.S, self.s
-        inputs = self.changed_inputs(results)
-        if inputs is not None:
-            d = b.driven(inputs)
-            S[s] = float(d.offset)
-            S[s + 1] = float(d.amplitude)
-            self._frequency = d.frequency
-        S[s + 2] = st.phi + b.params.phase
-        st.phi = (st.phi + 2 * math.pi * self._frequency * dt) % (2 * math.pi)
-
-
-class WeightShiftOp(SourceOp[WeightShift]):
-    code = vm.OFFSET
-    n_scalars = 1
-    # Python's part every tick: the shifts are drawn by the block's numpy generator
-
-    def arrays(self) -> list[np.ndarray]:
-        st = self.block.state
-        return [st.start, st.target, st.offset, self.block.mask]
-
-    def stale(self) -> bool:
-        st = self.block.state
-        return (
-            super().stale()
-            or st.start is not self._start
-            or st.target is not self._target
-            or st.offset is not self._offset
-        )
-
-    def bound_extra(self) -> None:
-        st = self.block.state
-        self._start, self._target, self._offset = st.start, st.target, st.offset
-
-    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        b = self.block  # WeightShift.tick up to its kernel
-        self.arena.S[self.s] = b.advance(dt)
-        st = b.state
-        if st.offset is st.start or st.offset is st.target:  # written in place: never one of its inputs
-            st.offset = st.offset.copy()
-        self.rebind_if_stale()
 
 
 class GainOffsetOp(Op[GainOffset]):

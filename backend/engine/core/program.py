@@ -346,6 +346,10 @@ class CoreProgram:
                 if op.every_tick or op.due == epoch or op._signals is None:
                     op.pre(dt, results)
             changed = run(ops, refs, seg.k0, seg.k1, dt)
+            while changed >= vm.TRAP:  # an op needs Python first: its `trap`, then the rest of the segment
+                k = changed // vm.TRAP - 1
+                self.ops[k].trap(dt)
+                changed = changed % vm.TRAP + run(ops, refs, k, seg.k1, dt)
             if changed:
                 if changed >= vm.SERVICE:
                     for op in seg.serviced:

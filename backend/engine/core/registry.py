@@ -14,18 +14,15 @@ from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterS
 from backend.engine.blocks.signals import Emotion, Math
 from backend.engine.core.chain_ops import GazeOp, IkOp
 from backend.engine.core.display_ops import LedOp
+from backend.engine.core.idle_ops import BreatheOp, NoiseOp, SineOp, WeightShiftOp
 from backend.engine.core.ops import (
-    BreatheOp,
     FilterOp,
     GainOffsetOp,
     LimiterOp,
     MixerOp,
-    NoiseOp,
     Op,
     OutputOp,
     RestOp,
-    SineOp,
-    WeightShiftOp,
 )
 from backend.engine.core.signal_ops import EmotionOp, MathOp
 

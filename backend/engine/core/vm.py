@@ -37,7 +37,7 @@ from backend.engine.compiled.gaze import gaze_tick
 from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
 from backend.engine.compiled.ik import ik_tick
 from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1
-from backend.engine.compiled.signals import drive, emotion_tick, math_value, same_float
+from backend.engine.compiled.signals import drive, emotion_tick, math_value, py_min, same_float
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
@@ -62,7 +62,8 @@ GAZE = 11  # S: strength, target xyz, (unused), arc_dip, arc_max, arc_smoothing,
 #            10 constants, 11 j_rows, 12..21 the chain's arrays in CHAIN_SIG's order, 22 mask, 23 the
 #            workspace (compiled/gaze.py's gaze_workspace)
 SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
-OFFSET = 9  # S: k | 4 start, 5 target, 6 offset (written), 7 mask  (weight_shift)
+OFFSET = 9  # S: k, k given (Python advanced this tick: `TRAP`), shift duration | 4 start, 5 target, 6 offset
+#             (written), 7 mask, 8 timing (until next, elapsed), stepped here (as WeightShift.advance)
 LED = 12  # S: r, g, b, mode, depth, phase (written here), first channel, components, frequency | 4 mask,
 #           5 the phase (1,): read, then stepped by frequency * dt (as Led.advance)
 LED_SOLID, LED_BREATHE, LED_PULSE = 0.0, 1.0, 2.0  # the LED's mode scalar
@@ -78,6 +79,9 @@ MATH_OUT = 10
 
 #: What `run_ops` adds to its count of changed masks per op asking for Python's `service` after the run.
 SERVICE = 1 << 32
+#: `run_ops` stopped at op k, which needs Python's `trap` before it can run (a new weight shift is drawn):
+#: it returns its counts so far plus (k + 1) * TRAP, having changed nothing of op k.
+TRAP = 1 << 48
 
 #: Columns of an op row; the last lists the op's drives (compiled/signals.py's `drive` table), or -1.
 WIDTH = 25
@@ -218,6 +222,17 @@ def run_ops(ops, refs, k0, k1, dt):
                 V[out, c] = rest[c] + S[s] + S[s + 1] * math.sin(S[s + 2] + spread[c])
             M[out, :] = mask
         elif code == OFFSET:
+            if S[s + 1] > 0.5:  # Python advanced it this tick (a trap)
+                S[s + 1] = 0.0
+            else:
+                timing = f1(refs, r[8])
+                until_next = timing[0] - dt
+                if until_next <= 0.0:  # a new shift is due: its draws are Python's
+                    return changed + service * SERVICE + (k + 1) * TRAP
+                timing[0] = until_next
+                timing[1] = timing[1] + dt
+                u = py_min(timing[1] / S[s + 2], 1.0)
+                S[s] = 0.5 - 0.5 * math.cos(math.pi * u)
             mask = b1(refs, r[7])
             offset_tick(f1(refs, r[4]), f1(refs, r[5]), S[s], f1(refs, r[6]), rest, lo, hi, mask, V[out])
             M[out, :] = mask
