@@ -4,6 +4,8 @@ ticks frame for frame, with and without those ticks in between."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 from test_compiled_core import assert_same_frames, frame_tuple, session_for
 
@@ -80,3 +82,64 @@ def test_a_trap_stops_the_kernel_before_its_op_changes_anything(monkeypatch, rob
     assert seen[0][0] <= engine.dt + 1e-12 and seen[0][0] > 0.0
     assert 0.5 - 1e-9 <= shift.state.until_next <= 0.5 + 1e-9 and shift.state.elapsed == engine.dt
     assert before > seen[0][0]
+
+
+def blinking_program() -> dict:
+    b = ProgramBuilder("blinks")
+    gaze = b.expose("gaze", "vec3", default=[1.0, 0.0, 0.3])
+    hold = b.expose("hold", "bool", default=False)
+    blink = b.node(
+        "blink",
+        "blink",
+        dofs=["blink"],
+        min_interval=0.3,
+        mean_interval=0.5,
+        max_interval=0.9,
+        double_blink_probability=0.8,
+        double_blink_gap=0.2,
+    )
+    b.connect(gaze, blink, "value", "gaze").connect(hold, blink, "value", "hold")
+    lids = b.node("motion_filter", "lids", dofs=["blink"], preset="D")
+    b.chain(blink, lids)
+    mix = b.node("layer_mixer", "mix", layers=[{"name": "a"}])
+    b.connect(lids, mix, "out", "a")
+    b.chain(mix, b.output())
+    return b.to_dict()
+
+
+BLINK_SCRIPT: dict[int, Any] = {
+    40: {"type": "set_input", "name": "gaze", "value": [0.2, 1.0, 0.3]},  # a gaze shift
+    41: {"type": "set_input", "name": "gaze", "value": [0.2, 1.0, 0.3]},  # the same again: no shift
+    170: "blink",  # the block's `blink` command: a blink now
+    230: {"type": "set_input", "name": "gaze", "value": [1.0, -0.5, 0.0]},
+}
+# held expressions on and off, often: some cancel a pending second blink
+BLINK_SCRIPT |= {k: {"type": "set_input", "name": "hold", "value": k % 2 == 0} for k in range(60, 160, 7)}
+
+
+@pytest.mark.parametrize("every", [7, 10**9])
+def test_blinks_agree_through_shifts_holds_commands_and_edits(monkeypatch, robot, every):
+    runs, blinking, traps = {}, {}, []
+    for core in (True, False):
+        session = session_for(monkeypatch, robot, blinking_program(), core)
+        session.engine.apu.cook.every = every
+        if core:
+            assert "blink" in {op.block.node_id for op in session.engine.apu.core.ops}
+            (op,) = [op for op in session.engine.apu.core.ops if op.code == vm.BLINK]
+            own = op.trap
+            op.trap = lambda dt, own=own: traps.append(dt) or own(dt)  # type: ignore[method-assign]  # a probe
+        frames, flags = [], []
+        for k in range(300):
+            command = BLINK_SCRIPT.get(k)
+            if command == "blink":
+                session.engine.apu.block("blink").handle("blink", {})
+            elif command is not None:
+                session.execute(command)
+            if k == 200:
+                session.update_params("blink", {"close_time": 0.05, "open_time": 0.1})
+            frames.append(frame_tuple(session.engine.tick()))
+            flags.append(session.engine.apu.signal_value("blink", "blinking"))
+        runs[core], blinking[core] = frames, flags
+    assert_same_frames(runs[True], runs[False])
+    assert blinking[True] == blinking[False]
+    assert blinking[True].count(True) > 20 and len(traps) >= 3  # it blinked, in the kernel too

@@ -4,7 +4,7 @@ drawn to gaze shifts."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -74,6 +74,30 @@ class BlinkParams(BlockParams):
         return self
 
 
+def _entry(i: int, doc: str) -> Any:
+    """A float property over `clock[i]`."""
+
+    def get(self: Any) -> float:
+        return float(self.clock[i])
+
+    def put(self: Any, value: float) -> None:
+        self.clock[i] = value
+
+    return property(get, put, doc=doc)
+
+
+def _flag(i: int, doc: str) -> Any:
+    """A bool property over `clock[i]` (1.0 or 0.0)."""
+
+    def get(self: Any) -> bool:
+        return bool(self.clock[i] > 0.5)
+
+    def put(self: Any, value: bool) -> None:
+        self.clock[i] = 1.0 if value else 0.0
+
+    return property(get, put, doc=doc)
+
+
 class Blink(Source[BlinkParams]):
     """Blinks the eyelids at natural random intervals, never during a held expression, gladly at a gaze shift.
 
@@ -101,15 +125,30 @@ class Blink(Source[BlinkParams]):
     @dataclass
     class State:
         rng: np.random.Generator
-        next_at: float = 0.0  # when the next scheduled blink starts (s)
-        t: float = 0.0  # time since start (s)
-        last_onset: float = -math.inf  # when the last regular blink started (s)
-        active: bool = False  # a blink is under way
-        elapsed: float = 0.0  # s into it
-        double_at: float | None = None  # when the second blink of a double blink starts (s)
-        forced: bool = False  # the `blink` command asked for a blink
+        # The schedule, in an array the compiled core steps in place (backend/engine/core/idle_ops.py's
+        # BlinkOp), read and written through the properties below: `CLOCK` names its entries.
+        clock: np.ndarray = field(
+            default_factory=lambda: np.array([0.0, 0.0, -math.inf, 0.0, 0.0, math.nan, 0.0])
+        )
         gaze_ref: np.ndarray | None = None  # the gaze at the last gaze shift
         gaze_seen: tuple | None = None  # (the last gaze value read, the threshold then), to skip repeats
+
+        t = _entry(0, "time since start (s)")
+        next_at = _entry(1, "when the next scheduled blink starts (s)")
+        last_onset = _entry(2, "when the last regular blink started (s)")
+        active = _flag(3, "a blink is under way")
+        elapsed = _entry(4, "s into it")
+        forced = _flag(6, "the `blink` command asked for a blink")
+
+        @property
+        def double_at(self) -> float | None:
+            """When the second blink of a double blink starts (s), or None."""
+            v = float(self.clock[5])
+            return None if math.isnan(v) else v
+
+        @double_at.setter
+        def double_at(self, value: float | None) -> None:
+            self.clock[5] = math.nan if value is None else value
 
     def configure(self) -> None:
         p, emb = self.params, self.emb
@@ -209,22 +248,10 @@ class Blink(Source[BlinkParams]):
         return super().handle(command, args)
 
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:
-        p, s = self.params, self.state
-        s.t += dt
         hold = bool(inputs.get("hold") or False)
         shifted = self._gaze_shift(inputs.get("gaze"))
-        if not s.active:
-            if s.forced:
-                self._start()
-            elif not hold:
-                if s.double_at is not None and s.t >= s.double_at:
-                    s.double_at = None
-                    self._start(scheduled=False)
-                elif (shifted and s.t - s.last_onset > p.min_interval / 2) or s.t >= s.next_at:
-                    self._start()
-            else:
-                s.double_at = None  # a held expression cancels a pending second blink
-            s.forced = False
+        self.schedule(dt, hold, shifted)
+        p, s = self.params, self.state
         k = 0.0
         if s.active:
             s.elapsed += dt
@@ -239,3 +266,22 @@ class Blink(Source[BlinkParams]):
             "out": PartialFrame(np.where(self.mask, values, emb.rest), self.mask, []),
             "blinking": s.active,
         }
+
+    def schedule(self, dt: float, hold: bool, shifted: bool) -> None:
+        """The clock steps by `dt` (s) and a blink starts if one is due: a command's, a double blink's second,
+        one at a gaze shift or the scheduled one (none while `hold`). (The compiled core's op calls it when
+        a blink starts: the draws are the block's random generator's.)"""
+        p, s = self.params, self.state
+        s.t += dt
+        if not s.active:
+            if s.forced:
+                self._start()
+            elif not hold:
+                if s.double_at is not None and s.t >= s.double_at:
+                    s.double_at = None
+                    self._start(scheduled=False)
+                elif (shifted and s.t - s.last_onset > p.min_interval / 2) or s.t >= s.next_at:
+                    self._start()
+            else:
+                s.double_at = None  # a held expression cancels a pending second blink
+            s.forced = False

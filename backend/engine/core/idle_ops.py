@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from backend.engine.blocks.blink import Blink
 from backend.engine.blocks.core import Sine
 from backend.engine.blocks.idle import Breathe, Noise, WeightShift
 from backend.engine.core import vm
@@ -163,3 +164,50 @@ class WeightShiftOp(SourceOp[WeightShift]):
         if st.offset is st.start or st.offset is st.target:  # written in place: never one of its inputs
             st.offset = st.offset.copy()
         self.rebind_if_stale()
+
+
+class BlinkOp(SourceOp[Blink]):
+    """The blink's clock, envelope and frame in the kernel; Python's part: the inputs when they change
+    (`pre`: hold, and whether the gaze shifted), a blink's start (`trap`: its draws) and `blinking` when
+    it started or ended (`service`)."""
+
+    code = vm.BLINK
+    n_scalars = 8
+    needs_kernel = False  # the block has no compiled tick: the op's arithmetic is Blink.tick's
+    pre_when = "wired"
+    serviced = True
+
+    def __init__(self, *args: Any):
+        super().__init__(*args)
+        self.result["blinking"] = False
+
+    def arrays(self) -> list[np.ndarray]:
+        b = self.block
+        return [b.state.clock, b.delta, b.mask]
+
+    def bind(self, refs: Refs) -> None:
+        super().bind(refs)
+        p, S, s = self.block.params, self.arena.S, self.s
+        S[s] = S[s + 1] = S[s + 2] = 0.0
+        S[s + 3 : s + 7] = (p.close_time, p.hold_time, p.open_time, p.min_interval)
+        self.resume()
+
+    def resume(self) -> None:
+        active = self.block.state.active  # (the blocks' own ticks may have started or ended a blink)
+        self.arena.S[self.s + 7] = 1.0 if active else 0.0
+        self.result["blinking"] = active
+
+    def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
+        inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired, when one ticked)
+        if inputs is not None:  # as Blink.tick reads them; an unchanged gaze is no shift
+            S, s = self.arena.S, self.s
+            S[s] = 1.0 if inputs.get("hold") else 0.0
+            S[s + 1] = 1.0 if self.block._gaze_shift(inputs.get("gaze")) else 0.0
+
+    def trap(self, dt: float) -> None:
+        S, s = self.arena.S, self.s
+        self.block.schedule(dt, S[s] > 0.5, S[s + 1] > 0.5)
+        S[s + 2] = 1.0
+
+    def service(self) -> None:
+        self.result["blinking"] = self.block.state.active

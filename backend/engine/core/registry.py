@@ -4,6 +4,7 @@ chain_ops.py)."""
 from __future__ import annotations
 
 from backend.engine.blocks.base import Block
+from backend.engine.blocks.blink import Blink
 from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter, Sine
 from backend.engine.blocks.display import Led
 from backend.engine.blocks.gaze import Gaze
@@ -14,7 +15,7 @@ from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterS
 from backend.engine.blocks.signals import Emotion, Math
 from backend.engine.core.chain_ops import GazeOp, IkOp
 from backend.engine.core.display_ops import LedOp
-from backend.engine.core.idle_ops import BreatheOp, NoiseOp, SineOp, WeightShiftOp
+from backend.engine.core.idle_ops import BlinkOp, BreatheOp, NoiseOp, SineOp, WeightShiftOp
 from backend.engine.core.ops import (
     FilterOp,
     GainOffsetOp,
@@ -42,6 +43,7 @@ OPS: dict[type, type[Op]] = {
     InverseKinematics: IkOp,
     Gaze: GazeOp,
     Led: LedOp,
+    Blink: BlinkOp,
     Emotion: EmotionOp,
     Math: MathOp,
 }

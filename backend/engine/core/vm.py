@@ -37,7 +37,7 @@ from backend.engine.compiled.gaze import gaze_tick
 from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
 from backend.engine.compiled.ik import ik_tick
 from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1
-from backend.engine.compiled.signals import drive, emotion_tick, math_value, py_min, same_float
+from backend.engine.compiled.signals import drive, emotion_tick, math_value, py_max, py_min, same_float
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
 NOP = 0  # a constant frame written when the op is bound (rest_pose)
@@ -73,6 +73,11 @@ EMOTION = 13  # S: valence and arousal targets, k, 8 constants (compiled/signals
 #              values | 4 state (v, a, primed, posture index), 5 postures (n, 2)
 MATH = 14  # S: a, b, op code, in_min, in_max, out_min, out_max, clamped, min, max, value, last published |
 #           4 the last finite value (1,)
+BLINK = (
+    15  # S: hold, shifted (this tick: `pre` sets it, the op clears it), scheduled (Python stepped the clock
+)
+#             this tick: `TRAP`), close, hold and open times, min_interval, blinking as last published | 4 the
+#             state's clock (Blink.State.clock), 5 delta, 6 mask
 EMOTION_OUT = 11  # the emotion's first output slot (after its s)
 EMOTION_OUTPUTS = 6
 MATH_OUT = 10
@@ -120,6 +125,54 @@ def _moved(S, o, n):
             moved = True
             S[o + n + j] = S[o + j]
     return moved
+
+
+@njit(cache=True)
+def _blink_clock(clock, S, s, dt):
+    """Blink.schedule's step of the clock when no blink starts this tick; False (nothing changed) when
+    one does (Python's `trap` steps it then). clock: t, next_at, last_onset, active, elapsed, double_at
+    (NaN: none), forced."""
+    if S[s + 2] > 0.5:  # Python stepped it this tick
+        S[s + 2] = 0.0
+        S[s + 1] = 0.0
+        return True
+    t = clock[0] + dt
+    if clock[3] < 0.5:  # not blinking
+        if clock[6] > 0.5:
+            return False
+        if S[s] < 0.5:  # not held
+            if not math.isnan(clock[5]) and t >= clock[5]:
+                return False
+            if (S[s + 1] > 0.5 and t - clock[2] > S[s + 6] / 2) or t >= clock[1]:
+                return False
+        else:
+            clock[5] = math.nan  # a held expression cancels a pending second blink
+    clock[0] = t
+    S[s + 1] = 0.0
+    return True
+
+
+@njit(cache=True)
+def _blink_amount(clock, S, s, dt):
+    """The lids' closure this tick (Blink.tick after its schedule, and Blink.envelope)."""
+    if clock[3] < 0.5:
+        return 0.0
+    clock[4] = clock[4] + dt
+    e, close, hold, opening = clock[4], S[s + 3], S[s + 4], S[s + 5]
+    if e >= close + hold + opening:
+        clock[3] = 0.0
+        return 0.0
+    if e <= 0.0:
+        return 0.0
+    if e < close:
+        return 0.5 - 0.5 * math.cos(math.pi * e / close)
+    e -= close
+    if e < hold:
+        return 1.0
+    e -= hold
+    if e < opening:
+        return 0.5 + 0.5 * math.cos(math.pi * e / opening)
+    return 0.0
 
 
 @njit(cache=True)
@@ -235,6 +288,18 @@ def run_ops(ops, refs, k0, k1, dt):
                 S[s] = 0.5 - 0.5 * math.cos(math.pi * u)
             mask = b1(refs, r[7])
             offset_tick(f1(refs, r[4]), f1(refs, r[5]), S[s], f1(refs, r[6]), rest, lo, hi, mask, V[out])
+            M[out, :] = mask
+        elif code == BLINK:
+            clock, delta, mask = f1(refs, r[4]), f1(refs, r[5]), b1(refs, r[6])
+            if not _blink_clock(clock, S, s, dt):
+                return changed + service * SERVICE + (k + 1) * TRAP  # a blink starts: Python's draws
+            amount = _blink_amount(clock, S, s, dt)
+            if clock[3] != S[s + 7]:  # it started or ended: `blinking` for Python's readers
+                S[s + 7] = clock[3]
+                service += 1
+            for c in range(V.shape[1]):
+                v = py_min(py_max(rest[c] + amount * delta[c], lo[c]), hi[c])
+                V[out, c] = v if mask[c] else rest[c]
             M[out, :] = mask
         elif code == LED:
             phase = f1(refs, r[5])
