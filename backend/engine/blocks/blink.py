@@ -11,6 +11,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from backend.engine.blocks.base import BlockParams, DofSelection, Port, PortType, Source, soft_range
+from backend.engine.blocks.cells import cell, flag
 from backend.engine.blocks.idle import block_rng
 from backend.engine.frames import PartialFrame, SteadyFrame
 from backend.engine.selectors import channel_mask
@@ -74,30 +75,6 @@ class BlinkParams(BlockParams):
         return self
 
 
-def _entry(i: int, doc: str) -> Any:
-    """A float property over `clock[i]`."""
-
-    def get(self: Any) -> float:
-        return float(self.clock[i])
-
-    def put(self: Any, value: float) -> None:
-        self.clock[i] = value
-
-    return property(get, put, doc=doc)
-
-
-def _flag(i: int, doc: str) -> Any:
-    """A bool property over `clock[i]` (1.0 or 0.0)."""
-
-    def get(self: Any) -> bool:
-        return bool(self.clock[i] > 0.5)
-
-    def put(self: Any, value: bool) -> None:
-        self.clock[i] = 1.0 if value else 0.0
-
-    return property(get, put, doc=doc)
-
-
 class Blink(Source[BlinkParams]):
     """Blinks the eyelids at natural random intervals, never during a held expression, gladly at a gaze shift.
 
@@ -133,12 +110,12 @@ class Blink(Source[BlinkParams]):
         gaze_ref: np.ndarray | None = None  # the gaze at the last gaze shift
         gaze_seen: tuple | None = None  # (the last gaze value read, the threshold then), to skip repeats
 
-        t = _entry(0, "time since start (s)")
-        next_at = _entry(1, "when the next scheduled blink starts (s)")
-        last_onset = _entry(2, "when the last regular blink started (s)")
-        active = _flag(3, "a blink is under way")
-        elapsed = _entry(4, "s into it")
-        forced = _flag(6, "the `blink` command asked for a blink")
+        t = cell("clock", 0, "time since start (s)")
+        next_at = cell("clock", 1, "when the next scheduled blink starts (s)")
+        last_onset = cell("clock", 2, "when the last regular blink started (s)")
+        active = flag("clock", 3, "a blink is under way")
+        elapsed = cell("clock", 4, "s into it")
+        forced = flag("clock", 6, "the `blink` command asked for a blink")
 
         @property
         def double_at(self) -> float | None:

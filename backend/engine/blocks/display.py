@@ -21,6 +21,7 @@ from backend.engine.blocks.base import (
     colour_or_none,
     drivable,
 )
+from backend.engine.blocks.cells import cell
 from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.embodiment import Dimension, Dof, DofType, Embodiment
 from backend.engine.frames import PartialFrame, SteadyFrame
@@ -139,14 +140,7 @@ class Led(Source[LedParams]):
         phase: np.ndarray = field(default_factory=lambda: np.zeros(1))
         commanded: np.ndarray | None = None  # the colour of the last set_led command
 
-        @property
-        def cycles(self) -> float:
-            """The pulse/breath phase (cycles)."""
-            return float(self.phase[0])
-
-        @cycles.setter
-        def cycles(self, value: float) -> None:
-            self.phase[0] = value
+        cycles = cell("phase", 0, "The pulse/breath phase (cycles).")
 
     def configure(self) -> None:
         self.dof = resolve_dof(self.emb, self.params.dof, DofType.colour, "led")

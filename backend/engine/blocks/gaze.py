@@ -19,6 +19,7 @@ from backend.engine.blocks.base import (
     drivable,
     soft_range,
 )
+from backend.engine.blocks.cells import cell
 from backend.engine.blocks.gaze_reach import yaw_pitch
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.chain import GAZE_SIG, chain_args, gaze_constants, gaze_tick, gaze_workspace
@@ -132,14 +133,7 @@ class Gaze(Source[GazeParams]):
         # the smoothed arc dip (rad) in a one-element array: the compiled core steps it in place
         dip_cell: np.ndarray = field(default_factory=lambda: np.zeros(1))
 
-        @property
-        def dip(self) -> float:
-            """The smoothed arc dip (rad)."""
-            return float(self.dip_cell[0])
-
-        @dip.setter
-        def dip(self, value: float) -> None:
-            self.dip_cell[0] = value
+        dip = cell("dip_cell", 0, "The smoothed arc dip (rad).")
 
     # --- configuration ----------------------------------------------------------------------------
     def configure(self) -> None:

@@ -24,6 +24,7 @@ from backend.engine.blocks.base import (
     drivable,
     soft_range,
 )
+from backend.engine.blocks.cells import cell
 from backend.engine.compiled import entry_point
 from backend.engine.compiled.idle import (
     BREATHE_SIG,
@@ -160,14 +161,7 @@ class Breathe(Source[BreatheParams]):
         # the phase (cycles, in [0, 1)) in a one-element array: the compiled core steps it in place
         phase: np.ndarray = field(default_factory=lambda: np.zeros(1))
 
-        @property
-        def phi(self) -> float:
-            """The phase (cycles, in [0, 1))."""
-            return float(self.phase[0])
-
-        @phi.setter
-        def phi(self, value: float) -> None:
-            self.phase[0] = value
+        phi = cell("phase", 0, "The phase (cycles, in [0, 1)).")
 
     def configure(self) -> None:
         p = self.params
@@ -419,23 +413,8 @@ class WeightShift(Source[WeightShiftParams]):
         # (s to the next shift, s into the running shift) in an array: the compiled core steps it in place
         timing: np.ndarray
 
-        @property
-        def until_next(self) -> float:
-            """Seconds to the next shift."""
-            return float(self.timing[0])
-
-        @until_next.setter
-        def until_next(self, value: float) -> None:
-            self.timing[0] = value
-
-        @property
-        def elapsed(self) -> float:
-            """Seconds into the running shift."""
-            return float(self.timing[1])
-
-        @elapsed.setter
-        def elapsed(self, value: float) -> None:
-            self.timing[1] = value
+        until_next = cell("timing", 0, "Seconds to the next shift.")
+        elapsed = cell("timing", 1, "Seconds into the running shift.")
 
     def configure(self) -> None:
         self.mask = channel_mask(self.emb, self.params.dofs, continuous_only=True)
