@@ -103,7 +103,7 @@ class EngineSession:
         engine.add_listener(self._on_note)
         self.behaviours = BehaviourPlayer(self)  # behaviours play on the clock (backend.behaviours)
         self.recent_events = RecentEvents()  # for telemetry, which samples the frames
-        engine.add_frame_observer(self.recent_events.observe)
+        engine.add_frame_observer(self.recent_events.observe, events_only=True)
 
     # --- construction ---------------------------------------------------------------------------
     @classmethod

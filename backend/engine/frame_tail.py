@@ -205,12 +205,13 @@ class FrameTail:
         are that frame with the engine's overrides and swap transition applied (new arrays). `last` is
         the engine's last position, velocity and acceleration. The net's `joint_out`, `corrected_any`
         and `corrected_ticks` are as `SafetyNet.step` leaves them."""
+        checked = self._checked  # (`ready` and `takes` inline for the steady case: they run every tick)
         if (
             requested is None
             and self.fused
             and self.net.enabled
-            and self.ready()
-            and self.takes(final, stage1)
+            and (TAIL.entry is not None or self.ready())
+            and ((final is checked[0] and stage1 is checked[1]) or self.takes(final, stage1))
         ):
             program, pos, vel, acc, jerk, s1 = self._fused(final, stage1, last, dt, seq)
             return program, program, pos, vel, acc, jerk, s1

@@ -101,6 +101,7 @@ class Engine:
         self._sinks_lock = threading.Lock()
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         self._observers: list[Callable[[AnimationFrame], None]] = []  # see add_frame_observer
+        self._event_observers: list[Callable[[AnimationFrame], None]] = []  # (events only)
         self._tick_hooks: list[Callable[[float], None]] = []  # see add_tick_hook
         #: what carries each tick's events on (e.g. sounds get their file's URL); see set_event_stamp
         self._stamp: Callable[[list, float], list] | None = None
@@ -156,7 +157,7 @@ class Engine:
             with self.tick_lock:
                 self._ticking = threading.get_ident()
                 try:
-                    self._drain_pending()
+                    drain(self._pending)
                     return fn()
                 finally:
                     self._ticking = None
@@ -291,9 +292,10 @@ class Engine:
         """`fn(events, t)` returns a tick's events as they go out (called only on ticks with events)."""
         self._stamp = fn
 
-    def add_frame_observer(self, fn: Callable[[AnimationFrame], None]) -> None:
-        """Call `fn(frame)` on the clock thread after every frame's notes; it must be quick and not raise."""
-        self._observers.append(fn)
+    def add_frame_observer(self, fn: Callable[[AnimationFrame], None], events_only: bool = False) -> None:
+        """Call `fn(frame)` on the clock thread after every frame's notes (`events_only`: only frames with
+        events); it must be quick and not raise."""
+        (self._event_observers if events_only else self._observers).append(fn)
 
     # --- sinks ----------------------------------------------------------------------------------
     def add_sink(self, sink: Sink) -> Sink:
@@ -311,9 +313,6 @@ class Engine:
         return list(self._sinks)
 
     # --- ticking --------------------------------------------------------------------------------
-    def _drain_pending(self) -> None:
-        drain(self._pending)
-
     def tick(self) -> AnimationFrame:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
         with self.tick_lock:
@@ -336,7 +335,8 @@ class Engine:
     def _tick(self, t0: float, cpu0: float) -> AnimationFrame:
         if self.seq == 1:  # code the clock reaches now and then, loaded beside it (warm_up.py)
             warm_up.start()
-        self._drain_pending()
+        if not self._pending.empty():  # (most ticks: nothing queued)
+            drain(self._pending)
         if self._tick_hooks:
             self._run_hooks()
         dt = self.dt
@@ -388,7 +388,7 @@ class Engine:
             notes, self.ctx.events = self.ctx.events, []
             for note in notes:
                 self._notify(note)
-        for fn in self._observers:
+        for fn in (*self._observers, *self._event_observers) if frame.events else self._observers:
             fn(frame)
         for sink in self._sinks:
             sink.offer(frame)
