@@ -69,9 +69,9 @@ from backend.engine.blocks.driven import (  # noqa: F401 (re-exported: the names
     driven_params,
     vec3_or_none,
 )
+from backend.engine.blocks.input_values import InputValues
 
 # Port types and the wiring rule live in `ports`; they are re-exported here, where blocks import them.
-from backend.engine.blocks.input_values import InputValues
 from backend.engine.blocks.ports import (  # noqa: F401 (re-exported: the names were importable from here before the split)
     COMPATIBLE_SIGNALS,
     Port,

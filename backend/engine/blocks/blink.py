@@ -103,7 +103,7 @@ class Blink(Source[BlinkParams]):
     class State:
         rng: np.random.Generator
         # The schedule, in an array the compiled core steps in place (backend/engine/core/idle_ops.py's
-        # BlinkOp), read and written through the properties below: `CLOCK` names its entries.
+        # BlinkOp), read and written through the properties below, which name its entries.
         clock: np.ndarray = field(
             default_factory=lambda: np.array([0.0, 0.0, -math.inf, 0.0, 0.0, math.nan, 0.0])
         )

@@ -177,7 +177,7 @@ class Led(Source[LedParams]):
 
     def advance(self, frequency: float, dt: float) -> float:
         """This tick's phase (cycles, 0..1), then the phase stepped by `frequency` (Hz) over `dt` (s).
-        (The compiled core's LED op calls it too.)"""
+        (The compiled core's kernel steps the same `state.phase` alike: core/vm.py's LED op.)"""
         s = self.state
         u = s.cycles % 1.0
         s.cycles = (s.cycles + frequency * dt) % 1.0

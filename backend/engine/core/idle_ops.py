@@ -40,11 +40,12 @@ class BreatheOp(SourceOp[Breathe]):
 
     def _scalars(self, d: Any) -> None:
         p, S, s = self.block.params, self.arena.S, self.s  # as Breathe.tick's compiled branch
-        S[s] = d.amplitude / p.amplitude if p.amplitude > 0 else 1.0
+        # (the kernel works the scale S[s] out of S[s + 1] and S[s + 4]: a compiled signal may drive the
+        # amplitude in the kernel)
         S[s + 1] = float(d.amplitude)
         S[s + 2] = float(p.inhale_ratio)
         S[s + 3] = float(d.frequency)
-        S[s + 4] = float(p.amplitude)  # (the kernel works the scale out from the amplitude it is given)
+        S[s + 4] = float(p.amplitude)
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         inputs = self.changed_inputs(results)  # (`pre` runs only with a signal wired)

@@ -95,10 +95,8 @@ class Op(Generic[B]):
         self.srcs = srcs  # per frame input: the object whose `.frame` is that input's frame (or None)
         self.s = arena.scalar_slots(self.n_scalars)
         self.signal_ports: tuple[tuple[str, int, str], ...] = ()  # (port, source step, source port)
-        self.drive_wires: tuple[
-            tuple[str, int], ...
-        ] = ()  # (port, source's output slot) driven in the kernel
-        self._drives = np.zeros((0, 5))
+        # (port, source's output slot) per parameter a compiled signal drives in the kernel
+        self.drive_wires: tuple[tuple[str, int], ...] = ()
         self.frame = PartialFrame(arena.V[out], arena.P[out].copy(), NO_EVENTS)
         self.result: dict[str, Any] = {"out": self.frame}
         self._params: Any = None
@@ -125,9 +123,8 @@ class Op(Generic[B]):
         row[2] = -1 if src is None else src.row
         for col, array in enumerate(self.arrays(), start=4):
             row[col] = refs.put(self.k, col, array)
-        if self.drive_wires:
-            self._drives = self.drive_table()
-            row[vm.DRIVES] = refs.put(self.k, vm.DRIVES, self._drives)
+        if self.drive_wires:  # (the table keeps the array alive)
+            row[vm.DRIVES] = refs.put(self.k, vm.DRIVES, self.drive_table())
         self.bound_extra()
 
     def drive_table(self) -> np.ndarray:

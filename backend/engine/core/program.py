@@ -13,9 +13,10 @@ idle voice, face, posture, …) is skipped while its params, state and inputs ar
 ticked on. An exposed input is not ticked: its value is read when the values changed (`InputValues`).
 A frame from a Python block into a compiled one is copied into an import row before the segment
 (`Import`). Python work that only follows a Python step's outputs (an import's copy, the `pre` of an
-op whose signals come from Python) runs in the ticks that step handed out new ones (`due`). Commands, events, swaps and blocks without an op keep the Python path. One tick in
-`CookTimes.every` the APU times blocks one by one with their own ticks, which step the same state, and
-`verify` then checks that no block replaced an array the table lists.
+op whose signals come from Python) runs in the ticks that step handed out new ones (`due`). Commands,
+events, swaps and blocks without an op keep the Python path. One tick in `CookTimes.every` the APU
+times blocks one by one with their own ticks, which step the same state, and `verify` then checks that
+no block replaced an array the table lists.
 
 The kernel loads (from numba's cache, or compiles on a fresh clone) on a thread of its own, started
 by the second tick of a core: until it is there, the APU runs the blocks' own ticks, which step the same
