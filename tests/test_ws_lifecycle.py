@@ -17,6 +17,9 @@ from websockets.sync.client import connect as ws_connect
 
 from backend.api import create_app
 from backend.commands.serve import builtin_idle
+from backend.engine import warm_up
+from backend.engine.core.program import KERNEL
+from backend.engine.frame_tail import TAIL
 from backend.session import EngineSession
 
 pytestmark = pytest.mark.slow
@@ -58,6 +61,10 @@ async def _open_and_abort(port: int, n: int) -> None:
 
 
 def test_abruptly_closed_frame_clients_leave_nothing_behind():
+    # A server loads its compiled code on threads of its own, from numba's on-disk cache or, on a fresh
+    # clone, by compiling it for ~15 s: such a thread ending between the two counts below would read as a
+    # missing client thread. Filled here first, the cache lets those threads end at once.
+    assert KERNEL.wait(300) and TAIL.wait(300) and warm_up.wait(300)
     with running_server_proc("--no-previz", "--sim-servo", "0") as srv:
         asyncio.run(_open_and_abort(srv.port, 10))  # warm-up: worker threads the handlers use exist now
         _wait_for(lambda: _frames_state(srv.client), lambda v: v == (0, 0), "the warm-up clients to go")
