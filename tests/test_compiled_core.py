@@ -86,17 +86,20 @@ def test_the_core_agrees_with_the_blocks_on_every_shipped_program(monkeypatch, r
     for core in (True, False):
         session = session_for(monkeypatch, robot, program(name), core)
         notes[core] = []
-        session.on_note(notes[core].append)
+        session.on_note(
+            lambda n, seen=notes[core], e=session.engine: seen.append((e.seq, n))
+        )  # (in its tick)
         runs[core] = [frame_tuple(f) for f in scripted_ai.run(session, 10.0)]
         if core:
             compiled = segments(session)
             rebinds = session.engine.apu.core.rebinds
             assert session.engine.tail._made is not None  # plain ticks took the compiled tail
     assert_same_frames(runs[True], runs[False])
-    # the blocks' notes too: a look_at's end (the gaze's watch), clips and postures started and done
+    # the blocks' notes too, in the same ticks: a look_at's end (the gaze's watch), clips and postures
+    # started and done
     assert notes[True] == notes[False]
     if name == "interactive":
-        assert any(n.get("node") == "gaze" and n.get("event") == "completed" for n in notes[True])
+        assert any(n.get("node") == "gaze" and n.get("event") == "completed" for _, n in notes[True])
     moved = np.ptp(np.array([f[0] for f in runs[True]]), axis=0)
     assert moved.max() > 0.01  # the program moved the robot: the comparison covered motion
     assert rebinds == 0

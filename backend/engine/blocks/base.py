@@ -41,17 +41,16 @@ then `pip install -e .`. Defining or importing the class registers nothing.
 
 from __future__ import annotations
 
-import copy
-import dataclasses
 import inspect
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
 from types import SimpleNamespace
-from typing import Annotated, Any, ClassVar, Generic, TypeVar, get_args
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Generic, TypeVar, get_args
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+
+from backend.engine.blocks.block_state import copy_state, counted, counting, state_fits
 
 # Drivable parameters and signal values live in `driven`; re-exported here, where blocks import them.
 from backend.engine.blocks.driven import (  # noqa: F401 (re-exported: the names were importable from here before the split)
@@ -163,30 +162,6 @@ class BlockCommandError(ValueError):
     """A command a block cannot carry out (unknown clip, bad argument); the message says why."""
 
 
-def state_fits(fresh: Any, old: Any) -> bool:
-    """Whether `old` state can replace `fresh`: the same class, and every array of `fresh` matched by an
-    array of the same shape (parameters may have changed the DoF set or a buffer's length)."""
-    if type(old) is not type(fresh):
-        return False
-    for f in dataclasses.fields(fresh):
-        mine = getattr(fresh, f.name)
-        if isinstance(mine, np.ndarray):
-            theirs = getattr(old, f.name)
-            if not isinstance(theirs, np.ndarray) or theirs.shape != mine.shape:
-                return False
-    return True
-
-
-def copy_state(state: Any) -> Any:
-    """A copy of a state object whose arrays are copied too (other values are shared)."""
-    out = copy.copy(state)
-    for f in dataclasses.fields(state):
-        value = getattr(state, f.name)
-        if isinstance(value, np.ndarray):
-            setattr(out, f.name, value.copy())
-    return out
-
-
 P = TypeVar("P", bound="BlockParams")
 
 
@@ -223,8 +198,12 @@ class Block(Generic[P]):
     _declared_inputs: ClassVar[dict[str, Port]] = {}
     # The run-time state: a dataclass; `reset()` puts a fresh instance at `self.state`.
     State: ClassVar[type | None] = None
-    state: Any = None  # (None: a block without run-time state)
-    params: P
+    if TYPE_CHECKING:
+        state: Any  # (None: a block without run-time state)
+        params: P
+    else:  # replacing either is counted, for the compiled core (blocks/replaced.py)
+        state, params = counted("state"), counted("params")
+    _state: Any = None
     _wired_cache: dict[str, tuple[tuple[Any, ...], BlockParams, Any]]  # driven(): last vector per param
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
@@ -239,6 +218,9 @@ class Block(Generic[P]):
         if clash:
             raise TypeError(f"{cls.__name__}: ports {clash} are declared by hand and as drivable parameters")
         cls.inputs = {**declared, **{name: d.port for name, d in cls.drivables.items()}}
+        own = cls.__dict__.get("handle")
+        if own is not None:  # commands counted, for the compiled core (blocks/block_state.py)
+            setattr(cls, "handle", counting(own))  # noqa: B010 - assigning a method: type checkers reject `cls.handle =`
         if "ports" in cls.__dict__:
             raise TypeError(
                 f"{cls.__name__}: derive ports with `port_rules`, which the editor applies too, "

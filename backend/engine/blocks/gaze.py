@@ -132,8 +132,11 @@ class Gaze(Source[GazeParams]):
         x: np.ndarray  # each gaze DoF's angle from rest, without the arc dip (rad)
         # the smoothed arc dip (rad) in a one-element array: the compiled core steps it in place
         dip_cell: np.ndarray = field(default_factory=lambda: np.zeros(1))
+        # the ticks in a row a look_at in progress has seen the gaze stand still, counted in place likewise
+        still_cell: np.ndarray = field(default_factory=lambda: np.zeros(1))
 
         dip = cell("dip_cell", 0, "The smoothed arc dip (rad).")
+        still = cell("still_cell", 0, "Ticks in a row the gaze stood still during a look_at (GazeWatch).")
 
     # --- configuration ----------------------------------------------------------------------------
     def configure(self) -> None:
@@ -259,6 +262,7 @@ class Gaze(Source[GazeParams]):
         if command == "watch":  # a look_at: report its end (a newer one replaces it)
             self._end_watch("cancelled", reached=False, replaced=True)
             self._watch = gaze_reach.GazeWatch(str(args.get("command_id")))
+            self.state.still = 0.0
             self.ctx.notify(self.node_id, "started", command_id=self._watch.command_id)
             return {"watching": True}
         if command == "unwatch":  # its command was cancelled (the hub reports that)
@@ -278,9 +282,17 @@ class Gaze(Source[GazeParams]):
             self.ctx.notify(self.node_id, event, command_id=watch.command_id, **details)
 
     def _follow_watch(self, on_target: bool, x_old: np.ndarray, x: np.ndarray) -> None:
-        watch = getattr(self, "_watch", None)
-        if watch is not None and watch.done(on_target, float(np.abs(x - x_old).max(initial=0.0))):
-            self._end_watch("completed", reached=on_target, _channels=tuple(self.idx.tolist()))
+        """A look_at in progress ends when the gaze is on target, or stood still for STILL_TICKS ticks."""
+        if getattr(self, "_watch", None) is None:
+            return
+        s = self.state
+        s.still = s.still + 1.0 if float(np.abs(x - x_old).max(initial=0.0)) < gaze_reach.STILL else 0.0
+        if on_target or s.still >= gaze_reach.STILL_TICKS:
+            self.watch_completed(on_target)
+
+    def watch_completed(self, on_target: bool) -> None:
+        """The look_at in progress is done (the gaze is on target, or stood still short of it)."""
+        self._end_watch("completed", reached=on_target, _channels=tuple(self.idx.tolist()))
 
     # --- run time -----------------------------------------------------------------------------------
     def tick(self, dt: float, inputs: dict[str, Any]) -> dict[str, Any]:

@@ -8,7 +8,7 @@ target's distance. A point within `TOO_CLOSE` of the eyes cannot be looked at. T
 how the eyes move as the head turns (a few centimetres), which the block's own loop corrects.
 
 `GazeWatch`: a look_at in progress (one at a time): done when the block reports the gaze on target,
-or when the gaze has stopped moving short of it (held at a limit) for `STILL_TICKS` ticks.
+or when the gaze has stopped moving short of it (held at a limit) for `STILL_TICKS` ticks in a row.
 """
 
 from __future__ import annotations
@@ -80,11 +80,7 @@ def reach(block: Any, target: Any) -> dict[str, Any]:
 
 @dataclass
 class GazeWatch:
-    """A look_at command the block reports the end of (see the module doc)."""
+    """A look_at command the block reports the end of (see the module doc). The ticks the gaze has stood
+    still since it began are the block's state (`Gaze.State.still`: the compiled core counts them too)."""
 
     command_id: str
-    still: int = 0
-
-    def done(self, on_target: bool, moved: float) -> bool:
-        self.still = self.still + 1 if moved < STILL else 0
-        return on_target or self.still >= STILL_TICKS

@@ -21,11 +21,12 @@ if TYPE_CHECKING:
 
 class GazeOp(SourceOp[Gaze]):
     code = vm.GAZE
-    n_scalars = 11
-    passes_events = True  # no events, but its `post` reads what the kernel found
-    post_always = True
+    n_scalars = 13
     pre_when = "inputs"  # the target and strength; the kernel steps the arc dip (the state's `dip_cell`)
-    # Python's part every tick: after the kernel, the `on_target` output and the end of a watched look_at.
+    # The kernel also counts a look_at's still ticks (the state's `still_cell`) and asks for `service` when
+    # the look_at ends or `on_target` changes; whether a look_at is in progress is a command's (`changed`).
+    serviced = True
+    watches_changes = True
 
     def __init__(self, k: int, step: int, block: Gaze, arena: Arena, out: int, srcs: list[Any]):
         super().__init__(k, step, block, arena, out, srcs)
@@ -51,6 +52,7 @@ class GazeOp(SourceOp[Gaze]):
             *args[9:19],
             b.mask,
             args[20],
+            b.state.still_cell,
         ]
 
     def bind(self, refs: Refs) -> None:
@@ -59,6 +61,7 @@ class GazeOp(SourceOp[Gaze]):
         for i in range(4):  # arc_dip, arc_max, arc smoothing, tolerance
             S[s + 5 + i] = float(args[4 + i])
         S[s + 9] = 1.0 if args[19] else 0.0
+        self.resume()
 
     def stale(self) -> bool:
         b = self.block  # the block's own tick replaces x each tick
@@ -76,11 +79,20 @@ class GazeOp(SourceOp[Gaze]):
             S[s] = float(d.strength)
             S[s + 1], S[s + 2], S[s + 3] = target[0], target[1], target[2]
 
-    def post(self) -> None:
-        b = self.block
-        on = bool(self.arena.S[self.s + 10] > 0.5)
+    def resume(self) -> None:
+        """Whether a look_at is in progress, and `on_target` as Python's readers last saw it."""
+        S, s = self.arena.S, self.s
+        S[s + 11] = 0.0 if getattr(self.block, "_watch", None) is None else 1.0
+        S[s + 12] = 1.0 if self.result["on_target"] else 0.0
+
+    changed = resume  # a look_at command began, was replaced or cancelled
+
+    def service(self) -> None:
+        S, s = self.arena.S, self.s
+        on = bool(S[s + 10] > 0.5)
         self.result["on_target"] = on
-        b._follow_watch(on, self._x_old, b.state.x)
+        if S[s + 11] < 0.5 and getattr(self.block, "_watch", None) is not None:  # the kernel ended it
+            self.block.watch_completed(on)
 
 
 class IkOp(Op[InverseKinematics]):

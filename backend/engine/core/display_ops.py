@@ -1,9 +1,9 @@
 """Ops of the display sources (backend/engine/blocks/display.py): what the kernel computes of an LED.
 
 The LED's brightness curve, the clipped colour and the phase (the block's `state.phase`, which its own
-tick steps too) run in the kernel. Python's part every tick is a look at the colour a command set: the
-colour, depth and frequency are worked out again only when a wired signal or the `set_led` command
-changes them, as the block's tick would.
+tick steps too) run in the kernel. The colour, depth and frequency are worked out again in Python only
+when a wired signal changed them (`pre`) or a command may have (`changed`: a `set_led` colour), as the
+block's tick would: a steady LED runs no Python.
 """
 
 from __future__ import annotations
@@ -32,6 +32,8 @@ class LedOp(SourceOp[Led]):
     code = vm.LED
     n_scalars = 9
     needs_kernel = False  # the block has no compiled tick: the op's arithmetic is Led.tick's
+    pre_when = "inputs"  # the wired signals when one changed, and once after each bind
+    watches_changes = True  # the colour a set_led command sets
 
     def arrays(self) -> list[np.ndarray]:
         return [self.block.mask, self.block.state.phase]
@@ -45,14 +47,19 @@ class LedOp(SourceOp[Led]):
         self._inputs: dict[str, Any] = {}
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
-        b = self.block
-        commanded = b.state.commanded  # Led.fallback_colour, inline: it is asked every tick
-        fallback = commanded if commanded is not None else b.params.colour
-        changed = self.changed_inputs(results) if self.signal_ports else None
-        if changed is not None:
-            self._inputs = changed
-        if changed is not None or fallback is not self._fallback:
+        inputs = self.changed_inputs(results)  # (after a bind, or when a wired signal's source ticked)
+        if inputs is not None:
+            self._inputs = inputs
+            self._colour(self._fallback_colour())
+
+    def changed(self) -> None:
+        fallback = self._fallback_colour()
+        if fallback is not self._fallback:  # a set_led command (or an edit) changed it
             self._colour(fallback)
+
+    def _fallback_colour(self) -> Any:
+        commanded = self.block.state.commanded  # (Led.fallback_colour, inline)
+        return commanded if commanded is not None else self.block.params.colour
 
     def _colour(self, fallback: Any) -> None:
         """Colour, depth and frequency from the wired signals and the fallback, as Led.tick resolves them."""

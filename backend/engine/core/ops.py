@@ -81,6 +81,8 @@ class Op(Generic[B]):
     pre_when: ClassVar[str] = "wired"
     passes_events: ClassVar[bool] = True  # whether `post` runs (sources have no events to pass)
     serviced: ClassVar[bool] = False  # whether the kernel may ask for `service` after it ran
+    # Whether `changed` runs when any block changed (parameters, state or a command: blocks/block_state.py).
+    watches_changes: ClassVar[bool] = False
     post_always: ClassVar[bool] = False  # whether `post` has work beside events (else it runs only when
     # a frame into the segment carries events, or did on the tick before: the ones it passed are cleared)
     frame_inputs: ClassVar[tuple[str, ...]] = ("in",)  # the frame ports, in the order rows are listed
@@ -206,6 +208,10 @@ class Op(Generic[B]):
 
     def pre(self, dt: float, results: list[dict[str, Any]]) -> None:
         """Python's part before the kernel runs (scalars, random draws)."""
+
+    def changed(self) -> None:
+        """Python's part at edit or command time (`watches_changes` ops only): what a command set, e.g. an
+        LED's colour, into the scalars the kernel reads."""
 
     def post(self) -> None:
         """Python's part after: the events the frame out carries."""

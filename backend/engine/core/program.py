@@ -30,12 +30,12 @@ from __future__ import annotations
 import heapq
 import logging
 import os
-from operator import attrgetter, is_not
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from backend.engine.blocks.base import PortType
+from backend.engine.blocks.block_state import CHANGES
 from backend.engine.blocks.core import ExposedInput
 from backend.engine.blocks.input_values import InputValues
 from backend.engine.blocks.quiet import QuietWhenIdle
@@ -51,8 +51,6 @@ if TYPE_CHECKING:
     from backend.engine.apu import APU
 
 log = logging.getLogger(__name__)
-
-_PARAMS, _STATE = attrgetter("params"), attrgetter("state")  # (a block without state: the class's None)
 
 #: Environment variable: "0" turns the compiled core off.
 CORE_ENV = "NUTTY_CORE"
@@ -148,24 +146,16 @@ class Segment:
         self.always = [op for op in self.posts if op.post_always]
         self.serviced = [op for op in ops if op.serviced]
         self.had_events = True  # whether the ops' frames may hold events (cleared by a quiet tick's posts)
-        self.blocks = [op.block for op in ops]
-        # The blocks' parameters and states when every op was last found bound (None: look again).
-        self.seen: tuple[list[Any], list[Any]] | None = None
-
-    def unchanged(self) -> bool:
-        """Whether every block holds the parameters and state objects it held when every op was last
-        found bound (compared by identity, in C loops): then, unless a block ran its own tick, no op is
-        stale (an op whose `pre` changes its block's arrays binds again there)."""
-        seen, blocks = self.seen, self.blocks
-        return (
-            seen is not None
-            and not any(map(is_not, map(_PARAMS, blocks), seen[0]))
-            and not any(map(is_not, map(_STATE, blocks), seen[1]))
-        )
+        self.watching = [op for op in ops if op.watches_changes]
+        # `CHANGES` when every op was last found bound (-1: look again; blocks/block_state.py). While it
+        # stands, no block holds another parameters or state object or handled a command, so, unless a
+        # block ran its own tick, no op is stale (an op whose `pre` changes its block's arrays binds again
+        # there) and no op's `changed` has anything new to see.
+        self.seen = -1
 
     def look(self) -> None:
-        """Remember the blocks' parameters and states (every op was just found bound)."""
-        self.seen = ([*map(_PARAMS, self.blocks)], [*map(_STATE, self.blocks)])
+        """Every op was just found bound, and told of the changes it watches."""
+        self.seen = CHANGES[0]
 
 
 class CoreProgram:
@@ -282,7 +272,7 @@ class CoreProgram:
         for entry in self.plan:
             if entry[0] == "core":
                 entry[1].had_events = True
-                entry[1].seen = None  # the blocks' own ticks may have replaced arrays: look at every op
+                entry[1].seen = -1  # the blocks' own ticks may have replaced arrays: look at every op
                 for imp in entry[1].imports:
                     imp.frame = None  # their sources ticked on their own: load each import once more
             elif entry[0] == "input":
@@ -292,7 +282,7 @@ class CoreProgram:
 
     def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
         """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
-        ops, run, refs = self.arena.ops, KERNEL.entry, self.refs.table
+        ops, run, refs, changes = self.arena.ops, KERNEL.entry, self.refs.table, CHANGES
         if dt != self.arena.dt:
             self._new_dt(dt)
         self.epoch += 1
@@ -338,10 +328,12 @@ class CoreProgram:
                         events = True
                 elif imp.events:
                     events = True
-            if not seg.unchanged():
+            if seg.seen != changes[0]:  # a block changed (parameters, state, a command): look at its ops
                 for op in seg.ops:
                     if op.stale():
                         op.bind(self.refs)
+                for op in seg.watching:
+                    op.changed()
                 seg.look()
             for op in seg.pres:  # the signals an op reads changed only if a source ticked
                 if op.every_tick or op.due == epoch or op._signals is None:

@@ -30,6 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
+from backend.engine.blocks.gaze_reach import STILL, STILL_TICKS
 from backend.engine.compiled import f8, i8, i8_2
 from backend.engine.compiled.blend import mixer_tick
 from backend.engine.compiled.frames import filter_tick, gain_offset_tick, hold_tick, limiter_tick
@@ -58,9 +59,11 @@ IK = 10  # S: weight, target xyz, look, lam2, iterations, max_step, converged, n
 #          arrays in CHAIN_SIG's order (k, k2, axes, revolute, src, mult, off, pre, post, select), 21 the
 #          workspace (compiled/ik.py's ik_workspace)
 GAZE = 11  # S: strength, target xyz, (unused), arc_dip, arc_max, arc_smoothing, tolerance, chain identity,
-#            on target (written) | 4 x, 5 x before this tick (written), 6 dip (1,), 7 idx, 8 axis, 9 leader,
-#            10 constants, 11 j_rows, 12..21 the chain's arrays in CHAIN_SIG's order, 22 mask, 23 the
-#            workspace (compiled/gaze.py's gaze_workspace)
+#            on target (written), a look_at in progress (cleared here when it ends: `SERVICE`), on target as
+#            last published (a change asks for `SERVICE`) | 4 x, 5 x before this tick (written), 6 dip (1,),
+#            7 idx, 8 axis, 9 leader, 10 constants, 11 j_rows, 12..21 the chain's arrays in CHAIN_SIG's order,
+#            22 mask, 23 the workspace (compiled/gaze.py's gaze_workspace), 24 the still ticks (1,): stepped
+#            here while a look_at is in progress (as Gaze._follow_watch)
 SINE = 8  # S: offset, amplitude, phi + phase | 4 spread, 5 mask
 OFFSET = 9  # S: k, k given (Python advanced this tick: `TRAP`), shift duration | 4 start, 5 target, 6 offset
 #             (written), 7 mask, 8 timing (until next, elapsed), stepped here (as WeightShift.advance)
@@ -89,7 +92,7 @@ SERVICE = 1 << 32
 TRAP = 1 << 48
 
 #: Columns of an op row; the last lists the op's drives (compiled/signals.py's `drive` table), or -1.
-WIDTH = 25
+WIDTH = 26
 DRIVES = WIDTH - 1
 
 #: refs rows 0.. : the arena's and the robot's arrays, the same for every op.
@@ -113,6 +116,19 @@ def _publish(r, M, P, CH):
             P[r, c] = M[r, c]
         CH[r] = True
     return changed
+
+
+@njit(cache=True)
+def _look_at_ended(x, x_old, still, on):
+    """Count the ticks in a row the gaze stood still (`still[0]`, as Gaze._follow_watch); whether the
+    look_at in progress ends (on target, or still for STILL_TICKS ticks)."""
+    moved = False
+    for i in range(x.shape[0]):
+        if not abs(x[i] - x_old[i]) < STILL:  # (a NaN moved)
+            moved = True
+            break
+    still[0] = 0.0 if moved else still[0] + 1.0
+    return on or still[0] >= STILL_TICKS
 
 
 @njit(cache=True)
@@ -362,6 +378,12 @@ def run_ops(ops, refs, k0, k1, dt):
                 S[s + 9] > 0.5, f1(refs, r[23]),
             )  # fmt: skip
             S[s + 10] = 1.0 if on else 0.0
+            if S[s + 10] != S[s + 12]:  # on_target changed: for Python's readers
+                S[s + 12] = S[s + 10]
+                service += 1
+            if S[s + 11] > 0.5 and _look_at_ended(x, x_old, f1(refs, r[24]), on):
+                S[s + 11] = 0.0
+                service += 1
             M[out, :] = b1(refs, r[22])
         elif code == HOLD:
             if has:  # without a frame in, the output holds (as Output.tick)
