@@ -31,6 +31,7 @@ import numpy as np
 
 from backend.behaviours.items import REPORTED, command_for
 from backend.behaviours.plan import Plan, PlannedItem
+from backend.engine.tick_hooks import IDLE
 
 log = logging.getLogger(__name__)
 NODE = "behaviour"  # the `node` of the player's notes
@@ -95,6 +96,7 @@ class BehaviourPlayer:
         with self._lock:
             self._subs.update({i.sub: (run, i) for i in run.items})
         self.queue.append(run)
+        self.session.engine.wake_tick_hook(self._tick)
         out = {"behaviour": run.name, "duration": round(run.plan.duration, 4), "items": len(run.items)}
         return {**out, "queued": True} if self.current is not None else out
 
@@ -112,10 +114,10 @@ class BehaviourPlayer:
             return isinstance(cid, str) and cid in self._subs
 
     # --- the clock thread ------------------------------------------------------------------------------
-    def _tick(self, t: float) -> None:
+    def _tick(self, t: float) -> Any:
         if self.current is None:
             if not self.queue:
-                return
+                return IDLE  # not called again until a behaviour is queued (`_play` wakes it)
             self.current = self.queue.pop(0)
             self.current.t0 = t
             self._note(

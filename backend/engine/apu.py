@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from backend.engine.blocks.base import Block, Role
-from backend.engine.core.program import CoreProgram
+from backend.engine.core.program import KERNEL, CoreProgram
 from backend.engine.frames import FrameEvent, PartialFrame
 from backend.engine.profile import CookTimes
 
@@ -115,7 +115,7 @@ class APU:
             if core is not None:
                 core.verify()
                 self._core_results = False
-        elif core is not None and core.ready():
+        elif core is not None and (KERNEL.entry is not None or core.ready()):  # (loaded: no call)
             if not self._core_results:
                 core.restore_results(results)
                 self._core_results = True

@@ -49,21 +49,21 @@ class SampledCpu:
 
     def __init__(self, ring: RingStats, every: int):
         self.ring, self.every = ring, max(1, int(every))
-        self._due = 1
+        #: Ticks until the next one read: the caller counts it down by one as each tick starts, and calls
+        #: `start` only once it is down to 0 (a plain tick then makes no call).
+        self.due = 1
 
     def start(self, plain: Callable[[], bool] | None) -> float:
-        """Call as a tick starts: the thread's CPU time (s) if this tick is read, else -1 (`plain` None:
-        every tick is plain)."""
-        self._due -= 1
-        if self._due > 0 or (plain is not None and not plain()):
+        """Call as a tick starts, once `due` is down to 0: the thread's CPU time (s) if this tick is read,
+        else -1 (`plain` None: every tick is plain; a tick that is not is skipped, and the next asked)."""
+        if plain is not None and not plain():
             return -1.0
-        self._due = self.every
+        self.due = self.every
         return time.thread_time()
 
     def stop(self, cpu0: float) -> None:
-        """Call as the tick ends with what `start` returned."""
-        if cpu0 >= 0.0:
-            self.ring.add(time.thread_time() - cpu0)
+        """Call as the tick ends with what `start` returned, when it returned a time (>= 0)."""
+        self.ring.add(time.thread_time() - cpu0)
 
 
 class Clock(Protocol):

@@ -127,8 +127,10 @@ class FrameTail:
         self._kernel = LoadOnSecondAsk(TAIL)
         self._checked: tuple[object, object] = (None, None)  # the frames `takes` last found readable
         self._n_joints = len(net.joints.names)
-        #: The requests handed to the net and the joints it delivered on the last 3 ticks (newest first).
+        #: The requests handed to the net and the joints it delivered on the last 3 ticks (newest first),
+        #: and the same before the last tick (what explains the last frame).
         self.past: tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]] = ((), ())
+        self.before = self.past
         self.restart(net.emb.rest)
         if fused:
             self._list(net)
@@ -170,7 +172,7 @@ class FrameTail:
 
     def restart(self, position: np.ndarray) -> None:
         """The net was reset at `position` (C,): the explanations start from there."""
-        self.past = ((position,) * 3, (self.net.joint_out,) * 3)
+        self.past = self.before = ((position,) * 3, (self.net.joint_out,) * 3)
 
     def ready(self) -> bool:
         """Whether the kernel has loaded; the second ask (an engine's second tick) starts loading it."""
@@ -220,6 +222,7 @@ class FrameTail:
         else:
             program, target = requested
         pos = self.net.step(target)
+        self._remember(target)
         if self._derivatives is not None and pos.shape == last[0].shape and pos.dtype == np.float64:
             vel, acc, jerk = np.empty_like(pos), np.empty_like(pos), np.empty_like(pos)
             self._derivatives(pos, *last, dt, seq, vel, acc, jerk)
@@ -247,12 +250,16 @@ class FrameTail:
             net.corrected_ticks += 1
         rows = tuple(buf)
         self._made = rows[POSITION]
+        past = self.before = self.past  # (`_remember`, inline: this runs every tick)
+        self.past = ((rows[PROGRAM], *past[0][:2]), (q, *past[1][:2]))
         return rows
 
-    def explain(self, frame: AnimationFrame, requested: np.ndarray) -> None:
-        """Say on a corrected `frame` what the net changed (`frame.net`), and remember this tick's
-        request and delivered joints for the next."""
-        net, past = self.net, self.past
-        if frame.corrected is not None:
-            frame.net = net_correction(frame, net.emb, net.joints, *past)
-        self.past = ((requested, *past[0][:2]), (net.joint_out, *past[1][:2]))
+    def _remember(self, requested: np.ndarray) -> None:
+        """This tick's request to the net and the joints it delivered, for the explanations of the next
+        two ticks (`before`: the last three ticks' before this one)."""
+        past = self.before = self.past
+        self.past = ((requested, *past[0][:2]), (self.net.joint_out, *past[1][:2]))
+
+    def explain(self, frame: AnimationFrame) -> None:
+        """Say on a corrected `frame`, the one `run` made last, what the net changed (`frame.net`)."""
+        frame.net = net_correction(frame, self.net.emb, self.net.joints, *self.before)

@@ -43,6 +43,7 @@ from backend.engine.pending import Pending, drain
 from backend.engine.profile import WINDOW, CookTimes, sample_every
 from backend.engine.safety import SafetyNet
 from backend.engine.sinks import Sink
+from backend.engine.tick_hooks import TickHooks
 from backend.engine.transition import Transition
 from backend.logs import Throttle
 
@@ -102,7 +103,7 @@ class Engine:
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         self._observers: list[Callable[[AnimationFrame], None]] = []  # see add_frame_observer
         self._event_observers: list[Callable[[AnimationFrame], None]] = []  # (events only)
-        self._tick_hooks: list[Callable[[float], None]] = []  # see add_tick_hook
+        self.hooks = TickHooks()  # see add_tick_hook
         #: what carries each tick's events on (e.g. sounds get their file's URL); see set_event_stamp
         self._stamp: Callable[[list, float], list] | None = None
         self._ticking: int | None = None  # the thread inside `tick` (calls from it run at once)
@@ -282,11 +283,15 @@ class Engine:
         """Receive block notifications (clip started/completed, …) from the clock thread; keep it quick."""
         self._listeners.append(fn)
 
-    def add_tick_hook(self, fn: Callable[[float], None]) -> None:
-        """Call `fn(t)` on the clock thread at the start of every tick, after queued inputs and before the
-        program runs, with the time (s) of the frame it is about to make: what a hook starts shows in
-        that frame. It must be quick; an exception is logged (throttled) and the tick goes on."""
-        self._tick_hooks.append(fn)
+    def add_tick_hook(self, fn: Callable[[float], Any]) -> None:
+        """Call `fn(t)` on the clock thread as every tick starts, after queued inputs, with the time (s) of
+        the frame it is about to make: what a hook starts shows in that frame. Quick; an exception is
+        logged (throttled) and the tick goes on. `fn` may return `IDLE` (backend/engine/tick_hooks.py)."""
+        self.hooks.add(fn)
+
+    def wake_tick_hook(self, fn: Callable[[float], Any]) -> None:
+        """Call a hook that returned `IDLE` again from the next tick (from any thread)."""
+        self.call(lambda: self.hooks.wake(fn))
 
     def set_event_stamp(self, fn: Callable[[list, float], list] | None) -> None:
         """`fn(events, t)` returns a tick's events as they go out (called only on ticks with events)."""
@@ -316,29 +321,23 @@ class Engine:
     def tick(self) -> AnimationFrame:
         """Apply queued inputs, run the program once, pass the safety net and emit one Animation Frame."""
         with self.tick_lock:
-            t0, cpu0 = time.perf_counter(), self._cpu.start(None if self.apu is None else self.apu.plain_next)
+            cpu = self._cpu
+            cpu.due -= 1  # (`SampledCpu.start` only on a tick due to be read: a plain tick makes no call)
+            t0 = time.perf_counter()
+            cpu0 = -1.0 if cpu.due > 0 else cpu.start(None if self.apu is None else self.apu.plain_next)
             self._ticking = threading.get_ident()
             try:
                 return self._tick(t0, cpu0)
             finally:
                 self._ticking = None
 
-    def _run_hooks(self) -> None:
-        for fn in self._tick_hooks:
-            try:
-                fn(self.t)
-            except Exception as exc:  # a hook's fault must not stop the clock
-                skipped = _faults.due(f"tick hook {fn!r}: {type(exc).__name__}")
-                if skipped is not None:
-                    log.error("a tick hook failed", exc_info=exc)
-
     def _tick(self, t0: float, cpu0: float) -> AnimationFrame:
         if self.seq == 1:  # code the clock reaches now and then, loaded beside it (warm_up.py)
             warm_up.start()
         if not self._pending.empty():  # (most ticks: nothing queued)
             drain(self._pending)
-        if self._tick_hooks:
-            self._run_hooks()
+        if self.hooks.awake:
+            self.hooks.run(self.t)
         dt = self.dt
         if self.apu is not None:
             try:
@@ -379,7 +378,8 @@ class Engine:
             joints=self.safety.joint_out,
             requested=target,
         )
-        self.tail.explain(frame, target)  # what the net changed on a corrected frame, and which limits
+        if frame.corrected is not None:
+            self.tail.explain(frame)  # what the net changed, and which limits
         self.last_frame = frame
         self.seq += 1
         self.t = self.seq * dt
@@ -393,7 +393,8 @@ class Engine:
         for sink in self._sinks:
             sink.offer(frame)
         self.tick_cost.add(time.perf_counter() - t0)
-        self._cpu.stop(cpu0)
+        if cpu0 >= 0.0:
+            self._cpu.stop(cpu0)
         return frame
 
     def _requested(self, final: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

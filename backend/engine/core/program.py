@@ -348,7 +348,7 @@ class CoreProgram:
                     for op in seg.serviced:
                         op.service()
                 if changed % vm.SERVICE:
-                    self._publish(seg, results)
+                    self._publish(results)
             for op in seg.posts if events or seg.had_events else seg.always:
                 op.post()
             seg.had_events = events
@@ -358,12 +358,12 @@ class CoreProgram:
         for op in self.ops:
             op.new_dt(dt)
 
-    def _publish(self, seg: Segment, results: list[dict[str, Any]]) -> None:
+    def _publish(self, results: list[dict[str, Any]]) -> None:
+        """Show Python readers the outputs the kernel flagged changed (`CH`): only those ops are touched."""
         changed = self.arena.CH
-        for op in seg.ops:
-            if changed[op.out]:
-                changed[op.out] = False
-                op.publish(results)
+        for row in changed.nonzero()[0].tolist():
+            changed[row] = False
+            self.ops[row].publish(results)  # (an op's row is its index in the table)
 
     def listed(self, op: Op, count: int) -> list[np.ndarray | None]:
         """The first `count` arrays the table lists for `op`, in its column order."""
