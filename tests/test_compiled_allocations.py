@@ -52,7 +52,7 @@ for name in sys.argv[2:]:
     core = engine.apu.core
     traps = []
     for op in core.ops:  # each trap calls the kernel once more
-        op.trap = lambda dt, own=op.trap: traps.append(dt) or own(dt)
+        op.trap = lambda dt, results, own=op.trap: traps.append(dt) or own(dt, results)
     segments = sum(1 for entry in core.plan if entry[0] == "core")
     before = rtsys.get_allocation_stats()
     engine.run_ticks(ticks)

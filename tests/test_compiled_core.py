@@ -103,13 +103,13 @@ def test_the_core_agrees_with_the_blocks_on_every_shipped_program(monkeypatch, r
     moved = np.ptp(np.array([f[0] for f in runs[True]]), axis=0)
     assert moved.max() > 0.01  # the program moved the robot: the comparison covered motion
     assert rebinds == 0
-    # the compiled blocks run in one kernel call: the Python blocks run first, then the whole core; the
-    # interactive program's clip player reads the emotion's speed, so it runs between two calls
-    assert len(compiled) == (2 if name == "interactive" else 1), compiled
+    # the compiled blocks run in one kernel call: the Python blocks run first, then the whole core (the
+    # interactive program's clip player reads the emotion's speed in the kernel)
+    assert len(compiled) == 1, compiled
     assert "mix" in compiled[-1] and "output" in compiled[-1]
     if name == "interactive":
-        assert {"gaze", "breathe", "mood", "emotion", "breath_amplitude"} <= set(compiled[0])
-        assert {"look_at", "nmf", "safety"} <= set(compiled[1])
+        assert {"gaze", "breathe", "mood", "emotion", "breath_amplitude", "gesture"} <= set(compiled[0])
+        assert {"look_at", "nmf", "safety"} <= set(compiled[0])
 
 
 def _edits(session: EngineSession, k: int, other: dict) -> None:

@@ -47,7 +47,7 @@ def test_weight_shifts_drawn_through_traps_agree(monkeypatch, robot, every):
         if core:
             (op,) = [op for op in session.engine.apu.core.ops if op.code == vm.OFFSET]
             own = op.trap
-            op.trap = lambda dt, own=own: traps.append(dt) or own(dt)  # type: ignore[method-assign]  # a probe
+            op.trap = lambda dt, results, own=own: traps.append(dt) or own(dt, results)  # type: ignore[method-assign]  # a probe
         frames = []
         for k in range(300):
             if k == 150:
@@ -71,9 +71,9 @@ def test_a_trap_stops_the_kernel_before_its_op_changes_anything(monkeypatch, rob
     (op,) = [op for op in engine.apu.core.ops if op.code == vm.OFFSET]
     own = op.trap
 
-    def trap(dt):  # the state is as the last tick left it: the kernel stopped before stepping it
+    def trap(dt, results):  # the state is as the last tick left it: the kernel stopped before stepping it
         seen.append((shift.state.until_next, shift.state.elapsed))
-        own(dt)
+        return own(dt, results)
 
     op.trap = trap  # type: ignore[method-assign]  # a probe
     before = shift.state.until_next
@@ -127,7 +127,7 @@ def test_blinks_agree_through_shifts_holds_commands_and_edits(monkeypatch, robot
             assert "blink" in {op.block.node_id for op in session.engine.apu.core.ops}
             (op,) = [op for op in session.engine.apu.core.ops if op.code == vm.BLINK]
             own = op.trap
-            op.trap = lambda dt, own=own: traps.append(dt) or own(dt)  # type: ignore[method-assign]  # a probe
+            op.trap = lambda dt, results, own=own: traps.append(dt) or own(dt, results)  # type: ignore[method-assign]  # a probe
         frames, flags = [], []
         for k in range(300):
             command = BLINK_SCRIPT.get(k)

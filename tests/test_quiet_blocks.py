@@ -1,6 +1,7 @@
 """Quiet blocks (backend/engine/blocks/quiet.py): the compiled core skips an idle voice, sound player,
-face, posture or clip player while nothing it reads changed, and ticks it again on a command, an edit
-or a reset. That the skips change no frame is checked with every other path in
+face or posture while nothing it reads changed, and ticks it again on a command, an edit or a reset.
+The clip player runs in the kernel (backend/engine/core/clip_ops.py): its Python tick runs only at a
+clip's start, events and end. That the skips change no frame is checked with every other path in
 tests/test_compiled_core.py (the core against the blocks' own ticks under the scripted AI)."""
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ from backend.session import EngineSession
 
 PROGRAM = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs" / "interactive.json"
 QUIET = ("voice", "sfx", "face", "posture", "gesture", "puppet", "look_at_weight")
-#: Quiet blocks the core runs in the kernel instead (backend/engine/core/signal_ops.py): no Python tick.
-IN_KERNEL = ("emotion", "breath_amplitude")
+#: Quiet blocks the core runs in the kernel instead (backend/engine/core/signal_ops.py, clip_ops.py): no
+#: Python tick but the clip player's at a clip's start, events and end (its `trap`, counted here too).
+IN_KERNEL = ("emotion", "breath_amplitude", "gesture")
 
 
 @pytest.fixture
@@ -67,7 +69,7 @@ def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
     for node in ("face", "sfx", "gesture"):
         engine.apu.block(node).reset()  # a new state object (a hot swap's adoption likewise)
     engine.run_ticks(5)
-    assert [counts[node] for node in ("face", "sfx", "gesture", "posture")] == [1, 1, 1, 0]
+    assert [counts[node] for node in ("face", "sfx", "gesture", "posture")] == [1, 1, 0, 0]
     counts.clear()
     emotion = engine.apu.index["emotion"]
     before = engine.apu.results[emotion]
@@ -78,36 +80,30 @@ def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
     assert engine.apu.results[emotion]["valence"] != before["valence"] and set(counts) <= {"voice"}
 
 
-def test_an_idle_clip_player_sleeps_through_a_speed_that_changes_every_tick(counted):
-    """The emotion's smoothing moves the gesture's wired speed every tick; an idle player reads only its
-        trigger (`quiet_reads`), so it stays asleep until a play wakes it, and then ticks every tick (that the
-    skips change no frame: the agreement of core and blocks in tests/test_compiled_core.py)."""
+def test_a_clip_follows_a_speed_that_changes_every_tick_without_a_python_tick(counted):
+    """The emotion's smoothing moves the gesture's wired speed every tick, in the kernel; a playing clip's
+    steady ticks run there too: its Python tick runs at its end only (nod has no events), and the
+    playhead moved by the emotion's speed each tick (that the frames agree with the blocks' own ticks:
+    tests/test_compiled_core.py, tests/test_core_clips.py)."""
     session, counts = counted
     engine = session.engine
     gesture = engine.apu.block("gesture")
     session.execute({"type": "set_emotion", "valence": 0.6, "arousal": 0.9})
     engine.run_ticks(20)
-    assert counts["gesture"] == 0
-    emotion = engine.apu.index["emotion"]
-    before = engine.apu.results[emotion]["speed"]
-    engine.tick()
-    assert engine.apu.results[emotion]["speed"] != before  # a new speed this tick too
-    assert counts["gesture"] == 0 and gesture.quiet and gesture.quiet_reads == {"trigger"}
     session.execute({"type": "play_clip", "clip": "nod", "layer": "gesture"})
-    engine.run_ticks(5)
-    assert counts["gesture"] == 5 and gesture.state.current is not None
-
-
-def test_a_clip_plays_every_tick_and_its_player_goes_quiet_after(counted):
-    session, counts = counted
-    engine = session.engine
-    session.execute({"type": "play_clip", "clip": "nod", "layer": "gesture"})
-    engine.run_ticks(30)
-    assert counts["gesture"] == 30
-    for _ in range(400):  # the clip ends and its envelope fades out
+    moved = []
+    for _ in range(30):
+        before = gesture.state.pos
         engine.tick()
-        if engine.apu.block("gesture").quiet:
+        moved.append(gesture.state.pos - before)
+    speeds = [engine.apu.signal_value("emotion", "speed")]
+    assert counts["gesture"] == 0 and gesture.state.current is not None
+    assert len(set(moved)) > 5 and abs(moved[-1] - speeds[0] * engine.dt) < 1e-12  # the speed moved
+    for _ in range(600):  # the clip ends (Python: its notes), then its fade-out (Python: the clip is gone)
+        engine.tick()
+        if gesture.state.current is None:
             break
+    assert gesture.state.current is None and counts["gesture"] == 2
     counts.clear()
     engine.run_ticks(10)
     assert counts["gesture"] == 0

@@ -192,7 +192,13 @@ class APU:
         """The latest value on an output port (for telemetry); None before the first tick. A frame of a
         compiled step is rewritten in place each tick: read it between ticks, or use `signal_values`."""
         i = self.index.get(node_id)
-        return None if i is None else self.results[i].get(port)
+        if i is None:
+            return None
+        if self.core is not None and self._core_results:
+            self.core.refresh(
+                i
+            )  # (a compiled clip player's weight, playing and time are worked out on demand)
+        return self.results[i].get(port)
 
     def signal_values(self, ports: list[tuple[str, str]]) -> list[Any]:
         """The latest values on (node, port) pairs, frames copied: called under the engine's `tick_lock`

@@ -170,6 +170,8 @@ class CompiledClip:
 
     def __post_init__(self) -> None:
         self.any_relative = bool(np.any(self.relative))  # a relative clip fades its offsets by the envelope
+        self.event_times = np.array([t for t, _ in self.events], dtype=float)  # (E,) s, for the compiled core
+        self.scratch = np.empty(len(self.channels))  # (K,) the curves' values, written by the compiled core
 
     def sample(self, t: float, rest: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Write the clip's values at clip time `t` (s) into `out` (a full channel vector)."""

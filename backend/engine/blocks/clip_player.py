@@ -5,21 +5,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
-from pydantic import Field
 
 from backend.engine.blocks.base import (
     BlockCommandError,
-    BlockParams,
-    DofSelection,
     Port,
     PortType,
     Source,
-    drivable,
-    soft_range,
 )
+from backend.engine.blocks.cells import cell, flag
+from backend.engine.blocks.clip_params import MAX_QUEUE, ClipPlayerBusy, ClipPlayerParams
 from backend.engine.blocks.quiet import TRIGGER_ONLY, QuietWhenIdle
 from backend.engine.clips import ClipError, CompiledClip, compile_clip, time_map
 from backend.engine.compiled import entry_point
@@ -27,55 +24,9 @@ from backend.engine.compiled.curves import CLIP_SIG, clip_tick
 from backend.engine.frames import FrameEvent, PartialFrame, SteadyFrame
 from backend.engine.selectors import channel_mask
 
-PlayMode = Literal["once", "loop", "ping_pong"]
-IfBusy = Literal["replace", "queue", "reject"]
-MAX_QUEUE = 16  # plays waiting behind the current clip, at most
 
-
-class ClipPlayerBusy(BlockCommandError):
-    """A play with `if_busy: "reject"` while a clip plays: names the clip and the command playing it."""
-
-    code = "busy"
-
-    def __init__(self, node_id: str, clip: str, command_id: Any):
-        super().__init__(
-            f"clip player '{node_id}' is playing '{clip}' (command {command_id!r}); "
-            f"use if_busy 'replace' or 'queue', or cancel that command"
-        )
-        self.clip, self.command_id = clip, command_id
-
-
-class ClipPlayerParams(BlockParams):
-    clip: str | None = Field(
-        default=None,
-        description="clip to play (from robots/<robot>/clips/)",
-        json_schema_extra={"x-widget": "clip"},
-    )
-    autoplay: bool = Field(default=False, description="start playing `clip` when the program starts")
-    mode: PlayMode = Field(default="once", description="once, loop, or ping_pong (forward then backward)")
-    speed: float = drivable(
-        Field(
-            default=1.0,
-            ge=0.05,
-            le=5.0,
-            description="playback speed (1 = authored timing)",
-            json_schema_extra=soft_range(0.25, 2, 0.01),
-        ),
-        "overrides the speed (e.g. from an emotion mapping)",
-    )
-    crossfade: float = Field(
-        default=0.3, ge=0.0, le=5.0, description="blend-in time from the current pose (s)"
-    )
-    release: float = Field(
-        default=0.4, ge=0.0, le=5.0, description="blend-out time after the clip ends or stops (s)"
-    )
-    hold: bool = Field(
-        default=False, description="after a `once` clip ends, hold its last pose instead of releasing"
-    )
-    dofs: DofSelection = Field(default=["*"], description="DoFs the clip may set (others are ignored)")
-
-
-def _smooth(x: float) -> float:
+def smooth_step(x: float) -> float:
+    """The envelope's and the crossfade's ease: smoothstep of x clamped to [0, 1]."""
     x = min(max(x, 0.0), 1.0)
     return x * x * (3.0 - 2.0 * x)
 
@@ -114,23 +65,29 @@ class ClipPlayer(QuietWhenIdle, Source[ClipPlayerParams]):
         mask: np.ndarray  # the DoFs of the current clip
         old_mask: np.ndarray  # the DoFs of the clip being crossfaded out
         mode: str  # once | loop | ping_pong
-        fade_in: float  # envelope fade-in time (s)
-        fade_out: float  # envelope fade-out time (s)
         pending_autoplay: bool  # start `clip` on the first tick
         current: CompiledClip | None = None
-        pos: float = 0.0  # clip time (s)
-        play_t: float = 0.0  # time since play (s)
-        direction: float = 1.0  # +1 forward, -1 backward (ping_pong)
-        env: float = 0.0  # blend envelope 0..1
-        env_target: float = 0.0
-        xfade_t: float = 0.0  # s into the crossfade
-        xfade: float = 0.0  # crossfade length (s)
         command_id: Any = None
         last_trigger: bool = False
         warp: tuple[np.ndarray, np.ndarray] | None = None  # anchor time map (play time -> clip time)
         speed: float | None = None  # the play command's speed (None: the parameter)
-        done: bool = False  # the clip ended or was stopped (fading out)
         queue: list[dict[str, Any]] = field(default_factory=list)  # plays waiting (args, command_id)
+        # The playhead, envelope and crossfade as cells of one array (CLOCK): the compiled core steps them
+        # in place while a clip plays (backend/engine/core/clip_ops.py).
+        clock: np.ndarray = field(
+            default_factory=lambda: np.array([0, 0, 1, 0, 0, 0, 0, 0, 0, 0], dtype=float)
+        )
+
+        pos = cell("clock", 0, "Clip time (s).")
+        play_t = cell("clock", 1, "Time since play (s).")
+        direction = cell("clock", 2, "+1 forward, -1 backward (ping_pong).")
+        env = cell("clock", 3, "The blend envelope, 0..1.")
+        env_target = cell("clock", 4, "What the envelope moves to, 0 or 1.")
+        xfade_t = cell("clock", 5, "Seconds into the crossfade.")
+        xfade = cell("clock", 6, "The crossfade's length (s).")
+        fade_in = cell("clock", 7, "The envelope's fade-in time (s).")
+        fade_out = cell("clock", 8, "The envelope's fade-out time (s).")
+        done = flag("clock", 9, "The clip ended or was stopped (fading out).")
 
     def configure(self) -> None:
         self.allowed = channel_mask(self.emb, self.params.dofs)
@@ -144,16 +101,16 @@ class ClipPlayer(QuietWhenIdle, Source[ClipPlayerParams]):
 
     def reset(self) -> None:
         n, p = self.emb.n_channels, self.params
-        self.state = self.State(
+        state = self.State(
             values=self.emb.rest.copy(),
             from_values=self.emb.rest.copy(),
             mask=np.zeros(n, dtype=bool),
             old_mask=np.zeros(n, dtype=bool),
             mode=p.mode,
-            fade_in=p.crossfade,
-            fade_out=p.release,
             pending_autoplay=bool(p.autoplay and p.clip),
         )
+        state.fade_in, state.fade_out = p.crossfade, p.release
+        self.state = state
 
     # --- clips --------------------------------------------------------------------------------------
     def _load(self, name: str, document: Any = None) -> CompiledClip:
@@ -353,14 +310,14 @@ class ClipPlayer(QuietWhenIdle, Source[ClipPlayerParams]):
             clip.sample(s.pos, self.emb.rest, s.values)
             if s.xfade_t < s.xfade:
                 s.xfade_t += dt
-                k = _smooth(s.xfade_t / s.xfade)
+                k = smooth_step(s.xfade_t / s.xfade)
                 s.values = np.where(
                     s.old_mask & ~s.mask, s.from_values, s.from_values + k * (s.values - s.from_values)
                 )
             self._advance_envelope(dt)
             if s.done and s.env <= 0.0:
                 s.current = None
-        weight = _smooth(s.env)
+        weight = smooth_step(s.env)
         visible = s.current is not None or s.env > 0.0
         if visible:
             mask = s.mask | (s.old_mask if s.xfade_t < s.xfade else False)
@@ -393,11 +350,11 @@ class ClipPlayer(QuietWhenIdle, Source[ClipPlayerParams]):
         k = 0.0
         if xfade:
             s.xfade_t += dt
-            k = _smooth(s.xfade_t / s.xfade)
+            k = smooth_step(s.xfade_t / s.xfade)
         self._advance_envelope(dt)
         if s.done and s.env <= 0.0:
             s.current = None
-        weight = _smooth(s.env)
+        weight = smooth_step(s.env)
         out = np.empty(rest.shape[0])
         c = clip.curves
         kernel(

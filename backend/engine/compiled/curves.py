@@ -173,6 +173,17 @@ def clip_tick(
     (channels only the old clip set keep their old value); `out` (C,) receives `values`, faded toward
     `rest` by `weight` when `rel` (a relative clip)."""
     vals = np.empty(channels.shape[0])
+    clip_frame(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, channels, relative, enum, rest, values,
+               xfade, k, from_values, old_mask, mask, rel, weight, out, vals)  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy")
+def clip_frame(
+    keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, channels, relative, enum, rest, values, xfade, k,
+    from_values, old_mask, mask, rel, weight, out, vals,
+):  # fmt: skip
+    """`clip_tick` with the curves' values evaluated into `vals` (K,), a buffer of the caller's (the
+    compiled program core's: its steady tick allocates nothing)."""
     evaluate(keys_t, keys_v, h_right, h_left, code, mode, n_keys, t, vals)
     for i in range(channels.shape[0]):
         v = vals[i]

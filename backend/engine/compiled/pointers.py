@@ -58,6 +58,11 @@ def f3(refs, j):
 
 
 @njit(cache=True, inline="always")
+def i2(refs, j):
+    return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2]), np.int64)
+
+
+@njit(cache=True, inline="always")
 def b2(refs, j):
     return carray(_pointer(refs[j, 0]), (refs[j, 1], refs[j, 2]), np.bool_)
 

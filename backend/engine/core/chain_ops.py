@@ -25,7 +25,6 @@ class GazeOp(SourceOp[Gaze]):
     pre_when = "inputs"  # the target and strength; the kernel steps the arc dip (the state's `dip_cell`)
     # The kernel also counts a look_at's still ticks (the state's `still_cell`) and asks for `service` when
     # the look_at ends or `on_target` changes; whether a look_at is in progress is a command's (`changed`).
-    serviced = True
     watches_changes = True
 
     def __init__(self, k: int, step: int, block: Gaze, arena: Arena, out: int, srcs: list[Any]):

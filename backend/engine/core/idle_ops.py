@@ -57,7 +57,6 @@ class NoiseOp(SourceOp[Noise]):
     code = vm.NOISE
     n_scalars = 2
     pre_when = "wired"  # the kernel steps the draws' cursor; a new dt comes through `new_dt`
-    serviced = True  # the kernel asks for the next batch of draws when it used up this one
 
     def bind(self, refs: Refs) -> None:
         b = self.block
@@ -157,7 +156,7 @@ class WeightShiftOp(SourceOp[WeightShift]):
         st = self.block.state
         self._start, self._target, self._offset = st.start, st.target, st.offset
 
-    def trap(self, dt: float) -> None:
+    def trap(self, dt: float, results: list[dict[str, Any]]) -> None:
         b = self.block  # WeightShift.tick up to its kernel
         self.arena.S[self.s] = b.advance(dt)
         self.arena.S[self.s + 1] = 1.0
@@ -176,7 +175,6 @@ class BlinkOp(SourceOp[Blink]):
     n_scalars = 8
     needs_kernel = False  # the block has no compiled tick: the op's arithmetic is Blink.tick's
     pre_when = "wired"
-    serviced = True
 
     def __init__(self, *args: Any):
         super().__init__(*args)
@@ -205,7 +203,7 @@ class BlinkOp(SourceOp[Blink]):
             S[s] = 1.0 if inputs.get("hold") else 0.0
             S[s + 1] = 1.0 if self.block._gaze_shift(inputs.get("gaze")) else 0.0
 
-    def trap(self, dt: float) -> None:
+    def trap(self, dt: float, results: list[dict[str, Any]]) -> None:
         S, s = self.arena.S, self.s
         self.block.schedule(dt, S[s] > 0.5, S[s + 1] > 0.5)
         S[s + 2] = 1.0

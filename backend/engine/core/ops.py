@@ -80,7 +80,6 @@ class Op(Generic[B]):
     # (as "wired", and once after each bind even with none wired), "never".
     pre_when: ClassVar[str] = "wired"
     passes_events: ClassVar[bool] = True  # whether `post` runs (sources have no events to pass)
-    serviced: ClassVar[bool] = False  # whether the kernel may ask for `service` after it ran
     # Whether `changed` runs when any block changed (parameters, state or a command: blocks/block_state.py).
     watches_changes: ClassVar[bool] = False
     post_always: ClassVar[bool] = False  # whether `post` has work beside events (else it runs only when
@@ -97,6 +96,8 @@ class Op(Generic[B]):
         self.srcs = srcs  # per frame input: the object whose `.frame` is that input's frame (or None)
         self.s = arena.scalar_slots(self.n_scalars)
         self.signal_ports: tuple[tuple[str, int, str], ...] = ()  # (port, source step, source port)
+        self.input_wires: tuple[tuple[str, int, str], ...] = ()  # every signal wired in, as above
+        self.outputs_read = False  # whether a step reads one of its signal outputs (not its frame)
         # (port, source's output slot) per parameter a compiled signal drives in the kernel
         self.drive_wires: tuple[tuple[str, int], ...] = ()
         self.frame = PartialFrame(arena.V[out], arena.P[out].copy(), NO_EVENTS)
@@ -194,14 +195,20 @@ class Op(Generic[B]):
         """The tick's dt changed (a new rate): what the op worked out from the last one."""
 
     def service(self) -> None:
-        """Python's part after a kernel run that asked for it (`serviced` ops only: the noise's next draws)."""
+        """Python's part after a kernel run that asked for it (the ops it flagged in `SV`: a noise's next
+        draws, a blink's start)."""
 
-    def trap(self, dt: float) -> None:
-        """Python's part of this tick's step, before the kernel runs the op (it stopped there: `vm.TRAP`)."""
+    def trap(self, dt: float, results: list[dict[str, Any]]) -> bool | None:
+        """Python's part of this tick's step, before the kernel runs the op (it stopped there: `vm.TRAP`);
+        `results` holds every output so far this tick. True when the op's frame now carries events."""
         raise RuntimeError(f"compiled core: {type(self).__name__} has no Python part to trap to")
 
     def resume(self) -> None:
         """The APU ran the blocks' own ticks since the last core tick: make the state ready for the kernel."""
+
+    def refresh(self) -> None:
+        """Bring the outputs Python readers see up to date before a probe reads them (ops whose outputs
+        are worked out lazily only: the clip player's)."""
 
     def needs_pre(self) -> bool:
         return self.pre_when in ("always", "inputs") or (self.pre_when == "wired" and bool(self.signal_ports))

@@ -66,7 +66,8 @@ KERNEL = LazyEntry(vm.run_ops, vm.RUN_SIG, "core-kernel")
 
 class Arena:
     """The frames of the compiled steps: values `V` and masks `M` (rows, C), rows present `A`, published
-    masks `P` with their change flags `CH`, the scalar slots `S` and the op table `ops`."""
+    masks `P` with their change flags `CH`, the scalar slots `S`, the op table `ops` and its `service`
+    flags `SV`."""
 
     def __init__(self, rows: int, channels: int, n_ops: int):
         self.V = np.zeros((rows, channels))
@@ -76,6 +77,7 @@ class Arena:
         self.CH = np.zeros(rows, dtype=bool)
         self.S = np.zeros(0)
         self.ops = np.full((n_ops, vm.WIDTH), -1, dtype=np.int64)
+        self.SV = np.zeros(max(n_ops, 1), dtype=bool)  # per op: it asked for `service` (vm.py)
         self._slots = 0
         self.dt: float | None = None  # the last tick's dt (s); None before the first core tick
 
@@ -135,8 +137,8 @@ class Import:
 class Segment:
     """Consecutive compiled steps: their imports, ops (table rows k0..k1-1), and the ops with Python
     work before (`pres`) and after (`posts`) the kernel. Events come into a segment only through its
-    imports: while none carries any, the ops whose `post` only passes events skip it (`always`: the
-    others)."""
+    imports, the ops of an earlier segment and a `trap` (a clip player's own tick): while none carries
+    any, the ops whose `post` only passes events skip it (`always`: the others)."""
 
     def __init__(self, ops: list[Op], imports: list[Import]):
         self.ops, self.imports = ops, imports
@@ -144,7 +146,6 @@ class Segment:
         self.pres = [op for op in ops if op.needs_pre()]
         self.posts = [op for op in ops if op.passes_events]
         self.always = [op for op in self.posts if op.post_always]
-        self.serviced = [op for op in ops if op.serviced]
         self.had_events = True  # whether the ops' frames may hold events (cleared by a quiet tick's posts)
         self.watching = [op for op in ops if op.watches_changes]
         # `CHANGES` when every op was last found bound (-1: look again; blocks/block_state.py). While it
@@ -165,7 +166,7 @@ class CoreProgram:
         steps = apu.steps
         emb = steps[apu.output].block.emb
         self.emb = emb
-        frame_ports = {i: _frame_inputs(steps[i].block) for i in compiled}
+        frame_ports = {i: _frame_ports(steps[i].block) for i in compiled}
         n_imports = sum(
             1 for i in compiled for w in steps[i].wires if w.port in frame_ports[i] and w.src not in compiled
         )
@@ -197,28 +198,25 @@ class CoreProgram:
                 memo = [None, None, ()] if isinstance(step.block, QuietWhenIdle) else None
                 self.plan.append(("py", i, step.block, apu._wires[i], memo, readers[i]))
                 continue
+            signals = [w for w in step.wires if w.port not in frame_ports[i]]
+            if _reads_from(signals, current, by_step, compiled[i]):  # this tick's: a segment after them
+                self.plan.append(("core", Segment(current, current_imports)))
+                current, current_imports = [], []
             wired = {w.port: w for w in step.wires}
             srcs: list[Any] = []
             for port in frame_ports[i]:
                 w = wired.get(port)
-                if w is None:
-                    srcs.append(None)
-                elif w.src in by_step:
-                    srcs.append(by_step[w.src])
-                else:
-                    key = (w.src, w.src_port)
-                    if key not in imports:
-                        imports[key] = Import(len(compiled) + len(imports), w.src, w.src_port, arena)
-                        current_imports.append(imports[key])
-                    srcs.append(imports[key])
+                if w is None or w.src in by_step:
+                    srcs.append(None if w is None else by_step[w.src])
+                    continue
+                if (w.src, w.src_port) not in imports:
+                    imp = imports[w.src, w.src_port] = Import(
+                        len(compiled) + len(imports), w.src, w.src_port, arena
+                    )
+                    current_imports.append(imp)
+                srcs.append(imports[w.src, w.src_port])
             op = compiled[i](len(self.ops), i, step.block, arena, row, srcs)
-            signals = [w for w in step.wires if w.port not in frame_ports[i]]
-            in_kernel = [w for w in signals if takes_in_kernel(by_step.get(w.src), w.src_port, op, w.port)]
-            op.signal_ports = tuple((w.port, w.src, w.src_port) for w in signals if w not in in_kernel)
-            op.drive_wires = tuple((w.port, output_slot(by_step[w.src], w.src_port)) for w in in_kernel)
-            op.every_tick = op.pre_when == "always" or any(src in by_step for _, src, _ in op.signal_ports)
-            for src in {src for _, src, _ in op.signal_ports if src in readers}:
-                readers[src].append(op)
+            _wire_signals(op, signals, by_step, readers)
             row += 1
             self.ops.append(op)
             by_step[i] = op
@@ -227,12 +225,18 @@ class CoreProgram:
             self.plan.append(("core", Segment(current, current_imports)))
         for imp in imports.values():
             readers[imp.src].append(imp)
+        for step in steps:  # a signal output of an op read by any step (its frame aside)
+            for w in step.wires:
+                if w.src in by_step and w.src_port not in _frame_ports(by_step[w.src].block, outputs=True):
+                    by_step[w.src].outputs_read = True
+        #: Ops whose outputs a probe must have brought up to date (`refresh`), by step.
+        self.refreshed = {op.step: op for op in self.ops if type(op).refresh is not Op.refresh}
         self.epoch = 0  # core ticks so far
         for op in self.ops:
             op.bind(self.refs)
-        for j, array in enumerate(
-            (arena.V, arena.M, arena.A, arena.P, arena.CH, arena.S, emb.rest, emb.min, emb.max, emb.enum_mask)
-        ):
+        shared = (arena.V, arena.M, arena.A, arena.P, arena.CH, arena.S, emb.rest, emb.min, emb.max,
+                  emb.enum_mask, arena.SV)  # fmt: skip
+        for j, array in enumerate(shared):  # (vm.REF_V …)
             self.refs.put_at(j, np.ascontiguousarray(array))
         self.rebinds = 0  # binds found necessary by `verify` (a block replaced a listed array unannounced)
         self._kernel = LoadOnSecondAsk(KERNEL)
@@ -287,6 +291,9 @@ class CoreProgram:
             self._new_dt(dt)
         self.epoch += 1
         epoch = self.epoch
+        carried = (
+            False  # whether an earlier segment's frames carry events this tick (a later one may read them)
+        )
         for entry in self.plan:
             kind = entry[0]
             if kind == "input":
@@ -321,7 +328,7 @@ class CoreProgram:
                     r.due = epoch
                 continue
             seg: Segment = entry[1]
-            events = False
+            events = carried
             for imp in seg.imports:  # a source that did not tick hands out the frame already loaded
                 if imp.due == epoch or imp.frame is None:
                     if imp.load(results):
@@ -341,22 +348,31 @@ class CoreProgram:
             changed = run(ops, refs, seg.k0, seg.k1, dt)
             while changed >= vm.TRAP:  # an op needs Python first: its `trap`, then the rest of the segment
                 k = changed // vm.TRAP - 1
-                self.ops[k].trap(dt)
+                if changed % vm.SERVICE:
+                    self._publish(results)  # what its Python reads is this tick's
+                if self.ops[k].trap(dt, results):
+                    events = True
                 changed = changed % vm.TRAP + run(ops, refs, k, seg.k1, dt)
             if changed:
                 if changed >= vm.SERVICE:
-                    for op in seg.serviced:
-                        op.service()
+                    self._service()
                 if changed % vm.SERVICE:
                     self._publish(results)
             for op in seg.posts if events or seg.had_events else seg.always:
                 op.post()
-            seg.had_events = events
+            seg.had_events = carried = events
 
     def _new_dt(self, dt: float) -> None:
         self.arena.dt = dt
         for op in self.ops:
             op.new_dt(dt)
+
+    def _service(self) -> None:
+        """Python's part after the kernel for the ops that asked for it (`SV`): only those are touched."""
+        flagged = self.arena.SV
+        for k in flagged.nonzero()[0].tolist():
+            flagged[k] = False
+            self.ops[k].service()
 
     def _publish(self, results: list[dict[str, Any]]) -> None:
         """Show Python readers the outputs the kernel flagged changed (`CH`): only those ops are touched."""
@@ -364,6 +380,12 @@ class CoreProgram:
         for row in changed.nonzero()[0].tolist():
             changed[row] = False
             self.ops[row].publish(results)  # (an op's row is its index in the table)
+
+    def refresh(self, step: int) -> None:
+        """Bring the outputs of step `step` up to date for a probe, when its op works them out lazily."""
+        op = self.refreshed.get(step)
+        if op is not None:
+            op.refresh()
 
     def listed(self, op: Op, count: int) -> list[np.ndarray | None]:
         """The first `count` arrays the table lists for `op`, in its column order."""
@@ -381,6 +403,28 @@ class CoreProgram:
                 self.rebinds += 1
                 log.warning("compiled core: %s replaced an array unannounced; bound again", op.block.node_id)
                 op.bind(self.refs)
+
+
+def _reads_from(signals: list[Any], ops: list[Op], by_step: dict[int, Op], reader: type[Op]) -> bool:
+    """Whether an op of class `reader`, with these signal wires, reads in its `pre` (not in the kernel)
+    an output of one of `ops`: made in the same kernel run, after its `pre`."""
+    return any(
+        by_step.get(w.src) in ops and not takes_in_kernel(by_step[w.src], w.src_port, reader, w.port)
+        for w in signals
+    )
+
+
+def _wire_signals(op: Op, signals: list[Any], by_step: dict[int, Op], readers: dict[int, list[Any]]) -> None:
+    """Tell `op` the signals wired into it (`signals`: its wires that are not frames): which the kernel
+    carries from a compiled signal (`drive_wires`), which its `pre` reads (`signal_ports`), and mark it a
+    reader of their Python sources (it becomes `due` when they tick)."""
+    in_kernel = [w for w in signals if takes_in_kernel(by_step.get(w.src), w.src_port, op, w.port)]
+    op.signal_ports = tuple((w.port, w.src, w.src_port) for w in signals if w not in in_kernel)
+    op.input_wires = tuple((w.port, w.src, w.src_port) for w in signals)
+    op.drive_wires = tuple((w.port, output_slot(by_step[w.src], w.src_port)) for w in in_kernel)
+    op.every_tick = op.pre_when == "always" or any(src in by_step for _, src, _ in op.signal_ports)
+    for src in {src for _, src, _ in op.signal_ports if src in readers}:
+        readers[src].append(op)
 
 
 def run_order(apu: APU, compiled: dict[int, Any]) -> list[int]:
@@ -419,7 +463,7 @@ def run_order(apu: APU, compiled: dict[int, Any]) -> list[int]:
     return order
 
 
-def _frame_inputs(block: Any) -> tuple[str, ...]:
-    """The block's frame input ports, in the order its op lists them."""
-    inputs, _ = block.ports(block.params)
-    return tuple(name for name, port in inputs.items() if port.type is PortType.frame)
+def _frame_ports(block: Any, outputs: bool = False) -> tuple[str, ...]:
+    """The block's frame input ports, in the order its op lists them (or its frame output ports)."""
+    ports = block.ports(block.params)[1 if outputs else 0]
+    return tuple(name for name, port in ports.items() if port.type is PortType.frame)

@@ -1,10 +1,11 @@
-"""Which block classes the compiled core compiles, and with which op (backend/engine/core/ops.py,
-chain_ops.py)."""
+"""Which block classes the compiled core compiles, and with which op (backend/engine/core/ops.py and
+its siblings)."""
 
 from __future__ import annotations
 
 from backend.engine.blocks.base import Block
 from backend.engine.blocks.blink import Blink
+from backend.engine.blocks.clip_player import ClipPlayer
 from backend.engine.blocks.core import GainOffset, Output, RestPose, SafetyLimiter, Sine
 from backend.engine.blocks.display import Led
 from backend.engine.blocks.gaze import Gaze
@@ -14,6 +15,7 @@ from backend.engine.blocks.mixer import LayerMixer
 from backend.engine.blocks.motion_filter import MotionFilterBlock, MotionFilterStage2
 from backend.engine.blocks.signals import Emotion, Math
 from backend.engine.core.chain_ops import GazeOp, IkOp
+from backend.engine.core.clip_ops import ClipPlayerOp
 from backend.engine.core.display_ops import LedOp
 from backend.engine.core.idle_ops import BlinkOp, BreatheOp, NoiseOp, SineOp, WeightShiftOp
 from backend.engine.core.ops import (
@@ -46,6 +48,7 @@ OPS: dict[type, type[Op]] = {
     Blink: BlinkOp,
     Emotion: EmotionOp,
     Math: MathOp,
+    ClipPlayer: ClipPlayerOp,
 }
 
 

@@ -33,11 +33,13 @@ from numba import njit
 from backend.engine.blocks.gaze_reach import STILL, STILL_TICKS
 from backend.engine.compiled import f8, i8, i8_2
 from backend.engine.compiled.blend import mixer_tick
+from backend.engine.compiled.clip_clock import clip_clock
+from backend.engine.compiled.curves import clip_frame
 from backend.engine.compiled.frames import filter_tick, gain_offset_tick, hold_tick, limiter_tick
 from backend.engine.compiled.gaze import gaze_tick
 from backend.engine.compiled.idle import breathe_tick, noise_tick, offset_tick
 from backend.engine.compiled.ik import ik_tick
-from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1
+from backend.engine.compiled.pointers import b1, b2, f1, f2, f3, i1, i2
 from backend.engine.compiled.signals import drive, emotion_tick, math_value, py_max, py_min, same_float
 
 # Op codes (column 0); after each, its scalar slots (S[s..]) and refs (columns 4..).
@@ -81,11 +83,19 @@ BLINK = (
 )
 #             this tick: `TRAP`), close, hold and open times, min_interval, blinking as last published | 4 the
 #             state's clock (Blink.State.clock), 5 delta, 6 mask
+CLIP = 16  # S: speed (driven, else the play's or the parameter), duration, mode code, warp (0/1),
+#            a clip (0/1), Python first (a start is pending: `TRAP`), Python ticked it (the kernel skips it
+#            once), relative, readers (`SERVICE` every tick: `weight`, `playing` or `time` is wired),
+#            weight, (unused), crossfade (0/1), crossfade factor (written) | 4 clock (the block's
+#            State.clock), 5 values, 6 from_values, 7 mask, 8 old_mask, 9..15 the clip's curves (t, v,
+#            h_right, h_left, code, mode, n_keys), 16 channels, 17 relative, 18 enum, 19 event times,
+#            20..21 the anchor warp (play, clip time), 22 the curves' values (K,): scratch
 EMOTION_OUT = 11  # the emotion's first output slot (after its s)
 EMOTION_OUTPUTS = 6
 MATH_OUT = 10
 
-#: What `run_ops` adds to its count of changed masks per op asking for Python's `service` after the run.
+#: What `run_ops` adds to its count of changed masks per op asking for Python's `service` after the run (the
+#: op flagged in the `SV` array).
 SERVICE = 1 << 32
 #: `run_ops` stopped at op k, which needs Python's `trap` before it can run (a new weight shift is drawn):
 #: it returns its counts so far plus (k + 1) * TRAP, having changed nothing of op k.
@@ -96,9 +106,9 @@ WIDTH = 26
 DRIVES = WIDTH - 1
 
 #: refs rows 0.. : the arena's and the robot's arrays, the same for every op.
-REF_V, REF_M, REF_A, REF_P, REF_CH, REF_S, REF_REST, REF_LO, REF_HI, REF_ENUM = range(10)
+REF_V, REF_M, REF_A, REF_P, REF_CH, REF_S, REF_REST, REF_LO, REF_HI, REF_ENUM, REF_SV = range(11)
 #: The first refs row the ops' own arrays use.
-FIRST_OP_REF = 10
+FIRST_OP_REF = 11
 
 RUN_SIG = (i8_2, i8_2, i8, i8, f8)  # ops, refs, k0, k1, dt
 
@@ -232,6 +242,7 @@ def run_ops(ops, refs, k0, k1, dt):
     V, M, P = f2(refs, REF_V), b2(refs, REF_M), b2(refs, REF_P)
     A, CH, S = b1(refs, REF_A), b1(refs, REF_CH), f1(refs, REF_S)
     rest, lo, hi, enum = f1(refs, REF_REST), f1(refs, REF_LO), f1(refs, REF_HI), b1(refs, REF_ENUM)
+    SV = b1(refs, REF_SV)  # the ops that ask for `service` (flagged here, cleared by Python)
     changed = 0
     service = 0
     for k in range(k0, k1):
@@ -283,6 +294,7 @@ def run_ops(ops, refs, k0, k1, dt):
             if step:
                 cursor[0] = i + 1
                 if i + 1 >= draws.shape[0]:
+                    SV[k] = True
                     service += 1
             M[out, :] = mask
         elif code == SINE:
@@ -312,6 +324,7 @@ def run_ops(ops, refs, k0, k1, dt):
             amount = _blink_amount(clock, S, s, dt)
             if clock[3] != S[s + 7]:  # it started or ended: `blinking` for Python's readers
                 S[s + 7] = clock[3]
+                SV[k] = True
                 service += 1
             for c in range(V.shape[1]):
                 v = py_min(py_max(rest[c] + amount * delta[c], lo[c]), hi[c])
@@ -380,11 +393,40 @@ def run_ops(ops, refs, k0, k1, dt):
             S[s + 10] = 1.0 if on else 0.0
             if S[s + 10] != S[s + 12]:  # on_target changed: for Python's readers
                 S[s + 12] = S[s + 10]
+                SV[k] = True
                 service += 1
             if S[s + 11] > 0.5 and _look_at_ended(x, x_old, f1(refs, r[24]), on):
                 S[s + 11] = 0.0
+                SV[k] = True
                 service += 1
             M[out, :] = b1(refs, r[22])
+        elif code == CLIP:
+            if S[s + 6] > 0.5:  # Python ran the block's own tick into the row (its `trap`)
+                S[s + 6] = 0.0
+            elif S[s + 4] < 0.5:  # no clip: the pose shown, out of sight
+                if S[s + 5] > 0.5:
+                    return changed + service * SERVICE + (k + 1) * TRAP
+                V[out, :] = f1(refs, r[5])
+                M[out, :] = False
+            else:
+                clock = f1(refs, r[4])
+                if S[s + 5] > 0.5 or not clip_clock(
+                    clock, S, s, dt, f1(refs, r[19]), f1(refs, r[20]), f1(refs, r[21])
+                ):
+                    return changed + service * SERVICE + (k + 1) * TRAP
+                mask, old_mask = b1(refs, r[7]), b1(refs, r[8])
+                clip_frame(
+                    f2(refs, r[9]), f2(refs, r[10]), f3(refs, r[11]), f3(refs, r[12]), i2(refs, r[13]),
+                    i2(refs, r[14]), i1(refs, r[15]), clock[0], i1(refs, r[16]), b1(refs, r[17]),
+                    b1(refs, r[18]), rest, f1(refs, r[5]), S[s + 11] > 0.5, S[s + 12], f1(refs, r[6]),
+                    old_mask, mask, S[s + 7] > 0.5, S[s + 9], V[out], f1(refs, r[22]),
+                )  # fmt: skip
+                both = clock[5] < clock[6]  # (after the crossfade's step, as ClipPlayer._tick_compiled)
+                for c in range(M.shape[1]):
+                    M[out, c] = mask[c] or (both and old_mask[c])
+            if S[s + 8] > 0.5:
+                SV[k] = True
+                service += 1
         elif code == HOLD:
             if has:  # without a frame in, the output holds (as Output.tick)
                 hold_tick(V[src], M[src], f1(refs, r[4]), lo, hi)
