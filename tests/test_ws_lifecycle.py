@@ -32,6 +32,21 @@ def _threads(pid: int) -> int:
     raise AssertionError("no thread count")
 
 
+def _settled_threads(pid: int, still: float = 2.0, timeout: float = 60.0) -> int:
+    """The process's thread count once it has not changed for `still` seconds (its start-up threads,
+    which load compiled code and warm up paths beside the clock, have ended)."""
+    deadline = time.monotonic() + timeout
+    count, since = _threads(pid), time.monotonic()
+    while time.monotonic() < deadline:
+        time.sleep(0.1)
+        now = _threads(pid)
+        if now != count:
+            count, since = now, time.monotonic()
+        elif time.monotonic() - since >= still:
+            break
+    return count
+
+
 def _frames_state(client) -> tuple[int, int]:
     status = client.status()
     return status["clients"]["frames"], sum(s["name"].startswith("ws-frames-") for s in status["sinks"])
@@ -68,7 +83,7 @@ def test_abruptly_closed_frame_clients_leave_nothing_behind():
     with running_server_proc("--no-previz", "--sim-servo", "0") as srv:
         asyncio.run(_open_and_abort(srv.port, 10))  # warm-up: worker threads the handlers use exist now
         _wait_for(lambda: _frames_state(srv.client), lambda v: v == (0, 0), "the warm-up clients to go")
-        before = _threads(srv.proc.pid)
+        before = _settled_threads(srv.proc.pid)
         n = 50
 
         async def opened_then_aborted():
@@ -81,7 +96,9 @@ def test_abruptly_closed_frame_clients_leave_nothing_behind():
             for c in conns:
                 await asyncio.wait_for(c.recv(), 30)
             assert _frames_state(srv.client) == (n, n)  # each client has its sink (and its thread)
-            assert _threads(srv.proc.pid) >= before + n
+            # (a short-lived thread of the server's own, e.g. a telemetry or warm-up helper, may have ended
+            # since `before`: a few are allowed for, a thread per client is not)
+            assert _threads(srv.proc.pid) >= before + n - 3
             for c in conns:
                 c.transport.abort()
 
