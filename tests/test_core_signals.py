@@ -172,7 +172,10 @@ def test_exposed_inputs_are_read_when_set_not_ticked(monkeypatch, robot):
     engine.tick()
     assert engine.apu.results[i] is held  # its own value is the same object: its readers stay asleep
     assert ticks == []  # the core read the values; the block never ticked
-    assert engine.apu.block("emotion").state.v != 0.0  # and the emotion took the valence
+    # and the emotion took the valence (read as a probe reads it: no Python step reads the emotion here,
+    # so the core publishes its outputs and state on demand)
+    assert engine.apu.signal_value("emotion", "valence") != 0.0
+    assert engine.apu.block("emotion").state.v == engine.apu.signal_value("emotion", "valence")
 
 
 def test_input_values_count_every_change():
@@ -193,3 +196,72 @@ def test_input_values_count_every_change():
         change()
         seen.append(values.version)
     assert seen == sorted(set(seen)) and len(seen) == 9  # each one counted
+
+
+def test_lazy_signals_hand_their_state_to_swaps_edits_and_probes(monkeypatch, robot):
+    """No Python step reads the interactive program's emotion or breath amplitude: the core publishes
+    them, and writes their state back into the blocks, only when something asks. A hot swap adopting the
+    blocks' state mid-smoothing, an edit of the emotion and the probes must all see the kernel's state
+    (no blocks' own ticks in between to bring it up to date)."""
+    interactive = json.loads((PROGRAMS / "interactive.json").read_text())
+    grown = {
+        **interactive,
+        "nodes": [*interactive["nodes"], {"id": "spare", "type": "rest_pose", "params": {}}],
+    }
+    runs, probes = {}, {}
+    for core in (True, False):
+        session = session_for(monkeypatch, robot, interactive, core)
+        engine = session.engine
+        engine.apu.cook.every = 10**9
+        if core:
+            lazy = {
+                op.block.node_id: op.arena.S[op.s + op.lazy_slot]
+                for op in engine.apu.core.ops
+                if hasattr(op, "lazy_slot")
+            }
+            assert lazy == {"emotion": 1.0, "breath_amplitude": 1.0}
+        frames, seen = [], []
+        for k in range(160):
+            if k == 5:
+                session.execute({"type": "set_emotion", "valence": -0.7, "arousal": 0.8})
+            if k == 40:
+                session.load_program(grown)  # a new program, which adopts the emotion's state mid-smoothing
+                assert engine.apu.block("spare") is not None
+            if k == 60:
+                session.update_params("emotion", {"smoothing": 0.3})
+            if k == 90:
+                session.execute({"type": "set_emotion", "valence": 0.6, "arousal": -0.5})
+            frames.append(frame_tuple(engine.tick()))
+            if k % 9 == 0:
+                seen.append(engine.apu.signal_values([("emotion", "valence"), ("emotion", "posture")]))
+        runs[core], probes[core] = frames, seen
+    assert_same_frames(runs[True], runs[False])
+    assert probes[True] == probes[False]
+
+
+def test_an_edit_keeps_the_state_a_lazy_signal_stepped(monkeypatch, robot):
+    """An emotion that only drives a pose's offset in the kernel publishes nothing while it moves; an edit
+    of its parameters binds it again, and the state it had stepped must carry on, not the block's older
+    copy."""
+    b = ProgramBuilder("lazy")
+    valence, arousal = b.expose("valence", "float", default=0.0), b.expose("arousal", "float", default=0.0)
+    emotion = b.node("emotion", "emotion", smoothing=0.8)
+    pose = b.node("rest_pose", "pose", dofs=["neck_pitch", "head_pitch"])
+    mood = b.node("gain_offset", "mood", dofs=["neck_pitch", "head_pitch"])
+    b.connect(valence, emotion, "value", "valence").connect(arousal, emotion, "value", "arousal")
+    b.connect(emotion, mood, "posture_offset", "offset").chain(pose, mood, b.output())
+    runs = {}
+    for core in (True, False):
+        session = session_for(monkeypatch, robot, b.to_dict(), core)
+        session.engine.apu.cook.every = 10**9
+        frames = []
+        for k in range(120):
+            if k == 3:
+                session.execute({"type": "set_input", "name": "arousal", "value": 0.9})
+            if k == 50:
+                session.update_params("emotion", {"smoothing": 0.2, "droop": 0.3})
+            frames.append(frame_tuple(session.engine.tick()))
+        runs[core] = frames
+    assert_same_frames(runs[True], runs[False])
+    pitch = [f[0][robot.dof("head_pitch").channels.start] for f in runs[True]]
+    assert max(pitch) - min(pitch) > 0.01  # the emotion moved the pose: the comparison covered it

@@ -71,13 +71,12 @@ def test_idle_blocks_are_skipped_until_something_reaches_them(counted):
     engine.run_ticks(5)
     assert [counts[node] for node in ("face", "sfx", "gesture", "posture")] == [1, 1, 0, 0]
     counts.clear()
-    emotion = engine.apu.index["emotion"]
-    before = engine.apu.results[emotion]
+    before = engine.apu.signal_value("emotion", "valence")
     session.execute({"type": "set_emotion", "valence": 0.5, "arousal": 0.2})
     engine.run_ticks(5)
     # new inputs, then smoothing toward them every tick, in the kernel: no Python block woke for it (the
     # voice still says "hi")
-    assert engine.apu.results[emotion]["valence"] != before["valence"] and set(counts) <= {"voice"}
+    assert engine.apu.signal_value("emotion", "valence") != before and set(counts) <= {"voice"}
 
 
 def test_a_clip_follows_a_speed_that_changes_every_tick_without_a_python_tick(counted):

@@ -111,6 +111,8 @@ class APU:
         core = self.core
         if self._untimed >= self.cook.every:
             self._untimed = 0
+            if core is not None and self._core_results:
+                core.settle(results)  # the blocks' state as the core left it (some is written back lazily)
             self._tick_timed(dt)  # block by block, each its own tick (on the same state as the core's)
             if core is not None:
                 core.verify()
@@ -158,6 +160,8 @@ class APU:
         into `idle` runs as `idle/breathe`): a block whose id is new takes the state of the one old
         block of its type whose id is gone and ends with the same name, when there is exactly one.
         """
+        if old.core is not None and old._core_results:
+            old.core.settle(old.results)  # the old blocks' state as the core left it
         kept = []
         unmatched = []
         for step in self.steps:
@@ -194,10 +198,8 @@ class APU:
         i = self.index.get(node_id)
         if i is None:
             return None
-        if self.core is not None and self._core_results:
-            self.core.refresh(
-                i
-            )  # (a compiled clip player's weight, playing and time are worked out on demand)
+        if self.core is not None and self._core_results:  # (some compiled outputs are worked out on demand)
+            self.core.refresh(i, self.results)
         return self.results[i].get(port)
 
     def signal_values(self, ports: list[tuple[str, str]]) -> list[Any]:

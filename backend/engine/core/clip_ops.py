@@ -148,9 +148,9 @@ class ClipPlayerOp(SourceOp[ClipPlayer]):
         self.frame.events, self._events = self._events, NO_EVENTS
 
     def service(self) -> None:
-        self.refresh()
+        self.refresh(None)
 
-    def refresh(self) -> None:
+    def refresh(self, results: Any) -> None:
         """`weight`, `playing` and `time` as the block's tick gives them, from its state."""
         st = self.block.state
         r = self.result
@@ -163,4 +163,4 @@ class ClipPlayerOp(SourceOp[ClipPlayer]):
     def resume(self) -> None:
         self.rebind_if_stale()
         self.sync()
-        self.refresh()
+        self.refresh(None)

@@ -97,7 +97,8 @@ class Op(Generic[B]):
         self.s = arena.scalar_slots(self.n_scalars)
         self.signal_ports: tuple[tuple[str, int, str], ...] = ()  # (port, source step, source port)
         self.input_wires: tuple[tuple[str, int, str], ...] = ()  # every signal wired in, as above
-        self.outputs_read = False  # whether a step reads one of its signal outputs (not its frame)
+        self.outputs_read = False  # whether a step reads one of its signal outputs in Python (a `pre` too)
+        self.seg: Any = None  # its Segment (program.py), told when the op is bound again
         # (port, source's output slot) per parameter a compiled signal drives in the kernel
         self.drive_wires: tuple[tuple[str, int], ...] = ()
         self.frame = PartialFrame(arena.V[out], arena.P[out].copy(), NO_EVENTS)
@@ -119,6 +120,8 @@ class Op(Generic[B]):
         self.refs = refs
         self._params, self._state = b.params, getattr(b, "state", None)
         self._signals = None
+        if self.seg is not None:
+            self.seg.unbound = True  # its `pre` must run before the next kernel run
         row = self.arena.ops[self.k]
         row[:] = -1
         row[0], row[1], row[3] = self.code, self.out, self.s
@@ -206,9 +209,10 @@ class Op(Generic[B]):
     def resume(self) -> None:
         """The APU ran the blocks' own ticks since the last core tick: make the state ready for the kernel."""
 
-    def refresh(self) -> None:
-        """Bring the outputs Python readers see up to date before a probe reads them (ops whose outputs
-        are worked out lazily only: the clip player's)."""
+    def refresh(self, results: list[dict[str, Any]]) -> None:
+        """Bring the outputs Python readers see (and the block's state) up to date before something reads
+        them that the kernel does not know of: a probe, a trap, the blocks' own ticks, a swap's adoption
+        (ops whose outputs are worked out lazily only: a clip player's, a signal no Python step reads)."""
 
     def needs_pre(self) -> bool:
         return self.pre_when in ("always", "inputs") or (self.pre_when == "wired" and bool(self.signal_ports))

@@ -148,6 +148,11 @@ class Segment:
         self.always = [op for op in self.posts if op.post_always]
         self.had_events = True  # whether the ops' frames may hold events (cleared by a quiet tick's posts)
         self.watching = [op for op in ops if op.watches_changes]
+        self.every = any(op.every_tick for op in self.pres)  # whether a `pre` runs every tick
+        self.due = -1  # the core tick in which a Python source of an op's signals last ticked
+        self.unbound = True  # an op was bound (or forgot its inputs) since the `pre`s last ran
+        for op in ops:
+            op.seg = self
         # `CHANGES` when every op was last found bound (-1: look again; blocks/block_state.py). While it
         # stands, no block holds another parameters or state object or handled a command, so, unless a
         # block ran its own tick, no op is stale (an op whose `pre` changes its block's arrays binds again
@@ -181,7 +186,7 @@ class CoreProgram:
         # last read (version None: read again); readers are the imports and ops marked `due` when the
         # step hands out new outputs.
         self.plan: list[tuple[Any, ...]] = []
-        readers: dict[int, list[Import | Op]] = {}
+        readers: dict[int, list[Any]] = {}  # Imports, Ops and Segments: each has a `due`
         row = 0
         current: list[Op] = []
         current_imports: list[Import] = []
@@ -225,10 +230,7 @@ class CoreProgram:
             self.plan.append(("core", Segment(current, current_imports)))
         for imp in imports.values():
             readers[imp.src].append(imp)
-        for step in steps:  # a signal output of an op read by any step (its frame aside)
-            for w in step.wires:
-                if w.src in by_step and w.src_port not in _frame_ports(by_step[w.src].block, outputs=True):
-                    by_step[w.src].outputs_read = True
+        self._link_readers(steps, by_step, readers)
         #: Ops whose outputs a probe must have brought up to date (`refresh`), by step.
         self.refreshed = {op.step: op for op in self.ops if type(op).refresh is not Op.refresh}
         self.epoch = 0  # core ticks so far
@@ -240,6 +242,21 @@ class CoreProgram:
             self.refs.put_at(j, np.ascontiguousarray(array))
         self.rebinds = 0  # binds found necessary by `verify` (a block replaced a listed array unannounced)
         self._kernel = LoadOnSecondAsk(KERNEL)
+
+    def _link_readers(self, steps: list[Any], by_step: dict[int, Op], readers: dict[int, list[Any]]) -> None:
+        """Mark the ops whose signal outputs a step reads in Python (not the kernel: `outputs_read`), and
+        make each segment a reader of the Python sources of its ops' `pre`s (it is `due` when they tick)."""
+        for j, step in enumerate(steps):  # a signal output of an op read in Python by any step
+            for w in step.wires:
+                src = by_step.get(w.src)
+                if src is not None and w.src_port not in _frame_ports(src.block, outputs=True):
+                    src.outputs_read = src.outputs_read or not takes_in_kernel(
+                        src, w.src_port, by_step.get(j), w.port
+                    )
+        for entry in self.plan:  # a segment is due (its `pre`s look) when a Python source of theirs ticked
+            if entry[0] == "core":
+                for src in {src for op in entry[1].pres for _, src, _ in op.signal_ports if src in readers}:
+                    readers[src].append(entry[1])
 
     @classmethod
     def build(cls, apu: APU) -> CoreProgram | None:
@@ -275,7 +292,7 @@ class CoreProgram:
             op.restore(results)
         for entry in self.plan:
             if entry[0] == "core":
-                entry[1].had_events = True
+                entry[1].had_events = entry[1].unbound = True  # (its ops forget their inputs, below)
                 entry[1].seen = -1  # the blocks' own ticks may have replaced arrays: look at every op
                 for imp in entry[1].imports:
                     imp.frame = None  # their sources ticked on their own: load each import once more
@@ -342,14 +359,15 @@ class CoreProgram:
                 for op in seg.watching:
                     op.changed()
                 seg.look()
-            for op in seg.pres:  # the signals an op reads changed only if a source ticked
-                if op.every_tick or op.due == epoch or op._signals is None:
-                    op.pre(dt, results)
+            if seg.every or seg.due == epoch or seg.unbound:  # (else no op's `pre` has anything new)
+                seg.unbound = False
+                for op in seg.pres:  # the signals an op reads changed only if a source ticked
+                    if op.every_tick or op.due == epoch or op._signals is None:
+                        op.pre(dt, results)
             changed = run(ops, refs, seg.k0, seg.k1, dt)
             while changed >= vm.TRAP:  # an op needs Python first: its `trap`, then the rest of the segment
                 k = changed // vm.TRAP - 1
-                if changed % vm.SERVICE:
-                    self._publish(results)  # what its Python reads is this tick's
+                self._publish(results)  # what its Python reads is this tick's (a lazy signal's too)
                 if self.ops[k].trap(dt, results):
                     events = True
                 changed = changed % vm.TRAP + run(ops, refs, k, seg.k1, dt)
@@ -381,11 +399,17 @@ class CoreProgram:
             changed[row] = False
             self.ops[row].publish(results)  # (an op's row is its index in the table)
 
-    def refresh(self, step: int) -> None:
+    def refresh(self, step: int, results: list[dict[str, Any]]) -> None:
         """Bring the outputs of step `step` up to date for a probe, when its op works them out lazily."""
         op = self.refreshed.get(step)
         if op is not None:
-            op.refresh()
+            op.refresh(results)
+
+    def settle(self, results: list[dict[str, Any]]) -> None:
+        """Bring every lazily published output and the state behind it up to date in the blocks (before
+        their own ticks run, or a new program adopts their state)."""
+        for op in self.refreshed.values():
+            op.refresh(results)
 
     def listed(self, op: Op, count: int) -> list[np.ndarray | None]:
         """The first `count` arrays the table lists for `op`, in its column order."""

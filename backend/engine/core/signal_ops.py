@@ -8,10 +8,15 @@ changed (the kernel flags that, `CH`): an unchanged output stays the same object
 blocks downstream at once that nothing changed.
 
 The block's state stays the block's: the op steps a copy in the kernel (`x`, floats and a posture index
-where the block keeps a name), writes it back whenever an output changed (`publish`) (every output is a function of
-the state, so the state moved only then) and reads it again after the block's own tick ran (`resume`)
-or the block got a new state (`bind`). The core compiles a signal block only when every compiled block
-it feeds takes the signal in the kernel (`compiles_signal`); otherwise it ticks in Python as before.
+where the block keeps a name), writes it back whenever it publishes the outputs (`publish`: every output
+is a function of the state, so the state moved only then) or gets new parameters (`bind`), and reads it
+again after the block's own tick ran (`resume`) or the block got a new state (`bind`). The core compiles
+a signal block only when every compiled block it feeds takes the signal in the kernel
+(`compiles_signal`); otherwise it ticks in Python as before.
+
+When no step reads the outputs in Python (every reader takes them in the kernel: the interactive
+program's emotion and breath amplitude), a change is published only when something asks (`refresh`: a
+probe, a trap, the blocks' own ticks, a swap's adoption), not on every tick the signal moves (`lazy`).
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ class SignalOp(Op[B]):
     output_slots: ClassVar[dict[str, int]] = {}  # output port -> its slot (after `s`)
     published_from: ClassVar[int] = 0  # the first output slot, and how many the kernel compares
     n_published: ClassVar[int] = 0
+    lazy_slot: ClassVar[int] = 0  # the slot saying no step reads the outputs in Python (vm.EMOTION_LAZY, …)
 
     def __init__(self, *args: Any):
         super().__init__(*args)
@@ -48,11 +54,21 @@ class SignalOp(Op[B]):
         return self.s + self.output_slots[port]
 
     def bind(self, refs: Refs) -> None:
+        if self._state is not None and self._state is self.block.state:
+            self.write_state()  # (new parameters) the kernel stepped the state since: it is the block's
         self.prepare()
         self.read_state()
         super().bind(refs)
         self.constants()
         self.unpublish()
+        self.arena.S[self.s + self.lazy_slot] = 0.0 if self.outputs_read else 1.0
+
+    def refresh(self, results: list[dict[str, Any]]) -> None:
+        """Publish the outputs the kernel flagged changed (a lazy op's, for a probe, a trap or the blocks'
+        own ticks; `publish` also writes the block's state back)."""
+        if self.arena.CH[self.out]:
+            self.arena.CH[self.out] = False
+            self.publish(results)
 
     def unpublish(self) -> None:
         """Make the next kernel run publish its outputs (the last published copies as NaN: never the same)."""
@@ -87,6 +103,10 @@ class SignalOp(Op[B]):
     def read_state(self) -> None:
         """Copy the block's state into the arrays the kernel steps."""
 
+    def write_state(self) -> None:
+        """Copy the state the kernel stepped back into the block's (the memos of its own last tick no
+        longer hold)."""
+
     def constants(self) -> None:
         """Write the scalars the kernel reads that only the parameters set (and the unwired inputs)."""
 
@@ -96,7 +116,8 @@ class SignalOp(Op[B]):
 
 class EmotionOp(SignalOp[Emotion]):
     code = vm.EMOTION
-    n_scalars = vm.EMOTION_OUT + 2 * vm.EMOTION_OUTPUTS
+    n_scalars = vm.EMOTION_LAZY + 1
+    lazy_slot = vm.EMOTION_LAZY
     kernel_drives = {"valence": 0, "arousal": 1}
     output_slots = {
         port: vm.EMOTION_OUT + i
@@ -151,16 +172,25 @@ class EmotionOp(SignalOp[Emotion]):
             "arousal": a,
             "posture": posture,
         }
+        self.write_state()
+
+    def write_state(self) -> None:
+        v, a, primed, index = self.x.tolist()
+        if primed < 0.5:  # not yet stepped: the block's state is as it was read
+            return
         b = self.block
         st = b.state
-        st.v, st.a, st.primed, st.posture = v, a, True, posture  # (the kernel primed it: outputs are out)
+        st.v, st.a, st.primed = v, a, True
+        if index >= 0:
+            st.posture = self._names[int(index)]
         b.__dict__.pop("_last_out", None)  # the block's memos of its own last tick no longer hold
         b.__dict__.pop("_nearest_seen", None)
 
 
 class MathOp(SignalOp[Math]):
     code = vm.MATH
-    n_scalars = vm.MATH_OUT + 2
+    n_scalars = vm.MATH_LAZY + 1
+    lazy_slot = vm.MATH_LAZY
     kernel_drives = {"a": 0, "b": 1}
     output_slots = {"value": vm.MATH_OUT}
     published_from, n_published = vm.MATH_OUT, 1
@@ -199,9 +229,12 @@ class MathOp(SignalOp[Math]):
         self.inputs(d)
 
     def publish(self, results: list[dict[str, Any]]) -> None:
+        results[self.step] = self.result = {"value": float(self.last[0])}
+        self.write_state()
+
+    def write_state(self) -> None:
         b = self.block
-        b.state.last = value = float(self.last[0])
-        results[self.step] = self.result = {"value": value}
+        b.state.last = float(self.last[0])
         b.__dict__.pop("_computed", None)  # the block's memo of its own last tick no longer holds
 
 

@@ -73,6 +73,7 @@ LED = 12  # S: r, g, b, mode, depth, phase (written here), first channel, compon
 #           5 the phase (1,): read, then stepped by frequency * dt (as Led.advance)
 LED_SOLID, LED_BREATHE, LED_PULSE = 0.0, 1.0, 2.0  # the LED's mode scalar
 # Signal ops: no frame; their outputs are scalar slots, and a changed output flags CH[out] for Python.
+# After their last published values, a `lazy` flag (EMOTION_LAZY, MATH_LAZY).
 EMOTION = 13  # S: valence and arousal targets, k, 8 constants (compiled/signals.py's emotion_tick), 6 outputs
 #              (speed, amplitude, posture_offset, valence, arousal, posture index), their last published
 #              values | 4 state (v, a, primed, posture index), 5 postures (n, 2)
@@ -93,6 +94,10 @@ CLIP = 16  # S: speed (driven, else the play's or the parameter), duration, mode
 EMOTION_OUT = 11  # the emotion's first output slot (after its s)
 EMOTION_OUTPUTS = 6
 MATH_OUT = 10
+# A signal op's slot saying no step reads its outputs in Python (`lazy`): a change is flagged in CH but
+# not counted in `run_ops`' return, and Python publishes it only when asked (`SignalOp.refresh`).
+EMOTION_LAZY = EMOTION_OUT + 2 * EMOTION_OUTPUTS
+MATH_LAZY = MATH_OUT + 2
 
 #: What `run_ops` adds to its count of changed masks per op asking for Python's `service` after the run (the
 #: op flagged in the `SV` array).
@@ -257,7 +262,8 @@ def run_ops(ops, refs, k0, k1, dt):
             emotion_tick(x, S[s], S[s + 1], S[s + 2], S[s + 3 : s + 11], postures, S[o : o + EMOTION_OUTPUTS])
             if _moved(S, o, EMOTION_OUTPUTS):
                 CH[out] = True
-                changed += 1
+                if S[s + EMOTION_LAZY] < 0.5:
+                    changed += 1
             continue  # a signal: no frame
         elif code == MATH:
             last = f1(refs, r[4])
@@ -270,7 +276,8 @@ def run_ops(ops, refs, k0, k1, dt):
             S[s + MATH_OUT] = last[0]
             if _moved(S, s + MATH_OUT, 1):
                 CH[out] = True
-                changed += 1
+                if S[s + MATH_LAZY] < 0.5:
+                    changed += 1
             continue
         elif code == BREATHE:
             mask, phase = b1(refs, r[7]), f1(refs, r[8])
