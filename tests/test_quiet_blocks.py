@@ -15,6 +15,7 @@ import pytest
 from backend.engine.blocks.quiet import QuietWhenIdle
 from backend.engine.core.program import CORE_ENV, KERNEL
 from backend.engine.embodiment import load_embodiment
+from backend.graph.builder import ProgramBuilder
 from backend.session import EngineSession
 
 PROGRAM = Path(__file__).resolve().parents[1] / "robots" / "nutty_desk" / "programs" / "interactive.json"
@@ -134,12 +135,44 @@ def test_a_puppet_streamed_to_dropped_and_streamed_to_again_agrees_with_its_own_
                 session.execute({"type": "puppet", "values": {"head_yaw": 0.2 + 0.01 * (k % 7)}})
             if k == 340:
                 session.execute({"type": "puppet", "release": True})
-            frames.append(session.engine.tick().position.copy())
+            tick = session.engine.tick()
+            # the look_at weight follows the puppet's weight as the puppet fades by itself (no command): a
+            # quiet block asleep is woken by its source handing out a new value
+            frames.append((tick.position.copy(), session.engine.apu.signal_value("look_at_weight", "value")))
         runs[core] = frames
         if core:
             assert session.engine.apu.block("puppet").quiet  # faded out after the release
         session.engine.close()
-    diffs = [float(abs(a - b).max()) for a, b in zip(runs[True], runs[False])]
+    diffs = [float(abs(a[0] - b[0]).max()) for a, b in zip(runs[True], runs[False])]
     assert max(diffs) <= 1e-9
+    assert [w for _, w in runs[True]] == [w for _, w in runs[False]]
+    assert len({w for _, w in runs[True]}) > 10  # it faded in and out
     yaw = load_embodiment("nutty_desk").dof("head_yaw").channels.start
-    assert abs(runs[True][60][yaw] - runs[True][10][yaw]) > 0.05  # the stream moved the head
+    assert abs(runs[True][60][0][yaw] - runs[True][10][0][yaw]) > 0.05  # the stream moved the head
+
+
+def test_a_sleeping_block_wakes_when_its_source_changes_by_itself(monkeypatch):
+    """A sound player triggered by the voice's `speaking` sleeps while it holds; the speech ends by
+    itself (no command), and the player must see that falling edge, or the next utterance's rising edge
+    would play no sound."""
+    b = ProgramBuilder("echo")
+    voice = b.node("say", "voice")
+    sfx = b.node("play_sound", "sfx", sound="beep")
+    mix = b.node("layer_mixer", "mix", layers=[{"name": "a"}, {"name": "b"}])
+    b.connect(voice, sfx, "speaking", "trigger")
+    b.connect(voice, mix, "out", "a").connect(sfx, mix, "out", "b").chain(mix, b.output())
+    runs = {}
+    for core in (True, False):
+        monkeypatch.setenv(CORE_ENV, "1" if core else "0")
+        assert KERNEL.wait(120)
+        session = EngineSession.create(load_embodiment("nutty_desk"), program=b.to_dict())
+        session.engine.apu.cook.every = 10**9
+        kinds = []
+        for k in range(600):
+            if k in (5, 300):
+                session.execute({"type": "say", "text": "hello there"})
+            kinds.append([e.kind for e in session.engine.tick().events])
+        runs[core] = kinds
+        session.engine.close()
+    assert runs[True] == runs[False]
+    assert sum(kinds.count("sound") for kinds in runs[True]) == 2

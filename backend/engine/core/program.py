@@ -44,8 +44,8 @@ from backend.engine.compiled.pointers import AddressTable
 from backend.engine.core import vm
 from backend.engine.core.ops import Op
 from backend.engine.core.registry import op_class
+from backend.engine.core.segments import Import, QuietMemo, Segment
 from backend.engine.core.signal_ops import compiles_signal, output_slot, takes_in_kernel
-from backend.engine.frames import PartialFrame
 
 if TYPE_CHECKING:
     from backend.engine.apu import APU
@@ -101,69 +101,6 @@ class Refs(AddressTable):
         return self.put_at(vm.FIRST_OP_REF + k * vm.WIDTH + col, array)
 
 
-class Import:
-    """A frame from a Python block into a compiled one, copied into its arena row before the segment
-    (once, when it is the same `SteadyFrame` tick after tick)."""
-
-    def __init__(self, row: int, src: int, port: str, arena: Arena):
-        self.row, self.src, self.port, self.arena = row, src, port, arena
-        self.frame: PartialFrame | None = None
-        self._values = arena.V[row]
-        self._mask = arena.M[row]
-        self._last_mask: np.ndarray | None = None
-        self.due = -1  # the core tick in which its source last ticked (`CoreProgram.epoch`)
-        self.events = False  # whether the frame last loaded carries events
-
-    def load(self, results: list[dict[str, Any]]) -> bool:
-        """Copy this tick's frame in; whether it carries events."""
-        frame = results[self.src].get(self.port)
-        if frame is self.frame and frame is not None and frame.steady:  # already in its row, unchanged
-            return self.events
-        self.frame = frame
-        if frame is None:
-            self.arena.A[self.row] = False
-            self.events = False
-            return False
-        self.events = bool(frame.events)
-        self.arena.A[self.row] = True
-        self._values[:] = frame.values
-        mask = frame.mask
-        if mask is not self._last_mask:  # masks never change in place: the same object, the same mask
-            self._mask[:] = mask
-            self._last_mask = mask
-        return self.events
-
-
-class Segment:
-    """Consecutive compiled steps: their imports, ops (table rows k0..k1-1), and the ops with Python
-    work before (`pres`) and after (`posts`) the kernel. Events come into a segment only through its
-    imports, the ops of an earlier segment and a `trap` (a clip player's own tick): while none carries
-    any, the ops whose `post` only passes events skip it (`always`: the others)."""
-
-    def __init__(self, ops: list[Op], imports: list[Import]):
-        self.ops, self.imports = ops, imports
-        self.k0, self.k1 = ops[0].k, ops[-1].k + 1
-        self.pres = [op for op in ops if op.needs_pre()]
-        self.posts = [op for op in ops if op.passes_events]
-        self.always = [op for op in self.posts if op.post_always]
-        self.had_events = True  # whether the ops' frames may hold events (cleared by a quiet tick's posts)
-        self.watching = [op for op in ops if op.watches_changes]
-        self.every = any(op.every_tick for op in self.pres)  # whether a `pre` runs every tick
-        self.due = -1  # the core tick in which a Python source of an op's signals last ticked
-        self.unbound = True  # an op was bound (or forgot its inputs) since the `pre`s last ran
-        for op in ops:
-            op.seg = self
-        # `CHANGES` when every op was last found bound (-1: look again; blocks/block_state.py). While it
-        # stands, no block holds another parameters or state object or handled a command, so, unless a
-        # block ran its own tick, no op is stale (an op whose `pre` changes its block's arrays binds again
-        # there) and no op's `changed` has anything new to see.
-        self.seen = -1
-
-    def look(self) -> None:
-        """Every op was just found bound, and told of the changes it watches."""
-        self.seen = CHANGES[0]
-
-
 class CoreProgram:
     """The compiled core of one APU (see the module doc)."""
 
@@ -180,11 +117,10 @@ class CoreProgram:
         self.ops: list[Op] = []
         by_step: dict[int, Op] = {}
         imports: dict[tuple[int, str], Import] = {}
-        # ("py", step, block, wires, quiet memo or None, readers), ("input", step, block, seen, readers) or
-        # ("core", segment). A quiet memo is what a `QuietWhenIdle` block last ticked on: [params, state,
-        # its input values] (params None: look again); an input's `seen` the [version, value, values] it
-        # last read (version None: read again); readers are the imports and ops marked `due` when the
-        # step hands out new outputs.
+        # ("py", step, block, wires, QuietMemo or None, readers), ("input", step, block, seen, readers) or
+        # ("core", segment). An input's `seen` is the [version, value, values] it last read (version None:
+        # read again); readers are the imports, ops, segments and quiet memos marked `due` when the step
+        # hands out new outputs.
         self.plan: list[tuple[Any, ...]] = []
         readers: dict[int, list[Any]] = {}  # Imports, Ops and Segments: each has a `due`
         row = 0
@@ -200,7 +136,12 @@ class CoreProgram:
                 if type(step.block) is ExposedInput and "tick" not in vars(step.block):
                     self.plan.append(("input", i, step.block, [None, None, None], readers[i]))
                     continue  # read when the values changed, not ticked (blocks/input_values.py)
-                memo = [None, None, ()] if isinstance(step.block, QuietWhenIdle) else None
+                memo = None
+                if isinstance(step.block, QuietWhenIdle):
+                    sources = {src for _, src, _ in apu._wires[i]}
+                    memo = QuietMemo(sleeps=sources <= readers.keys())  # (every source marks it `due`)
+                    for src in sources & readers.keys():
+                        readers[src].append(memo)
                 self.plan.append(("py", i, step.block, apu._wires[i], memo, readers[i]))
                 continue
             signals = [w for w in step.wires if w.port not in frame_ports[i]]
@@ -299,7 +240,7 @@ class CoreProgram:
             elif entry[0] == "input":
                 entry[3][0] = None  # read again
             elif entry[4] is not None:
-                entry[4][0] = None  # the block's own tick ran on other inputs, maybe: no skip until it ticks
+                entry[4].forget()  # the block's own tick ran on other inputs, maybe: no skip until it ticks
 
     def tick(self, dt: float, results: list[dict[str, Any]]) -> None:
         """One tick of the whole program: Python steps as the APU runs them, segments in the kernel."""
@@ -308,9 +249,7 @@ class CoreProgram:
             self._new_dt(dt)
         self.epoch += 1
         epoch = self.epoch
-        carried = (
-            False  # whether an earlier segment's frames carry events this tick (a later one may read them)
-        )
+        carried = False  # whether an earlier segment's frames carry events this tick (a later one reads them)
         for entry in self.plan:
             kind = entry[0]
             if kind == "input":
@@ -328,19 +267,22 @@ class CoreProgram:
                 continue
             if kind == "py":
                 _, i, block, wires, memo, due = entry
-                if memo is not None and block.quiet and memo[0] is block.params and memo[1] is block.state:
-                    reads = block.quiet_reads
-                    for (port, src, src_port), old in zip(wires, memo[2]):
-                        if results[src].get(src_port) is not old and (reads is None or port in reads):
-                            break
-                    else:
-                        continue  # quiet, on the inputs it reads: its last outputs stand (blocks/quiet.py)
+                if memo is not None and (
+                    (memo.seen == changes[0] and memo.due != epoch)  # asleep: nothing reached it since
+                    or (block.quiet and memo.still_quiet(block, wires, results))  # (then it may sleep)
+                ):
+                    continue  # quiet, on the inputs it reads: its last outputs stand (blocks/quiet.py)
                 inputs = {}
                 for port, src, src_port in wires:
                     inputs[port] = results[src].get(src_port)
                 results[i] = block.tick(dt, inputs) or {}
-                if memo is not None:
-                    memo[0], memo[1], memo[2] = block.params, block.state, [*inputs.values()]
+                if memo is not None:  # what it ticked on; awake (seen -1) until it is found quiet
+                    memo.params, memo.state, memo.inputs, memo.seen = (
+                        block.params,
+                        block.state,
+                        [*inputs.values()],
+                        -1,
+                    )
                 for r in due:
                     r.due = epoch
                 continue
@@ -353,24 +295,16 @@ class CoreProgram:
                 elif imp.events:
                     events = True
             if seg.seen != changes[0]:  # a block changed (parameters, state, a command): look at its ops
-                for op in seg.ops:
-                    if op.stale():
-                        op.bind(self.refs)
-                for op in seg.watching:
-                    op.changed()
-                seg.look()
+                seg.look(self.refs)
             if seg.every or seg.due == epoch or seg.unbound:  # (else no op's `pre` has anything new)
                 seg.unbound = False
                 for op in seg.pres:  # the signals an op reads changed only if a source ticked
                     if op.every_tick or op.due == epoch or op._signals is None:
                         op.pre(dt, results)
             changed = run(ops, refs, seg.k0, seg.k1, dt)
-            while changed >= vm.TRAP:  # an op needs Python first: its `trap`, then the rest of the segment
-                k = changed // vm.TRAP - 1
-                self._publish(results)  # what its Python reads is this tick's (a lazy signal's too)
-                if self.ops[k].trap(dt, results):
-                    events = True
-                changed = changed % vm.TRAP + run(ops, refs, k, seg.k1, dt)
+            if changed >= vm.TRAP:  # an op needs Python first: its `trap`, then the rest of the segment
+                changed, trapped = self._traps(changed, seg, dt, results)
+                events = events or trapped
             if changed:
                 if changed >= vm.SERVICE:
                     self._service()
@@ -379,6 +313,21 @@ class CoreProgram:
             for op in seg.posts if events or seg.had_events else seg.always:
                 op.post()
             seg.had_events = carried = events
+
+    def _traps(
+        self, changed: int, seg: Segment, dt: float, results: list[dict[str, Any]]
+    ) -> tuple[int, bool]:
+        """The kernel stopped at an op that needs Python first (`changed` >= vm.TRAP): its `trap`, then the
+        rest of the segment, as often as it asks. The kernel's final count, and whether a trap gave out
+        events."""
+        events = False
+        while changed >= vm.TRAP:
+            k = changed // vm.TRAP - 1
+            self._publish(results)  # what its Python reads is this tick's (a lazy signal's too)
+            if self.ops[k].trap(dt, results):
+                events = True
+            changed = changed % vm.TRAP + KERNEL.entry(self.arena.ops, self.refs.table, k, seg.k1, dt)
+        return changed, events
 
     def _new_dt(self, dt: float) -> None:
         self.arena.dt = dt
