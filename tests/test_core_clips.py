@@ -9,23 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_clip_player import RAMP  # an absolute clip (not relative to rest) with an enum track and an event
 from test_compiled_core import assert_same_frames, frame_tuple, program, session_for
 
 from backend.engine.blocks.clip_player import smooth_step
 from backend.graph.builder import ProgramBuilder
-
-# An absolute clip (not relative to rest) with an enum track and an event, played from its document.
-RAMP = {
-    "format": "nutty-clip/1",
-    "name": "ramp",
-    "duration": 1.0,
-    "anchors": {"mid": 0.5},
-    "tracks": {
-        "head_yaw": [{"t": 0, "v": 0.0, "interp": "linear"}, {"t": 1.0, "v": 0.6}],
-        "mouth": [{"t": 0, "v": "neutral"}, {"t": 0.5, "v": "smile"}],
-    },
-    "events": [{"t": 0.25, "dof": "sound", "kind": "sound", "payload": {"clip": "beep"}}],
-}
 
 
 def clips_program() -> dict:
