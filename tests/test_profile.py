@@ -209,3 +209,15 @@ def test_run_profile_prints_a_table(capsys, tmp_path):
     means = [float(r[2]) for r in rows]
     assert means == sorted(means, reverse=True)
     assert "30 timed ticks, 1 in 1" in printed[-1]
+
+
+def test_a_ring_keeps_its_last_samples_and_forgets_them_on_reset():
+    ring = RingStats(size=4)
+    for x in (0.009, 0.001, 0.002, 0.003, 0.004, 0.005):  # (s) the first two fall out
+        ring.add(x)
+    summary = ring.summary()
+    assert summary["samples"] == 4 and summary["max_ms"] == 5.0 and summary["p50_ms"] == 3.5
+    ring.reset()
+    assert ring.summary()["samples"] == 0
+    ring.add(0.002)
+    assert ring.summary() == {"p50_ms": 2.0, "p99_ms": 2.0, "max_ms": 2.0, "samples": 1}
