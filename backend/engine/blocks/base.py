@@ -201,7 +201,7 @@ class Block(Generic[P]):
     if TYPE_CHECKING:
         state: Any  # (None: a block without run-time state)
         params: P
-    else:  # replacing either is counted, for the compiled core (blocks/replaced.py)
+    else:  # replacing either is counted, for the compiled core (blocks/block_state.py)
         state, params = counted("state"), counted("params")
     _state: Any = None
     _wired_cache: dict[str, tuple[tuple[Any, ...], BlockParams, Any]]  # driven(): last vector per param

@@ -21,7 +21,7 @@ MODE_CODES = {"once": ONCE, "loop": LOOP, "ping_pong": PING_PONG}
 
 @njit(cache=True)
 def smooth(x):
-    """clip_player._smooth: smoothstep of x clamped to [0, 1]."""
+    """clip_player.smooth_step: smoothstep of x clamped to [0, 1]."""
     x = py_min(py_max(x, 0.0), 1.0)
     return x * x * (3.0 - 2.0 * x)
 

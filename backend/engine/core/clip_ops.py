@@ -11,7 +11,7 @@ the end of a fade-out). Commands (play, stop, seek) change the state at tick bou
 again when they replaced what it lists (`stale`), and reads the rest from the state's cells.
 
 The `weight`, `playing` and `time` outputs change on every playing tick: they are worked out from the
-state every tick only when something reads them in Python (a wired port: the kernel asks for `service`),
+state every tick only when a step reads them in Python (`outputs_read`: the kernel asks for `service`),
 else when a probe asks (`refresh`, through `APU.signal_value`).
 """
 
@@ -53,9 +53,6 @@ class ClipPlayerOp(SourceOp[ClipPlayer]):
         self.result.update(weight=0.0, playing=False, time=0.0)
         self._events: list[Any] = NO_EVENTS  # what the last tick Python ran gave out
         self._seen: tuple[Any, ...] = ()
-        #: Whether a step reads `weight`, `playing` or `time` (the core sets it: then they are worked out
-        #: every tick).
-        self.outputs_read = False
 
     def arrays(self) -> list[np.ndarray]:
         st = self.block.state

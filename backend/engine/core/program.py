@@ -122,7 +122,7 @@ class CoreProgram:
         # read again); readers are the imports, ops, segments and quiet memos marked `due` when the step
         # hands out new outputs.
         self.plan: list[tuple[Any, ...]] = []
-        readers: dict[int, list[Any]] = {}  # Imports, Ops and Segments: each has a `due`
+        readers: dict[int, list[Any]] = {}  # Imports, Ops, Segments and QuietMemos: each has a `due`
         row = 0
         current: list[Op] = []
         current_imports: list[Import] = []

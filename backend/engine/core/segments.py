@@ -69,11 +69,10 @@ class QuietMemo:
         self.seen = -1
 
     def still_quiet(self, block: Any, wires: tuple[tuple[str, int, str], ...], results: list[dict]) -> bool:
-        """Whether the block said it is quiet and still holds the parameters, state and input values (the
-        ones it reads) it last ticked on; then it sleeps, when it may."""
-        if not (
-            block.quiet and self.params is block.params and self.state is block.state
-        ):  # (`quiet`: again)
+        """Whether a block that said it is quiet (the caller asked `block.quiet`) still holds the
+        parameters, state and input values (the ones it reads) it last ticked on; then it sleeps, when it
+        may."""
+        if self.params is not block.params or self.state is not block.state:
             return False
         reads = block.quiet_reads
         for (port, src, src_port), old in zip(wires, self.inputs):
