@@ -66,6 +66,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import contextlib
 
+import machine_stalls
 import python_left
 import scripted_ai
 import wake
@@ -369,9 +370,11 @@ def run_served(
     rates: tuple[float, ...],
     headless: dict[float, float],
     woken: dict[float, float] | None = None,
+    stalls: bool = False,
 ) -> list[dict]:
     """The served table; `woken`: Ruckig-25's p50 (µs) woken at each rate (run_wake), the served
-    tick's peer under the same wake pattern."""
+    tick's peer under the same wake pattern. `stalls`: also watch the machine's own stalls in each
+    window (benchmarks/machine_stalls.py) and say which overruns fell in one."""
     import served
 
     results = []
@@ -381,7 +384,7 @@ def run_served(
         load = os.getloadavg()[0]
         # The peer beside only where the ratio is a target (100 Hz): at 500 Hz it would share the CPUs with
         # the steadiness target's clock for a whole minute.
-        r = served.measure(rate, seconds, peer_beside=rate == SERVED_TARGET_RATE)
+        r = served.measure(rate, seconds, peer_beside=rate == SERVED_TARGET_RATE, stalls_beside=stalls)
         r.update(load=load, alone=alone)
         if rate == SERVED_TARGET_RATE:
             again = [served.measure(rate, seconds, peer_beside=True) for _ in range(TARGET_ROUNDS - 1)]
@@ -424,6 +427,9 @@ def run_served(
             f"{b['p99_us']:.1f} µs p99, {b['updates']} updates"
         )
     for r in results:
+        if r["machine_stalls"] is not None:
+            print(_stalls_line(r))
+    for r in results:
         c = r["counts"]
         print(
             f"  {r['rate']:g} Hz load delivered: {c['telemetry']} telemetry messages, {c['frames']} driver frames, "
@@ -436,7 +442,7 @@ def run_served(
         if r["rate"] == 500.0 and r["seconds"] >= 60.0:
             meets = r["overruns"] == 0 and late <= TARGETS["steady_late_ms"]
             steady = f" (target 0 overruns, lateness p99 <= {TARGETS['steady_late_ms']:g} ms: "
-            steady += "meets)" if meets else "misses)"
+            steady += "meets)" if meets else f"misses{_overruns_split(r)})"
         headline(
             f"served at {r['rate']:g} Hz for {r['seconds']:.0f} s (Pre-Viz, 4 telemetry clients, a driver, the "
             f"AI): tick {st['tick_cost']['p50_ms'] * 1e3:.0f} µs p50 (CPU {st['tick_cpu']['p50_ms'] * 1e3:.0f} µs) "
@@ -449,6 +455,36 @@ def run_served(
         + ", ".join(f"{n['node']} ({n['type']}) {n['mean_us']:.0f}" for n in top)
     )
     return results
+
+
+def _machine_overruns(r: dict[str, Any]) -> int:
+    """How many of the window's server overruns fell in a stall of a CPU (benchmarks/machine_stalls.py)."""
+    stalls = r["machine_stalls"]["stalls"] if r["machine_stalls"] else []
+    return sum(machine_stalls.coincides(o, stalls) for o in r["window_overruns"])
+
+
+def _overruns_split(r: dict[str, Any]) -> str:
+    """`: N in stalls of a CPU, M the server's own` for a window watched for stalls."""
+    if r["machine_stalls"] is None or not r["overruns"]:
+        return ""
+    shared = _machine_overruns(r)
+    own = r["overruns"] - shared  # overruns beyond the recorded 32 count as the server's own
+    return f": {shared} in stalls of a CPU that a bare sleep loop beside it saw too, {own} the server's own"
+
+
+def _stalls_line(r: dict[str, Any]) -> str:
+    """The machine's stalls beside a served window, and the server's overruns set against them."""
+    m = r["machine_stalls"]
+    each = ", ".join(
+        f"woke {o['late_ms']:.1f} ms late, ran {o['tick_ms']:.2f} ms" for o in r["window_overruns"]
+    )
+    return (
+        f"  {r['rate']:g} Hz the machine's own stalls in the same window (a bare sleep loop on each of CPUs "
+        f"{m['cpus']}, {'real-time priority' if m['realtime'] else 'normal priority'}): lateness p99 "
+        f"{m['late_p99_ms']:.3f} ms, max {m['late_max_ms']:.2f} ms, {len(m['stalls'])} wakes later than a period, "
+        f"{m['overruns']} overruns\n  {r['rate']:g} Hz the server's overruns in the window: {r['overruns']}"
+        + (f" ({each}); {_machine_overruns(r)} of them while the machine stalled" if each else "")
+    )
 
 
 def _tick_and_peer(r: dict[str, Any]) -> tuple[float, float]:
@@ -616,7 +652,7 @@ def main() -> None:
         run_served(peer, args.seconds, RATES, headless, woken)
         run_clock_cpu(peer, args.seconds, woken)
         if args.long:
-            run_served(peer, 60.0, (500.0,), headless, woken)
+            run_served(peer, 60.0, (500.0,), headless, woken, stalls=True)
         if args.long or args.attribute:
             run_attribution(peer, 500.0, args.seconds, headless)
     if not args.no_startup:

@@ -167,17 +167,28 @@ async def _ai(http: httpx.AsyncClient, stop: asyncio.Event, counts: dict) -> Non
 CLIENTS = ("telemetry", "previz", "driver", "ai")
 
 
-async def _peer_beside(rate: float, seconds: float) -> asyncio.subprocess.Process:
-    """benchmarks/peer_beside.py for `seconds` s at the clock's period: Ruckig-25 woken in the window."""
+async def _beside(script: str, rate: float, seconds: float) -> asyncio.subprocess.Process:
+    """benchmarks/`script` for `seconds` s at the clock's period, in a process of its own: Ruckig-25 woken
+    in the window (peer_beside.py), or a bare sleep loop on every CPU (machine_stalls.py)."""
     return await asyncio.create_subprocess_exec(
         sys.executable,
-        str(ROOT / "benchmarks" / "peer_beside.py"),
+        str(ROOT / "benchmarks" / script),
         f"{1.0 / rate!r}",
         f"{seconds!r}",
         cwd=ROOT,
         stdout=asyncio.subprocess.PIPE,
         env={**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{ROOT / 'benchmarks'}"},
     )
+
+
+async def _joined(proc: asyncio.subprocess.Process | None, what: str) -> Any:
+    """The JSON line `proc` printed once it ended (None for no process)."""
+    if proc is None:
+        return None
+    out, _ = await proc.communicate()
+    if proc.returncode != 0:
+        raise RuntimeError(f"the {what} beside the server exited with {proc.returncode}")
+    return json.loads(out)
 
 
 async def _load(
@@ -187,6 +198,7 @@ async def _load(
     seconds: float,
     clients: tuple[str, ...] = CLIENTS,
     peer_beside: bool = False,
+    stalls_beside: bool = False,
 ) -> dict[str, Any]:
     ws_url = f"ws://{HOST}:{server.port}"
     counts = {"telemetry": 0, "frames": 0, "previz": 0, "previz_reconnects": 0, "commands": 0}
@@ -218,18 +230,15 @@ async def _load(
         await asyncio.sleep(warm_up)
         await http.delete("/api/profile")  # a new window for the tick statistics and cook times
         before = (await http.get("/api/status")).json()
-        t0 = time.monotonic()
-        peer = await _peer_beside(rate, seconds) if peer_beside else None
+        t0, opened = time.monotonic(), time.time()
+        peer = await _beside("peer_beside.py", rate, seconds) if peer_beside else None
+        watcher = await _beside("machine_stalls.py", rate, seconds) if stalls_beside else None
         await asyncio.sleep(seconds)
         after = (await http.get("/api/status")).json()
         profile = (await http.get("/api/profile")).json()
         elapsed = time.monotonic() - t0
-        beside = None
-        if peer is not None:  # its last updates may outlast the window: the load stays on until it ends
-            out, _ = await peer.communicate()
-            if peer.returncode != 0:
-                raise RuntimeError(f"the peer beside the server exited with {peer.returncode}")
-            beside = json.loads(out)
+        # their last updates may outlast the window: the load stays on until they end
+        beside, stalls = await _joined(peer, "peer"), await _joined(watcher, "stall watcher")
         stop.set()
         failed = [
             (n, r)
@@ -245,6 +254,8 @@ async def _load(
         "profile": profile,
         "counts": counts,
         "peer_beside": beside,
+        "machine_stalls": stalls,
+        "window_overruns": [o for o in after.get("recent_overruns", ()) if o["at"] >= opened],
         "ticks": after["ticks"] - before["ticks"],
         "overruns": after["overruns"] - before["overruns"],
         "lost_ticks": after["lost_ticks"] - before["lost_ticks"],
@@ -259,17 +270,20 @@ def measure(
     clients: tuple[str, ...] = CLIENTS,
     server_args: tuple[str, ...] = (),
     peer_beside: bool = False,
+    stalls_beside: bool = False,
 ) -> dict[str, Any]:
     """Serve the bundled robot (its interactive program unless `program`) at `rate` Hz under the load
     above (only the parts named in `clients`); the figures of a `seconds` window after `warm_up` seconds.
     `peer_beside`: also time Ruckig-25 woken at the clock's period in that window, in a process of its
-    own (benchmarks/peer_beside.py), as `peer_beside` in the result (None otherwise)."""
+    own (benchmarks/peer_beside.py), as `peer_beside` in the result (None otherwise). `stalls_beside`: also
+    watch the machine's own stalls in that window (benchmarks/machine_stalls.py), as `machine_stalls`.
+    `window_overruns`: the server's overruns in the window (/api/status `recent_overruns`, at most its last 32)."""
     args = ["--rate", f"{rate:g}", *server_args] + (["--program", program] if program else [])
     for attempt in range(ATTEMPTS):
         server = Server(*args)
         try:
             server.wait_ready()
-            return asyncio.run(_load(server, rate, warm_up, seconds, clients, peer_beside))
+            return asyncio.run(_load(server, rate, warm_up, seconds, clients, peer_beside, stalls_beside))
         except RuntimeError as exc:  # a busy shared machine: a port taken meanwhile, a handshake refused
             if attempt == ATTEMPTS - 1:
                 raise

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -229,6 +230,9 @@ def test_a_late_clock_stretches_time_and_counts_lost_ticks(desk):
     run_clock(eng, clock)
     stats = eng.stats()
     assert stats["ticks"] == 100 and stats["overruns"] == 1 and stats["lost_ticks"] == 2
+    (overrun,) = stats["recent_overruns"]  # what /api/status says of it: a stalled wake, not a long tick
+    assert overrun["late_ms"] == pytest.approx(35.0) and overrun["tick_ms"] == 0.0 and overrun["lost"] == 2
+    assert abs(overrun["at"] - time.time()) < 60
     slots = np.delete(np.array(clock.wakes), 50) / 0.01
     np.testing.assert_allclose(slots, np.round(slots), atol=1e-6)  # every other tick on the 10 ms grid ...
     assert len(set(np.round(slots))) == 99  # ... one per slot: no burst to catch up

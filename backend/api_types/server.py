@@ -157,6 +157,17 @@ class SimulationStatus(OpenShape):
     notes: list[str] = Field(..., description="what the model assumed where the URDF is silent")
 
 
+class Overrun(Shape):
+    """One overrun of the clock: a tick that ended more than a whole period after its deadline."""
+
+    at: float = Field(..., description="when the tick ended (Unix time, s)")
+    late_ms: float = Field(
+        ..., description="how late the clock woke for it (ms); long with a short tick: a stalled wake"
+    )
+    tick_ms: float = Field(..., description="how long the tick ran (ms)")
+    lost: int = Field(..., description="whole periods skipped after it (the clock re-anchors, never bursts)")
+
+
 class ServerStatus(OpenShape):
     """GET /api/status: the engine's statistics (tick, APU level, safety net, sinks with drop counts),
     the clients and the Pre-Viz. Open: the engine's statistics are a diagnostic document that grows;
@@ -170,6 +181,7 @@ class ServerStatus(OpenShape):
     running: bool
     overruns: int
     lost_ticks: int
+    recent_overruns: list[Overrun] = Field(..., description="the last overruns (at most 32, oldest first)")
     swaps: int
     safety: SafetyStats
     tick_cost: TimingSummary

@@ -119,6 +119,7 @@ class Engine:
         self.ticks = 0
         self.overruns = 0
         self.lost_ticks = 0
+        self.recent_overruns = runtime_stats.overrun_ring()  # the last overruns: when, how late, how long
         self.swaps = 0
         #: The last step before every sink; `safety=False` only through an explicit, logged opt-out.
         self.safety = SafetyNet(embodiment, self.rate, enabled=safety)
@@ -476,8 +477,7 @@ class Engine:
             if behind > period:
                 # More than a whole tick late: count it and re-anchor rather than bursting to catch up
                 # (time stretches: the robot moves slower, never faster); the skipped ticks are lost.
-                self.overruns += 1
-                self.lost_ticks += int(behind // period)
+                runtime_stats.overran(self, start - deadline + period, now - start, behind)
                 deadline = now + period - math.fmod(behind, period)
 
     def set_profiling(self, every: int, window: int = WINDOW) -> None:

@@ -931,6 +931,10 @@ export interface ServerStatus {
    * ticks per second (Hz)
    */
   rate: number;
+  /**
+   * the last overruns (at most 32, oldest first)
+   */
+  recent_overruns: Overrun[];
   running: boolean;
   safety: SafetyStats;
   /**
@@ -1131,6 +1135,30 @@ export interface PrevizStatus {
   ghost: boolean;
   token_required: boolean;
   url: string;
+}
+/**
+ * One overrun of the clock: a tick that ended more than a whole period after its deadline.
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "Overrun".
+ */
+export interface Overrun {
+  /**
+   * when the tick ended (Unix time, s)
+   */
+  at: number;
+  /**
+   * how late the clock woke for it (ms); long with a short tick: a stalled wake
+   */
+  late_ms: number;
+  /**
+   * whole periods skipped after it (the clock re-anchors, never bursts)
+   */
+  lost: number;
+  /**
+   * how long the tick ran (ms)
+   */
+  tick_ms: number;
 }
 /**
  * The engine's safety net: how often it corrected the program's output, and where. Open: the net

@@ -1,0 +1,40 @@
+"""benchmarks/machine_stalls.py: the bare sleep loops that tell the machine's stalls from the server's
+overruns in the 500 Hz served benchmark (what bench_engine.py prints beside its overruns)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+import machine_stalls  # noqa: E402  (benchmarks/ is not a package: its path first)
+
+
+def test_a_stalled_wake_is_listed_and_counted_by_the_engines_rule(monkeypatch):
+    """A sleep that returns 3.5 periods late (the machine stalled) is one stall and one overrun with
+    two ticks' worth lost; the loop then re-anchors and the other wakes are on time."""
+    real_sleep, calls = time.sleep, []
+
+    def sleep(s: float) -> None:
+        calls.append(s)
+        real_sleep(s + (0.035 if len(calls) == 20 else 0.0))
+
+    monkeypatch.setattr(machine_stalls.time, "sleep", sleep)
+    out = machine_stalls.watch(0.01, 0.4)
+    assert out["wakes"] == 40 and out["overruns"] == 1
+    ((at, late_ms, cpu),) = out["stalls"]
+    assert late_ms == pytest.approx(35, abs=15) and cpu == -1 and abs(at - time.time()) < 5
+    assert out["late_max_ms"] == pytest.approx(late_ms)
+
+
+def test_an_overrun_coincides_with_a_stall_that_overlaps_its_late_wake():
+    # the server's tick ended at t=100.010 s after 0.5 ms, having woken 4 ms late: it waited 99.0055..99.0095
+    overrun = {"at": 100.010, "tick_ms": 0.5, "late_ms": 4.0}
+    assert machine_stalls.coincides(overrun, [[100.0090, 3.0, 0]])  # a loop woke 3 ms late at 100.009
+    assert machine_stalls.coincides(overrun, [[100.0050, 2.5, 1]])  # ended as the server's wait began
+    assert not machine_stalls.coincides(overrun, [[100.0300, 3.0, 0]])  # 20 ms later: the server's own
+    assert not machine_stalls.coincides(overrun, [])
