@@ -18,7 +18,6 @@
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable
@@ -28,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from backend.engine import parking, runtime_stats, warm_up
+from backend.engine import clock_loop, parking, runtime_stats, warm_up
 from backend.engine.apu import APU, MAX_LEVEL, LevelError
 from backend.engine.blocks.base import BlockContext
 
@@ -453,32 +452,10 @@ class Engine:
         if priority is not None:
             priority.apply()
         try:
-            self._run_clock()
+            clock_loop.run(self, self._stop)
         finally:
             if priority is not None:
                 priority.restore()
-
-    def _run_clock(self) -> None:
-        clock, period = self.clock, self.dt
-        if self.started_at is None:
-            self.started_at = time.time()
-        deadline = clock.now()
-        last_start: float | None = None
-        while not self._stop.is_set() and clock.wait_until(deadline, self._stop):
-            start = clock.now()
-            if last_start is not None:
-                self.period.add(start - last_start)
-            self.lateness.add(start - deadline)
-            last_start = start
-            self.tick()
-            deadline += period
-            now = clock.now()
-            behind = now - deadline
-            if behind > period:
-                # More than a whole tick late: count it and re-anchor rather than bursting to catch up
-                # (time stretches: the robot moves slower, never faster); the skipped ticks are lost.
-                runtime_stats.overran(self, start - deadline + period, now - start, behind)
-                deadline = now + period - math.fmod(behind, period)
 
     def set_profiling(self, every: int, window: int = WINDOW) -> None:
         """Time one tick in `every` block by block, keeping the last `window` timed ticks (for this
