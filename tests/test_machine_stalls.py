@@ -11,7 +11,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-import machine_stalls  # noqa: E402  (benchmarks/ is not a package: its path first)
+import machine_stalls  # (benchmarks/ is not a package: its path goes first, above)
 
 
 def test_a_stalled_wake_is_listed_and_counted_by_the_engines_rule(monkeypatch):

@@ -38,6 +38,10 @@ collector off while a block of imports runs beside a live clock and settles the 
 What this cannot do: a thread that holds the lock while the OS has preempted it (a machine with more
 runnable threads than cores) keeps the clock waiting until it runs again. benchmarks/bench_engine.py
 reports the clock's waits next to its own CPU time (`tick_cost` against `tick_cpu` in /api/status).
+Nor can it help when the machine stops a CPU for milliseconds (a virtual machine's host, a kernel that
+does not preempt its own code): every thread waiting for that CPU wakes late. /api/status keeps the last
+overruns with how late the clock woke and how long the tick ran (`recent_overruns`), and the benchmark
+sets them against bare sleep loops on every CPU (benchmarks/machine_stalls.py).
 """
 
 from __future__ import annotations
