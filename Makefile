@@ -3,7 +3,7 @@
 #   make test  install everything, lint, and run every test (Python, front-end unit, browser end-to-end)
 #   make test-fast  the inner loop: Python tests without a browser, Blender or spawned servers (< 90 s)
 #   make lint  ruff (lint + format check), basedpyright on backend/, the editor's eslint + tsc --noEmit
-#   make bench engine and NMF benchmarks; make bench-long adds 60 s served at 500 Hz;
+#   make bench engine and NMF benchmarks; make bench-long adds three 60 s windows served at 500 Hz;
 #              make soak: a served robot under churning clients (optional)
 #   make blender-addon  the Blender add-on as an installable extension: dist/nutty_blender-<version>.zip
 SHELL := /bin/bash

@@ -29,6 +29,10 @@ or a fast machine compare.
    Then the same at 100 Hz with `--clock-cpu auto` (the clock on a CPU of its own, kept out of idle
    states where the benchmark may: root), beside the interactive tick and Ruckig-25 woken alike on
    such a CPU: what a robot's set-up gives, and the ratio when both sides get it.
+   With `--long`, 500 Hz for `STEADY_ROUNDS` windows of 60 s (the steadiness target), each beside bare
+   real-time sleep loops on every CPU (benchmarks/machine_stalls.py): every overrun of the server
+   (/api/status `recent_overruns`) is set against the stalls those loops saw at the same moment, so a
+   minute lost to the machine reads apart from one lost to the server.
 3. Start-up of `nutty serve` to its first frame, with numba's cache warm (and cold: `--cold`).
 4. Where the server's cost comes from (`--long` or `--attribute`): the served figures at 500 Hz with
    no clients, then each part of the load alone (the Pre-Viz and its page, the telemetry clients, the
@@ -262,6 +266,9 @@ TARGET_ROUNDS = 3
 #: Issue 36's targets: interactive served at 100 Hz over Ruckig-25 woken beside it in the same window;
 #: interactive hot over Ruckig-25 hot; 1000-DoF breathe-anything hot (µs); start-up with warm caches (s);
 #: lateness p99 (ms) of 60 s served at 500 Hz, with no overrun (`--long`).
+#: 60 s windows of the 500 Hz steadiness run: whether a minute passes without an overrun is a matter of
+#: chance on a shared machine (a stall of a few ms now and then), so one window says little.
+STEADY_ROUNDS = 3
 TARGETS = {"served": 3.0, "hot": 2.0, "many_us": 100.0, "startup_s": 2.0, "steady_late_ms": 0.3}
 
 
@@ -389,6 +396,9 @@ def run_served(
         if rate == SERVED_TARGET_RATE:
             again = [served.measure(rate, seconds, peer_beside=True) for _ in range(TARGET_ROUNDS - 1)]
             r["rounds"] = [_tick_and_peer(x) for x in (r, *again)]
+        elif stalls:
+            again = [served.measure(rate, seconds, stalls_beside=True) for _ in range(STEADY_ROUNDS - 1)]
+            r["steady_rounds"] = [r, *again]
         results.append(r)
     us = peer.round()
     print(
@@ -427,8 +437,8 @@ def run_served(
             f"{b['p99_us']:.1f} µs p99, {b['updates']} updates"
         )
     for r in results:
-        if r["machine_stalls"] is not None:
-            print(_stalls_line(r))
+        for k, x in enumerate(r.get("steady_rounds", [r] if r["machine_stalls"] is not None else [])):
+            print(f"  window {k + 1}:\n{_stalls_line(x)}")
     for r in results:
         c = r["counts"]
         print(
@@ -440,14 +450,12 @@ def run_served(
         late = st["jitter"]["p99_ms"]
         steady = ""
         if r["rate"] == 500.0 and r["seconds"] >= 60.0:
-            meets = r["overruns"] == 0 and late <= TARGETS["steady_late_ms"]
-            steady = f" (target 0 overruns, lateness p99 <= {TARGETS['steady_late_ms']:g} ms: "
-            steady += "meets)" if meets else f"misses{_overruns_split(r)})"
+            steady = _steady_verdict(r.get("steady_rounds", [r]))
         headline(
             f"served at {r['rate']:g} Hz for {r['seconds']:.0f} s (Pre-Viz, 4 telemetry clients, a driver, the "
             f"AI): tick {st['tick_cost']['p50_ms'] * 1e3:.0f} µs p50 (CPU {st['tick_cpu']['p50_ms'] * 1e3:.0f} µs) "
             f"= {_vs_woken(st['tick_cost']['p50_ms'] * 1e3, r['rate'], r, woken, us)}; lateness p99 "
-            f"{late:.2f} ms; {r['overruns']} overruns{steady}"
+            f"{late:.2f} ms; " + (steady or f"{r['overruns']} overruns")
         )
     top = sorted(results[0]["profile"]["nodes"], key=lambda n: -n["mean_us"])[:6]
     print(
@@ -463,13 +471,29 @@ def _machine_overruns(r: dict[str, Any]) -> int:
     return sum(machine_stalls.coincides(o, stalls) for o in r["window_overruns"])
 
 
+def _steady_verdict(rounds: list[dict[str, Any]]) -> str:
+    """Each 60 s window of the 500 Hz run (its overruns, how many fell in a stall of a CPU, its lateness
+    p99), then `(target …: meets|misses|meets in k of n windows)`."""
+    late_ok = TARGETS["steady_late_ms"]
+    met = [x["overruns"] == 0 and x["status"]["jitter"]["p99_ms"] <= late_ok for x in rounds]
+    each = "; ".join(
+        f"{x['overruns']} overrun{'' if x['overruns'] == 1 else 's'}{_overruns_split(x)} "
+        f"(lateness p99 {x['status']['jitter']['p99_ms']:.2f} ms)"
+        for x in rounds
+    )
+    verdict = (
+        "meets" if all(met) else "misses" if not any(met) else f"meets in {sum(met)} of {len(met)} windows"
+    )
+    return f"per 60 s window: {each} (target 0 overruns, lateness p99 <= {late_ok:g} ms: {verdict})"
+
+
 def _overruns_split(r: dict[str, Any]) -> str:
-    """`: N in stalls of a CPU, M the server's own` for a window watched for stalls."""
+    """`, N in stalls of a CPU …, M the server's own` for a window watched for stalls."""
     if r["machine_stalls"] is None or not r["overruns"]:
         return ""
     shared = _machine_overruns(r)
     own = r["overruns"] - shared  # overruns beyond the recorded 32 count as the server's own
-    return f": {shared} in stalls of a CPU that a bare sleep loop beside it saw too, {own} the server's own"
+    return f", {shared} in stalls of a CPU that a bare sleep loop beside it saw too, {own} the server's own"
 
 
 def _stalls_line(r: dict[str, Any]) -> str:
