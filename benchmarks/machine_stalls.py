@@ -87,12 +87,14 @@ def watch_every_cpu(period: float, seconds: float) -> dict[str, Any]:
 
 
 def coincides(overrun: dict[str, float], stalls: list[list[float]], slack: float = 1e-3) -> bool:
-    """Whether a served clock's `overrun` (/api/status `recent_overruns`: its tick ended at `at` after
-    `tick_ms`, and began `late_ms` after its deadline) woke late during one of `stalls` (each
-    `[at, late_ms, cpu]`: a loop's wake at `at` came `late_ms` late), within `slack` s."""
+    """Whether a stall (each of `stalls` is `[at, late_ms, cpu]`: a loop's wake at `at` came `late_ms`
+    late) overlaps, within `slack` s, the time a served clock's `overrun` lost: from its tick's deadline
+    to the tick's end (/api/status `recent_overruns`: the tick ended at `at`, ran `tick_ms`, and began
+    `late_ms` after its deadline). A stall the loops saw is longer than a period, so one that overlaps
+    the lost time is where it went, whether the clock was waiting then or mid-tick."""
     began = overrun["at"] - overrun["tick_ms"] / 1e3
-    waited = (began - overrun["late_ms"] / 1e3, began)
-    return any(at - late / 1e3 - slack <= waited[1] and waited[0] <= at + slack for at, late, *_ in stalls)
+    lost = (began - overrun["late_ms"] / 1e3, overrun["at"])
+    return any(at - late / 1e3 - slack <= lost[1] and lost[0] <= at + slack for at, late, *_ in stalls)
 
 
 def main(argv: list[str]) -> int:

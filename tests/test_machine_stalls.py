@@ -31,10 +31,19 @@ def test_a_stalled_wake_is_listed_and_counted_by_the_engines_rule(monkeypatch):
     assert out["late_max_ms"] == pytest.approx(late_ms)
 
 
-def test_an_overrun_coincides_with_a_stall_that_overlaps_its_late_wake():
-    # the server's tick ended at t=100.010 s after 0.5 ms, having woken 4 ms late: it waited 99.0055..99.0095
+def test_an_overrun_coincides_with_a_stall_that_overlaps_the_time_it_lost():
+    # the server's tick ended at t=100.010 s after 0.5 ms, having woken 4 ms late: from its deadline
+    # (100.0055) to its end (100.010) the time was lost
     overrun = {"at": 100.010, "tick_ms": 0.5, "late_ms": 4.0}
     assert machine_stalls.coincides(overrun, [[100.0090, 3.0, 0]])  # a loop woke 3 ms late at 100.009
     assert machine_stalls.coincides(overrun, [[100.0050, 2.5, 1]])  # ended as the server's wait began
     assert not machine_stalls.coincides(overrun, [[100.0300, 3.0, 0]])  # 20 ms later: the server's own
+    assert not machine_stalls.coincides(overrun, [[99.9900, 3.0, 0]])  # over 10 ms before its deadline
     assert not machine_stalls.coincides(overrun, [])
+
+
+def test_a_long_tick_coincides_with_a_stall_while_it_ran():
+    """Woken on time, the tick ran 5.4 ms: a stall of the machine in the middle of it is where the time went."""
+    overrun = {"at": 200.0, "tick_ms": 5.4, "late_ms": 0.0}
+    assert machine_stalls.coincides(overrun, [[199.9995, 2.5, 1]])  # the loop stalled 199.997..199.9995
+    assert not machine_stalls.coincides(overrun, [[199.990, 2.5, 1]])  # ended 4.6 ms before the tick began
