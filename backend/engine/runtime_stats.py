@@ -22,7 +22,7 @@ def engine_stats(engine: Any) -> dict[str, Any]:
         "running": engine.running,
         "overruns": engine.overruns,
         "lost_ticks": engine.lost_ticks,
-        "recent_overruns": list(engine.recent_overruns),
+        "recent_overruns": list(engine.recent_overruns),  # (one C call: a snapshot the clock can't change)
         "swaps": engine.swaps,
         "safety": engine.safety.stats(),
         "tick_cost": engine.tick_cost.summary(),
