@@ -32,11 +32,10 @@ from peer_beside import realtime
 
 
 def watch(period: float, seconds: float, cpu: int | None = None) -> dict[str, Any]:
-    """Wake every `period` s for `seconds` s (on `cpu` only, unless None); the lateness figures, the
-    overruns and the stalls (see the module). A plain sleep: its own jitter (tens of µs) is far below a
-    stall, and it leaves the CPUs to the served run between wakes."""
-    if cpu is not None:
-        os.sched_setaffinity(0, {cpu})
+    """Wake every `period` s for `seconds` s; the lateness figures, the overruns and the stalls (see the
+    module), each stall marked with `cpu` (-1: None). A plain sleep: its own jitter (tens of µs) is far
+    below a stall, and it leaves the CPUs to the served run between wakes. The caller pins the process
+    and raises its priority (`_watch_on`): this only watches."""
     wakes = max(1, round(seconds / period))
     late = np.empty(wakes)
     stalls: list[list[float]] = []
@@ -50,7 +49,7 @@ def watch(period: float, seconds: float, cpu: int | None = None) -> dict[str, An
             stalls.append([time.time(), late[k] * 1e3, -1 if cpu is None else cpu])
         deadline += period
         behind = start - deadline
-        if behind > period:  # the engine's rule and re-anchoring (Engine._run_clock)
+        if behind > period:  # the engine's rule and re-anchoring (backend/engine/clock_loop.py)
             overruns += 1
             deadline = start + period - math.fmod(behind, period)
     return {
@@ -59,15 +58,15 @@ def watch(period: float, seconds: float, cpu: int | None = None) -> dict[str, An
         "overruns": overruns,
         "wakes": wakes,
         "stalls": stalls,
-        "realtime": realtime(),
     }
 
 
 def _watch_on(args: tuple[float, float, int]) -> dict[str, Any]:
+    """`watch` in a pool's process pinned to one CPU, at real-time priority where permitted."""
     period, seconds, cpu = args
     os.sched_setaffinity(0, {cpu})
-    realtime()
-    return watch(period, seconds, cpu)
+    prioritised = realtime()
+    return {**watch(period, seconds, cpu), "realtime": prioritised}
 
 
 def watch_every_cpu(period: float, seconds: float) -> dict[str, Any]:

@@ -3,6 +3,7 @@ overruns in the 500 Hz served benchmark (what bench_engine.py prints beside its 
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -24,7 +25,9 @@ def test_a_stalled_wake_is_listed_and_counted_by_the_engines_rule(monkeypatch):
         real_sleep(s + (0.035 if len(calls) == 20 else 0.0))
 
     monkeypatch.setattr(machine_stalls.time, "sleep", sleep)
+    policy = os.sched_getscheduler(0)
     out = machine_stalls.watch(0.01, 0.4)
+    assert os.sched_getscheduler(0) == policy  # watching leaves the caller's priority alone
     assert out["wakes"] == 40 and out["overruns"] == 1
     ((at, late_ms, cpu),) = out["stalls"]
     assert late_ms == pytest.approx(35, abs=15) and cpu == -1 and abs(at - time.time()) < 5
