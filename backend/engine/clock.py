@@ -30,9 +30,8 @@ class RingStats:
         self._samples.clear()
 
     def summary(self) -> dict[str, float]:
-        samples = list(
-            self._samples
-        )  # (one C call under the interpreter lock: a snapshot the clock can't change)
+        # one C call under the interpreter lock: a snapshot the clock can't change
+        samples = list(self._samples)
         if not samples:
             return {"p50_ms": 0.0, "p99_ms": 0.0, "max_ms": 0.0, "samples": 0}
         a = np.array(samples) * 1e3

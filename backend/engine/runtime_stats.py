@@ -22,7 +22,8 @@ def engine_stats(engine: Any) -> dict[str, Any]:
         "running": engine.running,
         "overruns": engine.overruns,
         "lost_ticks": engine.lost_ticks,
-        "recent_overruns": list(engine.recent_overruns),  # (one C call: a snapshot the clock can't change)
+        # (one C call, like RingStats.summary's: a snapshot the clock can't change)
+        "recent_overruns": list(engine.recent_overruns),
         "swaps": engine.swaps,
         "safety": engine.safety.stats(),
         "tick_cost": engine.tick_cost.summary(),
