@@ -96,6 +96,7 @@ class AnimationFrame:
     motors get: the channels composed (own DoF plus symbolic DoFs) and limited by the net's joint stage.
     `requested` is what the net was handed (the program's frame after the swap transition), and `net`
     says, on a frame the net corrected, what it changed and which limit each correction enforced.
+    `made` is the wall time of the tick that made it.
     """
 
     embodiment: str
@@ -113,6 +114,9 @@ class AnimationFrame:
     joints: np.ndarray | None = None  # (J,) the joints the motors get (None: compose `position`)
     requested: np.ndarray | None = None  # (C,) the frame handed to the safety net (None: `program`)
     net: NetCorrection | None = None  # what the net changed (None: it passed everything through)
+    #: When the engine's clock made the frame (Unix time, s; None: not made by an engine's tick). Sinks
+    #: get frames a hand-over later; stamps that follow the wall clock take this time.
+    made: float | None = field(default=None, compare=False)
 
     def joint_values(self, embodiment: Embodiment) -> np.ndarray:
         """The joints the motors get (rad or m): the net's `joints`, or the channels composed."""

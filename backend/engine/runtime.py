@@ -41,7 +41,7 @@ from backend.engine.gil import ClockPriority
 from backend.engine.pending import Pending, drain
 from backend.engine.profile import WINDOW, CookTimes, sample_every
 from backend.engine.safety import SafetyNet
-from backend.engine.sinks import Sink
+from backend.engine.sinks import FanOut, Sink
 from backend.engine.tick_hooks import TickHooks
 from backend.engine.transition import Transition
 from backend.logs import Throttle
@@ -99,6 +99,7 @@ class Engine:
         self._pending: SimpleQueue[Pending] = SimpleQueue()
         self._sinks: list[Sink] = []
         self._sinks_lock = threading.Lock()
+        self._fan_out: FanOut | None = None  # the sinks' one hand-over per tick (from the first sink on)
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         self._observers: list[Callable[[AnimationFrame], None]] = []  # see add_frame_observer
         self._event_observers: list[Callable[[AnimationFrame], None]] = []  # (events only)
@@ -304,14 +305,25 @@ class Engine:
 
     # --- sinks ----------------------------------------------------------------------------------
     def add_sink(self, sink: Sink) -> Sink:
+        """Feed `sink` every frame from the next tick on (through the fan-out's thread: sinks.FanOut)."""
         with self._sinks_lock:
+            if self._fan_out is None:
+                self._fan_out = FanOut(lambda: self._sinks)
             self._sinks = [*self._sinks, sink]
         return sink
 
     def remove_sink(self, sink: Sink) -> None:
+        """Stop feeding `sink` once it has had every frame made so far, then close it."""
+        if self._fan_out is not None:
+            self._fan_out.flush()
         with self._sinks_lock:
             self._sinks = [s for s in self._sinks if s is not sink]
         sink.close(timeout=0.5)
+
+    def flush_sinks(self, timeout: float = 2.0) -> bool:
+        """Wait until every frame made so far has been offered to the sinks (their own queues may still
+        hold it); whether that happened within `timeout` s."""
+        return self._fan_out is None or self._fan_out.flush(timeout)
 
     @property
     def sinks(self) -> list[Sink]:
@@ -377,6 +389,7 @@ class Engine:
             program=program,
             joints=self.safety.joint_out,
             requested=target,
+            made=time.time(),
         )
         if frame.corrected is not None:
             self.tail.explain(frame)  # what the net changed, and which limits
@@ -390,8 +403,9 @@ class Engine:
                 self._notify(note)
         for fn in (*self._observers, *self._event_observers) if frame.events else self._observers:
             fn(frame)
-        for sink in self._sinks:
-            sink.offer(frame)
+        fan_out = self._fan_out
+        if fan_out is not None and self._sinks:
+            fan_out.offer(frame)
         self.tick_cost.add(time.perf_counter() - t0)
         if cpu0 >= 0.0:
             self._cpu.stop(cpu0)
@@ -442,8 +456,11 @@ class Engine:
         self._thread = None
 
     def close(self) -> None:
-        """Stop the clock and close every sink (delivering what they have queued)."""
+        """Stop the clock and close every sink (delivering every frame made)."""
         self.stop()
+        fan_out, self._fan_out = self._fan_out, None  # (a sink added later makes a new one)
+        if fan_out is not None:
+            fan_out.close()
         for sink in self.sinks:
             sink.close()
 

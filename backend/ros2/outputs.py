@@ -161,7 +161,7 @@ class FramePublisher(Sink[Any]):  # offered frames, queued with the time they we
 
     def offer(self, frame: AnimationFrame) -> None:
         # the time the frame is made (in the tick) travels with it: the stamps follow the wall clock
-        super().offer((frame, time.time()))
+        super().offer((frame, time.time() if frame.made is None else frame.made))
 
     def consume(self, frame: Any) -> None:  # (AnimationFrame, the wall time it was made), from offer()
         made: float

@@ -52,8 +52,8 @@ log = logging.getLogger(__name__)
 class FramePublisher(Sink[Any]):  # offered frames, queued as (frame, stamp) pairs
     """Every frame on `nutty/<id>/frames` (msgpack, as /ws/frames), with its emission time attached.
 
-    The time is taken when the engine offers the frame (in the tick), so a receiver's latency counts
-    this sink's queue too, as a /ws/frames client's does.
+    The time is the tick's that made the frame (`AnimationFrame.made`), so a receiver's latency counts
+    the fan-out and this sink's queue too, as a /ws/frames client's does.
     """
 
     def __init__(
@@ -63,7 +63,8 @@ class FramePublisher(Sink[Any]):  # offered frames, queued as (frame, stamp) pai
         super().__init__("zenoh-frames", max_queue=max_queue)
 
     def offer(self, frame: AnimationFrame) -> None:
-        super().offer((frame, time.time()))  # the queue holds (frame, wall time when offered) pairs
+        # the queue holds (frame, wall time it was made) pairs
+        super().offer((frame, time.time() if frame.made is None else frame.made))
 
     def consume(self, frame: Any) -> None:
         frame, sent = frame
