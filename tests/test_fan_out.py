@@ -113,3 +113,24 @@ def test_idle_and_flush_follow_the_frames_in_flight():
     slow.close()
     fan.close()
     assert seen == [1, 2] and slow.idle()
+
+
+def test_a_sink_whose_offer_fails_costs_the_others_nothing(engine):
+    class Broken(Sink):
+        def offer(self, frame):
+            raise RuntimeError("no room")
+
+    engine.add_sink(Broken("broken", lambda f: None))
+    good = engine.add_sink(Recording("good"))
+    engine.run_ticks(20)
+    assert engine.flush_sinks()
+    stats = engine.stats()["fan_out"]  # (what /api/status says as `fan_out`)
+    assert stats["errors"] == 20 and "broken: RuntimeError: no room" in stats["last_error"]
+    assert stats["dropped"] == 0 and stats["delivered"] == 20
+    engine.close()
+    assert [f.seq for f in good.frames] == list(range(20))
+
+
+def test_no_fan_out_before_the_first_sink(engine):
+    engine.run_ticks(3)
+    assert engine.stats()["fan_out"] is None and engine.flush_sinks()

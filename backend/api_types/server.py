@@ -194,6 +194,11 @@ class ServerStatus(OpenShape):
         default=None, description="the clock's own CPU (null: the clock runs where the OS puts it)"
     )
     sinks: list[SinkStats]
+    fan_out: SinkStats | None = Field(
+        default=None,
+        description="the thread that hands each frame to every sink (null: no sink yet); its `dropped` "
+        "are frames no sink got, its `errors` offers that failed",
+    )
     clients: ClientCounts
     program: str | None = Field(..., description="the running program's name")
     previz: PrevizStatus | None

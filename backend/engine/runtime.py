@@ -320,6 +320,11 @@ class Engine:
             self._sinks = [s for s in self._sinks if s is not sink]
         sink.close(timeout=0.5)
 
+    def fan_out_stats(self) -> dict[str, Any] | None:
+        """The fan-out's counts (`Sink.stats`; None before the first sink)."""
+        fan_out = self._fan_out
+        return None if fan_out is None else fan_out.stats()
+
     def flush_sinks(self, timeout: float = 2.0) -> bool:
         """Wait until every frame made so far has been offered to the sinks (their own queues may still
         hold it); whether that happened within `timeout` s."""

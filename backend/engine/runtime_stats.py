@@ -42,6 +42,7 @@ def engine_stats(engine: Any) -> dict[str, Any]:
         if engine.clock_priority is None or engine.clock_priority.cpu is None
         else engine.clock_priority.cpu.status(),
         "sinks": [s.stats() for s in engine.sinks],
+        "fan_out": engine.fan_out_stats(),
     }
 
 

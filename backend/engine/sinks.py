@@ -155,7 +155,13 @@ class FanOut(Sink[Item]):
 
     def consume(self, frame: Item) -> None:
         for sink in self._sinks():
-            sink.offer(frame)
+            try:
+                sink.offer(frame)
+            except Exception as exc:  # a sink whose own `offer` is broken: the others still get the frame
+                self.errors += 1
+                self.last_error = f"{sink.name}: {type(exc).__name__}: {exc}"
+                if _sink_faults.due(f"fan-out to {sink.name}: {type(exc).__name__}") is not None:
+                    log.error("offering a frame to sink %r failed", sink.name, exc_info=exc)
 
     def flush(self, timeout: float = FLUSH_TIMEOUT) -> bool:
         """Wait until every frame offered so far has been handed to the sinks; whether it was in time.

@@ -904,6 +904,10 @@ export interface ServerStatus {
   clock_cpu?: ClockCpu | null;
   clock_priority: ClockPriority | null;
   /**
+   * the thread that hands each frame to every sink (null: no sink yet); its `dropped` are frames no sink got, its `errors` offers that failed
+   */
+  fan_out?: SinkStats | null;
+  /**
    * the real servos (`--hardware`; null: none configured)
    */
   hardware?: HardwareStatus | null;
@@ -1013,6 +1017,23 @@ export interface ClockPriority {
    * the interpreter's switch interval while the clock runs
    */
   switch_interval_ms: number;
+}
+/**
+ * One frame consumer of the engine (a driver, a socket, the Pre-Viz). Open: a driver adds its own
+ * figures (e.g. a simulated servo's tracking error).
+ *
+ * This interface was referenced by `NuttyApi`'s JSON-Schema
+ * via the `definition` "SinkStats".
+ */
+export interface SinkStats {
+  decimate: number;
+  delivered: number;
+  dropped: number;
+  errors: number;
+  last_error: string | null;
+  name: string;
+  offered: number;
+  [k: string]: unknown;
 }
 /**
  * This interface was referenced by `NuttyApi`'s JSON-Schema
@@ -1272,23 +1293,6 @@ export interface SimContact {
    * engine time the contact began (s)
    */
   t?: number | null;
-}
-/**
- * One frame consumer of the engine (a driver, a socket, the Pre-Viz). Open: a driver adds its own
- * figures (e.g. a simulated servo's tracking error).
- *
- * This interface was referenced by `NuttyApi`'s JSON-Schema
- * via the `definition` "SinkStats".
- */
-export interface SinkStats {
-  decimate: number;
-  delivered: number;
-  dropped: number;
-  errors: number;
-  last_error: string | null;
-  name: string;
-  offered: number;
-  [k: string]: unknown;
 }
 /**
  * GET /api/sounds (each), PUT /api/sounds/{name}: one sound file of the robot.
