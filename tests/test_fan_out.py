@@ -134,3 +134,30 @@ def test_a_sink_whose_offer_fails_costs_the_others_nothing(engine):
 def test_no_fan_out_before_the_first_sink(engine):
     engine.run_ticks(3)
     assert engine.stats()["fan_out"] is None and engine.flush_sinks()
+
+
+def test_a_failed_offer_does_not_make_the_fan_out_look_idle():
+    """A sink's failed offer is counted as an error of the fan-out, but the frame is still being handed
+    to the sinks after it: until that ends the fan-out is not idle, and a flush waits for it."""
+    entered, release = threading.Event(), threading.Event()
+
+    class Broken(Sink):
+        def offer(self, frame):
+            raise RuntimeError("no room")
+
+    class Blocking(Sink):
+        def offer(self, frame):
+            entered.set()
+            release.wait(10)
+            super().offer(frame)
+
+    broken: Sink[int] = Broken("broken", lambda f: None)
+    blocking: Sink[int] = Blocking("blocking", lambda f: None)
+    fan: FanOut[int] = FanOut(lambda: [broken, blocking])
+    fan.offer(1)
+    assert entered.wait(5)  # the hand-over of frame 1 is past the broken sink, inside the blocking one
+    assert not fan.idle() and not fan.flush(0.05)
+    release.set()
+    assert fan.flush(1.0) and fan.errors == 1 and fan.delivered == 1
+    for sink in (fan, broken, blocking):
+        sink.close()

@@ -57,7 +57,8 @@ class Sink(Generic[Item]):
         self._signal.acquire()
         self._closed = False
         self.offered = self.delivered = self.errors = 0
-        self._enqueued = self._taken = 0  # frames put in the queue (clock) / taken out of it (sink thread)
+        # frames put in the queue (clock) / taken out of it / done with, consumed or failed (sink thread)
+        self._enqueued = self._taken = self._done = 0
         self.last_error: str | None = None
         self._thread = threading.Thread(target=self._loop, name=f"sink-{name}", daemon=True)
         self._thread.start()
@@ -94,26 +95,31 @@ class Sink(Generic[Item]):
             while self._queue:  # (only this thread takes frames out: one listed is still there to take)
                 self._taken += 1  # before taking it: `idle()` never sees a frame in neither place
                 frame = self._queue.popleft()
-                try:
+                try:  # (a broken driver must not take the engine down)
                     self.consume(frame)
                     self.delivered += 1
-                except Exception as exc:  # a broken driver must not take the engine down
-                    self.errors += 1
-                    self.last_error = f"{type(exc).__name__}: {exc}"
-                    skipped = _sink_faults.due(f"{self.name}: {type(exc).__name__}")
-                    if skipped is not None:
-                        again = f" ({skipped} more of its kind since the last report)" if skipped else ""
-                        log.error(
-                            "sink %r failed on a frame: %s%s", self.name, self.last_error, again, exc_info=exc
-                        )
+                except Exception as exc:  # noqa: BLE001 (logged, throttled, by failed())
+                    self.failed(exc)
+                finally:
+                    self._done += 1
             if self._closed and not self._queue:
                 return
             if self.batch and not self._closed:
                 time.sleep(self.batch)
 
+    def failed(self, exc: Exception, where: str = "") -> None:
+        """Count an error of this sink (`where`: what in it failed, e.g. one of a fan-out's sinks) and log
+        it, once per 10 s for each kind."""
+        self.errors += 1
+        self.last_error = f"{where}{type(exc).__name__}: {exc}"
+        skipped = _sink_faults.due(f"{self.name}: {where}{type(exc).__name__}")
+        if skipped is not None:
+            again = f" ({skipped} more of its kind since the last report)" if skipped else ""
+            log.error("sink %r failed on a frame: %s%s", self.name, self.last_error, again, exc_info=exc)
+
     def idle(self) -> bool:
         """Whether every frame offered so far has been consumed (or dropped) and none is being consumed."""
-        return self.delivered + self.errors >= self._taken + len(self._queue)
+        return self._done >= self._taken + len(self._queue)
 
     def close(self, timeout: float = 2.0) -> None:
         """Deliver what is queued, then stop the sink's thread."""
@@ -155,13 +161,10 @@ class FanOut(Sink[Item]):
 
     def consume(self, frame: Item) -> None:
         for sink in self._sinks():
-            try:
+            try:  # (a sink whose own `offer` is broken: the others still get the frame)
                 sink.offer(frame)
-            except Exception as exc:  # a sink whose own `offer` is broken: the others still get the frame
-                self.errors += 1
-                self.last_error = f"{sink.name}: {type(exc).__name__}: {exc}"
-                if _sink_faults.due(f"fan-out to {sink.name}: {type(exc).__name__}") is not None:
-                    log.error("offering a frame to sink %r failed", sink.name, exc_info=exc)
+            except Exception as exc:  # noqa: BLE001 (logged, throttled, by failed())
+                self.failed(exc, f"{sink.name}: ")
 
     def flush(self, timeout: float = FLUSH_TIMEOUT) -> bool:
         """Wait until every frame offered so far has been handed to the sinks; whether it was in time.
